@@ -1,0 +1,191 @@
+"""Calibration end to end: split the measurements, run a method, measure the result.
+
+This is the Python API the CLI mirrors::
+
+    robot = twin.default_robot()
+    data = twin.load_measurements("measurements.csv")
+    result = twin.calibrate(robot, data, port_m=[0.6, 0.3, 0.0], method="lm", seed=0)
+    result.metrics["validation"].rmse      # m
+    result.identified_robot.dh             # (4, 6), m and rad
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from math import ceil
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.cable import CableModel, Measurements
+from twin.errors import InputError
+from twin.metrics import Metrics, metrics
+from twin.problem import DEFAULT_SIGMA_M, Budget, Problem
+from twin.robot import RobotModel
+from twin.solvers import SolverResult, get_solver
+
+Array = NDArray[np.float64]
+
+TRAIN_FRACTION = 0.8
+"""Share of the poses used for identification (paper: 80 / 20)."""
+
+
+def split_rows(n_rows: int, seed: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """A random 80/20 split of ``n_rows`` poses, reproducible from ``seed``.
+
+    Returns:
+        ``(train_rows, validation_rows)``, each sorted.
+    """
+    order = np.random.default_rng(seed).permutation(n_rows)
+    n_train = round(TRAIN_FRACTION * n_rows)
+    return np.sort(order[:n_train]), np.sort(order[n_train:])
+
+
+def required_poses(n_params: int) -> int:
+    """Fewest poses for which the training split has one pose per unknown and validation one."""
+    return max(ceil(n_params / TRAIN_FRACTION), n_params + 1)
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """One method's calibration of one measurement set.
+
+    Attributes:
+        robot: The nominal robot.
+        model: The cable model (nominal table, nominal port, which extra unknowns).
+        solver: The method's raw result (x, history, evaluations, time).
+        seed: Seed of the split and of the method's random draws.
+        train_rows: Row indices used for identification, shape (m_train,).
+        validation_rows: Held-out row indices, shape (m_val,).
+        metrics: ``{"before", "train", "validation"}`` metrics in m; ``before`` is the nominal
+            model on the validation poses.
+    """
+
+    robot: RobotModel
+    model: CableModel
+    solver: SolverResult
+    seed: int
+    train_rows: NDArray[np.intp]
+    validation_rows: NDArray[np.intp]
+    metrics: dict[str, Metrics]
+
+    @property
+    def method(self) -> str:
+        """The method's name."""
+        return self.solver.method
+
+    @property
+    def delta(self) -> Array:
+        """Identified D-H errors, shape (4, n): rows δa [m], δd [m], δα [rad], δθ [rad]."""
+        return self.solver.x[: self.model.n_dh].reshape(self.model.dh.shape)
+
+    @property
+    def identified_robot(self) -> RobotModel:
+        """The nominal robot with the identified errors added."""
+        return self.robot.perturbed(self.delta)
+
+    @property
+    def port_m(self) -> Array:
+        """Port position used or identified, shape (3,), m."""
+        return self.model.split(self.solver.x)[1][0]
+
+    @property
+    def offset_m(self) -> float:
+        """Identified cable-length offset, m (0 unless estimated)."""
+        return float(self.model.split(self.solver.x)[2][0])
+
+
+def make_problem(
+    robot: RobotModel,
+    measurements: Measurements,
+    port_m: ArrayLike,
+    *,
+    seed: int = 0,
+    estimate_port: bool = False,
+    estimate_offset: bool = False,
+    sigma_m: float = DEFAULT_SIGMA_M,
+) -> tuple[Problem, NDArray[np.intp], NDArray[np.intp]]:
+    """The problem the solvers see, with its train/validation split.
+
+    Raises:
+        InputError: if there are fewer poses than the unknowns need.
+    """
+    model = CableModel(robot.dh, np.asarray(port_m, dtype=np.float64),
+                       estimate_port=estimate_port, estimate_offset=estimate_offset)
+    needed = required_poses(model.n_params)
+    if len(measurements) < needed:
+        raise InputError(
+            f"{len(measurements)} poses",
+            f"at least {needed} for {model.n_params} unknowns with an 80/20 split",
+        )
+    train_rows, validation_rows = split_rows(len(measurements), seed)
+    problem = Problem(model, measurements.subset(train_rows), measurements.subset(validation_rows),
+                      sigma_m=sigma_m)
+    return problem, train_rows, validation_rows
+
+
+def calibrate_many(
+    robot: RobotModel,
+    measurements: Measurements,
+    port_m: ArrayLike,
+    methods: Sequence[str],
+    *,
+    seed: int = 0,
+    estimate_port: bool = False,
+    estimate_offset: bool = False,
+    budget: Budget | None = None,
+) -> dict[str, CalibrationResult]:
+    """Run several methods on the same split, each with a generator seeded from ``seed``.
+
+    Returns:
+        Results keyed by each method's name, in the order given.
+    """
+    solvers = [get_solver(name) for name in methods]
+    problem, train_rows, validation_rows = make_problem(
+        robot, measurements, port_m, seed=seed,
+        estimate_port=estimate_port, estimate_offset=estimate_offset,
+    )
+    before = metrics(problem.model.residuals(np.zeros(problem.model.n_params), problem.validation))
+    results = {}
+    for solver in solvers:
+        solved = solver.solve(problem, budget or Budget(), np.random.default_rng(seed))
+        results[solver.name] = CalibrationResult(
+            robot=robot, model=problem.model, solver=solved, seed=seed,
+            train_rows=train_rows, validation_rows=validation_rows,
+            metrics={
+                "before": before,
+                "train": metrics(problem.model.residuals(solved.x, problem.train)),
+                "validation": metrics(problem.model.residuals(solved.x, problem.validation)),
+            },
+        )
+    return results
+
+
+def calibrate(
+    robot: RobotModel,
+    measurements: Measurements,
+    port_m: ArrayLike,
+    *,
+    method: str = "lm",
+    seed: int = 0,
+    estimate_port: bool = False,
+    estimate_offset: bool = False,
+    budget: Budget | None = None,
+) -> CalibrationResult:
+    """Identify the D-H errors of ``robot`` from cable measurements.
+
+    Args:
+        robot: Nominal robot.
+        measurements: Joint angles (rad) and cable lengths (m).
+        port_m: Encoder port in the base frame, shape (3,), m.
+        method: A method name or paper alias (``lm``, ``m2``, …).
+        seed: Seed of the 80/20 split and of any random draw of the method.
+        estimate_port: Also identify a correction to the port position.
+        estimate_offset: Also identify an unknown cable-length offset.
+        budget: Iteration budget and stopping rule; the paper's by default.
+    """
+    return calibrate_many(
+        robot, measurements, port_m, [method], seed=seed, estimate_port=estimate_port,
+        estimate_offset=estimate_offset, budget=budget,
+    )[get_solver(method).name]

@@ -1,0 +1,132 @@
+"""Capture files (`capture.toml`): what `twin calibrate` needs beside the measurements.
+
+Written by ``twin simulate`` and ``twin capture``; paths are relative to the capture file::
+
+    robot = "robot.toml"              # model file of the nominal robot
+    port_mm = [600.0, 300.0, 0.0]     # encoder port, base frame, mm
+    measurements = "measurements.csv"
+    truth = "truth.json"              # optional: the twin's ground truth
+    [encoder]                         # optional: how the data was captured
+    url = "serial:///dev/ttyUSB0?baud=115200"
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.errors import InputError
+from twin.io.atomic import write_atomic
+from twin.io.measurements import read_text
+from twin.robot import RobotModel, load_robot
+from twin.units import m_to_mm, mm_to_m
+
+_KEYS = ("robot", "port_mm", "measurements", "truth", "encoder")
+
+
+@dataclass(frozen=True)
+class Capture:
+    """A resolved capture file.
+
+    Attributes:
+        path: The capture file.
+        robot: The nominal robot it names.
+        port_m: Encoder port in the base frame, shape (3,), m.
+        measurements: Path of the measurement CSV.
+        truth: Path of the ground-truth JSON, or None.
+        encoder: The ``[encoder]`` table as written, or empty.
+    """
+
+    path: Path
+    robot: RobotModel
+    port_m: NDArray[np.float64]
+    measurements: Path
+    truth: Path | None = None
+    encoder: dict[str, Any] = field(default_factory=dict)
+
+
+def parse_port_mm(value: object, source: str | Path, where: str) -> NDArray[np.float64]:
+    """Three finite numbers in mm (a list or ``"x,y,z"``) to a port in m, shape (3,)."""
+    items: list[Any]
+    if isinstance(value, str):
+        items = value.split(",")
+    elif isinstance(value, list):
+        items = value
+    else:
+        items = [value]
+    numbers = []
+    for item in items:
+        try:
+            number = float(item)
+        except (TypeError, ValueError):
+            number = math.nan
+        numbers.append(number)
+    if len(numbers) != 3 or not all(math.isfinite(n) for n in numbers):
+        raise InputError(f"{value!r}", "three finite numbers X,Y,Z in mm", source=source,
+                         where=where)
+    return mm_to_m(numbers)
+
+
+def load_capture(path: str | Path) -> Capture:
+    """Read and validate a capture file and the robot it names.
+
+    Raises:
+        InputError: naming the key that is wrong.
+    """
+    path = Path(path)
+    try:
+        document = tomllib.loads(read_text(path, "a capture TOML file"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML ({exc})", "a capture TOML file", source=path) from None
+    unknown = sorted(set(document) - set(_KEYS))
+    if unknown:
+        raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(_KEYS), source=path)
+    for key in ("robot", "port_mm", "measurements"):
+        if key not in document:
+            raise InputError(f"no {key!r}", f"a {key!r} key", source=path)
+    for key in ("robot", "measurements", "truth"):
+        if key in document and not isinstance(document[key], str):
+            raise InputError(f"{document[key]!r}", "a path string", source=path, where=key)
+    encoder = document.get("encoder", {})
+    if not isinstance(encoder, dict):
+        raise InputError(f"{encoder!r}", "a table", source=path, where="encoder")
+    folder = path.parent
+    return Capture(
+        path=path,
+        robot=load_robot(folder / document["robot"]),
+        port_m=parse_port_mm(document["port_mm"], path, "port_mm"),
+        measurements=folder / document["measurements"],
+        truth=folder / document["truth"] if "truth" in document else None,
+        encoder=encoder,
+    )
+
+
+def write_capture(
+    path: str | Path,
+    *,
+    robot: str,
+    port_m: NDArray[np.float64],
+    measurements: str,
+    truth: str | None = None,
+    encoder: dict[str, str | int | float] | None = None,
+) -> None:
+    """Write a capture file atomically; ``robot``, ``measurements``, ``truth`` are relative."""
+    lines = [
+        "# Written by twin; `twin calibrate THIS_FILE` needs nothing else.",
+        f"robot = {json.dumps(robot)}",
+        "port_mm = [" + ", ".join(repr(float(v)) for v in m_to_mm(port_m)) + "]",
+        f"measurements = {json.dumps(measurements)}",
+    ]
+    if truth is not None:
+        lines.append(f"truth = {json.dumps(truth)}")
+    if encoder:
+        lines.append("[encoder]")
+        lines += [f"{key} = {json.dumps(value)}" for key, value in encoder.items()]
+    write_atomic(path, "\n".join(lines) + "\n")

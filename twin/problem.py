@@ -1,0 +1,78 @@
+"""A calibration problem as the solvers see it: model, data split, bounds, start, budget."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.cable import CableModel, Measurements
+from twin.units import mm_to_m
+
+Array = NDArray[np.float64]
+
+DEFAULT_SIGMA_M = float(mm_to_m(0.01))
+"""Default expected length noise (1σ): a 0.01 mm class drawstring encoder."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Iteration budget and stopping rule shared by every method (method-notes §3).
+
+    Attributes:
+        max_iterations: Iterations of a single-stage method (paper: 60).
+        stage_iterations: Iterations of each stage of a cascade (paper: 30 + 30).
+        ftol_m2: Stop when the objective f = mean r² changes by less than this between
+            consecutive iterations, m² (paper: 0.001 mm²).
+    """
+
+    max_iterations: int = 60
+    stage_iterations: int = 30
+    ftol_m2: float = float(mm_to_m(1.0) ** 2 * 1e-3)
+
+    def __post_init__(self) -> None:
+        if self.max_iterations < 1 or self.stage_iterations < 1:
+            raise ValueError("iterations must be >= 1")
+        if not self.ftol_m2 >= 0:
+            raise ValueError("ftol_m2 must be >= 0")
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What a solver gets: minimise f(x) = mean r(x)² over the training poses inside the box.
+
+    Attributes:
+        model: Maps unknowns x (p,) to cable lengths.
+        train: Poses the objective is computed on.
+        validation: Held-out poses, for the history only; solvers never fit to them.
+        sigma_m: Expected length noise (1σ), m: the measurement noise of the filters.
+        x0: Start (and centre of the initial swarms), shape (p,); empty means zeros (nominal).
+    """
+
+    model: CableModel
+    train: Measurements
+    validation: Measurements
+    sigma_m: float = DEFAULT_SIGMA_M
+    x0: Array = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self) -> None:
+        x0 = np.array(self.x0, dtype=np.float64)
+        if x0.size == 0:
+            x0 = np.zeros(self.model.n_params)
+        if x0.shape != (self.model.n_params,):
+            raise ValueError(f"x0: shape {x0.shape}, expected ({self.model.n_params},)")
+        if not self.sigma_m > 0:
+            raise ValueError("sigma_m must be > 0")
+        x0.setflags(write=False)
+        object.__setattr__(self, "x0", x0)
+
+    @property
+    def lower(self) -> Array:
+        """Lower bounds of x, shape (p,)."""
+        return self.model.bounds()[0]
+
+    @property
+    def upper(self) -> Array:
+        """Upper bounds of x, shape (p,)."""
+        return self.model.bounds()[1]

@@ -1,0 +1,82 @@
+"""Human-readable reports of calibration results (mm and degrees)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.calibration import CalibrationResult
+from twin.metrics import Metrics
+from twin.solvers import get_solver
+from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm
+
+MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the standard deviation.'
+
+
+def _metric_row(label: str, m: Metrics) -> str:
+    values = m_to_mm([m.rmse, m.mae, m.std, m.max])
+    return f"  {label:<18}" + "".join(f"{v:>10.4f}" for v in values)
+
+
+def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
+    """Before/after metrics, run statistics and the identified D-H errors as a table.
+
+    Args:
+        result: The calibration.
+        truth_delta: The true D-H errors, shape (4, n), m and rad, to print beside, if known.
+    """
+    solver = get_solver(result.method)
+    lines = [
+        f"{result.robot.name} — {solver.name} ({solver.title}), seed {result.seed}, "
+        f"{result.train_rows.size} train / {result.validation_rows.size} validation poses",
+        "  residuals [mm]          RMSE      MAE*       std       MAX",
+        _metric_row("before (valid.)", result.metrics["before"]),
+        _metric_row("after, train", result.metrics["train"]),
+        _metric_row("after, validation", result.metrics["validation"]),
+        f"  {result.solver.iterations} iterations, {result.solver.evaluations} evaluations, "
+        f"{result.solver.seconds:.3f} s, "
+        + ("converged" if result.solver.converged else "stopped at the iteration limit"),
+        "  " + MAE_NOTE,
+    ]
+    if result.model.estimate_port:
+        port = ", ".join(f"{v:.3f}" for v in m_to_mm(result.port_m))
+        lines.append(f"  identified port: ({port}) mm")
+    if result.model.estimate_offset:
+        lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
+    identified = dh_rows_to_display(result.delta)
+    truth = None if truth_delta is None else dh_rows_to_display(truth_delta)
+    header = "  joint"
+    for key in DH_KEYS:
+        label = f"δ{key} [{display_unit(key)}]"
+        header += f"{label:>14}" + (f"{'true':>10}" if truth else "")
+    lines += ["", "Identified D-H errors" + (" (and the truth)" if truth else ""), header]
+    for i in range(result.robot.n_joints):
+        row = f"  {i + 1:>5}"
+        for key in DH_KEYS:
+            row += f"{identified[key][i]:>14.4f}"
+            if truth:
+                row += f"{truth[key][i]:>10.4f}"
+        lines.append(row)
+    return "\n".join(lines)
+
+
+def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
+    """A table like the paper's Table 6: validation metrics and time per method."""
+    lines = [
+        "  method      paper    RMSE     MAE*      std      MAX [mm]   time [s]   iter    evals",
+    ]
+    first = next(iter(results.values()))
+    before = m_to_mm(list(first.metrics["before"]))
+    lines.append(f"  {'before':<10}  {'':<5}" + "".join(f"{v:>9.4f}" for v in before))
+    for name, result in results.items():
+        v = m_to_mm(list(result.metrics["validation"]))
+        alias = get_solver(name).alias.upper()
+        lines.append(
+            f"  {name:<10}  {alias:<5}" + "".join(f"{x:>9.4f}" for x in v)
+            + f"{result.solver.seconds:>11.3f}{result.solver.iterations:>7}"
+            f"{result.solver.evaluations:>9}"
+        )
+    lines.append("  " + MAE_NOTE)
+    return "\n".join(lines)

@@ -1,0 +1,250 @@
+"""Robot description: a standard (distal) Denavit–Hartenberg table with joint limits.
+
+A model file is TOML, in mm and degrees (or m and rad, as declared)::
+
+    name = "ABB IRB 120"
+    convention = "dh"
+    length_unit = "mm"
+    angle_unit = "deg"
+    joints = [
+      { a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper = 165.0 },
+      ...
+    ]
+
+Joint ``i`` contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)``. Optional per-joint
+keys for the digital twin: ``mass`` (kg, of the link after the joint) and ``radius`` (length unit,
+of that link's capsule).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.errors import InputError
+from twin.units import (
+    ANGLE_FACTORS,
+    DH_KEYS,
+    LENGTH_FACTORS,
+    dh_rows_to_display,
+    m_to_mm,
+    rad_to_deg,
+)
+
+N_JOINTS = 6
+_TOP_KEYS = ("name", "convention", "length_unit", "angle_unit", "joints")
+_REQUIRED_JOINT_KEYS = ("a", "d", "alpha", "theta", "lower", "upper")
+_OPTIONAL_JOINT_KEYS = ("mass", "radius")
+
+
+def _frozen(values: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    array = np.array(values, dtype=np.float64)
+    if array.shape != shape:
+        raise ValueError(f"{what}: shape {array.shape}, expected {shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{what}: non-finite values")
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A serial arm in standard D-H form, SI inside.
+
+    Attributes:
+        name: Human-readable name.
+        dh: D-H table, shape (4, n): rows a [m], d [m], alpha [rad], theta offset [rad].
+        lower_rad: Lower joint limits, shape (n,), rad.
+        upper_rad: Upper joint limits, shape (n,), rad.
+        mass_kg: Link masses, shape (n,), kg, or None when the file gives none.
+        radius_m: Link capsule radii, shape (n,), m, or None when the file gives none.
+    """
+
+    name: str
+    dh: NDArray[np.float64]
+    lower_rad: NDArray[np.float64]
+    upper_rad: NDArray[np.float64]
+    mass_kg: NDArray[np.float64] | None = field(default=None)
+    radius_m: NDArray[np.float64] | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        dh = np.asarray(self.dh, dtype=np.float64)
+        if dh.ndim != 2 or dh.shape[0] != 4 or dh.shape[1] < 1:
+            raise ValueError(f"dh: shape {dh.shape}, expected (4, n)")
+        n = dh.shape[1]
+        object.__setattr__(self, "dh", _frozen(dh, (4, n), "dh"))
+        object.__setattr__(self, "lower_rad", _frozen(self.lower_rad, (n,), "lower_rad"))
+        object.__setattr__(self, "upper_rad", _frozen(self.upper_rad, (n,), "upper_rad"))
+        if np.any(self.lower_rad >= self.upper_rad):
+            raise ValueError("joint limits: lower must be below upper")
+        for name in ("mass_kg", "radius_m"):
+            value = getattr(self, name)
+            if value is not None:
+                array = _frozen(value, (n,), name)
+                if np.any(array < 0):
+                    raise ValueError(f"{name}: negative values")
+                object.__setattr__(self, name, array)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return int(self.dh.shape[1])
+
+    def perturbed(self, delta: ArrayLike) -> RobotModel:
+        """This robot with D-H errors added.
+
+        Args:
+            delta: Errors X = (δa1..n, δd1..n, δα1..n, δθ1..n), shape (4n,), m and rad.
+        """
+        delta_rows = np.asarray(delta, dtype=np.float64).reshape(4, self.n_joints)
+        return RobotModel(
+            self.name, self.dh + delta_rows, self.lower_rad, self.upper_rad,
+            self.mass_kg, self.radius_m,
+        )
+
+
+def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
+    """Validate a parsed model document and build the robot from it.
+
+    Raises:
+        InputError: naming the key or joint that is wrong and what was expected.
+    """
+    unknown = sorted(set(document) - set(_TOP_KEYS))
+    if unknown:
+        raise InputError(
+            f"unknown key {unknown[0]!r}", "only " + ", ".join(_TOP_KEYS), source=source
+        )
+    for key in _TOP_KEYS:
+        if key not in document:
+            raise InputError(f"no {key!r}", f"a {key!r} key", source=source)
+    if document["convention"] != "dh":
+        raise InputError(
+            f"convention {document['convention']!r}", "'dh' (standard D-H)",
+            source=source, where="convention",
+        )
+    length_unit, angle_unit = document["length_unit"], document["angle_unit"]
+    if length_unit not in LENGTH_FACTORS:
+        raise InputError(
+            f"{length_unit!r}", "one of " + ", ".join(LENGTH_FACTORS),
+            source=source, where="length_unit",
+        )
+    if angle_unit not in ANGLE_FACTORS:
+        raise InputError(
+            f"{angle_unit!r}", "one of " + ", ".join(ANGLE_FACTORS),
+            source=source, where="angle_unit",
+        )
+    joints = document["joints"]
+    if not isinstance(joints, list) or len(joints) != N_JOINTS:
+        count = len(joints) if isinstance(joints, list) else type(joints).__name__
+        raise InputError(
+            f"{count} joints", f"a list of {N_JOINTS} joint tables", source=source,
+            where="joints",
+        )
+    to_m, to_rad = LENGTH_FACTORS[length_unit], ANGLE_FACTORS[angle_unit]
+    factor = {"a": to_m, "d": to_m, "alpha": to_rad, "theta": to_rad, "lower": to_rad,
+              "upper": to_rad, "mass": 1.0, "radius": to_m}
+    columns: dict[str, list[float]] = {key: [] for key in factor}
+    for index, joint in enumerate(joints, start=1):
+        where = f"joint {index}"
+        if not isinstance(joint, dict):
+            raise InputError(f"{joint!r}", "an inline table", source=source, where=where)
+        extra = sorted(set(joint) - set(_REQUIRED_JOINT_KEYS) - set(_OPTIONAL_JOINT_KEYS))
+        if extra:
+            raise InputError(
+                f"unknown key {extra[0]!r}",
+                "only " + ", ".join(_REQUIRED_JOINT_KEYS + _OPTIONAL_JOINT_KEYS),
+                source=source, where=where,
+            )
+        for key in factor:
+            if key not in joint:
+                if key in _REQUIRED_JOINT_KEYS:
+                    raise InputError(f"no {key!r}", f"a number for {key!r}",
+                                     source=source, where=where)
+                continue
+            value = joint[key]
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"{key} = {value!r}", "a number", source=source, where=where)
+            if not math.isfinite(value):
+                raise InputError(f"{key} = {value}", "a finite number", source=source,
+                                 where=where)
+            columns[key].append(float(value) * factor[key])
+        if columns["lower"][-1] >= columns["upper"][-1]:
+            raise InputError(
+                f"lower = {joint['lower']} >= upper = {joint['upper']}", "lower < upper",
+                source=source, where=where,
+            )
+    optional: dict[str, NDArray[np.float64] | None] = {}
+    for key in _OPTIONAL_JOINT_KEYS:
+        given = len(columns[key])
+        if given not in (0, N_JOINTS):
+            raise InputError(f"{key!r} on {given} of {N_JOINTS} joints",
+                             f"{key!r} on every joint or on none", source=source)
+        if any(v < 0 for v in columns[key]):
+            raise InputError(f"a negative {key!r}", "values >= 0", source=source)
+        optional[key] = np.array(columns[key]) if given else None
+    return RobotModel(
+        name=str(document["name"]),
+        dh=np.array([columns[key] for key in DH_KEYS]),
+        lower_rad=np.array(columns["lower"]),
+        upper_rad=np.array(columns["upper"]),
+        mass_kg=optional["mass"],
+        radius_m=optional["radius"],
+    )
+
+
+def load_robot(path: str | Path) -> RobotModel:
+    """Read and validate a robot model TOML file.
+
+    Raises:
+        InputError: if the file is missing, not TOML, or not a valid model.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError("no such file", "a robot model TOML file", source=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"an unreadable file ({exc.__class__.__name__})",
+                         "a UTF-8 TOML robot model", source=path) from None
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML ({exc})", "a TOML robot model", source=path) from None
+    return parse_robot(document, path)
+
+
+def default_robot() -> RobotModel:
+    """The ABB IRB 120 shipped with the package (the content of `models/irb120.toml`)."""
+    resource = resources.files("twin") / "data" / "irb120.toml"
+    return parse_robot(tomllib.loads(resource.read_text(encoding="utf-8")), "irb120.toml")
+
+
+def robot_to_toml(robot: RobotModel) -> str:
+    """The model-file text (mm, degrees) of a robot; `parse_robot` reads it back exactly."""
+    lines = [
+        f"name = {json.dumps(robot.name)}",
+        'convention = "dh"',
+        'length_unit = "mm"',
+        'angle_unit = "deg"',
+        "joints = [",
+    ]
+    columns = dh_rows_to_display(robot.dh)
+    columns["lower"] = rad_to_deg(robot.lower_rad).tolist()
+    columns["upper"] = rad_to_deg(robot.upper_rad).tolist()
+    if robot.mass_kg is not None:
+        columns["mass"] = robot.mass_kg.tolist()
+    if robot.radius_m is not None:
+        columns["radius"] = m_to_mm(robot.radius_m).tolist()
+    for i in range(robot.n_joints):
+        items = [f"{key} = {float(values[i])!r}" for key, values in columns.items()]
+        lines.append("  { " + ", ".join(items) + " },")
+    lines.append("]")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,31 @@
+"""Cable data computed by the core's own model: for tests, benchmarks and quick examples.
+
+The MuJoCo twin (:mod:`twin.sim`) produces data from an independent physical model; this
+module is the closed-form counterpart, where the truth is exactly the model being fitted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.cable import Measurements, cable_length
+from twin.robot import RobotModel
+
+
+def random_poses(robot: RobotModel, n_poses: int, rng: np.random.Generator) -> NDArray[np.float64]:
+    """Joint angles drawn uniformly within the joint limits, shape (n_poses, n), rad."""
+    return rng.uniform(robot.lower_rad, robot.upper_rad, size=(n_poses, robot.n_joints))
+
+
+def synthesize(
+    robot: RobotModel,
+    q_rad: ArrayLike,
+    port_m: ArrayLike,
+    sigma_m: float,
+    rng: np.random.Generator,
+) -> Measurements:
+    """Cable lengths of ``robot`` at the poses, with Gaussian noise of σ = ``sigma_m`` (m)."""
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    length_m = cable_length(robot.dh, q_rad, port_m)
+    return Measurements(q_rad, length_m + rng.normal(0.0, sigma_m, size=length_m.shape))
