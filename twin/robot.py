@@ -228,7 +228,7 @@ def default_robot() -> RobotModel:
 
 
 def robot_to_toml(robot: RobotModel) -> str:
-    """The model-file text (mm, degrees) of a robot; `parse_robot` reads it back exactly."""
+    """The model-file text (mm, degrees) of a robot; `parse_robot` reads it back to 1 ulp."""
     lines = [
         f"name = {json.dumps(robot.name)}",
         'convention = "dh"',

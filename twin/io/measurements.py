@@ -121,7 +121,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
     q_deg, length_mm = values[:, :6], values[:, 6]
     bad = np.flatnonzero(length_mm <= 0)
     if bad.size:
-        raise InputError(f"{length_mm[bad[0]]!r} mm", "a positive cable length in mm",
+        raise InputError(f"{length_mm[bad[0]]:g} mm", "a positive cable length in mm",
                          source=path, where=f"line {lines[bad[0]]}, column length")
     if robot is not None:
         check_joint_limits(q_deg, lines, robot, path)

@@ -1,0 +1,82 @@
+"""LM wall time and final cost: ours vs scipy.optimize.least_squares on the same data.
+
+Run by hand: ``python bench/bench_calibration.py``. 96 training poses of an IRB 120 with a
+known ~1.3 mm perturbation and σ = 0.01 mm noise; every solver starts at the nominal model.
+Prints the median wall time of repeated runs and the ratios measured in this run.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from twin.calibration import make_problem
+from twin.problem import Budget
+from twin.robot import default_robot
+from twin.solvers.lm import SOLVER as LM
+from twin.synthetic import random_poses, synthesize
+from twin.units import dh_rows_from_display, mm_to_m
+
+REPEATS = 15
+
+
+def timed(run: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
+    """Median wall time of REPEATS runs and the last run's solution."""
+    times, x = [], np.empty(0)
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        x = run()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), x
+
+
+def main() -> None:
+    robot = default_robot()
+    rng = np.random.default_rng(1)
+    delta = dh_rows_from_display({
+        "a": [0.5, -0.8, 0.6, 0.3, -0.4, 0.2], "d": [0.7, 0.4, -0.6, 0.5, 0.3, -0.5],
+        "alpha": [0.1, -0.2, 0.15, -0.1, 0.2, 0.1], "theta": [0.2, 0.1, -0.15, 0.1, -0.2, 0.05],
+    })
+    port = mm_to_m([600.0, -400.0, 100.0])
+    data = synthesize(robot.perturbed(delta), random_poses(robot, 120, rng), port, 1e-5, rng)
+    problem, _, _ = make_problem(robot, data, port, seed=0)
+    model, train = problem.model, problem.train
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        return model.residuals(x, train)
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        return model.jacobian(x, train)[1]
+
+    runs = {
+        "twin lm (paper stop rule)": lambda: LM.solve(
+            problem, Budget(), np.random.default_rng(0)).x,
+        "twin lm (to convergence)": lambda: LM.solve(
+            problem, Budget(ftol_m2=0.0), np.random.default_rng(0)).x,
+        "scipy lm, numeric J": lambda: least_squares(residuals, problem.x0, method="lm").x,
+        "scipy trf, our J": lambda: least_squares(
+            residuals, problem.x0, jac=jacobian, method="trf",
+            bounds=(problem.lower, problem.upper)).x,
+    }
+    results = {name: timed(run) for name, run in runs.items()}
+    reference = results["twin lm (paper stop rule)"][0]
+    print(f"{'solver':<28}{'median time [ms]':>18}{'final f [mm²]':>16}{'time / twin lm':>16}"
+          f"{'max |x|/bound':>15}")
+    for name, (seconds, x) in results.items():
+        f_mm2 = float(np.mean(residuals(x) ** 2)) * 1e6
+        print(f"{name:<28}{seconds * 1e3:>18.2f}{f_mm2:>16.3e}{seconds / reference:>16.1f}"
+              f"{np.max(np.abs(x) / problem.upper):>15.2f}")
+    scipy_lm = results["scipy lm, numeric J"][0]
+    print(f"\ntwin lm is {scipy_lm / reference:.1f}x faster than least_squares(method='lm') "
+          f"(paper stop rule), {scipy_lm / results['twin lm (to convergence)'][0]:.1f}x when "
+          "run to convergence.")
+    print("scipy's unbounded lm reaches a lower f only by leaving the ±5 mm / ±8° box along the "
+          "near-null d2-d3 direction (max |x|/bound above); inside the box trf and twin lm agree.")
+
+
+if __name__ == "__main__":
+    main()

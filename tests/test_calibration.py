@@ -1,0 +1,82 @@
+"""LM calibration end to end on data with a known perturbation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.cable import Measurements
+from twin.calibration import calibrate, required_poses, split_rows
+from twin.errors import InputError
+from twin.problem import Budget
+from twin.robot import RobotModel
+from twin.synthetic import random_poses, synthesize
+from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
+
+
+def test_split_is_reproducible_and_disjoint() -> None:
+    """The 80/20 split depends only on the seed and covers every row once."""
+    train, validation = split_rows(120, seed=5)
+    assert train.size == 96 and validation.size == 24
+    assert np.array_equal(np.sort(np.r_[train, validation]), np.arange(120))
+    again = split_rows(120, seed=5)
+    assert np.array_equal(train, again[0]) and not np.array_equal(train, split_rows(120, 6)[0])
+
+
+def test_lm_recovers_flange_positions_within_twice_the_cramer_rao_bound(
+    irb120: RobotModel, true_robot: RobotModel, measurements: Measurements, port_m: np.ndarray,
+    true_delta: np.ndarray,
+) -> None:
+    """σ = 0.01 mm, 96 training poses: the identified model's flange error over 1000 workspace
+    poses is within 2× the Cramér–Rao bound computed from the true Jacobian (~0.01 mm)."""
+    result = calibrate(irb120, measurements, port_m, method="lm", seed=0)
+    workspace = random_poses(irb120, 1000, np.random.default_rng(11))
+    error = flange_error_rms(result.identified_robot.dh, true_robot.dh, workspace)
+    bound = cramer_rao_flange_rms(
+        result.model, true_delta.ravel(), measurements.subset(result.train_rows), 1e-5, workspace
+    )
+    before = flange_error_rms(irb120.dh, true_robot.dh, workspace)
+    assert 0.003e-3 < bound < 0.03e-3
+    assert error < 2 * bound, (error, bound)
+    assert before > 100 * error
+    assert result.metrics["validation"].rmse < 1.5e-5 < result.metrics["before"].rmse / 50
+    assert result.solver.converged and result.solver.iterations <= 60
+
+
+def test_history_starts_at_nominal_and_decreases(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """History entry 0 is the nominal model; accepted iterations never increase f."""
+    result = calibrate(irb120, measurements, port_m, seed=1)
+    f = np.array([record.f_m2 for record in result.solver.history])
+    assert result.solver.history[0].iteration == 0
+    assert f[0] == pytest.approx(result.model.residuals(np.zeros(24), measurements.subset(
+        result.train_rows)).__pow__(2).mean())
+    assert np.all(np.diff(f) <= 0)
+
+
+def test_same_seed_same_result(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Calibrating twice with the same seed gives identical numbers."""
+    a = calibrate(irb120, measurements, port_m, seed=3)
+    b = calibrate(irb120, measurements, port_m, seed=3)
+    np.testing.assert_array_equal(a.solver.x, b.solver.x)
+
+
+def test_noise_free_data_fits_exactly(
+    irb120: RobotModel, true_robot: RobotModel, port_m: np.ndarray
+) -> None:
+    """Without noise and without the paper's loose f-change rule, LM drives the residual to
+    numerical zero (the paper's 0.001 mm² rule alone stops at a few µm)."""
+    rng = np.random.default_rng(9)
+    data = synthesize(true_robot, random_poses(irb120, 60, rng), port_m, 0.0, rng)
+    result = calibrate(irb120, data, port_m, budget=Budget(ftol_m2=0.0))
+    assert result.metrics["validation"].rmse < 1e-10
+
+
+def test_too_few_poses(irb120: RobotModel, measurements: Measurements, port_m: np.ndarray) -> None:
+    """Fewer poses than unknowns need is a clear error, not a silent bad fit."""
+    assert required_poses(24) == 30
+    with pytest.raises(InputError, match="found 29 poses, expected at least 30"):
+        calibrate(irb120, measurements.subset(np.arange(29)), port_m)
