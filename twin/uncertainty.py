@@ -4,20 +4,28 @@ The Cramér–Rao bound for unbiased estimates from Gaussian length noise σ is 
 ``C = σ² (JᵀJ)⁺`` of the unknowns; the pseudo-inverse leaves out the directions the cable cannot
 see, which do not move the flange either (the two Jacobians share their null space for the
 IRB 120), so the bound on the flange position stays finite and meaningful.
+
+After a calibration the noise is not known: it is estimated from the training residuals as
+σ̂² = ‖r‖² / (m − rank). Per-parameter standard deviations are those of the base parameters
+(:mod:`twin.identifiability`) with the dependent ones held at their start values — the only
+reading in which a single parameter has a finite variance; the dependent ones have none.
+With the port estimated, the base frame is only defined relative to the port up to a shift
+along and a turn about the first joint axis; flange accuracies then leave that motion out.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.cable import CableModel, Measurements
+from twin.identifiability import RANK_RTOL
 from twin.kinematics import flange_position, flange_position_jacobian
+from twin.robot import RobotModel
 
 Array = NDArray[np.float64]
-
-RANK_RTOL = 1e-8
-"""Singular values below this fraction of the largest are treated as zero."""
 
 
 def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK_RTOL) -> Array:
@@ -40,6 +48,22 @@ def flange_error_rms(dh_a: ArrayLike, dh_b: ArrayLike, q_rad: ArrayLike) -> floa
     return float(np.sqrt(np.mean(np.sum(difference**2, axis=-1))))
 
 
+def flange_sigma(dh: ArrayLike, covariance_dh: ArrayLike, q_rad: ArrayLike) -> Array:
+    """Predicted RMS flange-position error at each pose implied by a D-H covariance.
+
+    Args:
+        dh: D-H table at which to linearise, shape (4, n), m and rad.
+        covariance_dh: Covariance of the D-H errors, shape (4n, 4n).
+        q_rad: Poses, shape (k, n), rad.
+
+    Returns:
+        sqrt(trace(J_i C J_iᵀ)) per pose, shape (k,), m: the 3-D position error's RMS.
+    """
+    _, jacobian = flange_position_jacobian(dh, q_rad)
+    per_pose = np.einsum("mij,jk,mik->m", jacobian, np.asarray(covariance_dh), jacobian)
+    return np.asarray(np.sqrt(np.maximum(per_pose, 0.0)), dtype=np.float64)
+
+
 def predicted_flange_rms(dh: ArrayLike, covariance_dh: ArrayLike, q_rad: ArrayLike) -> float:
     """RMS flange-position error over poses implied by a D-H covariance, m.
 
@@ -51,9 +75,68 @@ def predicted_flange_rms(dh: ArrayLike, covariance_dh: ArrayLike, q_rad: ArrayLi
     Returns:
         sqrt(mean_i trace(J_i C J_iᵀ)) with J_i the flange-position Jacobian at pose i.
     """
-    _, jacobian = flange_position_jacobian(dh, q_rad)
-    per_pose = np.einsum("mij,jk,mik->m", jacobian, np.asarray(covariance_dh), jacobian)
-    return float(np.sqrt(np.mean(per_pose)))
+    return float(np.sqrt(np.mean(flange_sigma(dh, covariance_dh, q_rad) ** 2)))
+
+
+def residual_sigma(residuals_m: ArrayLike, rank: int) -> float:
+    """Noise estimate σ̂ = sqrt(‖r‖² / (m − rank)) from fitted residuals, m.
+
+    Args:
+        residuals_m: Residuals at the estimate, shape (m,), m.
+        rank: Number of identified combinations.
+
+    Raises:
+        ValueError: if there are no more residuals than the rank.
+    """
+    r = np.asarray(residuals_m, dtype=np.float64)
+    if r.size <= rank:
+        raise ValueError(f"{r.size} residuals for rank {rank}: no degree of freedom left")
+    return float(np.sqrt(r @ r / (r.size - rank)))
+
+
+def base_covariance(jacobian: ArrayLike, base: ArrayLike, sigma_m: float) -> Array:
+    """Covariance σ² (J_Bᵀ J_B)⁻¹ of the base parameters, embedded in shape (p, p).
+
+    Rows and columns of the dependent unknowns (held fixed) are zero. Its flange-position
+    covariance equals that of :func:`parameter_covariance`: both are generalised inverses of
+    JᵀJ, and flange motions lie in J's row space.
+
+    Args:
+        jacobian: Cable-length Jacobian ∂r/∂x, shape (m, p).
+        base: Indices of the base parameters, shape (L,), with J[:, base] of full rank.
+        sigma_m: Length noise 1σ, m.
+    """
+    J = np.asarray(jacobian, dtype=np.float64)
+    index = np.asarray(base, dtype=np.intp)
+    covariance = np.zeros((J.shape[1], J.shape[1]))
+    covariance[np.ix_(index, index)] = parameter_covariance(J[:, index], sigma_m)
+    return covariance
+
+
+def parameter_sigma(covariance: ArrayLike, base: ArrayLike) -> Array:
+    """Per-unknown standard deviation, shape (p,), NaN for those outside ``base``."""
+    variance = np.diag(np.asarray(covariance, dtype=np.float64))
+    sigma = np.full(variance.shape, np.nan)
+    index = np.asarray(base, dtype=np.intp)
+    sigma[index] = np.sqrt(variance[index])
+    return sigma
+
+
+def workspace_grid(robot: RobotModel, n_per_axis: int) -> tuple[Array, Array, Array]:
+    """A grid over joints 2 and 3 within their limits, the other joints at 0.
+
+    These two joints set the reach and height of the wrist; the map over them shows where
+    in the workspace a calibration is accurate.
+
+    Returns:
+        ``(q2_rad, q3_rad, q_rad)``: axes (n_per_axis,) each, and poses
+        (n_per_axis², n) with q2 varying slowest.
+    """
+    q2 = np.linspace(robot.lower_rad[1], robot.upper_rad[1], n_per_axis)
+    q3 = np.linspace(robot.lower_rad[2], robot.upper_rad[2], n_per_axis)
+    q = np.zeros((n_per_axis * n_per_axis, robot.n_joints))
+    q[:, 1], q[:, 2] = (axis.ravel() for axis in np.meshgrid(q2, q3, indexing="ij"))
+    return q2, q3, q
 
 
 def cramer_rao_flange_rms(
@@ -72,3 +155,47 @@ def cramer_rao_flange_rms(
     covariance = parameter_covariance(jacobian, sigma_m)[: model.n_dh, : model.n_dh]
     dh = model.split(np.asarray(x_true, dtype=np.float64))[0]
     return predicted_flange_rms(dh, covariance, q_rad)
+
+
+class CalibrationUncertainty(NamedTuple):
+    """How well a calibration determined its unknowns and the flange position."""
+
+    noise_sigma_m: float
+    """Length noise estimated from the training residuals, σ̂ = sqrt(‖r‖² / (m − rank)), m."""
+    covariance: Array
+    """Covariance of the base parameters, embedded in shape (p, p) (zero for dependent ones)."""
+    sigma: Array
+    """Standard deviation of each unknown, shape (p,), m and rad; NaN if not identifiable."""
+    flange_rms_m: float
+    """Predicted RMS flange-position error over the workspace poses, m."""
+
+
+def calibration_uncertainty(
+    model: CableModel,
+    x: ArrayLike,
+    train: Measurements,
+    base: ArrayLike,
+    q_workspace_rad: ArrayLike,
+) -> CalibrationUncertainty:
+    """Covariance and predicted accuracy of an identified x from its training data.
+
+    Args:
+        model: The fitted cable model.
+        x: Identified unknowns, shape (p,).
+        train: The poses and lengths it was fitted to.
+        base: Indices of the base parameters, shape (L,).
+        q_workspace_rad: Poses where the flange accuracy is predicted, shape (k, n), rad.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    residuals, jacobian = model.jacobian(x, train)
+    base = np.asarray(base, dtype=np.intp)
+    noise = residual_sigma(residuals, base.size)
+    covariance = base_covariance(jacobian, base, noise)
+    dh = model.split(x)[0]
+    n = model.n_dh
+    return CalibrationUncertainty(
+        noise_sigma_m=noise,
+        covariance=covariance,
+        sigma=parameter_sigma(covariance, base),
+        flange_rms_m=predicted_flange_rms(dh, covariance[:n, :n], q_workspace_rad),
+    )

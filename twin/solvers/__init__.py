@@ -7,10 +7,10 @@ the paper's alias (``m1``…``m9``).
 from __future__ import annotations
 
 from twin.errors import UnknownChoiceError
-from twin.solvers import lm
+from twin.solvers import lm, lm_base
 from twin.solvers.base import IterationRecord, Solver, SolverResult, Tracker
 
-SOLVERS: dict[str, Solver] = {solver.name: solver for solver in (lm.SOLVER,)}
+SOLVERS: dict[str, Solver] = {solver.name: solver for solver in (lm.SOLVER, lm_base.SOLVER)}
 """Every method, by name, in the paper's order, then the methods beyond the paper."""
 
 

@@ -1,0 +1,205 @@
+"""What a set of cable lengths can and cannot identify.
+
+One cable length per pose gives one row of the Jacobian J = ∂ℓ/∂x (m, p). Its numerical rank
+says how many combinations of the unknowns the measurement set determines; the rest — the null
+space — moves no cable length at all, so any method returns arbitrary values along it.
+
+How it is computed, and why:
+
+- **Column scaling.** Lengths (m) and angles (rad) have different units, so J is scaled column
+  by column to unit norm before its singular values are compared: the rank and the condition
+  number are then independent of the units. A column whose norm is negligible against the
+  largest (below :data:`COLUMN_RTOL`) is declared unidentifiable *directly* and left out: scaling
+  such a column (θ6, α6 of the IRB 120 have norms ~1e-17 m/rad, round-off) up to unit norm
+  would turn round-off into a fake identifiable direction.
+- **Rank.** Singular values of the scaled J below :data:`RANK_RTOL` times the largest count as
+  zero. For distance-only data on the IRB 120 the gap is some fourteen orders of magnitude wide
+  (1e-2 against 1e-16), so the rank does not hinge on the tolerance.
+- **Base parameters.** QR with column pivoting of the scaled J picks, in order, the columns that
+  add the most new information; the first ``rank`` are the base parameters, the others are
+  dependent. Each dependent column is a combination of base columns, J_D = J_B β, so
+  ``e_dependent − β`` (in scaled units) is a null direction. These directions are sparse and
+  readable: ``d2-d3``, ``a5+theta5``…
+- **Names.** A null direction is printed in the scaled space (each unknown in units of its own
+  column norm, so the coefficients are dimensionless and comparable), terms in the order of x,
+  largest coefficient ±1 and the first term positive; coefficients below
+  :data:`NAME_COEFFICIENT_TOL` are dropped and coefficients within that of ±1 are not printed.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from twin.cable import CableModel, Measurements
+
+Array = NDArray[np.float64]
+
+RANK_RTOL = 1e-8
+"""Singular values below this fraction of the largest are treated as zero."""
+COLUMN_RTOL = 1e-8
+"""Columns whose norm is below this fraction of the largest are unidentifiable outright."""
+NAME_COEFFICIENT_TOL = 1e-3
+"""Coefficients of a named null direction smaller than this (relative) are left out."""
+
+
+class Identifiability(NamedTuple):
+    """What one Jacobian identifies.
+
+    The unknowns are those of the Jacobian's columns (p of them), named by ``names``.
+    """
+
+    rank: int
+    """Numerical rank of the scaled Jacobian."""
+    n_params: int
+    """Number of unknowns p."""
+    condition: float
+    """σ_max / σ_min of the scaled Jacobian over its ``rank`` non-zero singular values."""
+    singular_values: Array
+    """Singular values of the scaled Jacobian (without the negligible columns), descending."""
+    tolerance: float
+    """Relative singular-value cutoff used for the rank."""
+    names: tuple[str, ...]
+    """Names of the unknowns, length p."""
+    column_norms: Array
+    """Norm of each column of the unscaled Jacobian, shape (p,), m/m or m/rad."""
+    base: NDArray[np.intp]
+    """Indices of the base parameters, shape (rank,), in the order QR picked them."""
+    null_space: Array
+    """Null directions in the units of x (m and rad), shape (p, p − rank), one per column."""
+    unidentifiable: tuple[str, ...]
+    """Each null direction named as a combination, e.g. ``theta6``, ``d2-d3``."""
+
+    @property
+    def dependent(self) -> NDArray[np.intp]:
+        """Indices of the unknowns that are not base parameters, shape (p − rank,)."""
+        return np.setdiff1d(np.arange(self.n_params), self.base)
+
+    @property
+    def base_mask(self) -> NDArray[np.bool_]:
+        """True for the base parameters, shape (p,)."""
+        mask = np.zeros(self.n_params, dtype=bool)
+        mask[self.base] = True
+        return mask
+
+    @property
+    def base_names(self) -> tuple[str, ...]:
+        """Names of the base parameters, in the order of x."""
+        return tuple(self.names[i] for i in np.sort(self.base))
+
+
+def _format_coefficient(value: float, name: str, first: bool) -> str:
+    sign = "-" if value < 0 else ("" if first else "+")
+    magnitude = abs(value)
+    if abs(magnitude - 1.0) < NAME_COEFFICIENT_TOL:
+        return f"{sign}{name}"
+    return f"{sign}{magnitude:.3g}*{name}"
+
+
+def name_direction(direction: ArrayLike, names: tuple[str, ...]) -> str:
+    """A readable name of one direction given in scaled units, e.g. ``a5+0.302*theta5``.
+
+    Args:
+        direction: Coefficients in the scaled space, shape (p,).
+        names: Names of the unknowns, length p.
+    """
+    v = np.asarray(direction, dtype=np.float64)
+    v = v / v[np.argmax(np.abs(v))]
+    terms = np.flatnonzero(np.abs(v) >= NAME_COEFFICIENT_TOL)
+    v = v * np.sign(v[terms[0]])
+    return "".join(
+        _format_coefficient(float(v[k]), names[k], first=i == 0) for i, k in enumerate(terms)
+    )
+
+
+def identifiability(
+    jacobian: ArrayLike, names: tuple[str, ...] | list[str], rtol: float = RANK_RTOL
+) -> Identifiability:
+    """Rank, condition, base parameters and named null directions of a Jacobian.
+
+    Args:
+        jacobian: Cable-length Jacobian ∂ℓ/∂x, shape (m, p), m/m and m/rad.
+        names: Names of the p unknowns.
+        rtol: Relative singular-value cutoff of the rank.
+
+    Returns:
+        The :class:`Identifiability` of the measurement set at the geometry J was computed at.
+    """
+    J = np.asarray(jacobian, dtype=np.float64)
+    names = tuple(names)
+    p = J.shape[1]
+    if len(names) != p:
+        raise ValueError(f"{len(names)} names for {p} columns")
+    norms = np.linalg.norm(J, axis=0)
+    visible = np.flatnonzero(norms > COLUMN_RTOL * np.max(norms))
+    scaled = J[:, visible] / norms[visible]
+    singular_values = np.linalg.svd(scaled, compute_uv=False)
+    rank = int(np.sum(singular_values > rtol * singular_values[0]))
+    _, R, pivots = scipy.linalg.qr(scaled, mode="economic", pivoting=True)
+    base_local, dependent_local = pivots[:rank], pivots[rank:]
+    beta = scipy.linalg.solve_triangular(R[:rank, :rank], R[:rank, rank:])
+    # Scaled null directions: one per negligible column, then e_dependent − β for each dependent.
+    invisible = np.setdiff1d(np.arange(p), visible)
+    directions = np.zeros((p, p - rank))
+    directions[invisible, np.arange(invisible.size)] = 1.0
+    columns = invisible.size + np.arange(dependent_local.size)
+    directions[visible[dependent_local], columns] = 1.0
+    directions[np.ix_(visible[base_local], columns)] = -beta
+    labels = tuple(name_direction(directions[:, k], names) for k in range(p - rank))
+    unit = np.where(norms > 0, norms, 1.0)
+    null_si = directions / unit[:, None]
+    null_si /= np.linalg.norm(null_si, axis=0)
+    return Identifiability(
+        rank=rank,
+        n_params=p,
+        condition=float(singular_values[0] / singular_values[rank - 1]),
+        singular_values=singular_values,
+        tolerance=rtol,
+        names=names,
+        column_norms=norms,
+        base=visible[base_local],
+        null_space=null_si,
+        unidentifiable=labels,
+    )
+
+
+def measurement_identifiability(
+    model: CableModel, x: ArrayLike, data: Measurements, rtol: float = RANK_RTOL
+) -> Identifiability:
+    """:func:`identifiability` of the cable model's Jacobian at unknowns ``x`` (p,) and poses."""
+    _, jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)
+    return identifiability(jacobian, model.names, rtol)
+
+
+class Observability(NamedTuple):
+    """Observability indices of a Jacobian (Sun & Hollerbach 2008), over its non-zero
+    singular values σ_1 ≥ … ≥ σ_L of the base-parameter columns; larger is better, except
+    for the condition number."""
+
+    o1: float
+    """(σ_1 ⋯ σ_L)^(1/L) / √m: geometric mean of the singular values per pose (D-optimality)."""
+    o3: float
+    """σ_L, the smallest singular value (E-optimality)."""
+    o4: float
+    """σ_L² / σ_1, the noise amplification index."""
+    condition: float
+    """σ_1 / σ_L."""
+
+
+def observability(jacobian: ArrayLike) -> Observability:
+    """Observability indices of a full-column-rank Jacobian, shape (m, L).
+
+    Pass the base-parameter columns in fixed units (for example SI) so that indices of
+    different pose sets compare.
+    """
+    J = np.asarray(jacobian, dtype=np.float64)
+    s = np.linalg.svd(J, compute_uv=False)
+    return Observability(
+        o1=float(np.exp(np.mean(np.log(s))) / np.sqrt(J.shape[0])),
+        o3=float(s[-1]),
+        o4=float(s[-1] ** 2 / s[0]),
+        condition=float(s[0] / s[-1]),
+    )
