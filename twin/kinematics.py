@@ -89,14 +89,18 @@ def flange_position(dh: ArrayLike, q_rad: ArrayLike) -> Array:
     return _walk(dh, q_rad, keep=False)[-1][0]
 
 
-def flange_transform(dh: ArrayLike, q_rad: ArrayLike) -> Array:
-    """Homogeneous flange pose in the base frame, base_T_flange, shape (..., m, 4, 4), m."""
-    origin, x, y, z = _walk(dh, q_rad, keep=False)[-1]
+def _homogeneous(origin: Array, x: Array, y: Array, z: Array) -> Array:
+    """4×4 transforms, shape (..., 4, 4), from origins and axes of shape (..., 3)."""
     transform = np.zeros((*origin.shape[:-1], 4, 4))
     transform[..., :3, 0], transform[..., :3, 1], transform[..., :3, 2] = x, y, z
     transform[..., :3, 3] = origin
     transform[..., 3, 3] = 1.0
     return transform
+
+
+def flange_transform(dh: ArrayLike, q_rad: ArrayLike) -> Array:
+    """Homogeneous flange pose in the base frame, base_T_flange, shape (..., m, 4, 4), m."""
+    return _homogeneous(*_walk(dh, q_rad, keep=False)[-1])
 
 
 def chain(dh: ArrayLike, q_rad: ArrayLike) -> Chain:
@@ -131,3 +135,25 @@ def flange_position_jacobian(dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Ar
     )
     jacobian = np.concatenate(blocks, axis=-2)  # (..., m, 4n, 3)
     return p[..., 0, :], np.swapaxes(jacobian, -1, -2)
+
+
+def flange_jacobian(dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
+    """Flange pose and its geometric joint Jacobian, for inverse kinematics.
+
+    Column i is ``(z_{i−1} × (P − o_{i−1}), z_{i−1})``: the flange's linear velocity (m/rad) and
+    angular velocity (rad/rad) in the base frame per unit rate of joint i.
+
+    Args:
+        dh: D-H tables, shape (..., 4, n), m and rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+
+    Returns:
+        ``(base_T_flange, jacobian)``: shapes (..., m, 4, 4) in m and (..., m, 6, n), rows
+        (vx, vy, vz, wx, wy, wz).
+    """
+    frames = chain(dh, q_rad)
+    last = tuple(part[..., -1, :] for part in frames)
+    z_prev = frames.z_axes[..., :-1, :]
+    linear = np.cross(z_prev, frames.origins[..., -1:, :] - frames.origins[..., :-1, :])
+    jacobian = np.concatenate([linear, z_prev], axis=-1)  # (..., m, n, 6)
+    return _homogeneous(*last), np.swapaxes(jacobian, -1, -2)
