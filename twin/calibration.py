@@ -20,15 +20,20 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.cable import CableModel, Measurements
 from twin.errors import InputError
+from twin.identifiability import Identifiability, measurement_identifiability
 from twin.metrics import Metrics, metrics
 from twin.problem import DEFAULT_SIGMA_M, Budget, Problem
 from twin.robot import RobotModel
 from twin.solvers import SolverResult, get_solver
+from twin.synthetic import random_poses
+from twin.uncertainty import CalibrationUncertainty, calibration_uncertainty
 
 Array = NDArray[np.float64]
 
 TRAIN_FRACTION = 0.8
 """Share of the poses used for identification (paper: 80 / 20)."""
+WORKSPACE_POSES = 1000
+"""Random poses within the joint limits over which the flange accuracy is predicted."""
 
 
 def split_rows(n_rows: int, seed: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -60,6 +65,9 @@ class CalibrationResult:
         validation_rows: Held-out row indices, shape (m_val,).
         metrics: ``{"before", "train", "validation"}`` metrics in m; ``before`` is the nominal
             model on the validation poses.
+        identifiability: What the training poses identify at the start (nominal) geometry.
+        identified_identifiability: The same at the identified geometry.
+        uncertainty: Noise estimate, base-parameter covariance and predicted flange accuracy.
     """
 
     robot: RobotModel
@@ -69,6 +77,9 @@ class CalibrationResult:
     train_rows: NDArray[np.intp]
     validation_rows: NDArray[np.intp]
     metrics: dict[str, Metrics]
+    identifiability: Identifiability | None = None
+    identified_identifiability: Identifiability | None = None
+    uncertainty: CalibrationUncertainty | None = None
 
     @property
     def method(self) -> str:
@@ -147,6 +158,8 @@ def calibrate_many(
         estimate_port=estimate_port, estimate_offset=estimate_offset,
     )
     before = metrics(problem.model.residuals(np.zeros(problem.model.n_params), problem.validation))
+    nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
+    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
     results = {}
     for solver in solvers:
         solved = solver.solve(problem, budget or Budget(), np.random.default_rng(seed))
@@ -158,6 +171,13 @@ def calibrate_many(
                 "train": metrics(problem.model.residuals(solved.x, problem.train)),
                 "validation": metrics(problem.model.residuals(solved.x, problem.validation)),
             },
+            identifiability=nominal,
+            identified_identifiability=measurement_identifiability(
+                problem.model, solved.x, problem.train
+            ),
+            uncertainty=calibration_uncertainty(
+                problem.model, solved.x, problem.train, nominal.base, q_workspace
+            ),
         )
     return results
 

@@ -42,6 +42,9 @@ RANK_RTOL = 1e-8
 """Singular values below this fraction of the largest are treated as zero."""
 COLUMN_RTOL = 1e-8
 """Columns whose norm is below this fraction of the largest are unidentifiable outright."""
+WEAK_RTOL = 1e-3
+"""Identified singular values below this fraction of the largest count as weak: noise along
+them is amplified more than a thousandfold against the best-seen direction."""
 NAME_COEFFICIENT_TOL = 1e-3
 """Coefficients of a named null direction smaller than this (relative) are left out."""
 
@@ -72,6 +75,12 @@ class Identifiability(NamedTuple):
     """Null directions in the units of x (m and rad), shape (p, p − rank), one per column."""
     unidentifiable: tuple[str, ...]
     """Each null direction named as a combination, e.g. ``theta6``, ``d2-d3``."""
+
+    @property
+    def weak(self) -> int:
+        """How many of the ``rank`` identified directions are weak (see :data:`WEAK_RTOL`)."""
+        s = self.singular_values[: self.rank]
+        return int(np.sum(s < WEAK_RTOL * s[0]))
 
     @property
     def dependent(self) -> NDArray[np.intp]:

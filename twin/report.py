@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import CalibrationResult
+from twin.identifiability import WEAK_RTOL
 from twin.metrics import Metrics
 from twin.solvers import get_solver
 from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm
@@ -18,6 +19,38 @@ MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the stan
 def _metric_row(label: str, m: Metrics) -> str:
     values = m_to_mm([m.rmse, m.mae, m.std, m.max])
     return f"  {label:<18}" + "".join(f"{v:>10.4f}" for v in values)
+
+
+def format_identifiability(result: CalibrationResult) -> list[str]:
+    """The identifiability and predicted-accuracy lines of one result (empty if not computed)."""
+    nominal, identified = result.identifiability, result.identified_identifiability
+    lines = []
+    if nominal is not None:
+        lines += [
+            f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
+            f"{nominal.n_params}, condition {nominal.condition:.3g} "
+            f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
+            "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
+        ]
+        if nominal.unidentifiable:
+            lines.append(
+                "    (directions in column-scaled units; "
+                + ("held at their start values)" if result.method == "lm-base" else
+                   "their values are arbitrary: compare flange positions, not raw parameters)")
+            )
+    if identified is not None:
+        lines.append(
+            f"  at the identified geometry: rank {identified.rank} of {identified.n_params}, "
+            f"condition {identified.condition:.3g}, {identified.weak} weak "
+            f"(singular value below {WEAK_RTOL:g} of the largest)"
+        )
+    if result.uncertainty is not None:
+        lines.append(
+            f"  noise estimate {float(m_to_mm(result.uncertainty.noise_sigma_m)):.4f} mm; "
+            "predicted flange RMS error over the workspace "
+            f"{float(m_to_mm(result.uncertainty.flange_rms_m)):.4f} mm"
+        )
+    return lines
 
 
 def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
@@ -39,6 +72,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         f"{result.solver.seconds:.3f} s, "
         + ("converged" if result.solver.converged else "stopped at the iteration limit"),
         "  " + MAE_NOTE,
+        *format_identifiability(result),
     ]
     if result.model.estimate_port:
         port = ", ".join(f"{v:.3f}" for v in m_to_mm(result.port_m))

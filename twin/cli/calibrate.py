@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
 
 from twin.calibration import calibrate_many
 from twin.errors import InputError
@@ -13,7 +16,7 @@ from twin.io.measurements import load_measurements
 from twin.io.results import result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
-from twin.robot import default_robot, load_robot
+from twin.robot import RobotModel, default_robot, load_robot
 from twin.solvers import SOLVERS, solver_choices
 
 
@@ -43,22 +46,45 @@ def add_parser(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
+class Inputs(NamedTuple):
+    """What INPUT, --robot and --port resolve to."""
+
+    robot: RobotModel
+    port_m: NDArray[np.float64]
+    """Encoder port, base frame, shape (3,), m."""
+    measurements_path: Path
+    truth_path: Path | None
+
+
+def resolve_inputs(input_path: Path, robot_path: Path | None, port: str | None) -> Inputs:
+    """The robot, port and files named by a capture.toml or a CSV with --robot and --port.
+
+    Raises:
+        InputError: if a CSV comes without --port, or a file is wrong.
+    """
+    if input_path.suffix == ".toml":
+        capture = load_capture(input_path)
+        return Inputs(
+            robot=load_robot(robot_path) if robot_path else capture.robot,
+            port_m=parse_port_mm(port, "--port", "") if port else capture.port_m,
+            measurements_path=capture.measurements,
+            truth_path=capture.truth,
+        )
+    if port is None:
+        raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or a "
+                         "capture.toml as INPUT)", source=input_path)
+    return Inputs(
+        robot=load_robot(robot_path) if robot_path else default_robot(),
+        port_m=parse_port_mm(port, "--port", ""),
+        measurements_path=input_path,
+        truth_path=None,
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    truth_path = None
-    if args.input.suffix == ".toml":
-        capture = load_capture(args.input)
-        robot = load_robot(args.robot) if args.robot else capture.robot
-        port_m = parse_port_mm(args.port, "--port", "") if args.port else capture.port_m
-        measurements_path = capture.measurements
-        truth_path = capture.truth
-    else:
-        robot = load_robot(args.robot) if args.robot else default_robot()
-        if args.port is None:
-            raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or a "
-                             "capture.toml as INPUT)", source=args.input)
-        port_m = parse_port_mm(args.port, "--port", "")
-        measurements_path = args.input
+    robot, port_m, measurements_path, truth_path = resolve_inputs(args.input, args.robot,
+                                                                  args.port)
     methods = list(SOLVERS) if args.method.strip().lower() == "all" else [args.method]
     measurements = load_measurements(measurements_path, robot)
     try:
