@@ -11,10 +11,10 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from twin.cli import calibrate
+from twin.cli import calibrate, simulate
 from twin.errors import InputError, TwinError
 
-SUBCOMMANDS = (calibrate,)
+SUBCOMMANDS = (calibrate, simulate)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 

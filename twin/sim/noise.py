@@ -1,0 +1,99 @@
+"""Measurement noise of the drawstring encoder and the arm's repeatability.
+
+The encoder reads ``round((L + c + e + o) / res) · res`` with L the true length, c an unknown
+constant offset (the encoder's zero), e ~ N(0, σ²), o an outlier (with probability ``rate``,
+a random sign times U(0.5, 1.5) · ``outlier``, else 0), res the resolution.
+
+Repeatability is the arm's: each pose's joints land N(0, σ_q²) off their target, with one σ_q
+for all joints chosen so that the RMS flange displacement over the poses is ``repeatability``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.kinematics import flange_position_jacobian
+from twin.units import m_to_mm
+
+Array = NDArray[np.float64]
+
+
+class Readings(NamedTuple):
+    """What the encoder reports."""
+
+    length_m: Array
+    """Readings, shape (m,), m."""
+    outlier_rows: NDArray[np.intp]
+    """Rows that received an outlier, shape (k,)."""
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Noise of one simulated capture (all SI).
+
+    Attributes:
+        sigma_m: Gaussian length noise 1σ, m.
+        resolution_m: Encoder resolution, m (0: no quantisation).
+        repeatability_m: RMS flange displacement from joint jitter, m (0: none).
+        outlier_rate: Probability of an outlier per reading, in [0, 1].
+        outlier_m: Typical outlier size, m.
+        offset_m: Constant length offset the calibration is not told, m.
+    """
+
+    sigma_m: float = 0.0
+    resolution_m: float = 0.0
+    repeatability_m: float = 0.0
+    outlier_rate: float = 0.0
+    outlier_m: float = 0.0
+    offset_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("sigma_m", "resolution_m", "repeatability_m", "outlier_m"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}: expected a finite value >= 0, got {value}")
+        if not 0.0 <= self.outlier_rate <= 1.0:
+            raise ValueError(f"outlier_rate: expected [0, 1], got {self.outlier_rate}")
+        if not np.isfinite(self.offset_m):
+            raise ValueError("offset_m: expected a finite value")
+
+    def joint_sigma_rad(self, dh: ArrayLike, q_rad: ArrayLike) -> float:
+        """σ_q that gives an RMS flange displacement of ``repeatability_m`` at these poses, rad.
+
+        Args:
+            dh: D-H table of the arm, shape (4, n).
+            q_rad: Poses, shape (m, n), rad.
+        """
+        if self.repeatability_m == 0.0:
+            return 0.0
+        n = np.asarray(q_rad).shape[1]
+        _, jacobian = flange_position_jacobian(dh, q_rad)
+        joint_jacobian = jacobian[..., 3 * n:]  # the θ block is ∂P/∂q
+        mean_square_gain = float(np.mean(np.sum(joint_jacobian**2, axis=(1, 2))))
+        return self.repeatability_m / float(np.sqrt(mean_square_gain))
+
+    def read(self, length_m: ArrayLike, rng: np.random.Generator) -> Readings:
+        """Encoder readings of true lengths (draws noise, then outliers, from ``rng``)."""
+        true = np.asarray(length_m, dtype=np.float64)
+        reading = true + self.offset_m + rng.normal(0.0, 1.0, true.shape) * self.sigma_m
+        is_outlier = rng.random(true.shape) < self.outlier_rate
+        size = rng.uniform(0.5, 1.5, true.shape) * rng.choice([-1.0, 1.0], true.shape)
+        reading = reading + np.where(is_outlier, size * self.outlier_m, 0.0)
+        if self.resolution_m > 0:
+            reading = np.round(reading / self.resolution_m) * self.resolution_m
+        return Readings(reading, np.flatnonzero(is_outlier))
+
+    def to_dict(self) -> dict[str, float]:
+        """The JSON form written to truth.json (mm)."""
+        return {
+            "sigma_mm": float(m_to_mm(self.sigma_m)),
+            "resolution_mm": float(m_to_mm(self.resolution_m)),
+            "repeatability_mm": float(m_to_mm(self.repeatability_m)),
+            "outlier_rate": self.outlier_rate,
+            "outlier_mm": float(m_to_mm(self.outlier_m)),
+            "offset_mm": float(m_to_mm(self.offset_m)),
+        }

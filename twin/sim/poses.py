@@ -1,0 +1,117 @@
+"""Poses to measure: drawn at random under the rig's constraints, or read from a plan CSV.
+
+A pose is usable when the joints are within their limits, the flange is above the floor by a
+margin, no link touches another link or the floor (MuJoCo contacts), the cable length is
+inside the encoder's range, and the straight cable from the port reaches the flange without
+passing through a link (a MuJoCo ray cast).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.errors import InputError, TwinError
+from twin.io.measurements import JOINT_COLUMNS, check_joint_limits, read_table
+from twin.kinematics import flange_position
+from twin.sim.twin import Twin
+from twin.units import deg_to_rad, m_to_mm
+
+Array = NDArray[np.float64]
+
+MAX_DRAWS_PER_POSE = 500
+"""Give up when this many candidates per wanted pose were not enough."""
+
+
+@dataclass(frozen=True)
+class PoseConstraints:
+    """What a measured pose must satisfy.
+
+    Attributes:
+        min_flange_height_m: Lowest flange centre above the floor (z = 0), m.
+        cable_min_m: Shortest cable the encoder reads, m.
+        cable_max_m: Longest cable the encoder reads, m.
+        cable_clearance_m: Gap the cable must keep from every link but the last, m.
+    """
+
+    min_flange_height_m: float = 0.05
+    cable_min_m: float = 0.05
+    cable_max_m: float = 1.5
+    cable_clearance_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.cable_min_m < self.cable_max_m:
+            raise ValueError("cable range: expected 0 <= min < max")
+
+    def violations(self, twin: Twin, q_rad: Array) -> list[tuple[str, NDArray[np.bool_]]]:
+        """Each constraint's name and where it fails, each mask of shape (m,)."""
+        flange = flange_position(twin.robot.dh, q_rad)
+        length = np.linalg.norm(flange - twin.port_m, axis=-1)
+        inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
+        return [
+            ("outside the joint limits", ~np.all(inside, axis=1)),
+            (f"flange below {m_to_mm(self.min_flange_height_m):g} mm",
+             flange[:, 2] < self.min_flange_height_m),
+            (f"cable length outside [{m_to_mm(self.cable_min_m):g}, "
+             f"{m_to_mm(self.cable_max_m):g}] mm",
+             (length < self.cable_min_m) | (length > self.cable_max_m)),
+            ("links in collision", twin.in_collision(q_rad)),
+            ("cable through a link", twin.cable_blocked(q_rad, self.cable_clearance_m)),
+        ]
+
+    def usable(self, twin: Twin, q_rad: Array) -> NDArray[np.bool_]:
+        """Mask of the usable poses, shape (m,)."""
+        ok = np.ones(len(q_rad), dtype=bool)
+        for _, failed in self.violations(twin, q_rad):
+            ok &= ~failed
+        return ok
+
+
+def sample_poses(
+    twin: Twin, count: int, constraints: PoseConstraints, rng: np.random.Generator
+) -> Array:
+    """``count`` usable poses drawn uniformly within the joint limits, shape (count, n), rad.
+
+    Candidates are drawn in batches and filtered; the accepted ones keep their draw order.
+
+    Raises:
+        TwinError: if the constraints leave (almost) no usable pose.
+    """
+    robot = twin.robot
+    accepted: list[Array] = []
+    found = drawn = 0
+    while found < count:
+        if drawn >= MAX_DRAWS_PER_POSE * count:
+            raise TwinError(
+                f"only {found} of {count} poses satisfy the constraints after {drawn} draws; "
+                "widen the cable range, move the port or lower the flange height"
+            )
+        batch = rng.uniform(robot.lower_rad, robot.upper_rad, size=(2 * count, robot.n_joints))
+        drawn += len(batch)
+        good = batch[constraints.usable(twin, batch)]
+        accepted.append(good)
+        found += len(good)
+    return np.concatenate(accepted)[:count]
+
+
+def read_pose_plan(path: str | Path, twin: Twin, constraints: PoseConstraints) -> Array:
+    """Poses from a plan CSV (columns q1..q6 in degrees), checked like drawn ones.
+
+    Returns:
+        Joint angles, shape (m, 6), rad.
+
+    Raises:
+        InputError: naming the line of the first pose outside the limits or the constraints.
+    """
+    q_deg, lines = read_table(path, JOINT_COLUMNS, "a pose plan CSV (q1..q6 in degrees)")
+    check_joint_limits(q_deg, lines, twin.robot, path)
+    q_rad = deg_to_rad(q_deg)
+    for name, failed in constraints.violations(twin, q_rad):
+        if np.any(failed):
+            row = int(np.flatnonzero(failed)[0])
+            raise InputError(f"a pose with {name}", "poses the rig can measure",
+                             source=path, where=f"line {lines[row]}")
+    return q_rad

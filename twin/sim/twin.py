@@ -1,0 +1,169 @@
+"""The digital twin: a compiled MuJoCo model of the true robot, its port and its cable.
+
+``Twin.lengths(q)`` is what an ideal encoder reads with the controller at joint angles q: the
+joint errors move the joints off q, the servos sag under gravity and the cable's tension, and
+the tendon ``cable`` is read at rest. Noise is added elsewhere (:mod:`twin.sim.noise`).
+
+A Twin owns mutable MuJoCo data: use one per thread.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.robot import RobotModel
+from twin.sim.builder import build_spec
+from twin.sim.joint_errors import JointErrors, approach_directions
+from twin.sim.physics import RIGID, Physics, static_equilibrium
+
+Array = NDArray[np.float64]
+
+_STATICS_OFF = (
+    mujoco.mjtDisableBit.mjDSBL_CONTACT
+    | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    | mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL
+)
+
+
+class AtRest(NamedTuple):
+    """The arm at rest with the controller at some recorded joint angles."""
+
+    q_rad: Array
+    """Actual joint angles, shape (m, n), rad."""
+    length_m: Array
+    """Cable lengths (``ten_length``), shape (m,), m."""
+    flange_m: Array
+    """Flange centres in the base frame, shape (m, 3), m."""
+
+
+class Twin:
+    """A true robot in MuJoCo, with an encoder port and a cable.
+
+    Attributes:
+        robot: The true robot (its table is the truth).
+        port_m: True port, shape (3,), m.
+        physics: Servo stiffness, gravity and tension.
+        joint_errors: Transmission error and backlash.
+        model: Compiled model with a floor (contacts on), for collision checks.
+        statics_model: The same model with contacts, constraints and control clamping off,
+            for lengths and statics.
+    """
+
+    def __init__(self, robot: RobotModel, port_m: ArrayLike, physics: Physics,
+                 joint_errors: JointErrors) -> None:
+        self.robot = robot
+        self.port_m = np.array(port_m, dtype=np.float64)
+        self.physics = physics
+        self.joint_errors = joint_errors
+        spec = build_spec(robot, self.port_m, physics, floor=True)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.statics_model = spec.compile()
+        self.statics_model.opt.disableflags |= int(_STATICS_OFF)
+        if not physics.gravity:
+            self.statics_model.opt.gravity[:] = 0.0
+        self.statics_data = mujoco.MjData(self.statics_model)
+        if not physics.rigid:
+            self.statics_data.ctrl[self.statics_model.actuator("tension").id] = physics.tension_n
+        self._flange = self.model.site("flange").id
+        self._cable = self.model.tendon("cable").id
+        self._link6 = self.model.body(f"link{robot.n_joints}").id
+
+    @classmethod
+    def build(cls, robot: RobotModel, port_m: ArrayLike, physics: Physics = RIGID,
+              joint_errors: JointErrors | None = None) -> Twin:
+        """The twin of ``robot`` with its port at ``port_m`` (base frame, m)."""
+        if not physics.rigid and physics.stiffness_nm_per_rad is not None \
+                and physics.stiffness_nm_per_rad.shape != (robot.n_joints,):
+            raise ValueError("physics: one stiffness per joint expected")
+        return cls(robot, port_m, physics,
+                   joint_errors if joint_errors is not None else JointErrors.none(robot.n_joints))
+
+    def joint_angles(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
+        """Where the joints really are when the controller records q.
+
+        Args:
+            q_rad: Recorded joint angles, shape (m, n), rad.
+            approach: Direction each joint last moved in, shape (m, n), ±1; by default the
+                directions of visiting the poses in order from home (q = 0).
+
+        Returns:
+            Actual joint angles at rest, shape (m, n), rad.
+        """
+        q = np.atleast_2d(np.asarray(q_rad, dtype=np.float64))
+        if self.joint_errors.active:
+            q = self.joint_errors.actual(q, approach_directions(q) if approach is None
+                                         else approach)
+        if self.physics.stiffness_nm_per_rad is None:
+            return q
+        return static_equilibrium(self.statics_model, self.statics_data, q,
+                                  self.physics.stiffness_nm_per_rad)
+
+    def at_rest(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> AtRest:
+        """Actual joints, cable lengths and flange positions with the controller at q.
+
+        Args:
+            q_rad: Recorded joint angles, shape (m, n), rad.
+            approach: As in :meth:`joint_angles`.
+        """
+        q_actual = self.joint_angles(q_rad, approach)
+        lengths = np.empty(len(q_actual))
+        flanges = np.empty((len(q_actual), 3))
+        model, data = self.statics_model, self.statics_data
+        for row, q in enumerate(q_actual):
+            data.qpos[:] = q
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_tendon(model, data)
+            lengths[row] = data.ten_length[self._cable]
+            flanges[row] = data.site_xpos[self._flange]
+        return AtRest(q_actual, lengths, flanges)
+
+    def lengths(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
+        """Noise-free cable lengths, shape (m,), m, with the controller at q (m, n) rad."""
+        return self.at_rest(q_rad, approach).length_m
+
+    def flange_positions(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
+        """Flange centres in the base frame, shape (m, 3), m, with the controller at q."""
+        return self.at_rest(q_rad, approach).flange_m
+
+    def in_collision(self, q_rad: ArrayLike) -> NDArray[np.bool_]:
+        """Whether the links touch each other or the floor at each pose, shape (m,)."""
+        model, data = self.model, self.data
+        q = np.atleast_2d(np.asarray(q_rad, dtype=np.float64))
+        hits = np.empty(len(q), dtype=bool)
+        for row, pose in enumerate(q):
+            data.qpos[:] = pose
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_collision(model, data)
+            hits[row] = data.ncon > 0
+        return hits
+
+    def cable_blocked(self, q_rad: ArrayLike, clearance_m: float = 0.0) -> NDArray[np.bool_]:
+        """Whether the straight cable from the port to the flange passes through a link.
+
+        The last link, which the cable is attached to, is not counted.
+
+        Args:
+            q_rad: Joint angles, shape (m, n), rad.
+            clearance_m: The cable must clear the geoms by this much before the flange, m.
+
+        Returns:
+            Shape (m,), True where the cable is blocked.
+        """
+        model, data = self.model, self.data
+        q = np.atleast_2d(np.asarray(q_rad, dtype=np.float64))
+        blocked = np.empty(len(q), dtype=bool)
+        geom = np.zeros(1, dtype=np.int32)
+        for row, pose in enumerate(q):
+            data.qpos[:] = pose
+            mujoco.mj_kinematics(model, data)
+            ray = data.site_xpos[self._flange] - self.port_m
+            length = float(np.linalg.norm(ray))
+            hit = mujoco.mj_ray(model, data, self.port_m, ray / length, None, 1,
+                                self._link6, geom)
+            blocked[row] = 0.0 <= hit < length - clearance_m
+        return blocked
