@@ -1,0 +1,78 @@
+"""The layout the viewer opens on: 3D scene and residuals, convergence, parameter bars, report.
+
+The 3D scene and the residuals live on the ``pose`` timeline, the convergence plots on the
+``iteration`` timeline: the viewer shows one timeline at a time, so the blueprint opens on
+``pose`` and the convergence tab says to switch. Bars and report are static and always shown.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import rerun.blueprint as rrb
+
+from twin.units import DH_KEYS, display_unit
+from twin.viz import entities
+
+
+def _parameter_view(key: str, methods: Sequence[str], has_truth: bool) -> rrb.BarChartView:
+    sources: list[str | None] = [None] if has_truth else []
+    sources += list(methods)
+    return rrb.BarChartView(
+        name=f"δ{key} [{display_unit(key)}] per joint",
+        origin=entities.PARAMETERS,
+        contents=[f"+ /{entities.parameter_bars(source, key)}" for source in sources],
+    )
+
+
+def _convergence_view(name: str, quantities: Sequence[str], methods: Sequence[str]) -> rrb.View:
+    return rrb.TimeSeriesView(
+        name=name,
+        origin=entities.CONVERGENCE,
+        contents=[f"+ /{entities.convergence(m, q)}" for m in methods for q in quantities],
+    )
+
+
+def calibration_blueprint(methods: Sequence[str], has_truth: bool) -> rrb.Blueprint:
+    """The default layout of a calibration recording.
+
+    Args:
+        methods: The methods logged, in order.
+        has_truth: Whether ``parameters/true`` and ``world/robot/true`` are logged.
+    """
+    scene = rrb.Vertical(
+        rrb.Spatial3DView(name="Robot, port and cable per pose", origin=entities.WORLD),
+        rrb.TimeSeriesView(name="Residual per pose [mm]", origin=entities.RESIDUALS),
+        row_shares=[3, 2],
+    )
+    convergence = rrb.Tabs(
+        _convergence_view("f [mm²] (iteration timeline)", ["f"], methods),
+        _convergence_view("RMSE [mm] (iteration timeline)", ["train_rmse", "validation_rmse"],
+                          methods),
+        name="Convergence",
+    )
+    parameters = rrb.Grid(
+        *(_parameter_view(key, methods, has_truth) for key in DH_KEYS), grid_columns=2,
+        name="D-H errors",
+    )
+    report = rrb.TextDocumentView(name="Report", origin=entities.REPORT)
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            scene,
+            rrb.Vertical(convergence, parameters, report, row_shares=[2, 3, 2]),
+            column_shares=[3, 2],
+        ),
+        rrb.TimePanel(timeline=entities.POSE_TIMELINE, expanded=True),
+    )
+
+
+def scene_blueprint() -> rrb.Blueprint:
+    """The default layout of a recording of measurements only (`twin simulate`)."""
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(name="Robot, port and cable per pose", origin=entities.WORLD),
+            rrb.TextDocumentView(name="Report", origin=entities.REPORT),
+            column_shares=[3, 1],
+        ),
+        rrb.TimePanel(timeline=entities.POSE_TIMELINE, expanded=True),
+    )

@@ -1,0 +1,108 @@
+"""The ``report`` document of a recording: metrics table and identifiability, as markdown.
+
+The tables are the CLI's own (:mod:`twin.report`), in mm and degrees, inside fenced blocks so
+their columns stay aligned; this module adds only what a recording needs beside them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.cable import Measurements
+from twin.calibration import CalibrationResult
+from twin.report import format_comparison, format_result
+from twin.robot import RobotModel
+from twin.uncertainty import flange_error_rms
+from twin.units import m_to_mm
+
+NO_IDENTIFIABILITY = (
+    "Not computed for this run: the result carries no identifiability summary, so only the "
+    "metrics are shown."
+)
+
+
+def _fenced(text: str) -> str:
+    return "```text\n" + text + "\n```"
+
+
+def flange_error_markdown(
+    results: Mapping[str, CalibrationResult], measurements: Measurements,
+    truth_delta: NDArray[np.float64],
+) -> str:
+    """RMS over the measured poses of |P_model − P_true| for the nominal and each identified model.
+
+    This is the comparison that is fair on a rank-deficient problem: it ignores the parameter
+    combinations the cable cannot see, which move the flange no more than they move the cable.
+    """
+    first = next(iter(results.values()))
+    true_dh = first.robot.dh + truth_delta
+    rows = [("nominal", first.robot.dh)]
+    rows += [(name, result.identified_robot.dh) for name, result in results.items()]
+    lines = ["| model | flange error vs truth, RMS [mm] |", "|---|---:|"]
+    lines += [
+        f"| {label} | {float(m_to_mm(flange_error_rms(dh, true_dh, measurements.q_rad))):.4f} |"
+        for label, dh in rows
+    ]
+    return "\n".join(lines)
+
+
+def calibration_markdown(
+    results: Mapping[str, CalibrationResult],
+    measurements: Measurements,
+    truth_delta: NDArray[np.float64] | None = None,
+    identifiability: Any = None,
+) -> str:
+    """The report of one calibration run (one or several methods on the same split).
+
+    Args:
+        results: Results by method name.
+        measurements: Every measured pose.
+        truth_delta: True D-H errors, shape (4, n), m and rad, if known.
+        identifiability: The identifiability summary, if computed; its ``str()`` is shown.
+    """
+    first = next(iter(results.values()))
+    table = format_result(first, truth_delta) if len(results) == 1 else format_comparison(results)
+    port = ", ".join(f"{v:.3f}" for v in m_to_mm(first.model.port_m))
+    parts = [
+        f"# Calibration of {first.robot.name}",
+        f"{len(measurements)} poses ({first.train_rows.size} train, "
+        f"{first.validation_rows.size} validation), seed {first.seed}, port ({port}) mm. "
+        "Residuals and metrics in mm, angles in degrees.",
+        "## Metrics",
+        _fenced(table),
+    ]
+    if truth_delta is not None:
+        parts += ["## Against the truth", flange_error_markdown(results, measurements, truth_delta)]
+    parts += [
+        "## Identifiability",
+        NO_IDENTIFIABILITY if identifiability is None else _fenced(str(identifiability)),
+    ]
+    return "\n\n".join(parts) + "\n"
+
+
+def scene_markdown(robot: RobotModel, measurements: Measurements, port_m: NDArray[np.float64],
+                   truth_delta: NDArray[np.float64] | None = None) -> str:
+    """The report of a simulated or captured data set without calibration.
+
+    Args:
+        robot: The nominal robot.
+        measurements: The poses and lengths.
+        port_m: Encoder port, shape (3,), m.
+        truth_delta: True D-H errors, shape (4, n), m and rad, if known.
+    """
+    port = ", ".join(f"{v:.3f}" for v in m_to_mm(port_m))
+    lengths = m_to_mm(measurements.length_m)
+    parts = [
+        f"# Measurements of {robot.name}",
+        f"{len(measurements)} poses, port ({port}) mm, cable lengths "
+        f"{lengths.min():.3f} … {lengths.max():.3f} mm.",
+    ]
+    if truth_delta is not None:
+        rms = float(m_to_mm(flange_error_rms(robot.dh, robot.dh + truth_delta,
+                                             measurements.q_rad)))
+        parts.append(f"RMS flange offset of the true robot from the nominal: {rms:.4f} mm.")
+    return "\n\n".join(parts) + "\n"
