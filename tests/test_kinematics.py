@@ -47,7 +47,7 @@ def test_chain_ends_at_flange(irb120: RobotModel) -> None:
     q = random_poses(irb120, 5, np.random.default_rng(2))
     frames = chain(irb120.dh, q)
     assert frames.origins.shape == (5, 7, 3)
-    np.testing.assert_array_equal(frames.origins[:, -1], flange_position(irb120.dh, q))
+    np.testing.assert_allclose(frames.origins[:, -1], flange_position(irb120.dh, q), atol=1e-15)
     np.testing.assert_array_equal(frames.origins[:, 0], 0.0)
 
 

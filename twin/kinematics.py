@@ -47,14 +47,18 @@ def _angles(dh: Array, q_rad: Array) -> tuple[Array, ...]:
     )
 
 
-def _walk(dh: ArrayLike, q_rad: ArrayLike, keep: bool) -> list[tuple[Array, ...]]:
-    """Frames (origin, x, y, z) after each joint; only the last one unless ``keep``."""
-    dh = np.asarray(dh, dtype=np.float64)
-    q_rad = np.asarray(q_rad, dtype=np.float64)
+def _check_shapes(dh: Array, q_rad: Array) -> None:
     if dh.ndim < 2 or dh.shape[-2] != 4:
         raise ValueError(f"dh: shape {dh.shape}, expected (..., 4, n)")
     if q_rad.ndim < 2 or q_rad.shape[-1] != dh.shape[-1]:
         raise ValueError(f"q_rad: shape {q_rad.shape}, expected (..., m, {dh.shape[-1]})")
+
+
+def _walk(dh: ArrayLike, q_rad: ArrayLike, keep: bool) -> list[tuple[Array, ...]]:
+    """Frames (origin, x, y, z) after each joint; only the last one unless ``keep``."""
+    dh = np.asarray(dh, dtype=np.float64)
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    _check_shapes(dh, q_rad)
     a, d, ca, sa, ct, st = _angles(dh, q_rad)
     batch = a.shape[:-1]
     origin = np.zeros((*batch, 3))
@@ -86,7 +90,28 @@ def flange_position(dh: ArrayLike, q_rad: ArrayLike) -> Array:
     Returns:
         base_p_flange, shape (..., m, 3), m.
     """
-    return _walk(dh, q_rad, keep=False)[-1][0]
+    # The hot path of the swarms: instead of carrying whole frames (12 components) base to
+    # flange, carry one point flange to base, p ← Rz(θ_i)·Rx(α_i)·p + (a_i cos θ_i,
+    # a_i sin θ_i, d_i), on joint-major contiguous arrays. About 3× less memory traffic.
+    dh = np.asarray(dh, dtype=np.float64)
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    _check_shapes(dh, q_rad)
+    a, d, alpha, theta = (np.moveaxis(dh[..., k, :], -1, 0)[..., None] for k in range(4))
+    q_joint_major = np.moveaxis(q_rad, -1, 0)
+    q_joint_major = q_joint_major.reshape(
+        q_joint_major.shape[0], *(1,) * (theta.ndim - q_joint_major.ndim), *q_joint_major.shape[1:]
+    )
+    joint = q_joint_major + theta  # (n, ..., m)
+    ct, st = np.cos(joint), np.sin(joint)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    px, py = a[-1] * ct[-1], a[-1] * st[-1]
+    pz = np.broadcast_to(d[-1], px.shape)
+    for i in range(joint.shape[0] - 2, -1, -1):
+        wy = ca[i] * py - sa[i] * pz
+        wz = sa[i] * py + ca[i] * pz
+        u = px + a[i]
+        px, py, pz = ct[i] * u - st[i] * wy, st[i] * u + ct[i] * wy, wz + d[i]
+    return np.stack([px, py, pz], axis=-1)
 
 
 def _homogeneous(origin: Array, x: Array, y: Array, z: Array) -> Array:
