@@ -11,10 +11,10 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from twin.cli import calibrate, simulate
+from twin.cli import calibrate, identify, plan, simulate
 from twin.errors import InputError, TwinError
 
-SUBCOMMANDS = (calibrate, simulate)
+SUBCOMMANDS = (calibrate, simulate, identify, plan)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 

@@ -1,0 +1,174 @@
+"""`twin identify`: what a measurement set identifies, how well, and where the flange is best."""
+
+from __future__ import annotations
+
+import argparse
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.cable import CableModel
+from twin.calibration import WORKSPACE_POSES, calibrate
+from twin.cli.calibrate import resolve_inputs
+from twin.design import score_poses
+from twin.errors import InputError
+from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identifiability
+from twin.io.atomic import write_atomic
+from twin.io.measurements import load_measurements
+from twin.io.results import identifiability_to_dict, result_to_dict, write_json
+from twin.robot import RobotModel
+from twin.synthetic import random_poses
+from twin.uncertainty import flange_sigma, workspace_grid
+from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm, mm_to_m
+
+MAP_GRID = 41
+"""Grid points per axis of the accuracy map over joints 2 and 3."""
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the subcommand."""
+    parser = subparsers.add_parser(
+        "identify",
+        help="report what a measurement set identifies, and how well",
+        description="Identifiability of a measurement set: rank, condition number and the "
+        "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
+        "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
+        "and the same at the identified geometry, with per-parameter standard deviations.",
+    )
+    parser.add_argument("input", type=Path, metavar="INPUT",
+                        help="MEASUREMENTS.csv (needs --port) or capture.toml")
+    parser.add_argument("--robot", type=Path, help="robot model TOML (default: the ABB IRB 120)")
+    parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame")
+    parser.add_argument("--estimate-port", action="store_true",
+                        help="treat the port position as unknown too")
+    parser.add_argument("--estimate-offset", action="store_true",
+                        help="treat the cable-length offset as unknown too")
+    parser.add_argument("--sigma", type=float, default=0.01, metavar="MM",
+                        help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the split, of the calibration and of the workspace poses")
+    parser.add_argument("--map", type=Path, metavar="OUT.png",
+                        help="write a map of the predicted flange error over joints 2 and 3")
+    parser.add_argument("--json", type=Path, metavar="OUT.json", help="write the report as JSON")
+    parser.set_defaults(func=run)
+
+
+def _identifiability_lines(ident: Identifiability) -> list[str]:
+    lines = [
+        f"  rank {ident.rank} of {ident.n_params} (singular values of the column-scaled "
+        f"Jacobian below {ident.tolerance:g} of the largest count as zero), "
+        f"condition {ident.condition:.3g}",
+    ]
+    if ident.weak:
+        lines.append(f"  {ident.weak} identified direction(s) weak: singular value below "
+                     f"{WEAK_RTOL:g} of the largest")
+    lines.append("  not identifiable: " + (", ".join(ident.unidentifiable) or "none"))
+    return lines
+
+
+def _sigma_table(model: CableModel, sigma: NDArray[np.float64]) -> list[str]:
+    """Per-parameter 1σ in mm and degrees; '—' for the dependent (not identifiable) ones."""
+    display = dh_rows_to_display(sigma[: model.n_dh].reshape(model.dh.shape))
+    header = "  joint" + "".join(f"{f'σ {key} [{display_unit(key)}]':>16}" for key in DH_KEYS)
+    lines = [header]
+    for i in range(model.dh.shape[1]):
+        row = "".join(
+            f"{'—':>16}" if np.isnan(display[key][i]) else f"{display[key][i]:>16.5f}"
+            for key in DH_KEYS
+        )
+        lines.append(f"  {i + 1:>5}{row}")
+    return lines
+
+
+def _write_map(path: Path, robot: RobotModel, dh: NDArray[np.float64],
+               covariance_dh: NDArray[np.float64], title: str) -> None:
+    """PNG of the predicted flange error over the (q2, q3) grid, the other joints at 0."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    q2, q3, q = workspace_grid(robot, MAP_GRID)
+    error_mm = m_to_mm(flange_sigma(dh, covariance_dh, q)).reshape(q2.size, q3.size)
+    figure, axes = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
+    image = axes.pcolormesh(np.rad2deg(q3), np.rad2deg(q2), error_mm, shading="auto",
+                            cmap="viridis")
+    figure.colorbar(image, ax=axes, label="predicted flange position error, RMS [mm]")
+    axes.set_xlabel("q3 [deg]")
+    axes.set_ylabel("q2 [deg]")
+    axes.set_title(title, fontsize=9)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=120)
+    plt.close(figure)
+    write_atomic(path, buffer.getvalue())
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the subcommand."""
+    if not args.sigma > 0:
+        raise InputError(f"{args.sigma!r}", "a positive noise in mm", source="--sigma")
+    robot, port_m, measurements_path, _ = resolve_inputs(args.input, args.robot, args.port)
+    data = load_measurements(measurements_path, robot)
+    model = CableModel(robot.dh, port_m, estimate_port=args.estimate_port,
+                       estimate_offset=args.estimate_offset)
+    x0 = np.zeros(model.n_params)
+    sigma_m = float(mm_to_m(args.sigma))
+    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(args.seed))
+    nominal = measurement_identifiability(model, x0, data)
+    score = score_poses(model, x0, data.q_rad, nominal.base_mask, sigma_m, q_workspace)
+    indices = score.observability
+    port = ", ".join(f"{v:g}" for v in m_to_mm(port_m))
+    lines = [
+        f"{robot.name} — {len(data)} poses from {measurements_path}, port ({port}) mm, "
+        f"{model.n_params} unknowns ("
+        + ", ".join([f"{model.n_dh} D-H errors", *model.names[model.n_dh:]]) + ")",
+        "At the nominal geometry (all poses):",
+        *_identifiability_lines(nominal),
+        "    (coefficients in column-scaled units: each unknown in units of its column norm)",
+        f"  base parameters ({nominal.rank}): " + ", ".join(nominal.base_names),
+        f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
+        f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
+        f"  Cramér–Rao bound at σ = {args.sigma:g} mm: flange RMS error over "
+        f"{WORKSPACE_POSES} workspace poses {float(m_to_mm(score.flange_rms_m)):.4f} mm",
+    ]
+    try:
+        result = calibrate(robot, data, port_m, method="lm-base", seed=args.seed,
+                           estimate_port=args.estimate_port,
+                           estimate_offset=args.estimate_offset)
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=measurements_path) from None
+    assert result.identified_identifiability is not None and result.uncertainty is not None
+    uncertainty = result.uncertainty
+    lines += [
+        f"At the identified geometry (lm-base, seed {args.seed}, "
+        f"{result.train_rows.size} training poses):",
+        f"  validation RMSE {float(m_to_mm(result.metrics['validation'].rmse)):.4f} mm, "
+        f"noise estimate {float(m_to_mm(uncertainty.noise_sigma_m)):.4f} mm",
+        *_identifiability_lines(result.identified_identifiability),
+        f"  predicted flange RMS error over the workspace "
+        f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
+        "  standard deviations of the base parameters (dependent ones held: —)",
+        *_sigma_table(model, uncertainty.sigma),
+    ]
+    print("\n".join(lines))
+    if args.map:
+        n = model.n_dh
+        _write_map(args.map, robot, result.identified_robot.dh, uncertainty.covariance[:n, :n],
+                   f"{robot.name}: predicted flange error after lm-base, {len(data)} poses "
+                   "(q1 = q4 = q5 = q6 = 0)")
+        print(f"map: {args.map}")
+    if args.json:
+        write_json(args.json, {
+            "poses": len(data),
+            "nominal": {
+                **identifiability_to_dict(nominal, "nominal"),
+                "observability": indices._asdict(),
+                "cramer_rao_flange_rms": float(m_to_mm(score.flange_rms_m)),
+                "sigma_assumed": args.sigma,
+            },
+            "calibration": result_to_dict(result),
+        })
+    return 0
