@@ -18,6 +18,7 @@ from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.solvers import SOLVERS, solver_choices
+from twin.viz import add_rerun_flags, record_calibration
 
 
 def add_parser(subparsers: Any) -> None:
@@ -43,6 +44,7 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
     parser.add_argument("--json", type=Path, metavar="OUT.json", help="write the result as JSON")
+    add_rerun_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -108,4 +110,6 @@ def run(args: argparse.Namespace) -> int:
         document = {"methods": {name: result_to_dict(r) for name, r in results.items()}}
     if args.json:
         write_json(args.json, document)
+    record_calibration(args, results, measurements, truth,
+                       fallback_dir=args.json.parent if args.json else None)
     return 0
