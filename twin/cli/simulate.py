@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from twin.viz import add_rerun_flags, record_simulation
+
 
 def add_parser(subparsers: Any) -> None:
     """Register the subcommand."""
@@ -20,6 +22,7 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     parser.add_argument("--seed", type=int, help="seed of every random draw (default: the "
                         "scenario's)")
+    add_rerun_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -42,4 +45,5 @@ def run(args: argparse.Namespace) -> int:
     port = ", ".join(f"{v:.3f}" for v in m_to_mm(sim.port_nominal_m))
     print(f"  port told to the calibration: ({port}) mm")
     print(f"wrote {capture} (calibrate with: twin calibrate {capture})")
+    record_simulation(args, sim)
     return 0

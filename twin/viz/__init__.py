@@ -10,6 +10,7 @@ from twin.viz.cli import (
     add_rerun_flags,
     open_from_args,
     record_calibration,
+    record_simulation,
     rerun_options,
 )
 
@@ -18,5 +19,6 @@ __all__ = [
     "add_rerun_flags",
     "open_from_args",
     "record_calibration",
+    "record_simulation",
     "rerun_options",
 ]

@@ -10,7 +10,6 @@ bar charts in mm (δa, δd) and degrees (δα, δθ). The exact values under
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 import rerun as rr
@@ -102,7 +101,6 @@ def log_calibration(
     results: Mapping[str, CalibrationResult],
     measurements: Measurements,
     truth_delta: NDArray[np.float64] | None = None,
-    identifiability: Any = None,
 ) -> None:
     """Everything about one calibration run (one or several methods on the same data).
 
@@ -111,7 +109,6 @@ def log_calibration(
         results: Results by method name, as `calibrate_many` returns them.
         measurements: Every measured pose (train and validation).
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
-        identifiability: The identifiability summary, if computed.
     """
     if not results:
         raise ValueError("results: empty, expected at least one method")
@@ -135,6 +132,6 @@ def log_calibration(
         log_parameters(writer, None, truth, truth.ravel(), first.model.names[:n_dh],
                        first.model.is_length[:n_dh], TRUE_COLOR)
     writer.once(entities.REPORT, rr.TextDocument(
-        calibration_markdown(results, measurements, truth_delta, identifiability),
+        calibration_markdown(results, measurements, truth_delta),
         media_type=rr.MediaType.MARKDOWN,
     ))

@@ -11,7 +11,7 @@ from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +20,7 @@ from twin.cable import Measurements
 
 if TYPE_CHECKING:
     from twin.calibration import CalibrationResult
+    from twin.sim import Simulation
     from twin.viz.recording import Recording
 
 DEFAULT_WEB_PORT = 9090
@@ -123,7 +124,6 @@ def record_calibration(
     truth_delta: NDArray[np.float64] | None = None,
     *,
     fallback_dir: Path | None = None,
-    identifiability: Any = None,
 ) -> None:
     """What `twin calibrate` calls: log its results if a ``--rerun-*`` flag asks for it.
 
@@ -133,10 +133,23 @@ def record_calibration(
         measurements: Every measured pose (train and validation).
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
         fallback_dir: Where to save when the viewer cannot be spawned.
-        identifiability: The identifiability summary, if computed (see
-            :func:`twin.viz.report.calibration_markdown`).
     """
     with open_from_args(args, "calibrate", fallback_dir) as recording:
         if recording is not None:
-            recording.log_calibration(results, measurements, truth_delta=truth_delta,
-                                      identifiability=identifiability)
+            recording.log_calibration(results, measurements, truth_delta=truth_delta)
+
+
+def record_simulation(args: argparse.Namespace, sim: Simulation) -> None:
+    """What `twin simulate` calls: log the simulated capture if a ``--rerun-*`` flag asks.
+
+    Logs the nominal and the true robot in every recorded pose, the true port, the cable to
+    the true robot's flange and a short report; a spawn fallback file goes to ``args.out``.
+    """
+    with open_from_args(args, "simulate", getattr(args, "out", None)) as recording:
+        if recording is None:
+            return
+        from twin.viz.report import scene_markdown
+
+        recording.log_scene({"nominal": sim.robot, "true": sim.true_robot}, sim.measurements,
+                            sim.port_m, cable_to="true")
+        recording.log_report(scene_markdown(sim.robot, sim.measurements, sim.port_m, sim.delta))

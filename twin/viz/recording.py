@@ -109,7 +109,6 @@ class Recording:
         measurements: Measurements,
         *,
         truth_delta: NDArray[np.float64] | None = None,
-        identifiability: Any = None,
         times: Mapping[str, int] | None = None,
     ) -> None:
         """Scene, residuals, convergence, parameters and report of a calibration run.
@@ -118,13 +117,11 @@ class Recording:
             results: Results by method name (or a single result).
             measurements: Every measured pose (train and validation).
             truth_delta: True D-H errors, shape (4, n), m and rad, if known.
-            identifiability: The identifiability summary, if computed.
-            times: Extra sequence timelines stamped on every row, e.g. ``{"case": k}``.
+                times: Extra sequence timelines stamped on every row, e.g. ``{"case": k}``.
         """
         if isinstance(results, CalibrationResult):
             results = {results.method: results}
-        log_calibration(Writer(self.stream, times), results, measurements, truth_delta,
-                        identifiability)
+        log_calibration(Writer(self.stream, times), results, measurements, truth_delta)
 
     def log_scene(
         self,

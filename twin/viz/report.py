@@ -7,7 +7,6 @@ their columns stay aligned; this module adds only what a recording needs beside 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,10 +18,7 @@ from twin.robot import RobotModel
 from twin.uncertainty import flange_error_rms
 from twin.units import m_to_mm
 
-NO_IDENTIFIABILITY = (
-    "Not computed for this run: the result carries no identifiability summary, so only the "
-    "metrics are shown."
-)
+NO_IDENTIFIABILITY = "Not computed for this run: the results carry no identifiability summary."
 
 
 def _fenced(text: str) -> str:
@@ -50,11 +46,39 @@ def flange_error_markdown(
     return "\n".join(lines)
 
 
+def identifiability_markdown(results: Mapping[str, CalibrationResult]) -> str:
+    """What the training poses identify, at the nominal and at each identified geometry.
+
+    Every method of a run shares the training poses and the nominal start, so the nominal
+    analysis is the first result's; the analysis at the identified geometry is per method.
+    """
+    first = next(iter(results.values()))
+    nominal = first.identifiability
+    if nominal is None:
+        return NO_IDENTIFIABILITY
+    lines = [
+        f"Training poses at the nominal geometry: rank **{nominal.rank} of {nominal.n_params}**, "
+        f"condition {nominal.condition:.3g} (column-scaled Jacobian, tolerance "
+        f"{nominal.tolerance:g}).",
+        "",
+        "Not identifiable (arbitrary along these directions: compare flange positions, not raw "
+        "parameters): " + (", ".join(f"`{name}`" for name in nominal.unidentifiable) or "none"),
+        "",
+        "| method | rank at the identified geometry | condition | weak directions |",
+        "|---|---:|---:|---:|",
+    ]
+    lines += [
+        f"| {name} | {ident.rank} of {ident.n_params} | {ident.condition:.3g} | {ident.weak} |"
+        for name, result in results.items()
+        if (ident := result.identified_identifiability) is not None
+    ]
+    return "\n".join(lines)
+
+
 def calibration_markdown(
     results: Mapping[str, CalibrationResult],
     measurements: Measurements,
     truth_delta: NDArray[np.float64] | None = None,
-    identifiability: Any = None,
 ) -> str:
     """The report of one calibration run (one or several methods on the same split).
 
@@ -62,7 +86,6 @@ def calibration_markdown(
         results: Results by method name.
         measurements: Every measured pose.
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
-        identifiability: The identifiability summary, if computed; its ``str()`` is shown.
     """
     first = next(iter(results.values()))
     table = format_result(first, truth_delta) if len(results) == 1 else format_comparison(results)
@@ -77,10 +100,7 @@ def calibration_markdown(
     ]
     if truth_delta is not None:
         parts += ["## Against the truth", flange_error_markdown(results, measurements, truth_delta)]
-    parts += [
-        "## Identifiability",
-        NO_IDENTIFIABILITY if identifiability is None else _fenced(str(identifiability)),
-    ]
+    parts += ["## Identifiability", identifiability_markdown(results)]
     return "\n\n".join(parts) + "\n"
 
 
