@@ -1,0 +1,89 @@
+"""A Dask distributed cluster: a scheduler at an address, or a LocalCluster on 127.0.0.1.
+
+Dask is imported here only (optional extra ``cluster``). A worker that dies has its tasks
+rescheduled by the Dask scheduler (up to ``distributed.scheduler.allowed-failures`` times, 3 by
+default); a task that fails with an exception is not retried, since trials are deterministic and
+the same error would come back. The functions and work items are sent pickled, so a remote
+cluster's workers need the same `twin` installed.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from twin.errors import InputError, TwinError
+
+CONNECT_TIMEOUT = "20s"
+
+
+class DaskCluster:
+    """Runs batches as Dask tasks.
+
+    Args:
+        scheduler: Address of a running scheduler, e.g. ``tcp://10.0.0.5:8786``; None starts a
+            LocalCluster bound to 127.0.0.1.
+        workers: Worker processes of the LocalCluster (one thread each); ignored with
+            ``scheduler``.
+    """
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None) -> None:
+        self.scheduler = scheduler
+        self._n_local = workers
+        self.client: Any = None
+        self._cluster: Any = None
+
+    def __enter__(self) -> DaskCluster:
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError:
+            raise InputError(
+                "no dask.distributed", "the optional extra: pip install 'twin[cluster]'",
+                source="--scheduler" if self.scheduler else "--workers",
+            ) from None
+        if self.scheduler:
+            try:
+                self.client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise InputError(f"no scheduler reachable at {self.scheduler} ({exc})",
+                                 "the address of a running dask scheduler, tcp://HOST:PORT",
+                                 source="--scheduler") from None
+        else:
+            self._cluster = LocalCluster(
+                n_workers=self._n_local, threads_per_worker=1, processes=True,
+                host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR,
+            )
+            self.client = Client(self._cluster)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+        self.client = self._cluster = None
+
+    @property
+    def workers(self) -> int:
+        """Threads across the cluster's workers."""
+        info = self.client.scheduler_info()["workers"]
+        return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
+
+    def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
+        """Yield ``function(batch)`` for every batch as its task finishes."""
+        from dask.distributed import as_completed
+        from distributed.scheduler import KilledWorker
+
+        futures = [self.client.submit(function, batch, pure=False) for batch in batches]
+        try:
+            for future in as_completed(futures):
+                try:
+                    result = future.result()
+                except KilledWorker as exc:
+                    raise TwinError(f"a batch killed its worker every time it ran ({exc})"
+                                    ) from None
+                future.release()
+                yield result
+        finally:
+            self.client.cancel(futures)

@@ -1,0 +1,91 @@
+"""Local worker processes (one per core by default), with a killed worker's batches rerun.
+
+A worker that dies breaks a :class:`~concurrent.futures.ProcessPoolExecutor` for every batch
+still in it; the batches that had not finished are submitted again to a fresh pool. A pool that
+breaks :data:`MAX_FRUITLESS_RESTARTS` times in a row without finishing any batch means a batch
+kills its worker every time, and the run stops with :class:`~twin.errors.TwinError`.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+from twin.errors import TwinError
+
+MAX_FRUITLESS_RESTARTS = 3
+
+
+def _ignore_interrupt() -> None:
+    # Ctrl-C reaches the whole process group; the parent alone handles it and stops the pool.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    # Python 3.11 has no public way to stop busy workers (3.14 adds terminate_workers()).
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+
+
+class LocalProcesses:
+    """Runs batches in local worker processes.
+
+    Args:
+        workers: Number of processes; ``os.cpu_count()`` by default.
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        self._workers = workers or os.cpu_count() or 1
+
+    @property
+    def workers(self) -> int:
+        """Number of worker processes."""
+        return self._workers
+
+    def __enter__(self) -> LocalProcesses:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
+        """Yield ``function(batch)`` for every batch as it finishes; rerun a dead worker's."""
+        pending = dict(enumerate(batches))
+        fruitless = 0
+        while pending:
+            pool = ProcessPoolExecutor(max_workers=min(self._workers, len(pending)),
+                                       initializer=_ignore_interrupt)
+            finished_any = False
+            clean = False
+            try:
+                futures: dict[Future[Any], int] = {
+                    pool.submit(function, batch): index for index, batch in pending.items()
+                }
+                waiting = set(futures)
+                while waiting:
+                    done, waiting = wait(waiting, return_when=FIRST_COMPLETED)
+                    broken = False
+                    for future in done:
+                        try:
+                            result = future.result()
+                        except BrokenProcessPool:
+                            broken = True
+                            continue
+                        del pending[futures[future]]
+                        finished_any = True
+                        yield result
+                    if broken:
+                        break
+                clean = not pending
+            finally:
+                if not clean:
+                    _terminate(pool)
+                pool.shutdown(wait=True, cancel_futures=True)
+            fruitless = 0 if finished_any else fruitless + 1
+            if pending and fruitless > MAX_FRUITLESS_RESTARTS:
+                raise TwinError(f"worker processes died {fruitless} times in a row without "
+                                f"finishing a batch; {len(pending)} batches not run")

@@ -1,0 +1,183 @@
+"""What a study runs: the scenario's ``[study]`` table, its sweep points and its methods.
+
+The twin's scenario validator passes ``[study]`` through unread; this module owns its schema::
+
+    [study]
+    trials = 10                  # trials per sweep point (default 10); --trials overrides
+    methods = ["all"]            # method names or paper aliases, or "all"; --methods overrides
+    workspace_poses = 500        # random poses where the flange error against the truth is taken
+    sweep = { "encoder.sigma_mm" = [0.005, 0.01, 0.02] }   # optional sweep points
+
+A sweep maps dotted scenario keys to lists of values; with several keys the lists are zipped
+(equal lengths). Each point is the scenario with those keys replaced, validated again by the
+twin's own parser. Trial k uses the same seed at every sweep point (common random numbers), so
+points differ by the swept setting only.
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from twin.errors import InputError
+from twin.io.measurements import read_text
+from twin.sim.scenario import Scenario, parse_scenario
+from twin.solvers import SOLVERS, get_solver
+
+STUDY_KEYS = ("trials", "methods", "workspace_poses", "sweep")
+DEFAULT_TRIALS = 10
+DEFAULT_WORKSPACE_POSES = 500
+
+
+@dataclass(frozen=True)
+class Case:
+    """One sweep point: its label ("" without a sweep) and its validated scenario."""
+
+    label: str
+    scenario: Scenario
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """A validated study.
+
+    Attributes:
+        source: The scenario file.
+        document: The parsed scenario document, less ``study.trials`` (the study's identity).
+        cases: The sweep points, at least one.
+        methods: Method names, in the registry's order when "all".
+        trials: Trials per case.
+        workspace_poses: Random poses for the flange error against the truth.
+    """
+
+    source: Path
+    document: dict[str, Any]
+    cases: tuple[Case, ...]
+    methods: tuple[str, ...]
+    trials: int
+    workspace_poses: int
+
+    @property
+    def seed(self) -> int:
+        """The scenario's seed, from which every trial's seed derives."""
+        return self.cases[0].scenario.seed
+
+    @property
+    def keys(self) -> list[tuple[str, int]]:
+        """Every (case label, trial) of the study, in order."""
+        return [(case.label, trial) for case in self.cases for trial in range(self.trials)]
+
+
+def resolve_methods(names: list[str] | tuple[str, ...], source: str | Path) -> tuple[str, ...]:
+    """Method names for names or aliases; ``all`` is every registered method."""
+    if any(name.strip().lower() == "all" for name in names):
+        return tuple(SOLVERS)
+    resolved: list[str] = []
+    for name in names:
+        try:
+            solver = get_solver(name)
+        except InputError as exc:
+            raise InputError(exc.found, exc.expected, source=source) from None
+        if solver.name not in resolved:
+            resolved.append(solver.name)
+    if not resolved:
+        raise InputError("no methods", "at least one method name, or all", source=source)
+    return tuple(resolved)
+
+
+def _replace(document: dict[str, Any], dotted: str, value: Any, source: Path) -> None:
+    *tables, key = dotted.split(".")
+    node = document
+    for table in tables:
+        child = node.setdefault(table, {})
+        if not isinstance(child, dict):
+            raise InputError(f"sweep key {dotted!r} through a non-table", "a dotted key "
+                             "into the scenario's tables", source=source, where="[study] sweep")
+        node = child
+    node[key] = value
+
+
+def _sweep_points(study: dict[str, Any], source: Path) -> list[dict[str, Any]]:
+    sweep = study.get("sweep", {})
+    where = "[study] sweep"
+    if not isinstance(sweep, dict):
+        raise InputError(f"{sweep!r}", 'a table of dotted keys to lists, e.g. '
+                         '{ "encoder.sigma_mm" = [0.005, 0.01] }', source=source, where=where)
+    if not sweep:
+        return [{}]
+    lengths = {len(v) if isinstance(v, list) else -1 for v in sweep.values()}
+    if len(lengths) != 1 or min(lengths) < 1:
+        raise InputError(f"{sweep!r}", "non-empty lists of equal length", source=source,
+                         where=where)
+    count = lengths.pop()
+    for key in sweep:
+        if key.split(".")[0] == "study" or key == "seed":
+            raise InputError(f"sweep key {key!r}", "a key of the simulated scenario (not "
+                             "[study] or the seed)", source=source, where=where)
+    return [{key: values[i] for key, values in sweep.items()} for i in range(count)]
+
+
+def _positive(study: dict[str, Any], key: str, default: int, source: Path) -> int:
+    value = study.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise InputError(f"{value!r}", "an integer >= 1", source=source, where=f"[study] {key}")
+    return value
+
+
+def load_study(path: str | Path, *, trials: int | None = None,
+               methods: list[str] | None = None) -> StudyPlan:
+    """Read a scenario file and its ``[study]`` table.
+
+    Args:
+        path: The scenario TOML.
+        trials: Trials per case; overrides ``[study] trials``.
+        methods: Method names or aliases; overrides ``[study] methods``.
+
+    Raises:
+        InputError: naming the file and key that are wrong.
+    """
+    path = Path(path)
+    try:
+        document = tomllib.loads(read_text(path, "a scenario TOML file"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML ({exc})", "a scenario TOML file", source=path) from None
+    base = parse_scenario(document, path)
+    study = dict(base.study)
+    unknown = sorted(set(study) - set(STUDY_KEYS))
+    if unknown:
+        raise InputError(f"unknown key {unknown[0]!r}", "one of " + ", ".join(STUDY_KEYS),
+                         source=path, where="[study]")
+    if trials is not None and trials < 1:
+        raise InputError(f"{trials}", "an integer >= 1", source="--trials")
+    n_trials = trials if trials is not None else _positive(study, "trials", DEFAULT_TRIALS, path)
+    workspace = _positive(study, "workspace_poses", DEFAULT_WORKSPACE_POSES, path)
+    if methods is None:
+        listed = study.get("methods", ["all"])
+        if not isinstance(listed, list) or not all(isinstance(m, str) for m in listed):
+            raise InputError(f"{listed!r}", 'a list of method names, e.g. ["lm", "m9"]',
+                             source=path, where="[study] methods")
+        chosen = resolve_methods(listed, path)
+    else:
+        chosen = resolve_methods(methods, "--methods")
+    cases = []
+    for point in _sweep_points(study, path):
+        if not point:
+            cases.append(Case("", base))
+            continue
+        changed = copy.deepcopy(document)
+        for key, value in point.items():
+            _replace(changed, key, value, path)
+        label = ", ".join(f"{key}={value}" for key, value in point.items())
+        try:
+            cases.append(Case(label, parse_scenario(changed, path)))
+        except InputError as exc:
+            raise InputError(exc.found, exc.expected, source=path,
+                             where=f"[study] sweep point {label}: {exc.where}") from None
+    identity = copy.deepcopy(document)
+    identity.get("study", {}).pop("trials", None)
+    identity.get("study", {}).pop("methods", None)
+    return StudyPlan(source=path, document=identity, cases=tuple(cases), methods=chosen,
+                     trials=n_trials, workspace_poses=workspace)

@@ -1,0 +1,86 @@
+"""A progress bar on stderr: trials done / total, elapsed time, estimated time left.
+
+On a terminal the bar redraws in place; otherwise (a log file, CI) it prints a plain line at
+most every few seconds and always the last one. The ETA extrapolates the rate of the trials
+finished in this run, so trials resumed from an earlier run do not make it optimistic.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+BAR_WIDTH = 28
+PLAIN_INTERVAL_S = 5.0
+"""Shortest time between two plain (non-terminal) progress lines, s."""
+
+
+def format_duration(seconds: float) -> str:
+    """``m:ss`` or ``h:mm:ss``."""
+    total = round(seconds)
+    hours, rest = divmod(total, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
+
+
+class Progress:
+    """Counts finished trials and shows it.
+
+    Args:
+        total: Trials in the study.
+        done: Trials already finished before this run (resumed).
+        stream: Where to draw; stderr by default.
+        label: What is counted.
+    """
+
+    def __init__(self, total: int, done: int = 0, stream: TextIO | None = None,
+                 label: str = "trials") -> None:
+        self.total = total
+        self.done = done
+        self.stream = stream if stream is not None else sys.stderr
+        self.label = label
+        self._resumed = done
+        self._start = time.monotonic()
+        self._last_plain = -float("inf")
+        self._tty = self.stream.isatty()
+        self._draw(force=True)
+
+    def line(self) -> str:
+        """The current state as one line of text."""
+        elapsed = time.monotonic() - self._start
+        fresh = self.done - self._resumed
+        remaining = self.total - self.done
+        if remaining == 0:
+            eta = "done"
+        elif fresh > 0:
+            eta = "ETA " + format_duration(elapsed / fresh * remaining)
+        else:
+            eta = "ETA --:--"
+        filled = BAR_WIDTH * self.done // max(self.total, 1)
+        bar = "#" * filled + "." * (BAR_WIDTH - filled)
+        return (f"[{bar}] {self.done}/{self.total} {self.label}, "
+                f"{format_duration(elapsed)} elapsed, {eta}")
+
+    def advance(self, count: int = 1) -> None:
+        """Count ``count`` more finished trials."""
+        self.done += count
+        self._draw(force=self.done >= self.total)
+
+    def _draw(self, force: bool) -> None:
+        if self._tty:
+            end = "\n" if self.done >= self.total else ""
+            self.stream.write("\r" + self.line() + end)
+        else:
+            now = time.monotonic()
+            if not force and now - self._last_plain < PLAIN_INTERVAL_S:
+                return
+            self._last_plain = now
+            self.stream.write(self.line() + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """End the bar's line on a terminal if the run stopped early."""
+        if self._tty and self.done < self.total:
+            self.stream.write("\n")
+            self.stream.flush()

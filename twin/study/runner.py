@@ -1,0 +1,88 @@
+"""Run a study: the trials not yet in the folder, on an executor, then tables and figures.
+
+::
+
+    from twin.study import load_study, run_study
+    from twin.study.executors.local import LocalProcesses
+
+    plan = load_study("scenarios/paper_irb120.toml")
+    run_study(plan, "out/paper", LocalProcesses())     # writes results.csv, summary.md, PNGs
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+from typing import Any, TextIO
+
+from twin.study.executors import Executor, make_batches
+from twin.study.figures import write_figures
+from twin.study.plan import StudyPlan
+from twin.study.progress import Progress
+from twin.study.store import StudyStore, TrialOutcome
+from twin.study.summary import summarize, write_summary
+from twin.study.trial import TrialSpec, run_batch
+
+
+def open_store(plan: StudyPlan, folder: str | Path) -> StudyStore:
+    """The study folder for ``plan``; refuses one made from a different scenario or methods."""
+    manifest = {"scenario": plan.document, "methods": list(plan.methods),
+                "source": str(plan.source)}
+    return StudyStore(folder, manifest, plan.source)
+
+
+def run_study(
+    plan: StudyPlan,
+    folder: str | Path,
+    executor: Executor,
+    *,
+    stream: TextIO | None = None,
+    on_outcome: Callable[[TrialOutcome], None] | None = None,
+) -> dict[str, Any]:
+    """Run the unfinished trials of ``plan`` into ``folder`` and write the summary.
+
+    Args:
+        plan: The study.
+        folder: Study folder; trials already recorded there are not run again.
+        executor: Where trials run (entered here).
+        stream: Where the progress bar goes; stderr by default.
+        on_outcome: Called in this process with each newly recorded trial.
+
+    Returns:
+        The summary document (also written to `summary.json`).
+    """
+    store = open_store(plan, folder)
+    finished = store.finished()
+    todo = [key for key in plan.keys if key not in finished]
+    specs = {case.label: TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
+             for case in plan.cases}
+    if todo:
+        progress = Progress(len(plan.keys), len(plan.keys) - len(todo), stream)
+        try:
+            with executor:
+                batches = make_batches(todo, executor.workers)
+                for outcomes in executor.run(partial(run_batch, specs), batches):
+                    for outcome in outcomes:
+                        if store.append(outcome):
+                            progress.advance()
+                            if on_outcome is not None:
+                                on_outcome(outcome)
+        finally:
+            progress.close()
+    return write_report(plan, store)
+
+
+def write_report(plan: StudyPlan, store: StudyStore) -> dict[str, Any]:
+    """Write `summary.md`, `summary.json` and the figures from what the folder holds."""
+    keys = plan.keys
+    labels = [case.label for case in plan.cases]
+    context = {"scenario": plan.cases[0].scenario.name, "source": str(plan.source),
+               "methods": list(plan.methods), "trials": plan.trials, "seed": plan.seed,
+               "workspace_poses": plan.workspace_poses}
+    document = summarize(store.rows(keys), plan.methods, labels, context)
+    details = store.details(keys)
+    by_case = {label: [d for d in details if d["case"] == label] for label in labels}
+    document["figures"] = write_figures(store.folder, document, by_case, plan.methods)
+    write_summary(store.folder, document)
+    return document

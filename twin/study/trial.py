@@ -1,0 +1,154 @@
+"""One trial: simulate a capture, run every method on the same split, measure against the truth.
+
+Trial k of a study is seeded with ``SeedSequence([scenario seed, k])``: its perturbation, port,
+poses, noise, split and every method's random draws are the same whatever executor runs it and
+in whatever order. The same seed is used at every sweep point (common random numbers).
+
+Against the truth, for each method:
+
+- **flange error**: RMS over a fixed set of random workspace poses (seeded from the scenario's
+  seed, the same for every trial) of the distance between the flange centres of the true and the
+  identified D-H tables;
+- **Cramér–Rao bound** of that error (:func:`twin.uncertainty.cramer_rao_flange_rms`) for the
+  trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
+  cable), averaged over the poses. Outliers, compliance and joint errors are not noise, so in
+  those regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
+- **identifiable parameter error**: x̂ − x_true with its components along the null space of the
+  cable Jacobian at the truth removed (the data cannot see them; :mod:`twin.identifiability`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.cable import CableModel
+from twin.calibration import calibrate_many
+from twin.identifiability import measurement_identifiability
+from twin.sim.scenario import Scenario
+from twin.sim.simulate import Simulation, simulate
+from twin.study.store import METRIC_KEYS, STAGES, TrialOutcome
+from twin.synthetic import random_poses
+from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
+from twin.units import m_to_mm, rad_to_deg
+
+Array = NDArray[np.float64]
+
+WORKSPACE_STREAM = 0x5EED
+"""Second word of the workspace poses' seed sequence, apart from every trial's."""
+
+
+class TrialSpec(NamedTuple):
+    """What a worker needs to run trials of one case (pickled to the worker)."""
+
+    scenario: Scenario
+    methods: tuple[str, ...]
+    workspace_poses: int
+
+
+def trial_seed(scenario_seed: int, trial: int) -> int:
+    """The seed of trial ``trial``, derived from the scenario's seed."""
+    return int(np.random.SeedSequence([scenario_seed, trial]).generate_state(1)[0])
+
+
+def workspace(spec: TrialSpec) -> Array:
+    """The workspace poses where flange errors are measured, shape (k, n), rad."""
+    rng = np.random.default_rng(np.random.SeedSequence([spec.scenario.seed, WORKSPACE_STREAM]))
+    return random_poses(spec.scenario.robot, spec.workspace_poses, rng)
+
+
+def true_unknowns(sim: Simulation, model: CableModel) -> Array:
+    """The unknowns x a perfect calibration returns, shape (p,), m and rad."""
+    parts = [sim.delta.ravel()]
+    if model.estimate_port:
+        parts.append(sim.port_m - sim.port_nominal_m)
+    if model.estimate_offset:
+        parts.append(np.array([sim.scenario.noise.offset_m]))
+    return np.concatenate(parts)
+
+
+def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
+    """RMS length noise of the readings (Gaussian, quantisation, joint jitter), m.
+
+    Args:
+        sim: The simulation.
+        jacobian: Cable Jacobian at the truth on the training poses, shape (m, p); its θ
+            columns are ∂ℓ/∂q, which carry the joint jitter onto the cable.
+    """
+    noise = sim.scenario.noise
+    n = sim.robot.n_joints
+    dl_dq = jacobian[:, 3 * n : 4 * n]
+    jitter = sim.joint_sigma_rad**2 * float(np.mean(np.sum(dl_dq**2, axis=1)))
+    return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
+
+
+def _display(values: Array, model: CableModel) -> list[float]:
+    return np.where(model.is_length, m_to_mm(values), rad_to_deg(values)).tolist()
+
+
+def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> TrialOutcome:
+    """Simulate trial ``trial`` of a case, calibrate with every method, compare with the truth."""
+    scenario = spec.scenario
+    seed = trial_seed(scenario.seed, trial)
+    sim = simulate(scenario, seed)
+    results = calibrate_many(
+        sim.robot, sim.measurements, sim.port_nominal_m, spec.methods, seed=seed,
+        estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
+    )
+    first = next(iter(results.values()))
+    model = first.model
+    train = sim.measurements.subset(first.train_rows)
+    validation = sim.measurements.subset(first.validation_rows)
+    x_true = true_unknowns(sim, model)
+    _, jacobian = model.jacobian(x_true, train)
+    sigma_m = noise_sigma_m(sim, jacobian)
+    crlb_m = cramer_rao_flange_rms(model, x_true, train, sigma_m, q_workspace)
+    null_space = measurement_identifiability(model, x_true, train).null_space
+    rows: list[dict[str, Any]] = []
+    methods: dict[str, Any] = {}
+    for name, result in results.items():
+        flange_m = flange_error_rms(sim.true_robot.dh, result.identified_robot.dh, q_workspace)
+        error = result.solver.x - x_true
+        if null_space.shape[1]:
+            error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
+        row: dict[str, Any] = {"trial": trial, "case": case, "seed": seed, "method": name}
+        for stage in STAGES:
+            values = result.metrics[stage]._asdict()
+            row.update({f"{stage}_{key}_mm": float(m_to_mm(values[key])) for key in METRIC_KEYS})
+        row.update(
+            flange_error_mm=float(m_to_mm(flange_m)), crlb_mm=float(m_to_mm(crlb_m)),
+            crlb_ratio=flange_m / crlb_m if crlb_m > 0 else float("nan"),
+            iterations=result.solver.iterations, evaluations=result.solver.evaluations,
+            seconds=result.solver.seconds, converged=result.solver.converged,
+        )
+        rows.append(row)
+        methods[name] = {
+            "history_mm": m_to_mm([r.validation_rmse_m for r in result.solver.history]).tolist(),
+            "residuals_mm": m_to_mm(model.residuals(result.solver.x, validation)).tolist(),
+            "parameter_error": _display(error, model),
+        }
+    before = model.residuals(np.zeros(model.n_params), validation)
+    detail = {
+        "before_residuals_mm": m_to_mm(before).tolist(),
+        "noise_sigma_mm": float(m_to_mm(sigma_m)),
+        "parameter_names": list(model.names),
+        "parameter_units": ["mm" if length else "deg" for length in model.is_length],
+        "methods": methods,
+    }
+    return TrialOutcome(case=case, trial=trial, seed=seed, rows=tuple(rows), detail=detail)
+
+
+def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]
+              ) -> list[TrialOutcome]:
+    """Run a batch of (case, trial) pairs; the unit of work an executor ships to a worker."""
+    spaces: dict[str, Array] = {}
+    outcomes = []
+    for case, trial in batch:
+        spec = specs[case]
+        if case not in spaces:
+            spaces[case] = workspace(spec)
+        outcomes.append(run_trial(spec, case, trial, spaces[case]))
+    return outcomes
