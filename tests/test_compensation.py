@@ -10,6 +10,7 @@ import pytest
 
 from twin.cable import Measurements
 from twin.calibration import calibrate
+from twin.cli import main
 from twin.compensation import (
     STATUS_JOINT_LIMIT,
     STATUS_OK,
@@ -146,3 +147,79 @@ def test_load_result_delta_single_and_all(
     bad.write_text(json.dumps({"delta": {"a": [0.0] * 5}}))
     with pytest.raises(InputError, match=r"bad\.json: delta"):
         load_result_delta(bad, 6)
+
+
+def _write_result(path: Path, robot: RobotModel, measurements: Measurements,
+                  port_m: np.ndarray) -> RobotModel:
+    result = calibrate(robot, measurements, port_m, method="lm", seed=0)
+    write_json(path, result_to_dict(result))
+    return result.identified_robot
+
+
+def test_cli_corrects_a_program(
+    tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """`twin compensate --joints` writes angles whose identified pose is the nominal pose."""
+    identified = _write_result(tmp_path / "result.json", irb120, measurements, port_m)
+    q_deg = np.array([[10.0, 20.0, -30.0, 40.0, 50.0, 60.0], [-90.0, 45.0, 30.0, -100.0, -60.0,
+                                                              200.0]])
+    program = tmp_path / "program.csv"
+    program.write_text("q1,q2,q3,q4,q5,q6\n" + "\n".join(",".join(map(str, q)) for q in q_deg))
+    out = tmp_path / "corrected.csv"
+    assert main(["compensate", "--identified", str(tmp_path / "result.json"),
+                 "--joints", str(program), "--out", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    assert lines[0] == "q1,q2,q3,q4,q5,q6,status,error_mm"
+    corrected = np.deg2rad([[float(v) for v in line.split(",")[:6]] for line in lines[1:]])
+    assert [line.split(",")[6] for line in lines[1:]] == [STATUS_OK, STATUS_OK]
+    reached = flange_transform(identified.dh, corrected)
+    wanted = flange_transform(irb120.dh, np.deg2rad(q_deg))
+    # Angles are written with 1e-9 degree: the flange agrees to ~1e-11 m.
+    np.testing.assert_allclose(reached[:, :3, 3], wanted[:, :3, 3], atol=1e-10)
+
+
+def test_cli_targets_report_unreachable_rows(
+    tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """`twin compensate --targets` solves reachable rows and marks a far one unreachable."""
+    identified = _write_result(tmp_path / "result.json", irb120, measurements, port_m)
+    targets = tmp_path / "targets.csv"
+    targets.write_text("x,y,z\n400,100,500\n2000,0,0\n300,-200,400\n")
+    out = tmp_path / "corrected.csv"
+    assert main(["compensate", "--identified", str(tmp_path / "result.json"),
+                 "--targets", str(targets), "--out", str(out)]) == 0
+    rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
+    assert [row[6] for row in rows] == [STATUS_OK, STATUS_UNREACHABLE, STATUS_OK]
+    assert rows[1][:6] == [""] * 6 and float(rows[1][7]) > 1000.0
+    q = np.deg2rad([[float(v) for v in rows[i][:6]] for i in (0, 2)])
+    np.testing.assert_allclose(flange_position(identified.dh, q) * 1e3,
+                               [[400, 100, 500], [300, -200, 400]], atol=1e-7)
+
+
+def test_cli_bad_input_is_one_line(
+    tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A non-number in a target file exits 2 with one line naming file, line and column."""
+    _write_result(tmp_path / "result.json", irb120, measurements, port_m)
+    targets = tmp_path / "targets.csv"
+    targets.write_text("x,y,z\n400,abc,500\n")
+    out = tmp_path / "corrected.csv"
+    assert main(["compensate", "--identified", str(tmp_path / "result.json"),
+                 "--targets", str(targets), "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "\n" not in error and "targets.csv: line 2, column y" in error
+    assert not out.exists()
+
+
+def test_cli_verify_geometric_scenario(capsys: pytest.CaptureFixture[str]) -> None:
+    """--verify in the twin: compensation with the LM table takes the true flange error from
+    millimetres to hundredths of a millimetre on the geometric scenario."""
+    scenario = Path(__file__).parent.parent / "scenarios" / "geometric_irb120.toml"
+    assert main(["compensate", "--verify", str(scenario), "--count", "200"]) == 0
+    rows = capsys.readouterr().out.split("true flange error")[1].splitlines()[1:]
+    table = {line[:36].strip(): [float(v) for v in line[36:].split()[:3]] for line in rows}
+    nominal_rms = table["nominal joints"][1]
+    compensated_rms = table["compensated, identified table"][1]
+    assert nominal_rms > 1.0
+    assert compensated_rms < 0.05

@@ -291,16 +291,29 @@ class CompensationCheck(NamedTuple):
     """True flange errors over targets, commanded through the nominal or the identified model.
 
     Attributes:
-        nominal: Metrics of the distances (m) when commanding the nominal solutions.
-        compensated: Metrics of the distances (m) when commanding the compensated solutions.
-        n_targets: Targets drawn.
-        n_failed: Targets whose compensated solution was not ok (left out of both metrics).
+        nominal_error_m: Distance from the target with the nominal solutions, shape (k,), m.
+        compensated_error_m: Distance with the compensated solutions, shape (k,), m.
+        n_failed: Targets whose compensated solution was not ok (left out of both arrays).
     """
 
-    nominal: Metrics
-    compensated: Metrics
-    n_targets: int
+    nominal_error_m: Array
+    compensated_error_m: Array
     n_failed: int
+
+    @property
+    def nominal(self) -> Metrics:
+        """Metrics of :attr:`nominal_error_m` (mae is the mean distance), m."""
+        return metrics(self.nominal_error_m)
+
+    @property
+    def compensated(self) -> Metrics:
+        """Metrics of :attr:`compensated_error_m`, m."""
+        return metrics(self.compensated_error_m)
+
+    @property
+    def n_targets(self) -> int:
+        """Targets drawn."""
+        return len(self.nominal_error_m) + self.n_failed
 
 
 def dexterity(robot: RobotModel, q_rad: ArrayLike) -> Array:
@@ -361,4 +374,4 @@ def check_compensation(
     target = np.asarray(base_p_target)[ok]
     before = np.linalg.norm(np.asarray(true_at_nominal_m)[ok] - target, axis=-1)
     after = np.linalg.norm(np.asarray(true_at_compensated_m)[ok] - target, axis=-1)
-    return CompensationCheck(metrics(before), metrics(after), len(ok), int(np.sum(~ok)))
+    return CompensationCheck(before, after, int(np.sum(~ok)))

@@ -11,10 +11,10 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from twin.cli import calibrate, identify, plan, simulate
+from twin.cli import calibrate, compensate, export, identify, plan, simulate
 from twin.errors import InputError, TwinError
 
-SUBCOMMANDS = (calibrate, simulate, identify, plan)
+SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 

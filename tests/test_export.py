@@ -1,0 +1,110 @@
+"""Exports of the identified robot load in their tools and agree with the identified table."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from twin.cable import Measurements
+from twin.calibration import calibrate
+from twin.cli import main
+from twin.export import FORMATS, export_text
+from twin.io.results import result_to_dict, write_json
+from twin.kinematics import flange_transform
+from twin.robot import RobotModel, load_robot, parse_robot
+
+N_POSES = 1000
+
+
+@pytest.fixture(scope="module")
+def identified(irb120: RobotModel, measurements: Measurements, port_m: np.ndarray) -> RobotModel:
+    """The IRB 120 identified by LM from core-made data."""
+    return calibrate(irb120, measurements, port_m, method="lm", seed=0).identified_robot
+
+
+@pytest.fixture(scope="module")
+def poses(irb120: RobotModel) -> np.ndarray:
+    rng = np.random.default_rng(9)
+    return rng.uniform(irb120.lower_rad, irb120.upper_rad, (N_POSES, irb120.n_joints))
+
+
+def _assert_same_poses(expected: np.ndarray, found: np.ndarray) -> None:
+    np.testing.assert_allclose(found[:, :3, 3], expected[:, :3, 3], rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(found[:, :3, :3], expected[:, :3, :3], rtol=0.0, atol=1e-9)
+
+
+def test_dh_export_reads_back(identified: RobotModel, poses: np.ndarray) -> None:
+    """The dh export is a model file whose table and FK equal the identified robot's."""
+    robot = parse_robot(tomllib.loads(export_text(identified, "dh")), "export.toml")
+    np.testing.assert_allclose(robot.dh, identified.dh, rtol=0.0, atol=1e-15)
+    _assert_same_poses(flange_transform(identified.dh, poses), flange_transform(robot.dh, poses))
+
+
+def test_urdf_export_loads_in_pinocchio(identified: RobotModel, poses: np.ndarray) -> None:
+    """Pinocchio loads the URDF; its `flange` frame equals the identified FK to 1e-9 m."""
+    model = pin.buildModelFromXML(export_text(identified, "urdf"))
+    data = model.createData()
+    frame = model.getFrameId("flange")
+    assert frame < model.nframes
+    found = []
+    for q in poses:
+        pin.framesForwardKinematics(model, data, q)
+        found.append(data.oMf[frame].homogeneous.copy())
+    _assert_same_poses(flange_transform(identified.dh, poses), np.array(found))
+
+
+def test_mjcf_export_loads_in_mujoco(identified: RobotModel, poses: np.ndarray) -> None:
+    """MuJoCo compiles the MJCF; its `flange` site equals the identified FK to 1e-9 m."""
+    model = mujoco.MjModel.from_xml_string(export_text(identified, "mjcf"))
+    data = mujoco.MjData(model)
+    site = model.site("flange").id
+    assert model.nq == identified.n_joints
+    found = np.zeros((len(poses), 4, 4))
+    for row, q in enumerate(poses):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        found[row, :3, :3] = data.site_xmat[site].reshape(3, 3)
+        found[row, :3, 3] = data.site_xpos[site]
+    _assert_same_poses(flange_transform(identified.dh, poses), found)
+    np.testing.assert_allclose(model.jnt_range, np.stack([identified.lower_rad,
+                                                         identified.upper_rad], axis=1))
+
+
+@pytest.mark.parametrize("format_name", FORMATS)
+def test_export_cli_writes_each_format(
+    tmp_path: Path, format_name: str, irb120: RobotModel, measurements: Measurements,
+    port_m: np.ndarray, identified: RobotModel,
+) -> None:
+    """`twin export` writes the identified robot from a result file in every format."""
+    result = calibrate(irb120, measurements, port_m, method="lm", seed=0)
+    write_json(tmp_path / "result.json", result_to_dict(result))
+    out = tmp_path / f"identified.{format_name}"
+    assert main(["export", str(tmp_path / "result.json"), "--format", format_name,
+                 "--out", str(out)]) == 0
+    if format_name == "dh":
+        exported = load_robot(out)
+        np.testing.assert_allclose(exported.dh, identified.dh, rtol=0.0, atol=1e-15)
+        assert exported.name == f"{irb120.name} (identified)"
+    elif format_name == "urdf":
+        assert pin.buildModelFromUrdf(str(out)).existFrame("flange")
+    else:
+        assert mujoco.MjModel.from_xml_path(str(out)).site("flange").id >= 0
+
+
+def test_export_cli_rejects_unknown_format(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An unknown --format exits 2 with one line naming the choices, and writes nothing."""
+    result = tmp_path / "result.json"
+    result.write_text('{"delta": {"a": [0,0,0,0,0,0], "d": [0,0,0,0,0,0], '
+                      '"alpha": [0,0,0,0,0,0], "theta": [0,0,0,0,0,0]}}')
+    out = tmp_path / "out.sdf"
+    assert main(["export", str(result), "--format", "sdf", "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.count("\n") == 0 and "one of dh, urdf, mjcf" in error
+    assert not out.exists()

@@ -1,0 +1,214 @@
+"""`twin compensate`: joint angles that make the identified robot go where it should.
+
+With ``--targets`` (flange positions x,y,z in mm) or ``--joints`` (a program q1..q6 in degrees,
+written against the nominal model) it writes corrected joint angles with a per-row status; with
+``--verify SCENARIO.toml`` it measures, in the MuJoCo twin, how much compensation reduces the true
+flange error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.compensation import (
+    STATUS_OK,
+    STATUS_UNREACHABLE,
+    CompensationCheck,
+    IKResult,
+    check_compensation,
+    compensate_program,
+    compensate_targets,
+    nominal_ik,
+    reachable_targets,
+)
+from twin.errors import InputError
+from twin.io.atomic import write_atomic
+from twin.io.identified import load_result_delta
+from twin.io.measurements import JOINT_COLUMNS, check_joint_limits, read_table
+from twin.metrics import Metrics
+from twin.robot import default_robot, load_robot
+from twin.units import deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
+
+TARGET_COLUMNS = ("x", "y", "z")
+OUTPUT_COLUMNS = (*JOINT_COLUMNS, "status", "error_mm")
+VERIFY_TARGETS = 1000
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the subcommand."""
+    parser = subparsers.add_parser(
+        "compensate",
+        help="correct joint angles with an identified model, or verify compensation in the twin",
+        description="Compute the joint angles to command so that the real (identified) robot "
+        "reaches Cartesian flange targets (--targets x,y,z in mm, base frame) or the flange "
+        "poses a program written against the nominal model meant (--joints q1..q6 in degrees). "
+        "Writes q1..q6 (deg), a status (ok, unreachable, joint_limit) and the remaining flange "
+        "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
+        "calibrate and compare the true flange error with and without compensation.",
+    )
+    parser.add_argument("--robot", type=Path, help="nominal robot model TOML (default: the "
+                        "ABB IRB 120)")
+    parser.add_argument("--identified", type=Path, metavar="RESULT.json",
+                        help="calibration result written by `twin calibrate --json`")
+    parser.add_argument("--method", help="result to use from a `--method all` result file; "
+                        "with --verify, the calibration method (default lm)")
+    request = parser.add_mutually_exclusive_group(required=True)
+    request.add_argument("--targets", type=Path, metavar="TARGETS.csv",
+                         help="flange targets, columns x,y,z in mm")
+    request.add_argument("--joints", type=Path, metavar="PROGRAM.csv",
+                         help="program joint angles, columns q1..q6 in degrees")
+    request.add_argument("--verify", type=Path, metavar="SCENARIO.toml",
+                         help="measure compensation in the twin for a scenario")
+    parser.add_argument("--out", type=Path, metavar="CORRECTED.csv",
+                        help="corrected joint angles (with --targets or --joints)")
+    parser.add_argument("--seed", type=int, help="seed of the random IK starts (default 0) or "
+                        "of the simulation (default: the scenario's)")
+    parser.add_argument("--count", type=int, default=VERIFY_TARGETS,
+                        help=f"targets for --verify (default {VERIFY_TARGETS})")
+    parser.add_argument("--figure", type=Path, metavar="OUT.png",
+                        help="with --verify: histogram of the true flange errors")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the subcommand."""
+    if args.verify is not None:
+        for flag in ("identified", "out", "robot"):
+            if getattr(args, flag) is not None:
+                raise InputError(f"--{flag} with --verify",
+                                 "--verify SCENARIO.toml alone (the scenario names the robot)",
+                                 source=f"--{flag}")
+        return _verify(args)
+    if args.identified is None or args.out is None:
+        missing = "--identified" if args.identified is None else "--out"
+        raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
+                         source=missing)
+    robot = load_robot(args.robot) if args.robot else default_robot()
+    identified = robot.perturbed(load_result_delta(args.identified, robot.n_joints, args.method))
+    if args.joints is not None:
+        q_deg, lines = read_table(args.joints, JOINT_COLUMNS,
+                                  "a program CSV (q1..q6 in degrees)")
+        check_joint_limits(q_deg, lines, robot, args.joints)
+        q_nominal = deg_to_rad(q_deg)
+        solved = compensate_program(robot, identified, q_nominal)
+    else:
+        xyz_mm, _ = read_table(args.targets, TARGET_COLUMNS, "a target CSV (x,y,z in mm)")
+        target_m = mm_to_m(xyz_mm)
+        nominal = nominal_ik(robot, target_m, np.random.default_rng(args.seed or 0))
+        q_nominal = nominal.q_rad
+        solved = compensate_targets(identified, target_m, q_nominal)
+    write_atomic(args.out, format_corrected(solved))
+    print(_summary(solved, q_nominal))
+    print(f"wrote {args.out}")
+    return 0
+
+
+def format_corrected(solved: IKResult) -> str:
+    """CSV text: q1..q6 (deg, empty when unreachable), status, remaining flange error (mm)."""
+    q_deg = rad_to_deg(solved.q_rad)
+    error_mm = m_to_mm(solved.position_error_m)
+    lines = [",".join(OUTPUT_COLUMNS)]
+    for q, status, error in zip(q_deg, solved.status, error_mm, strict=True):
+        angles = [""] * len(q) if status == STATUS_UNREACHABLE else [f"{v:.9f}" for v in q]
+        lines.append(",".join([*angles, str(status), f"{error:.6f}"]))
+    return "\n".join(lines) + "\n"
+
+
+def _summary(solved: IKResult, q_nominal_rad: NDArray[np.float64]) -> str:
+    statuses, counts = np.unique(solved.status, return_counts=True)
+    text = f"{len(solved.q_rad)} rows: " + ", ".join(
+        f"{count} {status}" for status, count in zip(statuses, counts, strict=True))
+    ok = solved.status == STATUS_OK
+    if np.any(ok):
+        change_deg = np.abs(rad_to_deg(solved.q_rad[ok] - q_nominal_rad[ok]))
+        text += ("\ncorrection per joint, mean |Δq| [deg]: "
+                 + " ".join(f"{v:.4f}" for v in change_deg.mean(axis=0))
+                 + f"; largest {change_deg.max():.4f}")
+    return text
+
+
+def _verify(args: argparse.Namespace) -> int:
+    """Simulate, calibrate, and compare true flange errors with and without compensation."""
+    from twin.calibration import calibrate
+    from twin.sim import Twin, load_scenario, simulate
+
+    if args.count < 1:
+        raise InputError(f"{args.count}", "a positive number of targets", source="--count")
+    scenario = load_scenario(args.verify)
+    sim = simulate(scenario, seed=args.seed)
+    print(f"{scenario.name}: simulated {len(sim.measurements)} poses (seed {sim.seed}); "
+          "calibrating…", flush=True)
+    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m,
+                       method=args.method or "lm", seed=sim.seed)
+    validation = result.metrics["validation"]
+    print(f"  {result.method}: validation RMSE {m_to_mm(validation.rmse):.4f} mm "
+          f"(before {m_to_mm(result.metrics['before'].rmse):.4f} mm)")
+    twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors)
+    rng = np.random.default_rng(sim.seed)
+    q_nominal, target_m = reachable_targets(sim.robot, args.count, rng)
+    print(f"{args.count} random reachable targets: solving and moving the true robot…",
+          flush=True)
+    at_nominal = twin.flange_positions(q_nominal)
+    checks = {}
+    for label, model in (("identified table", result.identified_robot),
+                         ("true table (limit)", sim.true_robot)):
+        solved = compensate_targets(model, target_m, q_nominal)
+        checks[label] = check_compensation(target_m, at_nominal,
+                                           twin.flange_positions(solved.q_rad), solved)
+    print(format_checks(checks))
+    if args.figure is not None:
+        _write_histogram(args.figure, checks, f"{scenario.name}, seed {sim.seed}")
+        print(f"wrote {args.figure}")
+    return 0
+
+
+def _row(label: str, m: Metrics) -> str:
+    return (f"  {label:<34}{m_to_mm(m.mae):>10.4f}{m_to_mm(m.rmse):>10.4f}"
+            f"{m_to_mm(m.max):>10.4f}")
+
+
+def format_checks(checks: dict[str, CompensationCheck]) -> str:
+    """Table of true flange errors (mm): nominal, then each compensation."""
+    first = next(iter(checks.values()))
+    lines = ["true flange error [mm]                  mean       RMS       max",
+             _row("nominal joints", first.nominal)]
+    for label, check in checks.items():
+        note = f"  ({check.n_failed} of {check.n_targets} not solved)" if check.n_failed else ""
+        lines.append(_row(f"compensated, {label}", check.compensated) + note)
+    return "\n".join(lines)
+
+
+def _write_histogram(path: Path, checks: dict[str, CompensationCheck], title: str) -> None:
+    """PNG: histograms of the true flange error without and with compensation (log x)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    first = next(iter(checks.values()))
+    series = [("nominal joints", first.nominal_error_m)] + [
+        (f"compensated, {label}", check.compensated_error_m) for label, check in checks.items()
+    ]
+    errors_mm = np.concatenate([m_to_mm(values) for _, values in series])
+    low = max(float(errors_mm.min()), 1e-6)
+    bins = np.geomspace(low, float(errors_mm.max()), 60).tolist()
+    figure, axes = plt.subplots(figsize=(6.4, 4.0), layout="constrained")
+    for label, values in series:
+        rms = float(m_to_mm(np.sqrt(np.mean(values**2))))
+        axes.hist(np.maximum(m_to_mm(values), low), bins=bins, alpha=0.6,
+                  label=f"{label} (RMS {rms:.4f} mm)")
+    axes.set_xscale("log")
+    axes.set_xlabel("true flange position error [mm]")
+    axes.set_ylabel("targets")
+    axes.legend(fontsize=8)
+    axes.set_title(title, fontsize=9)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=120)
+    plt.close(figure)
+    write_atomic(path, buffer.getvalue())

@@ -1,0 +1,30 @@
+"""Export a robot model (typically the identified one) to the formats other tools read.
+
+Each format is a module here with ``export(robot) -> str``; a format's heavy
+dependency (MuJoCo) is imported only when that format is asked for.
+
+- ``dh``: the `models/` TOML format (:func:`twin.robot.robot_to_toml`), mm and degrees;
+- ``urdf``: URDF for ROS / Pinocchio, with a link ``flange``;
+- ``mjcf``: MJCF for MuJoCo, with a site ``flange`` (the twin's own builder).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from twin.errors import UnknownChoiceError
+from twin.robot import RobotModel
+
+FORMATS = ("dh", "urdf", "mjcf")
+
+
+def export_text(robot: RobotModel, format_name: str) -> str:
+    """The robot as the text of a file in ``format_name``.
+
+    Raises:
+        UnknownChoiceError: if the format is not one of :data:`FORMATS`.
+    """
+    if format_name not in FORMATS:
+        raise UnknownChoiceError("export format", format_name, FORMATS, source="--format")
+    module = importlib.import_module(f"twin.export.{format_name}")
+    return str(module.export(robot))
