@@ -72,7 +72,7 @@ def d_optimal_rows(candidates: ArrayLike, n_rows: int, max_exchanges: int = 1000
     exchanges = 0
     while exchanges < max_exchanges:
         selected = np.flatnonzero(chosen)
-        F_inv = np.linalg.inv(J[selected].T @ J[selected])
+        F_inv = np.asarray(np.linalg.inv(J[selected].T @ J[selected]), dtype=np.float64)
         cross = J[selected] @ F_inv @ J.T
         d_candidate = np.einsum("ij,jk,ik->i", J, F_inv, J)
         d_selected = d_candidate[selected]
@@ -88,7 +88,9 @@ def d_optimal_rows(candidates: ArrayLike, n_rows: int, max_exchanges: int = 1000
     return Selection(rows=rows, log_det=float(log_det), exchanges=exchanges)
 
 
-def base_rows(model: CableModel, x: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
+def base_rows(
+    model: CableModel, x: ArrayLike, q_rad: ArrayLike
+) -> tuple[Array, NDArray[np.bool_]]:
     """Cable-length Jacobian rows of the base parameters, chosen on the same poses.
 
     Args:

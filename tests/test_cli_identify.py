@@ -1,0 +1,146 @@
+"""`twin identify`, `twin plan`, and the identifiability and σ fields of `twin calibrate --json`."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from twin.cable import Measurements
+from twin.cli import main
+from twin.io.capture import write_capture
+from twin.io.measurements import read_table, write_measurements
+from twin.robot import RobotModel, robot_to_toml
+
+PORT = "600,-400,100"
+
+
+@pytest.fixture()
+def csv_path(measurements: Measurements, tmp_path: Path) -> Path:
+    path = tmp_path / "measurements.csv"
+    write_measurements(path, measurements)
+    return path
+
+
+def test_identify_reports_rank_names_and_sigma(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The report has rank 19 of 24 with the named directions, the bound, a σ table with —
+    for the dependent unknowns; the JSON and the PNG map are written and read back."""
+    out, png = tmp_path / "id.json", tmp_path / "map.png"
+    assert main(["identify", str(csv_path), "--port", PORT, "--json", str(out),
+                 "--map", str(png)]) == 0
+    printed = capsys.readouterr().out
+    assert "rank 19 of 24" in printed
+    for name in ("theta6", "alpha6", "d2-d3", "Cramér–Rao", "σ theta [deg]", "—"):
+        assert name in printed
+    document = json.loads(out.read_text())
+    nominal = document["nominal"]
+    assert (nominal["rank"], nominal["parameters"], nominal["at"]) == (19, 24, "nominal")
+    assert {"theta6", "alpha6", "d2-d3"} <= set(nominal["unidentifiable"])
+    assert set(nominal["observability"]) == {"o1", "o3", "o4", "condition"}
+    assert 0 < nominal["cramer_rao_flange_rms"] < 0.05
+    assert document["calibration"]["method"] == "lm-base"
+    image = imread(png)
+    assert image.ndim == 3 and image.shape[0] > 200 and image.shape[1] > 200
+
+
+def test_identify_reads_a_capture_with_the_unknown_port_and_offset(
+    csv_path: Path, tmp_path: Path, irb120: RobotModel, port_m: np.ndarray,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A capture.toml needs no --port; port and offset unknown give rank 21 of 28 with
+    d1+port_z among the unidentifiable directions."""
+    (tmp_path / "robot.toml").write_text(robot_to_toml(irb120))
+    capture = tmp_path / "capture.toml"
+    write_capture(capture, robot="robot.toml", port_m=port_m, measurements=csv_path.name)
+    assert main(["identify", str(capture), "--estimate-port", "--estimate-offset"]) == 0
+    printed = capsys.readouterr().out
+    assert "rank 21 of 28" in printed and "d1+port_z" in printed
+
+
+def test_calibrate_json_carries_identifiability_and_sigma(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`calibrate --json`: identifiability at the nominal geometry (rank 19 of 24), σ in mm and
+    degrees with null for the unidentifiable unknowns, the noise estimate and the predicted
+    flange accuracy; the printed report has the identifiability lines."""
+    out = tmp_path / "result.json"
+    assert main(["calibrate", str(csv_path), "--port", PORT, "--method", "lm-base",
+                 "--json", str(out)]) == 0
+    assert "rank 19 of 24" in capsys.readouterr().out
+    document = json.loads(out.read_text())
+    ident = document["identifiability"]
+    assert (ident["rank"], ident["parameters"], ident["at"]) == (19, 24, "nominal")
+    assert ident["condition"] > 1
+    assert {"theta6", "alpha6", "d2-d3"} <= set(ident["unidentifiable"])
+    assert document["identifiability_identified"]["at"] == "identified"
+    sigma = document["sigma"]
+    assert set(sigma) == {"a", "d", "alpha", "theta"}
+    assert sigma["theta"][5] is None and sigma["alpha"][5] is None
+    assert sum(v is None for values in sigma.values() for v in values) == 5
+    assert all(0 < v < 0.1 for values in sigma.values() for v in values if v is not None)
+    assert 0.005 < document["noise_sigma"] < 0.02
+    assert 0 < document["predicted_flange_rms"] < 0.05
+
+
+def test_calibrate_estimate_port_and_offset_from_the_cli(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--estimate-port --estimate-offset`: the JSON has the identified port and offset near
+    the true ones (the data's port is the nominal one, zero offset) and their σ."""
+    out = tmp_path / "result.json"
+    assert main(["calibrate", str(csv_path), "--port", PORT, "--estimate-port",
+                 "--estimate-offset", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "identified port" in printed and "identified length offset" in printed
+    document = json.loads(out.read_text())
+    assert document["identifiability"]["rank"] == 21
+    assert abs(document["offset"]) < 5 * document["sigma"]["offset"]
+    assert len(document["sigma"]["port"]) == 3
+    assert np.allclose(document["port"], [600, -400, 100], atol=2.0)
+
+
+def test_plan_writes_poses_that_beat_random_ones(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], irb120: RobotModel
+) -> None:
+    """`twin plan`: a CSV of N poses (q1..q6, degrees, within the limits) and a table where the
+    planned poses predict a lower flange error than as many random ones; with several ports
+    the one of lowest predicted error is chosen."""
+    out = tmp_path / "plan.csv"
+    assert main(["plan", "--port", PORT, "--port", "20000,0,300", "--poses", "30",
+                 "--candidates", "600", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    q_deg, _ = read_table(out, tuple(f"q{i}" for i in range(1, 7)), "plan")
+    assert q_deg.shape == (30, 6)
+    assert np.all(np.deg2rad(q_deg) >= irb120.lower_rad - 1e-9)
+    assert np.all(np.deg2rad(q_deg) <= irb120.upper_rad + 1e-9)
+    planned = float(re.search(r"planned(?:\s+\S+){4}\s+(\S+)", printed).group(1))
+    drawn = float(re.search(r"random(?:\s+\S+){4}\s+(\S+)", printed).group(1))
+    assert planned < drawn
+    assert re.search(r"\(600, -400, 100\)\s+\S+\s+<- chosen", printed)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["plan", "--port", PORT, "--poses", "5", "--out", "{tmp}/p.csv"], "--poses: found 5"),
+        (["plan", "--port", "1,2", "--poses", "30", "--out", "{tmp}/p.csv"], "--port"),
+        (["identify", "{csv}"], "found no --port"),
+        (["identify", "{csv}", "--port", PORT, "--sigma", "0"], "--sigma"),
+    ],
+)
+def test_user_mistakes_exit_2_with_one_line(
+    argv: list[str], message: str, csv_path: Path, tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Exit code 2, one line on stderr naming the flag or file, nothing written."""
+    code = main([a.format(tmp=tmp_path, csv=csv_path) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("twin: error: ") and message in err, err
+    assert not (tmp_path / "p.csv").exists()

@@ -1,0 +1,135 @@
+"""Rank, named null directions, base parameters and observability indices of cable data."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.cable import CableModel, Measurements
+from twin.identifiability import (
+    identifiability,
+    measurement_identifiability,
+    name_direction,
+    observability,
+)
+from twin.robot import RobotModel
+from twin.synthetic import random_poses
+
+KNOWN_PORT_NULL = {"theta6", "alpha6", "d2-d3", "a5+theta5", "d5-alpha5"}
+
+
+@pytest.fixture(scope="module")
+def poses(irb120: RobotModel) -> Measurements:
+    """200 random poses (their lengths do not enter a Jacobian)."""
+    q = random_poses(irb120, 200, np.random.default_rng(0))
+    return Measurements(q, np.ones(len(q)))
+
+
+def _at_nominal(robot: RobotModel, port_m: np.ndarray, data: Measurements,
+                port: bool = False, offset: bool = False):
+    model = CableModel(robot.dh, port_m, estimate_port=port, estimate_offset=offset)
+    return model, measurement_identifiability(model, np.zeros(model.n_params), data)
+
+
+def test_known_port_rank_19_with_named_null_directions(irb120, port_m, poses) -> None:
+    """IRB 120, known port, nominal geometry: rank 19 of 24; θ6, α6, d2−d3 and two wrist
+    combinations are the unidentifiable directions, and a tolerance a million times looser or
+    tighter gives the same rank (the gap is wide)."""
+    model, ident = _at_nominal(irb120, port_m, poses)
+    assert (ident.rank, ident.n_params) == (19, 24)
+    assert set(ident.unidentifiable) == KNOWN_PORT_NULL
+    assert len(ident.base) == 19 and len(ident.base_names) == 19
+    _, J = model.jacobian(np.zeros(24), poses)
+    for rtol in (1e-5, 1e-11):
+        assert identifiability(J, model.names, rtol).rank == 19
+    assert 1 < ident.condition < 1e3
+
+
+def test_negligible_columns_are_not_scaled_into_fake_rank(irb120, port_m, poses) -> None:
+    """θ6 and α6 columns are zero up to round-off: declared unidentifiable directly. Scaling
+    round-off (here 1e-17-sized noise) to unit norm like the other columns would report a fake
+    rank above 19."""
+    model = CableModel(irb120.dh, port_m)
+    _, J = model.jacobian(np.zeros(24), poses)
+    blind = [model.names.index("alpha6"), model.names.index("theta6")]
+    J[:, blind] = 1e-17 * np.random.default_rng(2).normal(size=(len(poses), 2))
+    naive = J / np.linalg.norm(J, axis=0)
+    s = np.linalg.svd(naive, compute_uv=False)
+    assert int(np.sum(s > 1e-8 * s[0])) > 19
+    ident = identifiability(J, model.names)
+    assert ident.rank == 19 and {"theta6", "alpha6"} <= set(ident.unidentifiable)
+
+
+def test_null_directions_leave_every_length_unchanged(irb120, port_m, poses) -> None:
+    """θ6, α6 and d2−d3 are exactly invisible: 1 mm / 1 mrad along them changes no length
+    beyond round-off. Every null direction is invisible to first order: a 1e-6 step moves the
+    lengths a thousand times less than the same step along a base parameter."""
+    model, ident = _at_nominal(irb120, port_m, poses)
+    start = model.lengths(np.zeros(24), poses.q_rad)
+
+    def change(step: np.ndarray) -> float:
+        return float(np.max(np.abs(model.lengths(step, poses.q_rad) - start)))
+
+    directions = dict(zip(ident.unidentifiable, ident.null_space.T, strict=True))
+    for name in ("theta6", "alpha6", "d2-d3"):
+        assert change(1e-3 * directions[name] / np.max(np.abs(directions[name]))) < 1e-12
+    base_step = min(change(1e-6 * np.eye(24)[i]) for i in ident.base)
+    assert base_step > 1e-8
+    for direction in ident.null_space.T:
+        assert change(1e-6 * direction / np.max(np.abs(direction))) < 1e-3 * base_step
+
+
+def test_unknown_port_and_offset_add_named_directions(irb120, port_m, poses) -> None:
+    """Port unknown: +3 unknowns, +1 rank — d1+port_z (a shift along joint 1's axis) and a turn
+    about it (θ1 with port x, y) join the null space. Offset unknown: identifiable."""
+    expected = {(True, False): (20, 27), (False, True): (20, 25), (True, True): (21, 28)}
+    for (port, offset), (rank, p) in expected.items():
+        _, ident = _at_nominal(irb120, port_m, poses, port, offset)
+        assert (ident.rank, ident.n_params) == (rank, p)
+        assert set(ident.unidentifiable) >= KNOWN_PORT_NULL
+        assert ("offset" in ident.base_names) == offset
+        if port:
+            extra = set(ident.unidentifiable) - KNOWN_PORT_NULL
+            assert "d1+port_z" in extra
+            (turn,) = extra - {"d1+port_z"}
+            assert all(name in turn for name in ("theta1", "port_x", "port_y"))
+
+
+def test_identified_geometry_sees_more_but_weakly(irb120, port_m, poses, true_delta) -> None:
+    """Away from the nominal geometry the parallel axes and the centred flange are broken by
+    the errors themselves: the rank rises above 19 through weak directions; α6 stays unseen."""
+    model = CableModel(irb120.dh, port_m)
+    ident = measurement_identifiability(model, true_delta.ravel(), poses)
+    assert ident.rank > 19 and ident.weak >= 1
+    assert "alpha6" in ident.unidentifiable
+    assert ident.condition > 1e3
+
+
+def test_rank_matches_svd_on_a_made_up_matrix() -> None:
+    """A matrix with a known dependency: column 2 = column 0 − 2·column 1, column 3 is zero."""
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(50, 2))
+    J = np.column_stack([A[:, 0], A[:, 1], A[:, 0] - 2 * A[:, 1], 1e-20 * A[:, 0]])
+    ident = identifiability(J, ("u", "v", "w", "z"))
+    assert ident.rank == 2
+    assert "z" in ident.unidentifiable
+    np.testing.assert_allclose(J @ ident.null_space, 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(ident.null_space, axis=0), 1.0)
+
+
+def test_names_are_sparse_and_signed() -> None:
+    """Largest coefficient ±1 and printed bare, first term positive, tiny ones dropped."""
+    names = ("a", "b", "c", "d")
+    assert name_direction([0.0, -1.0, 0.302, 1e-9], names) == "b-0.302*c"
+    assert name_direction([0.0, 0.5, 0.0, -1.0], names) == "0.5*b-d"
+    assert name_direction([2.0, 0, 0, 0], names) == "a"
+
+
+def test_observability_indices_of_known_singular_values() -> None:
+    """J with singular values 3, 2, 1 over 4 rows: O1 = 6^(1/3)/2, O3 = 1, O4 = 1/3, κ = 3."""
+    q, _ = np.linalg.qr(np.random.default_rng(1).normal(size=(4, 3)))
+    J = q @ np.diag([3.0, 2.0, 1.0])
+    o = observability(J)
+    assert o.o1 == pytest.approx(6 ** (1 / 3) / 2)
+    assert (o.o3, o.o4, o.condition) == pytest.approx((1.0, 1 / 3, 3.0))
+
