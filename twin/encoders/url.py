@@ -1,0 +1,211 @@
+"""Encoder settings from a serial URL or a device TOML file.
+
+A URL names the port and overrides any default in its query::
+
+    serial:///dev/ttyUSB0?baud=115200&protocol=ascii
+    serial:///dev/ttyUSB0?protocol=modbus&slave=3&register=100&word_order=little
+
+A device TOML file holds the same keys, with ``port`` for the path::
+
+    port = "/dev/ttyUSB0"
+    protocol = "ascii"
+    baud = 9600
+    query = "MEAS?\\r\\n"
+
+Defaults: 9600 baud, 8 data bits, no parity, 1 stop bit (8N1), ASCII protocol. Every key is
+listed in :data:`KEYS`; an unknown key or a bad value is an :class:`~twin.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+from urllib.parse import parse_qsl, quote, urlsplit
+
+from twin.errors import InputError, UnknownChoiceError
+from twin.io.measurements import read_text
+from twin.units import LENGTH_FACTORS
+
+PROTOCOLS = ("ascii", "modbus")
+PARITIES = ("N", "E", "O", "M", "S")
+WORD_ORDERS = ("big", "little")
+"""Modbus 32-bit word order: ``big`` high word first (ABCD), ``little`` low word first (CDAB)."""
+VALUE_TYPES = ("int32", "int16", "float32")
+FUNCTIONS = (3, 4)
+"""Modbus read functions: 3 = holding registers, 4 = input registers."""
+
+
+@dataclass(frozen=True)
+class EncoderConfig:
+    """How to talk to one drawstring encoder.
+
+    Attributes:
+        port: Serial device path, e.g. ``/dev/ttyUSB0``.
+        protocol: ``ascii`` (query/answer lines) or ``modbus`` (Modbus RTU registers).
+        baud: Baud rate.
+        bytesize: Data bits (5–8).
+        parity: ``N``, ``E``, ``O``, ``M`` or ``S``.
+        stopbits: Stop bits (1, 1.5 or 2).
+        timeout: Time to wait for a whole answer, s.
+        query: ASCII: bytes sent to ask for one reading.
+        pattern: ASCII: regular expression the stripped answer line must match in full; its
+            first group (or the whole match) is the number.
+        slave: Modbus: slave id (1–247).
+        register: Modbus: address of the first register of the value.
+        function: Modbus: 3 (holding) or 4 (input registers).
+        word_order: Modbus: ``big`` (high word first) or ``little`` for 32-bit values.
+        type: Modbus: ``int32``, ``int16`` or ``float32``.
+        scale: Device value times ``scale`` is the length in ``unit``.
+        unit: ``mm`` or ``m``.
+        min: Smallest plausible length, in ``unit``; a reading below it is a fault.
+        max: Largest plausible length (the encoder's range), in ``unit``.
+    """
+
+    port: str
+    protocol: str = "ascii"
+    baud: int = 9600
+    bytesize: int = 8
+    parity: str = "N"
+    stopbits: float = 1
+    timeout: float = 1.0
+    query: str = "MEAS?\r\n"
+    pattern: str = r"([+-]?\d+(?:\.\d*)?)"
+    slave: int = 1
+    register: int = 0
+    function: int = 3
+    word_order: str = "big"
+    type: str = "int32"
+    scale: float = 1.0
+    unit: str = "mm"
+    min: float = 0.0
+    max: float = 10000.0
+
+    def __post_init__(self) -> None:
+        checks: list[tuple[str, bool, str]] = [
+            ("port", bool(self.port), "a device path"),
+            ("baud", self.baud > 0, "a positive baud rate"),
+            ("bytesize", self.bytesize in (5, 6, 7, 8), "5, 6, 7 or 8"),
+            ("stopbits", self.stopbits in (1, 1.5, 2), "1, 1.5 or 2"),
+            ("timeout", math.isfinite(self.timeout) and self.timeout > 0, "a positive time in s"),
+            ("query", bool(self.query), "a non-empty query"),
+            ("slave", 1 <= self.slave <= 247, "a slave id in 1..247"),
+            ("register", 0 <= self.register <= 65535, "a register address in 0..65535"),
+            ("scale", math.isfinite(self.scale) and self.scale != 0, "a finite non-zero scale"),
+            ("max", math.isfinite(self.min) and math.isfinite(self.max) and self.min < self.max,
+             "finite min < max"),
+        ]
+        for key, ok, expected in checks:
+            if not ok:
+                raise InputError(f"{getattr(self, key)!r}", expected, where=key)
+        for key, choices in (("protocol", PROTOCOLS), ("parity", PARITIES),
+                             ("function", FUNCTIONS), ("word_order", WORD_ORDERS),
+                             ("type", VALUE_TYPES), ("unit", tuple(LENGTH_FACTORS))):
+            if getattr(self, key) not in choices:
+                raise UnknownChoiceError(key, str(getattr(self, key)), map(str, choices))
+        try:
+            re.compile(self.pattern)
+        except re.error as exc:
+            raise InputError(f"{self.pattern!r} ({exc})", "a regular expression",
+                             where="pattern") from None
+
+    @property
+    def m_per_count(self) -> float:
+        """Metres per device count: ``scale`` in ``unit`` converted to m."""
+        return self.scale * LENGTH_FACTORS[self.unit]
+
+    @property
+    def range_m(self) -> tuple[float, float]:
+        """Plausible lengths ``(min, max)``, m."""
+        factor = LENGTH_FACTORS[self.unit]
+        return self.min * factor, self.max * factor
+
+    def to_url(self) -> str:
+        """The URL that gives back this configuration (only keys that differ from defaults)."""
+        defaults = EncoderConfig(port=self.port)
+        items = [
+            f"{f.name}={quote(str(getattr(self, f.name)), safe='')}"
+            for f in fields(self)
+            if f.name == "protocol"
+            or (f.name != "port" and getattr(self, f.name) != getattr(defaults, f.name))
+        ]
+        return f"serial://{quote(self.port)}?" + "&".join(items)
+
+
+KEYS = tuple(f.name for f in fields(EncoderConfig))
+_TYPES: dict[str, type] = {
+    f.name: {"int": int, "float": float, "str": str}[str(f.type)] for f in fields(EncoderConfig)
+}
+
+
+def _typed(key: str, value: Any, source: str) -> Any:
+    """A raw URL or TOML value converted to the field's type, or an InputError."""
+    kind = _TYPES[key]
+    if kind is str:
+        if not isinstance(value, str):
+            raise InputError(f"{value!r}", "a string", source=source, where=key)
+        return value.upper() if key == "parity" else value.lower() if key in (
+            "protocol", "word_order", "type", "unit") else value
+    try:
+        if isinstance(value, bool):
+            raise ValueError
+        number = kind(value) if kind is float else int(str(value), 0)
+    except (TypeError, ValueError):
+        expected = "an integer" if kind is int else "a number"
+        raise InputError(f"{value!r}", expected, source=source, where=key) from None
+    return number
+
+
+def config_from_mapping(values: dict[str, Any], source: str) -> EncoderConfig:
+    """Build a config from ``{key: value}`` as given in a URL query or a TOML file."""
+    unknown = sorted(set(values) - set(KEYS))
+    if unknown:
+        raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(KEYS),
+                         source=source)
+    if "port" not in values:
+        raise InputError("no 'port'", "the serial device path", source=source)
+    typed = {key: _typed(key, value, source) for key, value in values.items()}
+    try:
+        return EncoderConfig(**typed)
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=source, where=exc.where) from None
+
+
+def parse_url(url: str) -> EncoderConfig:
+    """Parse ``serial:///dev/ttyUSB0?baud=115200&protocol=ascii``.
+
+    Raises:
+        InputError: naming the URL and the key that is wrong.
+    """
+    parts = urlsplit(url)
+    if parts.scheme != "serial" or not parts.path or parts.netloc:
+        raise InputError(f"{url!r}", "serial:///path/to/device?key=value&… or a device TOML file",
+                         source="--encoder")
+    values: dict[str, Any] = {"port": parts.path}
+    for key, value in parse_qsl(parts.query, keep_blank_values=True, strict_parsing=False):
+        if key in values:
+            raise InputError(f"{key!r} twice", "each key once", source=url)
+        values[key] = value
+    return config_from_mapping(values, url)
+
+
+def load_device(path: str | Path) -> EncoderConfig:
+    """Read a device TOML file (the URL keys, with ``port``)."""
+    try:
+        document = tomllib.loads(read_text(path, "a device TOML file"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML ({exc})", "a device TOML file", source=path) from None
+    return config_from_mapping(document, str(path))
+
+
+def resolve(spec: str) -> EncoderConfig:
+    """``--encoder`` value: a ``serial://`` URL or the path of a device TOML file."""
+    return parse_url(spec) if spec.startswith("serial:") else load_device(spec)
+
+
+def with_port(config: EncoderConfig, port: str) -> EncoderConfig:
+    """The same settings on another device path."""
+    return replace(config, port=port)

@@ -1,0 +1,61 @@
+"""Joint angles logged by the robot controller, matched to the plan by pose number.
+
+The controller (e.g. a RAPID program running the plan) appends one CSV row per pose once the
+robot stands still: ``pose,q1,…,q6`` with q in degrees (other columns are ignored). The capture
+waits for the row of each pose to appear, then reads the encoder.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.errors import InputError
+from twin.io.measurements import JOINT_COLUMNS, read_table
+from twin.robots.base import RobotSource
+from twin.units import deg_to_rad
+
+POSE_COLUMN = "pose"
+
+
+class FileRobot(RobotSource):
+    """Reads the reached joint angles from the controller's log.
+
+    Args:
+        path: The controller's CSV log.
+        wait_s: How long to wait for a pose's row to appear, s.
+        poll_s: How often to look again, s.
+    """
+
+    def __init__(self, path: str | Path, wait_s: float = 0.0, poll_s: float = 0.2) -> None:
+        self.path, self.wait_s, self.poll_s = Path(path), wait_s, poll_s
+
+    def _logged(self) -> dict[int, NDArray[np.float64]]:
+        """Pose number -> joint angles in degrees, shape (n,); empty if there is no log yet."""
+        if not self.path.exists():
+            return {}
+        values, lines = read_table(self.path, (POSE_COLUMN, *JOINT_COLUMNS),
+                                   "a controller log CSV (pose, q1..q6 in deg)")
+        logged: dict[int, NDArray[np.float64]] = {}
+        for row, line in zip(values, lines, strict=True):
+            pose = int(row[0])
+            if pose != row[0] or pose < 1:
+                raise InputError(f"{row[0]!r}", "a pose number 1, 2, …", source=self.path,
+                                 where=f"line {line}, column pose")
+            logged[pose] = row[1:]
+        return logged
+
+    def move_to(self, pose: int, n_poses: int, target_q_rad: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+        """The logged angles of this pose, waiting up to ``wait_s`` for them."""
+        deadline = time.monotonic() + self.wait_s
+        while (q_deg := self._logged().get(pose)) is None:
+            if time.monotonic() >= deadline:
+                raise InputError(f"no row for pose {pose}/{n_poses}",
+                                 f"a row 'pose={pose},q1..q6' logged by the controller "
+                                 f"(waited {self.wait_s:g} s)", source=self.path)
+            time.sleep(self.poll_s)
+        return deg_to_rad(q_deg)

@@ -1,0 +1,57 @@
+"""The operator jogs the robot to each pose and confirms on the terminal.
+
+For each pose the terminal shows ``pose K/N`` and the target joint angles; the operator jogs the
+robot there and presses Enter (the target was reached) or types the six joint angles the teach
+pendant shows, in degrees, separated by spaces or commas.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import TextIO
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.errors import TwinError
+from twin.robots.base import RobotSource
+from twin.units import deg_to_rad, rad_to_deg
+
+
+class ManualRobot(RobotSource):
+    """Asks the operator at each pose.
+
+    Args:
+        prompt_out: Where the prompts go (the terminal).
+        answers_in: Where the operator's answers come from.
+    """
+
+    def __init__(self, prompt_out: TextIO, answers_in: TextIO) -> None:
+        self.prompt_out, self.answers_in = prompt_out, answers_in
+
+    def move_to(self, pose: int, n_poses: int, target_q_rad: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+        """Show the target, wait for Enter or for the joint angles reached."""
+        n = target_q_rad.shape[0]
+        target = " ".join(f"{v:.3f}" for v in rad_to_deg(target_q_rad))
+        while True:
+            self.prompt_out.write(
+                f"pose {pose}/{n_poses}: jog to q = [{target}] deg, then press Enter "
+                f"(or type the {n} joint angles reached, deg): "
+            )
+            self.prompt_out.flush()
+            answer = self.answers_in.readline()
+            if not answer:
+                raise TwinError(f"pose {pose}/{n_poses}: the terminal closed before the pose "
+                                "was confirmed")
+            fields = [f for f in re.split(r"[\s,;]+", answer.strip()) if f]
+            if not fields:
+                return np.asarray(target_q_rad, dtype=np.float64)
+            try:
+                reached_deg = np.array([float(f) for f in fields])
+            except ValueError:
+                reached_deg = np.full(0, np.nan)
+            if reached_deg.shape == (n,) and np.all(np.isfinite(reached_deg)):
+                return deg_to_rad(reached_deg)
+            self.prompt_out.write(f"  found {answer.strip()!r}, expected Enter or {n} numbers "
+                                  "in degrees; try again\n")

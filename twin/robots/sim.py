@@ -1,0 +1,97 @@
+"""The simulated robot: its controller publishes the commanded pose for the virtual encoder.
+
+The channel is a small JSON file, replaced atomically at each move (default
+:data:`DEFAULT_POSE_FILE`)::
+
+    {"pose": 7, "q_deg": [10, -20, 5, 0, 30, 0], "from_q_deg": [...], "command": "3f2a…"}
+
+``twin virtual-encoder`` reads it at each query, so the length it answers is the twin's length at
+the pose the robot was last sent to. ``command`` changes at every move, even back to the same
+pose: the encoder restarts its settling transient and its per-pose noise sequence there.
+
+The robot approaches pose K from plan pose K − 1 (pose 1 from home, q = 0), also when a capture
+resumes: backlash then acts as in an uninterrupted run, and the same capture reads the same
+lengths. The joints reach the commanded angles up to the twin's joint errors.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import uuid
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.errors import InputError
+from twin.io.atomic import write_atomic
+from twin.robots.base import RobotSource
+from twin.units import deg_to_rad, rad_to_deg
+
+DEFAULT_POSE_FILE = Path(tempfile.gettempdir()) / f"twin-sim-pose-{os.getuid()}.json"
+"""Where the simulated controller publishes its pose unless told otherwise."""
+
+
+class CommandedPose(NamedTuple):
+    """The pose the simulated robot was last sent to."""
+
+    pose: int
+    """Pose number, from 1."""
+    q_rad: NDArray[np.float64]
+    """Joint angles, shape (n,), rad."""
+    from_q_rad: NDArray[np.float64]
+    """Where the robot came from, shape (n,), rad (sets the backlash side)."""
+    command: str
+    """Identifier of this move."""
+
+
+def publish_pose(path: str | Path, pose: int, q_rad: NDArray[np.float64],
+                 from_q_rad: NDArray[np.float64]) -> None:
+    """Replace the pose file atomically with a new move."""
+    document = {"pose": pose, "q_deg": rad_to_deg(q_rad).tolist(),
+                "from_q_deg": rad_to_deg(from_q_rad).tolist(), "command": uuid.uuid4().hex}
+    write_atomic(path, json.dumps(document) + "\n")
+
+
+def read_pose(path: str | Path) -> CommandedPose | None:
+    """The last published move, or None if the robot was never moved.
+
+    Raises:
+        InputError: if the file is not a pose file.
+    """
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return None
+    try:
+        document = json.loads(text)
+        return CommandedPose(int(document["pose"]), deg_to_rad(document["q_deg"]),
+                             deg_to_rad(document["from_q_deg"]), str(document["command"]))
+    except (ValueError, KeyError, TypeError):
+        raise InputError(f"{text[:60]!r}", 'a pose file {"pose", "q_deg", "from_q_deg", '
+                         '"command"}', source=path) from None
+
+
+class SimRobot(RobotSource):
+    """The twin's robot: moves by publishing the commanded pose.
+
+    Args:
+        plan_q_rad: The plan, shape (N, n), rad: pose K is approached from pose K − 1.
+        pose_file: The channel to the virtual encoder.
+    """
+
+    def __init__(self, plan_q_rad: NDArray[np.float64],
+                 pose_file: str | Path = DEFAULT_POSE_FILE) -> None:
+        self.plan_q_rad = np.asarray(plan_q_rad, dtype=np.float64)
+        self.pose_file = Path(pose_file)
+
+    def move_to(self, pose: int, n_poses: int, target_q_rad: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+        """Publish the move; the controller reports the commanded angles."""
+        home = np.zeros(self.plan_q_rad.shape[1])
+        publish_pose(self.pose_file, pose, target_q_rad,
+                     self.plan_q_rad[pose - 2] if pose > 1 else home)
+        return np.asarray(target_q_rad, dtype=np.float64)
