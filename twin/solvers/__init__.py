@@ -7,10 +7,35 @@ the paper's alias (``m1``…``m9``).
 from __future__ import annotations
 
 from twin.errors import UnknownChoiceError
-from twin.solvers import lm, lm_base
+from twin.solvers import (
+    amlm,
+    amlm_bipso,
+    bipso,
+    ekf,
+    ekf_qibas,
+    ekf_qpso,
+    lm,
+    lm_base,
+    pso,
+    ukf_vslm,
+)
 from twin.solvers.base import IterationRecord, Solver, SolverResult, Tracker
 
-SOLVERS: dict[str, Solver] = {solver.name: solver for solver in (lm.SOLVER, lm_base.SOLVER)}
+SOLVERS: dict[str, Solver] = {
+    solver.name: solver
+    for solver in (
+        ekf.SOLVER,
+        lm.SOLVER,
+        pso.SOLVER,
+        ukf_vslm.SOLVER,
+        ekf_qibas.SOLVER,
+        ekf_qpso.SOLVER,
+        amlm.SOLVER,
+        bipso.SOLVER,
+        amlm_bipso.SOLVER,
+        lm_base.SOLVER,
+    )
+}
 """Every method, by name, in the paper's order, then the methods beyond the paper."""
 
 

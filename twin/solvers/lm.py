@@ -6,9 +6,14 @@ no μ schedule; we use Nielsen's (1999): with the gain ratio ρ of actual to pre
 a step is accepted when ρ > 0 and μ ← μ·max(1/3, 1 − (2ρ − 1)³), else μ ← μ·ν, ν ← 2ν.
 Steps are projected onto the bounds (±5 mm / ±8°). Stops when f changes by less than
 ``budget.ftol_m2`` between accepted iterates, or after ``budget.max_iterations`` iterations.
+
+The loop is shared by the LM variants: a :class:`StepRule` may reshape the damped step before it
+is tried (M7 mixes in momentum, M4 picks a step length) and hears whether it was accepted.
 """
 
 from __future__ import annotations
+
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +25,22 @@ Array = NDArray[np.float64]
 
 TAU = 1e-3
 """Initial damping relative to the largest diagonal entry of JᵀJ (Madsen, Nielsen, Tingleff)."""
+
+
+class StepRule(Protocol):
+    """Turns the damped LM step into the step that is tried, and learns from the outcome."""
+
+    def propose(self, tracker: Tracker, x: Array, step: Array) -> Array:
+        """The step to try from ``x`` (p,), given the damped LM step (p,)."""
+        ...
+
+    def accepted(self, step: Array, f_old_m2: float, f_new_m2: float) -> None:
+        """The applied step (p,) lowered f from ``f_old_m2`` to ``f_new_m2``."""
+        ...
+
+    def rejected(self) -> bool:
+        """The tried step did not lower f; True if the rule changed something worth a retry."""
+        ...
 
 
 def damped_step(J: Array, r: Array, mu: float) -> Array:
@@ -42,9 +63,22 @@ def nielsen(mu: float, nu: float, gain: float) -> tuple[float, float]:
 
 
 def levenberg_marquardt(
-    tracker: Tracker, x0: Array, iterations: int, ftol_m2: float
+    tracker: Tracker,
+    x0: Array,
+    iterations: int,
+    ftol_m2: float,
+    rule: StepRule | None = None,
 ) -> tuple[Array, bool]:
     """Run LM from ``x0`` for at most ``iterations`` iterations, recording each.
+
+    Every tried step is one iteration, accepted or not (as in the paper's iteration counts).
+
+    Args:
+        tracker: Evaluates the problem and records the history.
+        x0: Start, shape (p,).
+        iterations: Iteration budget.
+        ftol_m2: Stop when an accepted step changes f by less than this, m².
+        rule: Reshapes each damped step (AMLM momentum, VSLM step length); plain LM if None.
 
     Returns:
         ``(x, converged)``: the last accepted iterate, and whether the f-change rule fired.
@@ -57,23 +91,33 @@ def levenberg_marquardt(
         tracker.record(x, f)
     mu, nu = initial_damping(J), 2.0
     for _ in range(iterations):
-        x_new = np.clip(x + damped_step(J, r, mu), lower, upper)
+        step = damped_step(J, r, mu)
+        if rule is not None:
+            step = rule.propose(tracker, x, step)
+        x_new = np.clip(x + step, lower, upper)
         h = x_new - x
         predicted = float(r @ r - np.sum((r + J @ h) ** 2))
         if predicted <= 0.0:
             tracker.record(x, f)
+            # Only a reshaped step can point uphill while the LM step still descends: retry.
+            if rule is not None and rule.rejected():
+                continue
             return x, True
         r_new, J_new = tracker.jacobian(x_new)
         f_new = float(np.mean(r_new**2))
         gain = float(r @ r - r_new @ r_new) / predicted
         mu, nu = nielsen(mu, nu, gain)
         if gain > 0:
+            if rule is not None:
+                rule.accepted(h, f, f_new)
             change = f - f_new
             x, r, J, f = x_new, r_new, J_new, f_new
             tracker.record(x, f)
             if change < ftol_m2:
                 return x, True
         else:
+            if rule is not None:
+                rule.rejected()
             tracker.record(x, f)
     return x, False
 

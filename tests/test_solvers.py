@@ -1,0 +1,128 @@
+"""The paper's methods M1–M9 on the MuJoCo twin's geometric scenario, measured against the truth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.calibration import CalibrationResult, calibrate_many, make_problem
+from twin.problem import Budget
+from twin.sim import Simulation, load_scenario, simulate
+from twin.solvers import SOLVERS, get_solver
+from twin.solvers.amlm import GAMMA_MAX, AdaptiveMomentum
+from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES
+from twin.synthetic import random_poses
+from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
+
+SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "geometric_irb120.toml"
+PAPER_METHODS = ("ekf", "lm", "pso", "ukf-vslm", "ekf-qibas", "ekf-qpso", "amlm", "bipso",
+                 "amlm-bipso")
+LM_FAMILY = ("lm", "ukf-vslm", "amlm", "amlm-bipso")
+STOCHASTIC = ("ekf", "pso", "ukf-vslm", "ekf-qibas", "ekf-qpso", "bipso", "amlm-bipso")
+
+
+@pytest.fixture(scope="module")
+def sim() -> Simulation:
+    return simulate(load_scenario(SCENARIO))
+
+
+@pytest.fixture(scope="module")
+def results(sim: Simulation) -> dict[str, CalibrationResult]:
+    return calibrate_many(sim.robot, sim.measurements, sim.port_nominal_m, PAPER_METHODS, seed=0)
+
+
+def test_registry_has_the_paper_methods_in_order_with_aliases() -> None:
+    """M1..M9 resolve by alias to the paper's methods, in the paper's order in the registry."""
+    assert [get_solver(f"m{i}").name for i in range(1, 10)] == list(PAPER_METHODS)
+    assert list(SOLVERS)[:9] == list(PAPER_METHODS)
+
+
+@pytest.mark.parametrize("method", PAPER_METHODS)
+def test_every_method_lowers_the_validation_rmse(
+    results: dict[str, CalibrationResult], method: str
+) -> None:
+    """Each method at least halves the held-out RMSE of the nominal model (about 2 mm)."""
+    result = results[method]
+    assert result.metrics["before"].rmse > 1e-3
+    assert result.metrics["validation"].rmse < 0.5 * result.metrics["before"].rmse
+    history = result.solver.history
+    assert history[-1].f_m2 < history[0].f_m2
+    assert len(history) == result.solver.iterations + 1
+
+
+@pytest.mark.parametrize("method", LM_FAMILY)
+def test_lm_family_reaches_the_noise_floor(
+    sim: Simulation, results: dict[str, CalibrationResult], method: str
+) -> None:
+    """The LM-family methods fit to the length noise and find the flange within 2× Cramér–Rao.
+
+    The flange positions are compared over 300 workspace poses, which sees only the
+    identifiable combinations of the D-H errors.
+    """
+    result = results[method]
+    sigma_m = sim.scenario.noise.sigma_m
+    assert result.metrics["validation"].rmse < 1.5 * sigma_m
+    train = sim.measurements.subset(result.train_rows)
+    workspace = random_poses(sim.robot, 300, np.random.default_rng(1))
+    bound = cramer_rao_flange_rms(result.model, sim.delta.reshape(-1), train, sigma_m, workspace)
+    error = flange_error_rms(result.identified_robot.dh, sim.true_robot.dh, workspace)
+    assert error < 2.0 * bound
+
+
+def test_swarms_evaluate_whole_swarms_per_iteration(results: dict[str, CalibrationResult]) -> None:
+    """PSO evaluates N per iteration, BIPSO N + M (particles and curve points), plus the start."""
+    pso, bipso = results["pso"].solver, results["bipso"].solver
+    assert pso.evaluations == N_PARTICLES * (pso.iterations + 1)
+    assert bipso.evaluations == N_PARTICLES + (N_PARTICLES + N_INTERPOLATED) * bipso.iterations
+
+
+def test_first_stage_of_amlm_bipso_is_amlm_for_30_iterations(sim: Simulation) -> None:
+    """M9's history starts exactly as M7 run for 30 iterations with the f-change rule off,
+    and its BIPSO stage never ends worse than the AMLM stage did."""
+    problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
+    budget = Budget(max_iterations=30, stage_iterations=30, ftol_m2=0.0)
+    amlm = get_solver("m7").solve(problem, budget, np.random.default_rng(0))
+    cascade = get_solver("m9").solve(problem, budget, np.random.default_rng(0))
+    n = len(amlm.history)
+    assert cascade.history[:n] == amlm.history
+    assert len(cascade.history) == n + 30
+    assert cascade.history[-1].f_m2 <= amlm.history[-1].f_m2
+
+
+@pytest.mark.parametrize("method", STOCHASTIC)
+def test_same_seed_same_result(sim: Simulation, method: str) -> None:
+    """Two runs with one seed agree bit for bit; every random draw comes from the seed."""
+    budget = Budget(max_iterations=4, stage_iterations=3)
+    runs = [
+        calibrate_many(sim.robot, sim.measurements, sim.port_nominal_m, [method], seed=7,
+                       budget=budget)[method].solver
+        for _ in range(2)
+    ]
+    np.testing.assert_array_equal(runs[0].x, runs[1].x)
+    assert runs[0].history == runs[1].history
+
+
+def test_different_seeds_give_different_swarms(sim: Simulation) -> None:
+    """The swarm's draws do depend on the seed (the test above is not vacuous)."""
+    problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
+    budget = Budget(max_iterations=3)
+    a, b = (get_solver("pso").solve(problem, budget, np.random.default_rng(s)) for s in (1, 2))
+    assert not np.array_equal(a.x, b.x)
+
+
+def test_adaptive_momentum_follows_eqs_10_to_12() -> None:
+    """γ = γ_max exp(−α|ρ − 1|) from the relative decrease; momentum drops to 0 on rejection."""
+    rule = AdaptiveMomentum()
+    step, previous = np.array([1.0, 0.0]), np.array([0.0, 2.0])
+    assert rule.gamma == 0.0
+    np.testing.assert_array_equal(rule.propose(None, np.zeros(2), step), step)  # type: ignore[arg-type]
+    rule.accepted(previous, 4.0, 1.0)
+    gamma = GAMMA_MAX * np.exp(-0.6 * abs(0.75 - 1.0))
+    assert rule.gamma == pytest.approx(gamma, rel=1e-15)
+    np.testing.assert_allclose(rule.propose(None, np.zeros(2), step),  # type: ignore[arg-type]
+                               gamma * previous + (1 - gamma) * step, rtol=1e-15)
+    assert rule.rejected() is True
+    assert rule.gamma == 0.0
+    assert rule.rejected() is False

@@ -1,0 +1,94 @@
+"""The swarm building blocks: the B-spline step of BIPSO, the slot selection, the initial swarm."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.cable import CableModel, Measurements
+from twin.problem import Problem
+from twin.robot import default_robot
+from twin.solvers.swarm import (
+    RADIUS_M,
+    RADIUS_RAD,
+    best_in_slots,
+    chord_parameters,
+    initial_swarm,
+    interpolated_points,
+    interpolating_curve,
+)
+
+
+def _particles(n: int = 100, p: int = 24, seed: int = 0) -> np.ndarray:
+    return np.random.default_rng(seed).normal(0.0, 1e-3, size=(n, p))
+
+
+def test_bspline_passes_through_the_particles() -> None:
+    """The cubic B-spline evaluated at the chord parameters returns every particle."""
+    x = _particles()
+    t, curve = interpolating_curve(x)
+    assert curve.k == 3
+    np.testing.assert_allclose(curve(t), x, rtol=0, atol=1e-15)
+
+
+def test_chord_parameters_are_normalised_cumulative_full_vector_distances() -> None:
+    """t_0 = 0, t_{N−1} = 1 and each step is the Euclidean distance in R^p over the total."""
+    x = _particles(10)
+    t, kept = chord_parameters(x)
+    chords = np.linalg.norm(np.diff(x, axis=0), axis=1)
+    np.testing.assert_allclose(t, np.r_[0.0, np.cumsum(chords)] / np.sum(chords), rtol=1e-14)
+    np.testing.assert_array_equal(kept, x)
+
+
+def test_duplicate_particles_are_dropped_and_the_curve_still_interpolates() -> None:
+    """A particle equal to its predecessor (zero chord) is left out; the rest are interpolated."""
+    x = _particles(20)
+    x[5] = x[4]
+    x[6] = x[4]
+    t, curve = interpolating_curve(x)
+    kept = np.delete(x, [5, 6], axis=0)
+    assert t.size == 18 and np.all(np.diff(t) > 0)
+    np.testing.assert_allclose(curve(t), kept, rtol=0, atol=1e-15)
+
+
+def test_interpolated_points_run_from_the_first_to_the_last_particle() -> None:
+    """M points at evenly spaced t in [0, 1]: the ends are the first and last particles."""
+    x = _particles()
+    points = interpolated_points(x, 100)
+    assert points.shape == (100, 24)
+    np.testing.assert_allclose(points[[0, -1]], x[[0, -1]], rtol=0, atol=1e-15)
+    _, curve = interpolating_curve(x)
+    np.testing.assert_allclose(points, curve(np.linspace(0.0, 1.0, 100)), rtol=0, atol=0)
+
+
+def test_a_collapsed_swarm_interpolates_to_its_single_point() -> None:
+    """All particles equal: no curve can be drawn, the interpolated points are that point."""
+    x = np.repeat(_particles(1), 7, axis=0)
+    np.testing.assert_array_equal(interpolated_points(x, 5), np.repeat(x[:1], 5, axis=0))
+    with pytest.raises(ValueError, match="two distinct"):
+        interpolating_curve(x)
+
+
+def test_best_in_slots_keeps_survivors_in_place_and_fills_freed_slots() -> None:
+    """Moved particles among the best N keep their slot; the best extra points fill the rest."""
+    candidates = np.arange(6.0)[:, None]  # slots 0..3, then 2 B-spline points
+    f = np.array([5.0, 1.0, 9.0, 2.0, 0.5, 7.0])
+    x, fx = best_in_slots(candidates, f, 4)
+    # best four: 4 (0.5), 1 (1.0), 3 (2.0), 0 (5.0) -> slot 2 (9.0) is freed for point 4.
+    np.testing.assert_array_equal(x[:, 0], [0.0, 1.0, 4.0, 3.0])
+    np.testing.assert_array_equal(fx, [5.0, 1.0, 0.5, 2.0])
+
+
+def test_initial_swarm_is_within_1mm_1deg_of_the_centre() -> None:
+    """Eq. 14 with the text's radius: ±1 mm on lengths, ±1° on angles; slot 0 is the centre."""
+    robot = default_robot()
+    q = np.zeros((30, 6))
+    problem = Problem(CableModel(robot.dh, np.array([0.6, -0.4, 0.1])),
+                      Measurements(q[:25], np.ones(25)), Measurements(q[25:], np.ones(5)))
+    center = np.full(24, 1e-4)
+    x = initial_swarm(problem, center, 100, np.random.default_rng(0))
+    radius = np.where(problem.model.is_length, RADIUS_M, RADIUS_RAD)
+    assert x.shape == (100, 24)
+    np.testing.assert_array_equal(x[0], center)
+    assert np.all(np.abs(x - center) <= radius)
+    assert np.all(np.max(np.abs(x - center), axis=0) > 0.9 * radius)

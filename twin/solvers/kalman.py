@@ -1,0 +1,149 @@
+"""Kalman-filter passes over the training poses, shared by M1 (EKF), M4 (UKF), M5 and M6 (EKF).
+
+The unknowns are the filter state with a random-walk model ``x_{i+1} = x_i + w``, ``w ~ N(0, Q)``
+with a small Q (1σ = 1e-6 of the search bound per update: 5 nm, 0.14 µrad), and a prior
+covariance from the bounds' scale (1σ = half the bound: 2.5 mm, 4°). Each training pose is one
+scalar measurement ``z_i = L_i = ℓ(x, q_i) + v``, ``v ~ N(0, σ²)`` with σ = ``problem.sigma_m``.
+One iteration is one pass over the training poses in a fixed order, shuffled once from the
+method's generator.
+
+Linearisation, once per pass and batched over the poses (our choice, for speed; see
+docs/methods.md): at the start of a pass the measurement model of every pose is linearised at
+the current estimate x_s in ONE batched evaluation, ``ℓ_i(x) ≈ ℓ̂_i + H_i (x − x_s)``:
+
+- EKF (:func:`ekf_linearisation`): ℓ̂ = ℓ(x_s), H = the analytic Jacobian;
+- UKF (:func:`ukf_linearisation`): 2p sigma points ``x_s ± sqrt(p)·chol(P)`` (and x_s, for f)
+  evaluated on all poses in one call with 2p + 1 tables; ℓ̂ = the sigma-point mean, H = the
+  statistical (regression) linearisation ``P_xzᵀ P⁻¹``, and the variance it leaves unexplained is
+  added to that pose's R — the unscented transform in its statistically-linearised form.
+
+Then the per-pose updates run sequentially through the pass, each conditioning on the previous
+ones; each is a handful of O(p²) numpy operations and evaluates nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.solvers.base import Tracker
+
+Array = NDArray[np.float64]
+
+PRIOR_FRACTION = 0.5
+"""Prior 1σ of each unknown as a fraction of its search bound."""
+PROCESS_FRACTION = 1e-6
+"""Random-walk 1σ per update as a fraction of the search bound."""
+
+
+class Linearisation(NamedTuple):
+    """Linear model of the training residuals around x_s: ``r(x) ≈ residual + H (x − x_s)``."""
+
+    x: Array
+    """Linearisation point x_s, shape (p,)."""
+    residual_m: Array
+    """Predicted residuals at x_s, shape (m,), m."""
+    jacobian: Array
+    """H, shape (m, p)."""
+    extra_variance_m2: Array
+    """Variance of each residual the linear model does not explain, added to R; shape (m,), m²."""
+    f_m2: float
+    """Objective f at x_s, m²."""
+
+
+Linearise = Callable[[Tracker, Array, Array], Linearisation]
+"""``linearise(tracker, x (p,), P (p, p)) -> Linearisation``."""
+
+
+def ekf_linearisation(tracker: Tracker, x: Array, P: Array) -> Linearisation:
+    """First-order (EKF) linearisation at x: residuals and analytic Jacobian, one evaluation."""
+    r, J = tracker.jacobian(x)
+    return Linearisation(x, r, J, np.zeros_like(r), float(np.mean(r**2)))
+
+
+def ukf_linearisation(tracker: Tracker, x: Array, P: Array) -> Linearisation:
+    """Unscented linearisation at x with covariance P, from 2p + 1 tables in one evaluation.
+
+    The symmetric sigma set without a weighted centre (scaled unscented transform with λ = 0,
+    weights 1/(2p)) keeps every weight positive, so no variance can come out negative; x itself
+    is evaluated alongside, only for f.
+    """
+    p = x.size
+    offsets = np.sqrt(p) * np.linalg.cholesky(P).T  # row j: the j-th sigma offset
+    sigma = np.concatenate([x[None], x + offsets, x - offsets])
+    r = tracker.residuals(sigma)  # (2p + 1, m)
+    spread = r[1:] - np.mean(r[1:], axis=0)
+    offsets_all = np.concatenate([offsets, -offsets])
+    cross = offsets_all.T @ spread / (2 * p)  # P_xz, (p, m)
+    H = np.linalg.solve(P, cross).T
+    explained = np.einsum("mp,pm->m", H, cross)
+    total = np.mean(spread**2, axis=0)
+    return Linearisation(x, np.mean(r[1:], axis=0), H, np.maximum(total - explained, 0.0),
+                         float(np.mean(r[0] ** 2)))
+
+
+def run_filter(
+    tracker: Tracker,
+    x0: Array,
+    passes: int,
+    rng: np.random.Generator,
+    ftol_m2: float,
+    linearise: Linearise,
+) -> tuple[Array, bool]:
+    """Run ``passes`` filter passes over the training poses from ``x0`` (p,).
+
+    Args:
+        tracker: Evaluates the problem and records f after each pass.
+        x0: Start (prior mean), shape (p,).
+        passes: Iteration budget (one iteration = one pass).
+        rng: Draws the pose order (once).
+        ftol_m2: Stop when f changes by less than this between passes, m²; 0 runs every pass.
+        linearise: :func:`ekf_linearisation` or :func:`ukf_linearisation`.
+
+    Returns:
+        ``(x, converged)``.
+    """
+    problem = tracker.problem
+    lower, upper = problem.lower, problem.upper
+    order = rng.permutation(len(problem.train))
+    P = np.diag((PRIOR_FRACTION * upper) ** 2)
+    q_m2 = (PROCESS_FRACTION * upper) ** 2
+    diagonal = np.diag_indices_from(P)
+    r_m2 = problem.sigma_m**2
+    x = np.clip(x0, lower, upper)
+    model = linearise(tracker, x, P)
+    if not tracker.history:
+        tracker.record(x, model.f_m2)
+    for _ in range(passes):
+        for i in order:  # sequential by nature: each update conditions on the ones before it
+            P[diagonal] += q_m2
+            h = model.jacobian[i]
+            predicted_m = model.residual_m[i] + h @ (x - model.x)
+            pxz = P @ h
+            s = float(h @ pxz) + r_m2 + model.extra_variance_m2[i]
+            gain = pxz / s
+            x = np.clip(x - gain * predicted_m, lower, upper)
+            P -= np.outer(gain, pxz)
+        f_old = model.f_m2
+        model = linearise(tracker, x, P)
+        tracker.record(x, model.f_m2)
+        if abs(f_old - model.f_m2) < ftol_m2:
+            return x, True
+    return x, False
+
+
+def ekf(
+    tracker: Tracker, x0: Array, passes: int, rng: np.random.Generator, ftol_m2: float = 0.0
+) -> tuple[Array, bool]:
+    """EKF passes (M1, and the first stage of M5 and M6); see :func:`run_filter`."""
+    return run_filter(tracker, x0, passes, rng, ftol_m2, ekf_linearisation)
+
+
+def ukf(
+    tracker: Tracker, x0: Array, passes: int, rng: np.random.Generator, ftol_m2: float = 0.0
+) -> tuple[Array, bool]:
+    """UKF passes (first stage of M4); see :func:`run_filter`."""
+    return run_filter(tracker, x0, passes, rng, ftol_m2, ukf_linearisation)
