@@ -269,8 +269,11 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
 
     port = tables["port"]
     port.required("position_mm", "the true port [x, y, z] in mm")
+    port_m = mm_to_m(port.vector("position_mm", 3))
     if port.has("told_mm") and port.has("told_error_mm"):
         raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
+    port_told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
+    port_error_m = float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
 
     pert = tables["perturbation"]
     distribution = pert.text("distribution", "uniform")
@@ -348,9 +351,9 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         description=top.text("description", ""),
         seed=top.integer("seed"),
         robot=robot,
-        port_m=mm_to_m(port.vector("position_mm", 3)),
-        port_told_m=mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None,
-        port_error_m=float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0))),
+        port_m=port_m,
+        port_told_m=port_told_m,
+        port_error_m=port_error_m,
         perturbation=Perturbation(distribution, scale),
         pose_count=count,
         pose_plan=plan,

@@ -1,0 +1,90 @@
+"""The MjSpec builder: the MuJoCo flange and cable agree with the core's D-H model."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from twin.cable import DH_BOUND_M, DH_BOUND_RAD, cable_length
+from twin.kinematics import flange_transform
+from twin.robot import RobotModel, default_robot
+from twin.sim import Physics, build_spec
+from twin.synthetic import random_poses
+
+PORT_M = np.array([0.6, -0.4, 0.1])
+
+
+def _general_arm(rng: np.random.Generator) -> RobotModel:
+    """A 6-joint arm with every D-H parameter nonzero, no masses or radii."""
+    dh = np.vstack([
+        rng.uniform(0.05, 0.3, 6), rng.uniform(-0.2, 0.2, 6),
+        rng.uniform(-np.pi, np.pi, 6), rng.uniform(-np.pi, np.pi, 6),
+    ])
+    return RobotModel("general", dh, np.full(6, -3.0), np.full(6, 3.0))
+
+
+def _perturbed_irb120(rng: np.random.Generator) -> RobotModel:
+    bound = np.repeat([DH_BOUND_M, DH_BOUND_M, DH_BOUND_RAD, DH_BOUND_RAD], 6)
+    return default_robot().perturbed(rng.uniform(-bound, bound))
+
+
+def _mujoco_flange(robot: RobotModel, q_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Flange poses and cable lengths from a model compiled straight from the spec."""
+    model = build_spec(robot, PORT_M).compile()
+    data = mujoco.MjData(model)
+    site, cable = model.site("flange").id, model.tendon("cable").id
+    poses = np.zeros((len(q_rad), 4, 4))
+    lengths = np.empty(len(q_rad))
+    for row, q in enumerate(q_rad):
+        data.qpos[:] = q
+        mujoco.mj_fwdPosition(model, data)
+        poses[row, :3, :3] = data.site_xmat[site].reshape(3, 3)
+        poses[row, :3, 3] = data.site_xpos[site]
+        poses[row, 3, 3] = 1.0
+        lengths[row] = data.ten_length[cable]
+    return poses, lengths
+
+
+@pytest.mark.parametrize("make", [lambda rng: default_robot(), _perturbed_irb120, _general_arm])
+def test_flange_site_and_cable_equal_core_model(make) -> None:
+    """Over 1000 random poses the flange site's position (1e-9 m) and orientation, and the
+    tendon length (1e-9 m), equal the core's FK and cable model, for the nominal IRB 120, an
+    IRB 120 perturbed up to the search bounds and a general arm."""
+    rng = np.random.default_rng(11)
+    robot = make(rng)
+    q = random_poses(robot, 1000, rng)
+    poses, lengths = _mujoco_flange(robot, q)
+    core = flange_transform(robot.dh, q)
+    assert np.max(np.abs(poses[:, :3, 3] - core[:, :3, 3])) < 1e-9
+    assert np.max(np.abs(poses[:, :3, :3] - core[:, :3, :3])) < 1e-9
+    assert np.max(np.abs(lengths - cable_length(robot.dh, q, PORT_M))) < 1e-9
+
+
+def test_links_sized_and_weighted_from_model_file() -> None:
+    """Each link's geoms have the model file's radius and together its mass; the port site sits
+    at the port; without a port there is no cable."""
+    robot = default_robot()
+    model = build_spec(robot, PORT_M).compile()
+    assert robot.mass_kg is not None and robot.radius_m is not None
+    for i in range(6):
+        body = model.body(f"link{i + 1}").id
+        geoms = np.flatnonzero(model.geom_bodyid == body)
+        assert np.allclose(model.geom_size[geoms, 0], robot.radius_m[i])
+        assert model.body_mass[body] == pytest.approx(robot.mass_kg[i], rel=1e-9)
+    assert np.allclose(model.site_pos[model.site("port").id], PORT_M)
+    bare = build_spec(robot).compile()
+    assert bare.ntendon == 0 and bare.nu == 0
+
+
+def test_compliant_spec_has_servos_and_tension() -> None:
+    """With compliant physics the model has one position servo per joint of the given stiffness
+    and a tendon actuator on the cable."""
+    stiffness = np.array([1e5, 2e5, 3e5, 4e4, 5e4, 6e4])
+    model = build_spec(default_robot(), PORT_M, Physics(stiffness, True, 5.0)).compile()
+    assert model.nu == 7
+    assert np.allclose(model.actuator_gainprm[:6, 0], stiffness)
+    assert np.allclose(model.actuator_biasprm[:6, 1], -stiffness)
+    tension = model.actuator("tension")
+    assert tension.trntype == mujoco.mjtTrn.mjTRN_TENDON
+    assert tension.gear[0] == -1.0

@@ -1,0 +1,97 @@
+"""Statics of the twin: servos of finite stiffness under gravity and the cable's tension."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from twin.cable import cable_length
+from twin.kinematics import flange_position
+from twin.robot import default_robot
+from twin.sim import Physics, Twin, static_equilibrium
+from twin.synthetic import random_poses
+
+PORT_M = np.array([0.6, -0.4, 0.1])
+STIFFNESS = np.array([2e5, 2e5, 2e5, 5e4, 5e4, 5e4])
+PAPER = Physics(STIFFNESS, gravity=True, tension_n=5.0)
+
+
+def _poses(count: int, seed: int = 3) -> np.ndarray:
+    robot = default_robot()
+    q = random_poses(robot, count, np.random.default_rng(seed))
+    # Keep away from the joint limits so that stepping never touches them.
+    return np.clip(q, robot.lower_rad + 0.1, robot.upper_rad - 0.1)
+
+
+def test_fixed_point_matches_stepping_to_rest() -> None:
+    """The fixed-point equilibrium equals where the damped dynamics come to rest (1e-9 rad)."""
+    twin = Twin.build(default_robot(), PORT_M, PAPER)
+    q_cmd = _poses(3)
+    q_rest = twin.joint_angles(q_cmd)
+    model = twin.statics_model
+    model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    data = mujoco.MjData(model)
+    for target, expected in zip(q_cmd, q_rest, strict=True):
+        mujoco.mj_resetData(model, data)
+        data.qpos[:] = target
+        data.ctrl[:6] = target
+        data.ctrl[model.actuator("tension").id] = PAPER.tension_n
+        for _ in range(4000):  # 2 s of the critically damped servos
+            mujoco.mj_step(model, data)
+        assert np.max(np.abs(data.qvel)) < 1e-9
+        assert np.max(np.abs(data.qpos - expected)) < 1e-9
+
+
+def test_equilibrium_balances_the_generalised_forces() -> None:
+    """At the returned angles servo, gravity and tension torques cancel to 1e-6 N·m."""
+    twin = Twin.build(default_robot(), PORT_M, PAPER)
+    q_cmd = _poses(20)
+    q_rest = static_equilibrium(twin.statics_model, twin.statics_data, q_cmd, STIFFNESS)
+    data = twin.statics_data
+    for target, q in zip(q_cmd, q_rest, strict=True):
+        data.ctrl[:6] = target
+        data.qpos[:] = q
+        mujoco.mj_forward(twin.statics_model, data)
+        assert np.max(np.abs(data.qfrc_actuator - data.qfrc_bias)) < 1e-6
+
+
+def test_deflection_is_tens_of_micrometres() -> None:
+    """With the paper scenario's stiffness the flange sags by tens of µm RMS (10–200 µm)."""
+    robot = default_robot()
+    q = _poses(200)
+    shift = Twin.build(robot, PORT_M, PAPER).flange_positions(q) - flange_position(robot.dh, q)
+    rms_um = np.sqrt(np.mean(np.sum(shift**2, axis=1))) * 1e6
+    assert 10.0 < rms_um < 200.0
+    # Half the stiffness, twice the sag (linear statics).
+    soft = Twin.build(robot, PORT_M, Physics(STIFFNESS / 2, True, 5.0)).flange_positions(q)
+    soft_um = np.sqrt(np.mean(np.sum((soft - flange_position(robot.dh, q))**2, axis=1))) * 1e6
+    assert soft_um == pytest.approx(2 * rms_um, rel=0.01)
+
+
+def test_tension_alone_shortens_the_cable() -> None:
+    """Without gravity the cable's pull moves the flange towards the port at every pose."""
+    robot = default_robot()
+    q = _poses(50)
+    pulled = Twin.build(robot, PORT_M, Physics(STIFFNESS, False, 5.0)).lengths(q)
+    rigid = cable_length(robot.dh, q, PORT_M)
+    assert np.all(pulled < rigid)
+    assert np.all(rigid - pulled < 1e-4)
+
+
+def test_rigid_twin_equals_core_model() -> None:
+    """Rigid joints: the twin's lengths equal the core's model to 1e-9 m."""
+    robot = default_robot()
+    q = _poses(300)
+    assert np.max(np.abs(Twin.build(robot, PORT_M).lengths(q)
+                         - cable_length(robot.dh, q, PORT_M))) < 1e-9
+
+
+def test_physics_rejects_loads_without_stiffness() -> None:
+    """Gravity or tension on rigid joints is a mistake, and stiffness must be positive."""
+    with pytest.raises(ValueError, match="stiffness"):
+        Physics(gravity=True)
+    with pytest.raises(ValueError, match="stiffness"):
+        Physics(tension_n=5.0)
+    with pytest.raises(ValueError, match="positive"):
+        Physics(np.array([1e5, 0, 1e5, 1e5, 1e5, 1e5]))

@@ -1,0 +1,76 @@
+"""Pose sampling under the rig's constraints, and pose-plan CSV files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.errors import InputError, TwinError
+from twin.kinematics import flange_position
+from twin.robot import default_robot
+from twin.sim import PoseConstraints, Twin, read_pose_plan, sample_poses
+from twin.synthetic import random_poses
+from twin.units import deg_to_rad
+
+PORT_M = np.array([0.6, -0.4, 0.1])
+CONSTRAINTS = PoseConstraints(min_flange_height_m=0.05, cable_min_m=0.1, cable_max_m=1.2)
+
+
+def test_sampled_poses_satisfy_every_constraint() -> None:
+    """Drawn poses are within the limits, above the floor, collision-free, in the encoder's range
+    and with a free line of sight; they are reproducible from the seed."""
+    robot = default_robot()
+    twin = Twin.build(robot, PORT_M)
+    q = sample_poses(twin, 60, CONSTRAINTS, np.random.default_rng(5))
+    assert q.shape == (60, 6)
+    assert np.all((robot.lower_rad <= q) & (q <= robot.upper_rad))
+    flange = flange_position(robot.dh, q)
+    length = np.linalg.norm(flange - PORT_M, axis=1)
+    assert np.all(flange[:, 2] >= 0.05)
+    assert np.all((length >= 0.1) & (length <= 1.2))
+    assert not np.any(twin.in_collision(q)) and not np.any(twin.cable_blocked(q))
+    assert np.array_equal(q, sample_poses(twin, 60, CONSTRAINTS, np.random.default_rng(5)))
+
+
+def test_flange_below_the_floor_is_a_collision() -> None:
+    """Every random pose whose flange centre is below the floor is reported in collision."""
+    robot = default_robot()
+    q = random_poses(robot, 3000, np.random.default_rng(6))
+    below = q[flange_position(robot.dh, q)[:, 2] < -0.01]
+    assert len(below) > 0
+    assert np.all(Twin.build(robot, PORT_M).in_collision(below))
+
+
+def test_cable_through_the_upper_arm_is_blocked() -> None:
+    """At q = 0 a port behind the robot sees the flange through the upper arm; the usual port
+    in front does not."""
+    robot = default_robot()
+    home = np.zeros((1, 6))
+    assert Twin.build(robot, [-0.5, 0.0, 0.15]).cable_blocked(home)[0]
+    assert not Twin.build(robot, PORT_M).cable_blocked(home)[0]
+
+
+def test_impossible_constraints_fail_with_a_message() -> None:
+    """A cable range no pose can reach stops the sampler with an explanation."""
+    twin = Twin.build(default_robot(), PORT_M)
+    impossible = PoseConstraints(cable_min_m=5.0, cable_max_m=6.0)
+    with pytest.raises(TwinError, match="satisfy the constraints"):
+        sample_poses(twin, 2, impossible, np.random.default_rng(0))
+
+
+def test_pose_plan_is_read_in_degrees_and_checked(tmp_path: Path) -> None:
+    """A plan's q1..q6 (degrees) are read as radians; a pose out of limits or below the floor
+    is an InputError naming its line."""
+    twin = Twin.build(default_robot(), PORT_M)
+    plan = tmp_path / "plan.csv"
+    plan.write_text("q1,q2,q3,q4,q5,q6,note\n0,0,0,0,30,0,a\n10,-20,15,5,40,90,b\n")
+    q = read_pose_plan(plan, twin, CONSTRAINTS)
+    assert np.allclose(q, deg_to_rad([[0, 0, 0, 0, 30, 0], [10, -20, 15, 5, 40, 90]]))
+    plan.write_text("q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n0,0,95,0,0,0\n")
+    with pytest.raises(InputError, match=r"line 3.*q3"):
+        read_pose_plan(plan, twin, CONSTRAINTS)
+    plan.write_text("q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n0,100,60,0,90,0\n")
+    with pytest.raises(InputError, match="line 3"):
+        read_pose_plan(plan, twin, CONSTRAINTS)
