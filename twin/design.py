@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.cable import CableModel, Measurements
-from twin.identifiability import Observability, measurement_identifiability, observability
+from twin.identifiability import Observability, identifiability, observability
 from twin.uncertainty import cramer_rao_flange_rms
 
 Array = NDArray[np.float64]
@@ -63,7 +63,7 @@ def d_optimal_rows(candidates: ArrayLike, n_rows: int, max_exchanges: int = 1000
     chosen = np.zeros(M, dtype=bool)
     F_inv = np.eye(L) / (RIDGE * float(np.mean(J**2)))
     for _ in range(n_rows):
-        gain = np.einsum("ij,jk,ik->i", J, F_inv, J)
+        gain = np.sum((J @ F_inv) * J, axis=1)
         gain[chosen] = -np.inf
         best = int(np.argmax(gain))
         chosen[best] = True
@@ -74,7 +74,7 @@ def d_optimal_rows(candidates: ArrayLike, n_rows: int, max_exchanges: int = 1000
         selected = np.flatnonzero(chosen)
         F_inv = np.asarray(np.linalg.inv(J[selected].T @ J[selected]), dtype=np.float64)
         cross = J[selected] @ F_inv @ J.T
-        d_candidate = np.einsum("ij,jk,ik->i", J, F_inv, J)
+        d_candidate = np.sum((J @ F_inv) * J, axis=1)
         d_selected = d_candidate[selected]
         ratio = np.outer(1.0 - d_selected, 1.0 + d_candidate) + cross**2
         ratio[:, chosen] = -np.inf
@@ -101,9 +101,9 @@ def base_rows(
     Returns:
         ``(rows, base_mask)``: shape (m, L) in m/m and m/rad, and the mask (p,) of base unknowns.
     """
-    data = _poses(model, x, q_rad)
-    mask = measurement_identifiability(model, x, data).base_mask
-    return model.jacobian(np.asarray(x, dtype=np.float64), data)[1][:, mask], mask
+    jacobian = model.jacobian(np.asarray(x, dtype=np.float64), _poses(model, x, q_rad))[1]
+    mask = identifiability(jacobian, model.names).base_mask
+    return jacobian[:, mask], mask
 
 
 class DesignScore(NamedTuple):
