@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import socket
+import subprocess
 import sys
 import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
+from types import FrameType
 from typing import Any
 from urllib.parse import quote
 
@@ -143,31 +146,91 @@ class Recording:
                                                               media_type=rr.MediaType.MARKDOWN))
 
 
-def _viewer_sink(stream: rr.RecordingStream, port: int) -> rr.GrpcSink | None:
-    """Spawn the native viewer on ``port`` and return a sink to it, or None (and say why)."""
-    reason = why_no_viewer()
-    if reason is None:
+def port_is_free(port: int) -> bool:
+    """Whether nothing listens on 127.0.0.1:``port`` yet."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        # As servers do: a port whose old connections linger in TIME_WAIT is free.
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
-            rr.spawn(port=port, connect=False, executable_path=rerun_executable(),
-                     recording=stream)
-        except RuntimeError as exc:
-            reason = f"the viewer did not start ({str(exc).splitlines()[0]})"
-        else:
-            if not port_accepts(port, VIEWER_START_SECONDS):
-                reason = f"the viewer did not listen on port {port}"
+            probe.bind((LOOPBACK, port))
+        except OSError:
+            return False
+    return True
+
+
+def grpc_uri(port: int) -> str:
+    """The address an SDK or a viewer uses to reach a gRPC server on 127.0.0.1:``port``."""
+    return f"rerun+http://{LOOPBACK}:{port}/proxy"
+
+
+def spawn_viewer(stream: rr.RecordingStream, port: int) -> str | None:
+    """Start the native viewer listening on ``port``; None, or why it could not start."""
+    reason = why_no_viewer()
     if reason is not None:
-        say(f"cannot spawn the viewer: {reason}")
-        return None
-    return rr.GrpcSink(f"rerun+http://{LOOPBACK}:{port}/proxy")
+        return reason
+    if not port_is_free(port):
+        return f"port {port} is in use (choose another with --rerun-grpc-port)"
+    try:
+        rr.spawn(port=port, connect=False, executable_path=rerun_executable(), recording=stream)
+    except RuntimeError as exc:
+        return f"the viewer did not start ({str(exc).splitlines()[0]})"
+    if not port_accepts(port, VIEWER_START_SECONDS):
+        return f"the viewer did not listen on port {port}"
+    return None
 
 
-def _wait_for_interrupt(url: str) -> None:
+def serve_web_viewer(web_port: int, port: int) -> subprocess.Popen[bytes] | str:
+    """Start ``rerun --serve-web`` on 127.0.0.1 only: the server process, or why it failed.
+
+    The SDK's own web server listens on every interface; the ``rerun`` executable can be told
+    to bind the web viewer and its gRPC server to the loopback address, so it is used instead.
+    """
+    executable = rerun_executable()
+    if executable is None:
+        return "no `rerun` executable (pip install rerun-sdk)"
+    busy = [str(p) for p in (web_port, port) if not port_is_free(p)]
+    if busy:
+        return (f"port {' and '.join(busy)} in use (choose others with --rerun-web-port, "
+                "--rerun-grpc-port)")
+    process = subprocess.Popen(
+        [executable, "--serve-web", "--bind", LOOPBACK, "--web-viewer-port", str(web_port),
+         "--port", str(port)],
+        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        # `rerun` may be a wrapper script around the real binary: give the pair a process
+        # group of their own so that stopping it stops both.
+        start_new_session=True,
+    )
+    if all(port_accepts(p, VIEWER_START_SECONDS) for p in (port, web_port)):
+        return process
+    stop_process(process)
+    return f"the web viewer did not listen on ports {web_port} and {port}"
+
+
+def stop_process(process: subprocess.Popen[bytes]) -> None:
+    """Terminate a server process we started (and its process group), and reap it."""
+    os.killpg(process.pid, signal.SIGTERM)
+    try:
+        process.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+
+
+def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+def wait_for_interrupt(url: str) -> None:
+    """Keep serving until Ctrl-C (or SIGTERM, so that a supervisor stops us cleanly)."""
     say(f"serving the web viewer at {url} — press Ctrl-C to stop")
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
         while True:
             time.sleep(3600)
     except KeyboardInterrupt:
         say("stopped serving")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager
@@ -177,46 +240,57 @@ def open_recording(
     """Open a recording on every sink the options ask for; close it on leaving the block.
 
     With ``options.serve`` the web viewer's URL is printed on opening, and leaving the block
-    keeps serving until Ctrl-C. A spawned viewer that cannot start is replaced by a file.
+    keeps serving until Ctrl-C. A viewer that cannot start is replaced by a file.
 
     Args:
         options: The sinks.
         name: The command (``"calibrate"``…): the recording's name and the fallback file's.
         fallback_dir: Folder of the fallback file (default: the current folder).
     """
-    stream = rr.RecordingStream(APPLICATION_ID, send_properties=True)
+    stream = rr.RecordingStream(APPLICATION_ID)
     sinks: list[Any] = []
     path = options.save
+    failed = []
+    server = None
+    url = None
+    if options.serve:
+        started = serve_web_viewer(options.web_port, options.grpc_port)
+        if isinstance(started, str):
+            failed.append(f"cannot serve the web viewer: {started}")
+        else:
+            server = started
+            sinks.append(rr.GrpcSink(grpc_uri(options.grpc_port)))
+            url = web_viewer_url(options.web_port, grpc_uri(options.grpc_port))
+            say(f"web viewer at {url} (native viewer: `rerun {grpc_uri(options.grpc_port)}`)")
     if options.spawn:
-        # The served gRPC server already takes grpc_port; the spawned viewer takes the next one.
-        viewer = _viewer_sink(stream, options.grpc_port + options.serve)
-        if viewer is not None:
-            sinks.append(viewer)
-        elif path is None:
-            path = fallback_path(name, fallback_dir)
-            say(f"saving the recording to {path} instead; open it with `rerun {path}`")
+        # When serving, the web viewer's server already has grpc_port: take the next one.
+        port = options.grpc_port + (server is not None)
+        reason = spawn_viewer(stream, port)
+        if reason is None:
+            sinks.append(rr.GrpcSink(grpc_uri(port)))
+        else:
+            failed.append(f"cannot spawn the viewer: {reason}")
+    for message in failed:
+        say(message)
+    if failed and path is None:
+        path = fallback_path(name, fallback_dir)
+        say(f"saving the recording to {path} instead; open it with `rerun {path}`")
     temporary = None
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         sinks.append(rr.FileSink(temporary))
-    url = None
-    if options.serve:
-        server = rr.GrpcServerSink(LOOPBACK, options.grpc_port)
-        sinks.append(server)
-        rr.serve_web_viewer(web_port=options.web_port, open_browser=False, connect_to=server.uri)
-        url = web_viewer_url(options.web_port, server.uri)
-        say(f"web viewer at {url} (native viewer: `rerun --connect {server.uri}`)")
     stream.set_sinks(*sinks)
     stream.send_recording_name(name)
-    recording = Recording(stream, path, url)
     try:
-        yield recording
+        yield Recording(stream, path, url)
     finally:
         stream.flush()
         if url is not None:
-            _wait_for_interrupt(url)
+            wait_for_interrupt(url)
         stream.disconnect()
+        if server is not None:
+            stop_process(server)
         if path is not None and temporary is not None:
             with temporary.open("rb+") as handle:
                 os.fsync(handle.fileno())
