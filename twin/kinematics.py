@@ -101,12 +101,16 @@ def flange_position(dh: ArrayLike, q_rad: ArrayLike) -> Array:
     q_joint_major = q_joint_major.reshape(
         q_joint_major.shape[0], *(1,) * (theta.ndim - q_joint_major.ndim), *q_joint_major.shape[1:]
     )
-    joint = q_joint_major + theta  # (n, ..., m)
-    ct, st = np.cos(joint), np.sin(joint)
+    # cos/sin of q + θ by the angle-sum identities: the transcendentals then run on the poses
+    # (n, m) and the tables (n, ...) separately instead of on every (table, pose) pair, which
+    # made them most of a swarm evaluation's time.
+    cq, sq = np.cos(q_joint_major), np.sin(q_joint_major)
+    cth, sth = np.cos(theta), np.sin(theta)
+    ct, st = cq * cth - sq * sth, sq * cth + cq * sth  # (n, ..., m)
     ca, sa = np.cos(alpha), np.sin(alpha)
     px, py = a[-1] * ct[-1], a[-1] * st[-1]
     pz = np.broadcast_to(d[-1], px.shape)
-    for i in range(joint.shape[0] - 2, -1, -1):
+    for i in range(ct.shape[0] - 2, -1, -1):
         wy = ca[i] * py - sa[i] * pz
         wz = sa[i] * py + ca[i] * pz
         u = px + a[i]
