@@ -144,3 +144,19 @@ def test_user_mistakes_exit_2_with_one_line(
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("twin: error: ") and message in err, err
     assert not (tmp_path / "p.csv").exists()
+
+
+def test_feasible_plan_passes_the_twins_own_pose_check(
+    tmp_path: Path, irb120: RobotModel, port_m: np.ndarray, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`twin plan --feasible` draws candidates with the MuJoCo twin's constraints: the plan it
+    writes is accepted by the twin's plan reader (floor, collisions, cable range and path)."""
+    from twin.sim import PoseConstraints, read_pose_plan
+    from twin.sim.twin import Twin
+
+    out = tmp_path / "plan.csv"
+    assert main(["plan", "--port", PORT, "--poses", "30", "--candidates", "400", "--feasible",
+                 "--out", str(out)]) == 0
+    assert "feasible candidates" in capsys.readouterr().out
+    q = read_pose_plan(out, Twin.build(irb120, port_m), PoseConstraints())
+    assert q.shape == (30, 6)

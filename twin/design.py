@@ -193,16 +193,21 @@ def choose_port(
     Args:
         model: The cable model to fit; its port is replaced by each candidate.
         ports_m: Candidate ports in the base frame, shape (K, 3), m.
-        candidates_rad: Candidate poses, shape (M, n), rad.
+        candidates_rad: Candidate poses, shape (M, n), rad, or one set per port (K, M, n)
+            when which poses can be measured depends on the port.
         n_poses: Poses per plan.
         sigma_m: Length noise 1σ, m.
         q_workspace_rad: Poses where the flange error is predicted, shape (k, n), rad.
     """
     x = np.zeros(model.n_params)
+    ports = np.asarray(ports_m, dtype=np.float64).reshape(-1, 3)
+    candidates = np.asarray(candidates_rad, dtype=np.float64)
+    if candidates.ndim == 2:
+        candidates = np.broadcast_to(candidates, (len(ports), *candidates.shape))
     plans, scores = [], []
-    for port in np.asarray(ports_m, dtype=np.float64).reshape(-1, 3):
+    for port, port_candidates in zip(ports, candidates, strict=True):
         at_port = CableModel(model.dh, port, model.estimate_port, model.estimate_offset)
-        plan = plan_poses(at_port, x, candidates_rad, n_poses)
+        plan = plan_poses(at_port, x, port_candidates, n_poses)
         plans.append(plan)
         scores.append(
             score_poses(at_port, x, plan.q_rad, plan.base_mask, sigma_m, q_workspace_rad)

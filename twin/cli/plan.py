@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from twin.cable import CableModel
 from twin.calibration import WORKSPACE_POSES
@@ -15,7 +17,7 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture import parse_port_mm
 from twin.io.measurements import JOINT_COLUMNS
-from twin.robot import default_robot, load_robot
+from twin.robot import RobotModel, default_robot, load_robot
 from twin.synthetic import random_poses
 from twin.units import m_to_mm, mm_to_m, rad_to_deg
 
@@ -48,6 +50,10 @@ def add_parser(subparsers: Any) -> None:
                         help="plan for a calibration that also identifies the port")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="plan for a calibration that also identifies a length offset")
+    parser.add_argument("--feasible", action="store_true",
+                        help="draw candidate (and random) poses the rig can measure: flange "
+                        "above the floor, no collision, cable in range and clear of the links "
+                        "(the MuJoCo twin's default constraints, per port)")
     parser.add_argument("--out", type=Path, required=True, metavar="plan.csv",
                         help="where to write the plan")
     parser.set_defaults(func=run)
@@ -57,6 +63,21 @@ def _score_row(label: str, score: DesignScore) -> str:
     o = score.observability
     return (f"  {label:<8}{o.o1:>11.4g}{o.o3:>11.4g}{o.o4:>11.4g}{o.condition:>11.4g}"
             f"{float(m_to_mm(score.flange_rms_m)):>14.4f}")
+
+
+def _feasible_sampler(
+    robot: RobotModel, rng: np.random.Generator
+) -> Callable[[NDArray[np.float64], int], NDArray[np.float64]]:
+    """``draw(port_m, count)``: poses the MuJoCo twin with that port can measure."""
+    from twin.sim.poses import PoseConstraints, sample_poses
+    from twin.sim.twin import Twin
+
+    constraints = PoseConstraints()
+
+    def draw(port_m: NDArray[np.float64], count: int) -> NDArray[np.float64]:
+        return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
+
+    return draw
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,13 +93,15 @@ def run(args: argparse.Namespace) -> int:
                          f"at least {model.n_params} poses (the unknowns) and no more than "
                          "the candidates", source="--poses")
     rng = np.random.default_rng(args.seed)
-    candidates = random_poses(robot, args.candidates, rng)
+    draw = _feasible_sampler(robot, rng) if args.feasible else (
+        lambda port_m, count: random_poses(robot, count, rng))
     q_workspace = random_poses(robot, WORKSPACE_POSES, rng)
-    q_random = random_poses(robot, args.poses, rng)
+    candidates = np.stack([draw(port, args.candidates) for port in ports_m])
     sigma_m = float(mm_to_m(args.sigma))
     choice = choose_port(model, ports_m, candidates, args.poses, sigma_m, q_workspace)
     port_m = ports_m[choice.best]
     plan = choice.plans[choice.best]
+    q_random = draw(port_m, args.poses)
     at_port = CableModel(robot.dh, port_m, args.estimate_port, args.estimate_offset)
     x0 = np.zeros(model.n_params)
     planned = score_poses(at_port, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace)
@@ -95,7 +118,8 @@ def run(args: argparse.Namespace) -> int:
                          + ("   <- chosen" if k == choice.best else ""))
     port_text = ", ".join(f"{v:g}" for v in m_to_mm(port_m))
     lines += [
-        f"{robot.name}: {args.poses} D-optimal poses of {args.candidates} candidates "
+        f"{robot.name}: {args.poses} D-optimal poses of {args.candidates} "
+        f"{'feasible ' if args.feasible else ''}candidates "
         f"({plan.selection.exchanges} exchanges), port ({port_text}) mm, "
         f"{plan.base_mask.sum()} base parameters of {model.n_params} unknowns",
         "  poses           O1         O3         O4  condition  flange RMS [mm]",
@@ -103,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
         _score_row("random", drawn),
         f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {args.sigma:g} mm "
         f"over {WORKSPACE_POSES} workspace poses; random: {args.poses} poses drawn with the "
-        f"same seed)",
+        "same seed and constraints)",
         f"plan: {args.out}",
     ]
     print("\n".join(lines))
