@@ -11,6 +11,7 @@ import pytest
 
 from twin.cable import CableModel, cable_length
 from twin.calibration import calibrate, split_rows
+from twin.problem import Budget
 from twin.cli import main
 from twin.io.capture import load_capture
 from twin.io.measurements import load_measurements
@@ -108,10 +109,13 @@ def test_cli_simulate_then_calibrate(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 def test_geometric_scenario_lm_recovers_flange_within_cramer_rao() -> None:
     """On the geometric scenario LM reaches the noise floor and recovers the flange positions
-    over the workspace within 2× the Cramér–Rao bound."""
+    over the workspace within 2× the Cramér–Rao bound. The paper's stopping rule (Δf below
+    0.001 mm²) is coarser than this noise floor (f ≈ 1e-4 mm²) and can stop LM early, so LM
+    runs here to convergence: the test is about the data, not the stopping rule."""
     scenario = load_scenario(GEOMETRIC)
     sim = simulate(scenario)
-    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, method="lm", seed=0)
+    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, method="lm", seed=0,
+                       budget=Budget(ftol_m2=1e-18))
     sigma = scenario.noise.sigma_m
     assert result.metrics["validation"].rmse < 1.5 * sigma
     workspace = random_poses(sim.robot, 1000, np.random.default_rng(1))

@@ -1,0 +1,83 @@
+"""Benchmark the MuJoCo twin: lengths per second rigid vs at static equilibrium, MuJoCo FK vs
+the core's vectorised FK, and one whole simulated capture. Run by hand:
+
+    .venv/bin/python bench/bench_sim.py
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from twin.cable import cable_length
+from twin.kinematics import flange_position
+from twin.robot import default_robot
+from twin.sim import Physics, Twin, build_spec, load_scenario, simulate
+from twin.synthetic import random_poses
+
+ROOT = Path(__file__).parents[1]
+PORT_M = np.array([0.6, -0.4, 0.1])
+N_POSES = 2000
+
+
+def _best_seconds(run: Callable[[], object], repeat: int = 3) -> float:
+    best = np.inf
+    for _ in range(repeat):
+        start = time.perf_counter()
+        run()
+        best = min(best, time.perf_counter() - start)
+    return float(best)
+
+
+def main() -> None:
+    """Print the timings and their ratios, measured side by side in one run."""
+    robot = default_robot()
+    q = random_poses(robot, N_POSES, np.random.default_rng(0))
+    paper = load_scenario(ROOT / "scenarios" / "paper_irb120.toml")
+    rigid = Twin.build(robot, PORT_M)
+    compliant = Twin.build(robot, PORT_M, paper.physics)
+    model = build_spec(robot, PORT_M).compile()
+    data = mujoco.MjData(model)
+
+    def mujoco_fk() -> None:
+        for pose in q:
+            data.qpos[:] = pose
+            mujoco.mj_kinematics(model, data)
+
+    timings = {
+        "core cable_length (vectorised)": _best_seconds(lambda: cable_length(robot.dh, q, PORT_M)),
+        "core flange_position (vectorised)": _best_seconds(lambda: flange_position(robot.dh, q)),
+        "MuJoCo mj_kinematics per pose": _best_seconds(mujoco_fk),
+        "twin lengths, rigid": _best_seconds(lambda: rigid.lengths(q)),
+        "twin lengths, static equilibrium": _best_seconds(lambda: compliant.lengths(q), 1),
+    }
+    base = timings["twin lengths, rigid"]
+    print(f"{N_POSES} random IRB 120 poses")
+    print(f"  {'':<36}{'µs/pose':>10}{'poses/s':>12}{'vs rigid twin':>15}")
+    for name, seconds in timings.items():
+        per_pose = seconds / N_POSES
+        print(f"  {name:<36}{per_pose * 1e6:>10.2f}{1 / per_pose:>12.0f}{seconds / base:>15.2f}")
+
+    shift = compliant.flange_positions(q) - flange_position(robot.dh, q)
+    sag_um = np.linalg.norm(shift, axis=1) * 1e6
+    print(f"flange sag at equilibrium ({paper.name} physics): RMS {np.sqrt(np.mean(sag_um**2)):.1f}"
+          f" µm, median {np.median(sag_um):.1f} µm, max {np.max(sag_um):.1f} µm")
+    for label, physics in [
+        ("gravity only", Physics(paper.physics.stiffness_nm_per_rad, True, 0.0)),
+        ("tension only (5 N)", Physics(paper.physics.stiffness_nm_per_rad, False, 5.0)),
+    ]:
+        part = Twin.build(robot, PORT_M, physics).flange_positions(q) - flange_position(robot.dh, q)
+        print(f"  {label:<20} RMS {np.sqrt(np.mean(np.sum(part**2, axis=1))) * 1e6:.1f} µm")
+
+    for path in sorted((ROOT / "scenarios").glob("*_irb120.toml")):
+        scenario = load_scenario(path)
+        seconds = _best_seconds(lambda scenario=scenario: simulate(scenario), 1)
+        print(f"simulate({scenario.name}): {seconds * 1e3:.0f} ms for {scenario.pose_count} poses")
+
+
+if __name__ == "__main__":
+    main()
