@@ -11,11 +11,11 @@ import pytest
 
 from twin.cable import CableModel, cable_length
 from twin.calibration import calibrate, split_rows
-from twin.problem import Budget
 from twin.cli import main
 from twin.io.capture import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
+from twin.problem import Budget
 from twin.robot import load_robot
 from twin.sim import load_scenario, parse_scenario, simulate, write_simulation
 from twin.synthetic import random_poses
