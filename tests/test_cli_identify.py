@@ -113,7 +113,7 @@ def test_plan_writes_poses_that_beat_random_ones(
     the one of lowest predicted error is chosen."""
     out = tmp_path / "plan.csv"
     assert main(["plan", "--port", PORT, "--port", "20000,0,300", "--poses", "30",
-                 "--candidates", "600", "--out", str(out)]) == 0
+                 "--candidates", "600", "--joint-limits-only", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     q_deg, _ = read_table(out, tuple(f"q{i}" for i in range(1, 7)), "plan")
     assert q_deg.shape == (30, 6)
@@ -149,13 +149,13 @@ def test_user_mistakes_exit_2_with_one_line(
 def test_feasible_plan_passes_the_twins_own_pose_check(
     tmp_path: Path, irb120: RobotModel, port_m: np.ndarray, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """`twin plan --feasible` draws candidates with the MuJoCo twin's constraints: the plan it
+    """`twin plan` draws candidates with the MuJoCo twin's constraints by default: the plan it
     writes is accepted by the twin's plan reader (floor, collisions, cable range and path)."""
     from twin.sim import PoseConstraints, read_pose_plan
     from twin.sim.twin import Twin
 
     out = tmp_path / "plan.csv"
-    assert main(["plan", "--port", PORT, "--poses", "30", "--candidates", "400", "--feasible",
+    assert main(["plan", "--port", PORT, "--poses", "30", "--candidates", "400",
                  "--out", str(out)]) == 0
     assert "feasible candidates" in capsys.readouterr().out
     q = read_pose_plan(out, Twin.build(irb120, port_m), PoseConstraints())

@@ -1,4 +1,8 @@
-"""`twin plan`: a D-optimal pose plan for a cable calibration, and where to put the port."""
+"""`twin plan`: a D-optimal pose plan for a cable calibration, and where to put the port.
+
+Candidates come from the MuJoCo twin's feasibility sampler (imported lazily in `run`), unless
+``--joint-limits-only``: the design itself (:mod:`twin.design`) is pure numpy.
+"""
 
 from __future__ import annotations
 
@@ -30,7 +34,7 @@ def add_parser(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "plan",
         help="choose the poses (and the port) that measure the D-H errors best",
-        description="Pick N poses among random candidates within the joint limits that "
+        description="Pick N poses among random candidates the rig can measure that "
         "maximise det(JᵀJ) of the base parameters at the nominal geometry (D-optimal: greedy, "
         "then exchanges), write them as a plan CSV (q1..q6 in degrees) and compare the plan "
         "with N random poses. Given several --port, plan for each and keep the port whose "
@@ -50,10 +54,11 @@ def add_parser(subparsers: Any) -> None:
                         help="plan for a calibration that also identifies the port")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="plan for a calibration that also identifies a length offset")
-    parser.add_argument("--feasible", action="store_true",
-                        help="draw candidate (and random) poses the rig can measure: flange "
-                        "above the floor, no collision, cable in range and clear of the links "
-                        "(the MuJoCo twin's default constraints, per port)")
+    parser.add_argument("--joint-limits-only", dest="feasible", action="store_false",
+                        help="draw candidate (and random) poses within the joint limits only; "
+                        "by default they are poses the rig can measure: flange above the "
+                        "floor, no collision, cable in range and clear of the links (the MuJoCo "
+                        "twin's default constraints, per port)")
     parser.add_argument("--out", type=Path, required=True, metavar="plan.csv",
                         help="where to write the plan")
     parser.set_defaults(func=run)
