@@ -12,6 +12,7 @@ import pytest
 from twin.cable import CableModel, cable_length
 from twin.calibration import calibrate, split_rows
 from twin.cli import main
+from twin.errors import InputError
 from twin.io.capture import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
@@ -134,3 +135,16 @@ def test_paper_scenario_lands_in_the_papers_regime() -> None:
     assert 1.5e-3 < result.metrics["before"].rmse < 3e-3
     assert 0.2e-3 < result.metrics["validation"].rmse < 0.4e-3
     assert sim.effects["flange_shift_mm"] > 0.1
+
+
+def test_pose_plan_scenario(tmp_path: Path) -> None:
+    """A scenario with a plan measures the plan's poses in order; asking for more poses than
+    the plan has is an InputError naming the plan."""
+    plan = tmp_path / "plan.csv"
+    plan.write_text("q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n10,-20,15,5,40,90\n-30,10,-10,0,20,0\n")
+    scenario = _scenario(GEOMETRIC, poses={"plan": str(plan), "count": 2})
+    sim = simulate(scenario)
+    assert np.allclose(np.rad2deg(sim.measurements.q_rad), [[0, 0, 0, 0, 30, 0],
+                                                            [10, -20, 15, 5, 40, 90]])
+    with pytest.raises(InputError, match=r"plan\.csv.*3 poses"):
+        simulate(_scenario(GEOMETRIC, poses={"plan": str(plan), "count": 5}))

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.cable import Measurements, cable_length
+from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture import write_capture
 from twin.io.measurements import write_measurements
@@ -154,6 +155,9 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
     twin = Twin.build(true_robot, scenario.port_m, scenario.physics, joint_errors)
     if scenario.pose_plan is not None:
         q = read_pose_plan(scenario.pose_plan, twin, scenario.constraints)
+        if scenario.pose_count > len(q):
+            raise InputError(f"{len(q)} poses", f"at least [poses] count = {scenario.pose_count}",
+                             source=scenario.pose_plan)
         q = q[: scenario.pose_count] if scenario.pose_count else q
     else:
         q = sample_poses(twin, scenario.pose_count, scenario.constraints, rng)

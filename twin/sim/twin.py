@@ -77,8 +77,8 @@ class Twin:
     def build(cls, robot: RobotModel, port_m: ArrayLike, physics: Physics = RIGID,
               joint_errors: JointErrors | None = None) -> Twin:
         """The twin of ``robot`` with its port at ``port_m`` (base frame, m)."""
-        if not physics.rigid and physics.stiffness_nm_per_rad is not None \
-                and physics.stiffness_nm_per_rad.shape != (robot.n_joints,):
+        stiffness = physics.stiffness_nm_per_rad
+        if stiffness is not None and stiffness.shape != (robot.n_joints,):
             raise ValueError("physics: one stiffness per joint expected")
         return cls(robot, port_m, physics,
                    joint_errors if joint_errors is not None else JointErrors.none(robot.n_joints))
