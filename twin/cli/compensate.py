@@ -157,7 +157,7 @@ def _verify(args: argparse.Namespace) -> int:
     at_nominal = twin.flange_positions(q_nominal)
     checks = {}
     for label, model in (("identified table", result.identified_robot),
-                         ("true table (limit)", sim.true_robot)):
+                         ("true D-H table", sim.true_robot)):
         solved = compensate_targets(model, target_m, q_nominal)
         checks[label] = check_compensation(target_m, at_nominal,
                                            twin.flange_positions(solved.q_rad), solved)
