@@ -66,3 +66,17 @@ def test_position_jacobian_matches_finite_differences(seed: int) -> None:
     steps = np.eye(24).reshape(24, 4, 6) * eps
     numeric = (flange_position(dh + steps, q) - flange_position(dh - steps, q)) / (2 * eps)
     np.testing.assert_allclose(jacobian, np.moveaxis(numeric, 0, -1), atol=1e-8)
+
+
+def test_batched_poses_with_one_table(irb120: RobotModel) -> None:
+    """Poses with their own batch dimensions (k, m, n) work with one table, and tables (k, 4, n)
+    pair with pose sets (k, m, n) one to one."""
+    rng = np.random.default_rng(5)
+    q = random_poses(irb120, 12, rng).reshape(3, 4, 6)
+    tables = irb120.dh + rng.normal(scale=1e-3, size=(3, 4, 6))
+    one_table = flange_position(irb120.dh, q)
+    paired = flange_position(tables, q)
+    assert one_table.shape == paired.shape == (3, 4, 3)
+    for k in range(3):
+        np.testing.assert_allclose(one_table[k], flange_position(irb120.dh, q[k]), atol=1e-15)
+        np.testing.assert_allclose(paired[k], flange_position(tables[k], q[k]), atol=1e-15)

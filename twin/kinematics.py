@@ -54,6 +54,12 @@ def _check_shapes(dh: Array, q_rad: Array) -> None:
         raise ValueError(f"q_rad: shape {q_rad.shape}, expected (..., m, {dh.shape[-1]})")
 
 
+def _joint_major(array: Array, ndim: int) -> Array:
+    """(batch..., m, n) to (n, 1..., batch..., m) with ``ndim`` dimensions, for broadcasting."""
+    moved = np.moveaxis(array, -1, 0)
+    return moved.reshape(moved.shape[0], *(1,) * (ndim - moved.ndim), *moved.shape[1:])
+
+
 def _walk(dh: ArrayLike, q_rad: ArrayLike, keep: bool) -> list[tuple[Array, ...]]:
     """Frames (origin, x, y, z) after each joint; only the last one unless ``keep``."""
     dh = np.asarray(dh, dtype=np.float64)
@@ -96,11 +102,9 @@ def flange_position(dh: ArrayLike, q_rad: ArrayLike) -> Array:
     dh = np.asarray(dh, dtype=np.float64)
     q_rad = np.asarray(q_rad, dtype=np.float64)
     _check_shapes(dh, q_rad)
-    a, d, alpha, theta = (np.moveaxis(dh[..., k, :], -1, 0)[..., None] for k in range(4))
-    q_joint_major = np.moveaxis(q_rad, -1, 0)
-    q_joint_major = q_joint_major.reshape(
-        q_joint_major.shape[0], *(1,) * (theta.ndim - q_joint_major.ndim), *q_joint_major.shape[1:]
-    )
+    ndim = max(dh.ndim, q_rad.ndim)  # of (n, batch..., m) once joint-major
+    a, d, alpha, theta = (_joint_major(dh[..., k, None, :], ndim) for k in range(4))
+    q_joint_major = _joint_major(q_rad, ndim)
     # cos/sin of q + θ by the angle-sum identities: the transcendentals then run on the poses
     # (n, m) and the tables (n, ...) separately instead of on every (table, pose) pair, which
     # made them most of a swarm evaluation's time.
