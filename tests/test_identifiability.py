@@ -39,6 +39,9 @@ def test_known_port_rank_19_with_named_null_directions(irb120, port_m, poses) ->
     assert (ident.rank, ident.n_params) == (19, 24)
     assert set(ident.unidentifiable) == KNOWN_PORT_NULL
     assert len(ident.base) == 19 and len(ident.base_names) == 19
+    # Base parameters kept in the order of x: the later of each dependent pair is dropped.
+    assert set(model.names) - set(ident.base_names) == {"d3", "alpha5", "theta5", "alpha6",
+                                                        "theta6"}
     _, J = model.jacobian(np.zeros(24), poses)
     for rtol in (1e-5, 1e-11):
         assert identifiability(J, model.names, rtol).rank == 19
@@ -133,3 +136,13 @@ def test_observability_indices_of_known_singular_values() -> None:
     assert o.o1 == pytest.approx(6 ** (1 / 3) / 2)
     assert (o.o3, o.o4, o.condition) == pytest.approx((1.0, 1 / 3, 3.0))
 
+
+
+def test_base_set_does_not_depend_on_the_pose_set(irb120, port_m, poses) -> None:
+    """Any subset of poses rich enough gives the same base parameters (no round-off ties)."""
+    model = CableModel(irb120.dh, port_m)
+    bases = {
+        measurement_identifiability(model, np.zeros(24), poses.subset(rows)).base_names
+        for rows in (np.arange(40), np.arange(50, 120), np.arange(0, 200, 3))
+    }
+    assert len(bases) == 1

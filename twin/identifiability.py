@@ -15,11 +15,14 @@ How it is computed, and why:
 - **Rank.** Singular values of the scaled J below :data:`RANK_RTOL` times the largest count as
   zero. For distance-only data on the IRB 120 the gap is some fourteen orders of magnitude wide
   (1e-2 against 1e-16), so the rank does not hinge on the tolerance.
-- **Base parameters.** QR with column pivoting of the scaled J picks, in order, the columns that
-  add the most new information; the first ``rank`` are the base parameters, the others are
-  dependent. Each dependent column is a combination of base columns, J_D = J_B β, so
-  ``e_dependent − β`` (in scaled units) is a null direction. These directions are sparse and
-  readable: ``d2-d3``, ``a5+theta5``…
+- **Base parameters.** Going through the unknowns in the order of x, each one whose column
+  raises the numerical rank of those kept so far is kept: the base set is then the same for any
+  pose set with the same structure (d2 is kept, d3 depends on it), instead of following the
+  round-off that breaks ties in a pivoted QR. (Should this in-order choice not reach the rank —
+  only on a tolerance right at a singular value — pivoted QR picks the base instead.) Each
+  dependent column is a combination of base columns, J_D = J_B β, so ``e_dependent − β`` (in
+  scaled units) is a null direction. These directions are sparse and readable: ``d2-d3``,
+  ``a5+theta5``…
 - **Names.** A null direction is printed in the scaled space (each unknown in units of its own
   column norm, so the coefficients are dimensionless and comparable), terms in the order of x,
   largest coefficient ±1 and the first term positive; coefficients below
@@ -70,7 +73,7 @@ class Identifiability(NamedTuple):
     column_norms: Array
     """Norm of each column of the unscaled Jacobian, shape (p,), m/m or m/rad."""
     base: NDArray[np.intp]
-    """Indices of the base parameters, shape (rank,), in the order QR picked them."""
+    """Indices of the base parameters, shape (rank,), ascending."""
     null_space: Array
     """Null directions in the units of x (m and rad), shape (p, p − rank), one per column."""
     unidentifiable: tuple[str, ...]
@@ -124,6 +127,16 @@ def name_direction(direction: ArrayLike, names: tuple[str, ...]) -> str:
     )
 
 
+def _base_in_order(R: Array, threshold: float) -> NDArray[np.intp]:
+    """Columns kept in order, each one that raises the rank of those kept (σ_min > threshold)."""
+    kept: list[int] = []
+    for column in range(R.shape[1]):
+        trial = R[:, [*kept, column]]
+        if np.linalg.svd(trial, compute_uv=False)[-1] > threshold:
+            kept.append(column)
+    return np.asarray(kept, dtype=np.intp)
+
+
 def identifiability(
     jacobian: ArrayLike, names: tuple[str, ...] | list[str], rtol: float = RANK_RTOL
 ) -> Identifiability:
@@ -145,11 +158,16 @@ def identifiability(
     norms = np.linalg.norm(J, axis=0)
     visible = np.flatnonzero(norms > COLUMN_RTOL * np.max(norms))
     scaled = J[:, visible] / norms[visible]
-    singular_values = np.linalg.svd(scaled, compute_uv=False)
-    rank = int(np.sum(singular_values > rtol * singular_values[0]))
-    _, R, pivots = scipy.linalg.qr(scaled, mode="economic", pivoting=True)
-    base_local, dependent_local = pivots[:rank], pivots[rank:]
-    beta = scipy.linalg.solve_triangular(R[:rank, :rank], R[:rank, rank:])
+    # R has J's Gram matrix, so every rank decision below can work on it instead of J.
+    R = np.asarray(np.linalg.qr(scaled, mode="r"), dtype=np.float64)
+    singular_values = np.linalg.svd(R, compute_uv=False)
+    threshold = rtol * singular_values[0]
+    rank = int(np.sum(singular_values > threshold))
+    base_local = _base_in_order(R, threshold)
+    if base_local.size != rank:
+        base_local = np.sort(scipy.linalg.qr(R, pivoting=True)[2][:rank])
+    dependent_local = np.setdiff1d(np.arange(visible.size), base_local)
+    beta = np.linalg.lstsq(R[:, base_local], R[:, dependent_local], rcond=None)[0]
     # Scaled null directions: one per negligible column, then e_dependent − β for each dependent.
     invisible = np.setdiff1d(np.arange(p), visible)
     directions = np.zeros((p, p - rank))
