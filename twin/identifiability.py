@@ -160,7 +160,7 @@ def identifiability(
     scaled = J[:, visible] / norms[visible]
     # R has J's Gram matrix, so every rank decision below can work on it instead of J.
     R = np.asarray(np.linalg.qr(scaled, mode="r"), dtype=np.float64)
-    singular_values = np.linalg.svd(R, compute_uv=False)
+    singular_values = np.asarray(np.linalg.svd(R, compute_uv=False), dtype=np.float64)
     threshold = rtol * singular_values[0]
     rank = int(np.sum(singular_values > threshold))
     base_local = _base_in_order(R, threshold)
