@@ -18,8 +18,11 @@ $(VENV)/.installed-dev: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $@ $(VENV)/.installed
 
+# The paper's rig in the twin: simulate, then calibrate with LM (identified vs true is printed).
 demo: $(VENV)/.installed
-	$(BIN)/twin calibrate examples/irb120_lm/measurements.csv --port 600,-400,100 --json $(DEMO)/result.json
+	$(BIN)/twin simulate scenarios/paper_irb120.toml --out $(DEMO)
+	$(BIN)/twin calibrate $(DEMO)/capture.toml --json $(DEMO)/result.json
+	@echo "paper (real IRB 120): validation RMSE 2.177 mm before -> 0.332 mm (M9), 0.372 mm (M7)"
 
 lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check twin tests bench
