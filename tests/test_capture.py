@@ -1,0 +1,321 @@
+"""Durable capture against the virtual encoder over real ptys, with faults and kills.
+
+Every device here is a `twin virtual-encoder` process serving the MuJoCo twin of a small test
+scenario on a pseudo-terminal; `twin capture` reads it with the same drivers as a USB adapter.
+Captures run in-process (the CLI's ``main``) unless they must be killed, then as processes.
+"""
+
+from __future__ import annotations
+
+import io
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.calibration import calibrate
+from twin.capture import CAPTURE_COLUMNS, HEADER, locked, recover
+from twin.cli import main
+from twin.errors import InputError, TwinError
+from twin.io.capture import load_capture
+from twin.io.measurements import load_measurements, read_table
+from twin.robots.file import FileRobot
+from twin.robots.manual import ManualRobot
+from twin.units import deg_to_rad, m_to_mm
+
+SCENARIO = """
+name = "capture_test"
+seed = 11
+[port]
+position_mm = [600.0, -400.0, 100.0]
+[perturbation]
+a_mm = 1.0
+d_mm = 1.0
+alpha_deg = 0.1
+theta_deg = 0.1
+[poses]
+count = 4
+[encoder]
+sigma_mm = 0.002
+resolution_mm = 0.001
+[joints]
+backlash_arcsec = 20.0
+"""
+SETTLE = ["--settle-k", "4", "--settle-tol", "0.03", "--settle-timeout", "5"]
+N_SHORT, N_LONG = 10, 32
+TWIN = [sys.executable, "-m", "twin"]
+
+
+class Device:
+    """A `twin virtual-encoder` process; ``url`` waits for the lines it prints."""
+
+    def __init__(self, scenario: Path, pose_file: Path, *extra: str) -> None:
+        self.pose_file = pose_file
+        self.process = subprocess.Popen(
+            [*TWIN, "virtual-encoder", str(scenario), "--pose-file", str(pose_file), *extra],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self._url: str | None = None
+
+    @property
+    def url(self) -> str:
+        if self._url is None:
+            assert self.process.stdout is not None
+            path, url = self.process.stdout.readline(), self.process.stdout.readline()
+            assert path.startswith("/dev/"), self.process.stderr.read() if self.process.stderr \
+                else path
+            self._url = url.strip()
+        return self._url
+
+    def stop(self) -> None:
+        self.process.terminate()
+        self.process.wait(timeout=10)
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The scenario and plans: N_LONG poses inside 60 % of the joint ranges; its first N_SHORT."""
+    folder = tmp_path_factory.mktemp("capture")
+    (folder / "scenario.toml").write_text(SCENARIO)
+    rng = np.random.default_rng(5)
+    limits = np.array([165, 110, 70, 160, 120, 400])
+    q_deg = rng.uniform(-0.6 * limits, 0.6 * limits, size=(N_LONG, 6))
+    for name, rows in (("plan.csv", q_deg[:N_SHORT]), ("plan_long.csv", q_deg)):
+        lines = ["q1,q2,q3,q4,q5,q6"] + [",".join(f"{v:.3f}" for v in row) for row in rows]
+        (folder / name).write_text("\n".join(lines) + "\n")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def devices(folder: Path) -> dict[str, Device]:
+    """The devices of the module, started together (each takes seconds to import MuJoCo)."""
+    scenario = folder / "scenario.toml"
+    started = {
+        "ascii": Device(scenario, folder / "pose_ascii.json"),
+        "modbus": Device(scenario, folder / "pose_modbus.json", "--protocol", "modbus"),
+        "garbage": Device(scenario, folder / "pose_garbage.json", "--garbage-every", "4"),
+        "doomed": Device(scenario, folder / "pose_doomed.json"),
+    }
+    yield started
+    for device in started.values():
+        if device.process.poll() is None:
+            device.stop()
+
+
+@pytest.fixture(scope="module")
+def true_lengths_mm(folder: Path) -> np.ndarray:
+    """The twin's noise-free lengths of the long plan visited in order, shape (N_LONG,), mm."""
+    from twin.sim import Twin, approach_directions, load_scenario, simulate
+
+    scenario = load_scenario(folder / "scenario.toml")
+    sim = simulate(scenario)
+    twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors)
+    values, _ = read_table(folder / "plan_long.csv", ("q1", "q2", "q3", "q4", "q5", "q6"), "")
+    q_rad = deg_to_rad(values)
+    return m_to_mm(twin.lengths(q_rad, approach_directions(q_rad)))
+
+
+def capture_args(folder: Path, device: Device, out: Path, plan: str = "plan.csv",
+                 url: str | None = None) -> list[str]:
+    return ["capture", "--plan", str(folder / plan), "--encoder", url or device.url,
+            "--robot-source", "sim", "--scenario", str(folder / "scenario.toml"),
+            "--pose-file", str(device.pose_file), "--out", str(out), *SETTLE]
+
+
+def rows(out: Path) -> np.ndarray:
+    """The capture's rows (pose, q1..q6, length), as written."""
+    path = out / "measurements.csv"
+    if path.read_text().count("\n") < 2:
+        return np.empty((0, len(CAPTURE_COLUMNS)))
+    return read_table(path, CAPTURE_COLUMNS, "")[0]
+
+
+def wait_for_rows(out: Path, count: int, timeout_s: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not ((out / "measurements.csv").exists() and len(rows(out)) >= count):
+        assert time.monotonic() < deadline, f"fewer than {count} rows after {timeout_s} s"
+        time.sleep(0.02)
+
+
+def check_complete(out: Path, n: int, true_mm: np.ndarray) -> None:
+    """Every plan pose exactly once, in order, each at the twin's length within the noise."""
+    table = rows(out)
+    assert table[:, 0].tolist() == list(range(1, n + 1))
+    assert np.max(np.abs(table[:, -1] - true_mm[:n])) < 0.01
+
+
+def test_recover_drops_a_partial_line_and_refuses_a_pose_twice(tmp_path: Path) -> None:
+    """A torn last line is truncated away; a repeated pose number is an InputError."""
+    path = tmp_path / "measurements.csv"
+    assert recover(path, 5) == (set(), None) and path.read_text() == HEADER
+    path.write_text(HEADER + "1,0,0,0,0,0,0,500.0\n2,0,0,0,0,0,0,501.0\n3,0,0,0,0")
+    done, note = recover(path, 5)
+    assert done == {1, 2} and note is not None and "partial last line" in note
+    assert path.read_text().endswith("501.0\n")
+    path.write_text(HEADER + "1,0,0,0,0,0,0,500.0\n1,0,0,0,0,0,0,500.0\n")
+    with pytest.raises(InputError, match="pose 1 a second time"):
+        recover(path, 5)
+    path.write_text(HEADER + "7,0,0,0,0,0,0,500.0\n")
+    with pytest.raises(InputError, match=r"a pose number in 1\.\.5"):
+        recover(path, 5)
+
+
+@pytest.mark.parametrize("protocol", ["ascii", "modbus"])
+def test_capture_end_to_end_then_rerun_measures_nothing(
+        protocol: str, folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A full capture writes every pose once at the twin's lengths; running it again is a no-op
+    and the folder calibrates as a capture (capture.toml, robot.toml, truth.json)."""
+    out = tmp_path / "run"
+    args = capture_args(folder, devices[protocol], out)
+    assert main(args) == 0
+    check_complete(out, N_SHORT, true_lengths_mm)
+    before = (out / "measurements.csv").read_bytes()
+    assert main(args) == 0
+    assert "nothing left to measure" in capsys.readouterr().out
+    assert (out / "measurements.csv").read_bytes() == before
+    capture = load_capture(out / "capture.toml")
+    assert capture.truth is not None and capture.truth.exists()
+    assert capture.encoder["url"].startswith("serial:///dev/pts/")
+    assert len(load_measurements(capture.measurements, capture.robot)) == N_SHORT
+
+
+def test_garbage_bytes_are_retried_and_the_capture_completes(
+        folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Every 4th answer is garbage (binary, not a number, partial line): retried, reported."""
+    device = devices["garbage"]
+    out = tmp_path / "run"
+    assert main(capture_args(folder, device, out, url=device.url + "&timeout=0.2")) == 0
+    report = capsys.readouterr().out
+    assert "retrying" in report and "not ASCII" in report and "partial answer" in report
+    check_complete(out, N_SHORT, true_lengths_mm)
+
+
+def test_device_closed_mid_capture_then_resumed(
+        folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Unplugging the device stops the capture with a clear message and keeps its rows; the
+    same capture against the device back (on a new path) completes every pose once."""
+    device = devices["doomed"]
+    out = tmp_path / "run"
+    args = [*capture_args(folder, device, out), "--settle-interval", "0.05", "--reconnect", "0.3"]
+    codes: list[int] = []
+    worker = threading.Thread(target=lambda: codes.append(main(args)))
+    worker.start()
+    wait_for_rows(out, 3)
+    device.stop()
+    worker.join(timeout=60)
+    assert codes == [1]
+    error = capsys.readouterr().err
+    assert "failed" in error and "run the same command again to resume" in error
+    kept = rows(out)
+    assert 3 <= len(kept) < N_SHORT
+    back = Device(folder / "scenario.toml", device.pose_file)
+    try:
+        assert main(capture_args(folder, back, out)) == 0
+    finally:
+        back.stop()
+    assert f"resuming at pose {len(kept) + 1}/{N_SHORT}" in capsys.readouterr().out
+    check_complete(out, N_SHORT, true_lengths_mm)
+
+
+def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
+        folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
+        tmp_path: Path) -> None:
+    """A capture process killed by SIGKILL, then one stopped by Ctrl-C (SIGINT), then a final
+    run: every pose exactly once, the same file byte for byte as one uninterrupted capture,
+    hence the same calibration; and that calibration is real (5x below the nominal RMSE)."""
+    device = devices["ascii"]
+    whole, pieces = tmp_path / "whole", tmp_path / "pieces"
+    assert main(capture_args(folder, device, whole, plan="plan_long.csv")) == 0
+    args = capture_args(folder, device, pieces, plan="plan_long.csv")
+    for stop_at, sig, code in ((8, signal.SIGKILL, -signal.SIGKILL), (20, signal.SIGINT, 130)):
+        process = subprocess.Popen([*TWIN, *args, "--settle-interval", "0.03"],
+                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        wait_for_rows(pieces, stop_at)
+        process.send_signal(sig)
+        output, _ = process.communicate(timeout=30)
+        assert process.returncode == code, output
+        assert len(rows(pieces)) < N_LONG
+        if sig == signal.SIGINT:
+            assert "interrupted at pose" in output and "run the same command again" in output
+    assert main(args) == 0
+    check_complete(pieces, N_LONG, true_lengths_mm)
+    assert (pieces / "measurements.csv").read_bytes() == (whole / "measurements.csv").read_bytes()
+    results = []
+    for out in (whole, pieces):
+        capture = load_capture(out / "capture.toml")
+        results.append(calibrate(capture.robot, load_measurements(capture.measurements),
+                                 capture.port_m))
+    assert np.array_equal(results[0].delta, results[1].delta)
+    before, after = results[0].metrics["before"].rmse, results[0].metrics["validation"].rmse
+    assert after < before / 5
+
+
+def test_second_capture_on_the_same_folder_is_refused(
+        folder: Path, devices: dict[str, Device], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """While one capture holds the folder, another exits 2 and writes nothing."""
+    out = tmp_path / "run"
+    with locked(out):
+        assert main(capture_args(folder, devices["ascii"], out)) == 2
+    assert "another capture running" in capsys.readouterr().err
+    assert not (out / "measurements.csv").exists()
+
+
+def test_resume_with_another_plan_is_refused(
+        folder: Path, devices: dict[str, Device], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A folder started with one plan refuses another: rows are matched to poses by number."""
+    out = tmp_path / "run"
+    assert main(capture_args(folder, devices["ascii"], out)) == 0
+    assert main(capture_args(folder, devices["ascii"], out, plan="plan_long.csv")) == 2
+    assert "another plan" in capsys.readouterr().err
+
+
+def test_file_robot_source_records_the_logged_angles(
+        folder: Path, devices: dict[str, Device], tmp_path: Path) -> None:
+    """With --robot-source file, each row carries the controller's logged angles for its pose."""
+    log = tmp_path / "joints.csv"
+    values, _ = read_table(folder / "plan.csv", ("q1", "q2", "q3", "q4", "q5", "q6"), "")
+    logged = values[:4] + 0.01
+    log.write_text("pose,q1,q2,q3,q4,q5,q6\n" + "".join(
+        f"{k},{','.join(map(str, row))}\n" for k, row in enumerate(logged, start=1)))
+    plan = tmp_path / "plan4.csv"
+    plan.write_text("\n".join((folder / "plan.csv").read_text().splitlines()[:5]) + "\n")
+    out = tmp_path / "run"
+    assert main(["capture", "--plan", str(plan), "--encoder", devices["ascii"].url,
+                 "--robot-source", "file", "--joint-log", str(log), "--port", "600,-400,100",
+                 "--out", str(out), *SETTLE]) == 0
+    assert np.allclose(rows(out)[:, 1:7], logged, atol=1e-9)
+
+
+def test_file_robot_source_names_a_missing_pose(tmp_path: Path) -> None:
+    """A pose the controller never logged is an InputError naming the log and the pose."""
+    log = tmp_path / "joints.csv"
+    log.write_text("pose,q1,q2,q3,q4,q5,q6\n1,0,0,0,0,0,0\n")
+    robot = FileRobot(log, wait_s=0.0)
+    assert np.array_equal(robot.move_to(1, 2, np.ones(6)), np.zeros(6))
+    with pytest.raises(InputError, match="no row for pose 2/2"):
+        robot.move_to(2, 2, np.ones(6))
+
+
+def test_manual_robot_source_prompts_and_reads_reached_angles() -> None:
+    """The prompt shows pose K/N and the target; Enter keeps it, six numbers replace it,
+    anything else asks again, and a closed terminal stops the capture."""
+    prompts = io.StringIO()
+    answers = io.StringIO("\n1 2 3 4 5 6\nabc\n1,2,3\n10, 20, 30, 40, 50, 60\n")
+    robot = ManualRobot(prompts, answers)
+    target = deg_to_rad([10.0, -20.0, 30.0, 0.0, 45.0, 90.0])
+    assert np.array_equal(robot.move_to(1, 3, target), target)
+    assert "pose 1/3" in prompts.getvalue() and "10.000 -20.000 30.000" in prompts.getvalue()
+    assert np.allclose(robot.move_to(2, 3, target), deg_to_rad([1, 2, 3, 4, 5, 6]))
+    assert np.allclose(robot.move_to(3, 3, target), deg_to_rad([10, 20, 30, 40, 50, 60]))
+    assert prompts.getvalue().count("try again") == 2
+    with pytest.raises(TwinError, match="terminal closed"):
+        robot.move_to(3, 3, target)

@@ -1,0 +1,250 @@
+"""Durable capture: measure the plan pose by pose, each row on disk before the next move.
+
+Files in the output folder ``DIR``:
+
+- ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
+- ``measurements.csv`` — header ``pose,q1,…,q6,length`` (deg, mm), one row per measured pose,
+  appended with ``O_APPEND`` as one whole line and ``fsync``-ed before the robot moves on.
+  ``pose`` numbers the plan rows from 1; `twin calibrate` ignores it.
+- ``robot.toml``, ``capture.toml`` — so that ``twin calibrate DIR/capture.toml`` needs nothing
+  else (written atomically).
+- ``.lock`` — an exclusive ``flock`` held while a capture runs; the kernel drops it when the
+  process dies, even by SIGKILL.
+
+Resume: running the same command again reads ``measurements.csv``, drops a partial last line
+(a crash in the middle of a write, e.g. a power cut), and measures the plan poses that have no
+row, in plan order. A crash, SIGKILL or Ctrl-C loses at most the pose in progress; a pose with a
+row is never measured or written again.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.cable import Measurements
+from twin.encoders.base import Encoder, EncoderDisconnectedError
+from twin.encoders.settle import Settled, SettleRule, settle
+from twin.errors import InputError, TwinError
+from twin.io.atomic import fsync_directory, write_atomic
+from twin.io.measurements import COLUMNS, JOINT_COLUMNS, format_measurements, read_table
+from twin.robots.base import RobotSource
+from twin.units import deg_to_rad, m_to_mm
+
+POSE_COLUMN = "pose"
+CAPTURE_COLUMNS = (POSE_COLUMN, *COLUMNS)
+MEASUREMENTS_NAME = "measurements.csv"
+PLAN_NAME = "plan.csv"
+ROBOT_NAME = "robot.toml"
+CAPTURE_NAME = "capture.toml"
+LOCK_NAME = ".lock"
+
+
+def read_plan(path: str | Path) -> NDArray[np.float64]:
+    """The plan's joint angles, shape (N, n), rad (CSV columns q1..q6 in degrees)."""
+    values, _ = read_table(path, JOINT_COLUMNS, "a plan CSV (q1..q6 in deg)")
+    return deg_to_rad(values)
+
+
+def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float) -> str:
+    """One line of the measurement file, with its LF."""
+    line = format_measurements(Measurements(q_rad[None, :], np.array([length_m]))).splitlines()[1]
+    return f"{pose},{line}\n"
+
+
+HEADER = ",".join(CAPTURE_COLUMNS) + "\n"
+
+
+def append_line(path: Path, line: str) -> None:
+    """Append one whole line and make it durable before returning.
+
+    One ``write`` on an ``O_APPEND`` descriptor: a kill leaves the line whole or absent; only a
+    power cut can leave part of it, which :func:`recover` drops.
+    """
+    data = line.encode("utf-8")
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    try:
+        written = os.write(fd, data)
+        if written != len(data):
+            raise TwinError(f"{path}: wrote {written} of {len(data)} bytes (disk full?)")
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
+    """The pose numbers already in a measurement file, after dropping a partial last line.
+
+    Creates the file with its header if it does not exist.
+
+    Returns:
+        ``(done, note)``: measured pose numbers, and a note if a partial line was dropped.
+
+    Raises:
+        InputError: if a row's pose number is not an integer in 1..n_poses or is repeated.
+    """
+    if not path.exists():
+        write_atomic(path, HEADER)
+        return set(), None
+    raw = path.read_bytes()
+    note = None
+    if raw and not raw.endswith(b"\n"):
+        keep = raw.rfind(b"\n") + 1
+        note = f"{path}: dropped a partial last line {raw[keep:]!r} left by an interrupted write"
+        if keep == 0:
+            write_atomic(path, HEADER)
+            return set(), note
+        with open(path, "r+b") as handle:
+            handle.truncate(keep)
+            handle.flush()
+            os.fsync(handle.fileno())
+    if raw.count(b"\n") <= 1:
+        return set(), note
+    values, lines = read_table(path, CAPTURE_COLUMNS, "a capture measurement CSV")
+    done: set[int] = set()
+    for number, line in zip(values[:, 0], lines, strict=True):
+        pose = int(number)
+        if pose != number or not 1 <= pose <= n_poses:
+            raise InputError(f"{number!r}", f"a pose number in 1..{n_poses}", source=path,
+                             where=f"line {line}, column pose")
+        if pose in done:
+            raise InputError(f"pose {pose} a second time", "each pose once", source=path,
+                             where=f"line {line}")
+        done.add(pose)
+    return done, note
+
+
+@contextlib.contextmanager
+def locked(folder: Path) -> Iterator[None]:
+    """Hold the capture folder's lock, or fail at once if another capture holds it."""
+    folder.mkdir(parents=True, exist_ok=True)
+    fd = os.open(folder / LOCK_NAME, os.O_WRONLY | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError("another capture running on this folder", "one capture per "
+                             "folder at a time", source=folder) from None
+        yield
+    finally:
+        os.close(fd)
+
+
+def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
+            robot_text: str) -> None:
+    """Store the plan and the robot model, or check they are those of the capture to resume.
+
+    Raises:
+        InputError: if ``folder`` holds a capture of another plan or robot.
+    """
+    for name, text, what in ((PLAN_NAME, plan_path.read_text(encoding="utf-8"), "plan"),
+                             (ROBOT_NAME, robot_text, "robot model")):
+        stored = folder / name
+        if not stored.exists():
+            write_atomic(stored, text)
+        elif what == "plan" and not np.array_equal(read_plan(stored), plan_q_rad):
+            raise InputError(f"a capture of another plan than {plan_path}",
+                             "the plan this capture was started with (or a new --out folder)",
+                             source=stored)
+        elif what != "plan" and stored.read_text(encoding="utf-8") != text:
+            raise InputError("a capture of another robot model", "the robot this capture was "
+                             "started with (or a new --out folder)", source=stored)
+    fsync_directory(folder)
+
+
+class CaptureError(TwinError):
+    """The capture stopped on a fault; every row written before it stays."""
+
+
+def measure(encoder: Encoder, rule: SettleRule, reconnect_s: float,
+            report: Callable[[str], None]) -> Settled:
+    """Settle one reading; if the port fails, reopen it for up to ``reconnect_s`` and retry.
+
+    Raises:
+        EncoderDisconnectedError: if the device does not come back in time.
+    """
+    while True:
+        try:
+            return settle(encoder.read_m, rule,
+                          on_failure=lambda exc: report(f"  retrying: {exc}"))
+        except EncoderDisconnectedError as lost:
+            report(f"  {lost}; trying to reopen for {reconnect_s:g} s")
+            deadline = time.monotonic() + reconnect_s
+            while True:
+                try:
+                    encoder.open()
+                    break
+                except EncoderDisconnectedError:
+                    if time.monotonic() >= deadline:
+                        raise lost from None
+                    time.sleep(min(0.5, reconnect_s))
+
+
+def capture(
+    plan_q_rad: NDArray[np.float64],
+    measurements_path: Path,
+    encoder: Encoder,
+    robot: RobotSource,
+    rule: SettleRule,
+    *,
+    reconnect_s: float = 5.0,
+    report: Callable[[str], None] = print,
+) -> int:
+    """Measure every plan pose that has no row yet, appending each row durably.
+
+    Args:
+        plan_q_rad: Plan, shape (N, n), rad.
+        measurements_path: The measurement CSV (created with its header if absent).
+        encoder: The open encoder.
+        robot: Where the joint angles come from.
+        rule: When a reading counts as settled.
+        reconnect_s: How long to try reopening a port that failed, s.
+        report: Receives progress and fault lines.
+
+    Returns:
+        The number of poses measured by this call.
+
+    Raises:
+        CaptureError: on a fault that retries did not cure; every row written so far stays.
+        KeyboardInterrupt: on Ctrl-C, after reporting how to resume.
+    """
+    n_poses = len(plan_q_rad)
+    done, note = recover(measurements_path, n_poses)
+    if note:
+        report(note)
+    todo = [pose for pose in range(1, n_poses + 1) if pose not in done]
+    if done:
+        start = f"resuming at pose {todo[0]}/{n_poses}" if todo else "nothing left to measure"
+        report(f"{len(done)} of {n_poses} poses already in {measurements_path}; {start}")
+    pose = todo[0] if todo else 0
+    try:
+        for pose in todo:
+            started = time.monotonic()
+            try:
+                q_reached = robot.move_to(pose, n_poses, plan_q_rad[pose - 1])
+                settled = measure(encoder, rule, reconnect_s, report)
+            except TwinError as exc:
+                raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
+                    from None
+            append_line(measurements_path, format_row(pose, q_reached, settled.length_m))
+            done.add(pose)
+            report(f"pose {pose}/{n_poses}: {float(m_to_mm(settled.length_m)):.4f} mm "
+                   f"({settled.readings} readings, spread "
+                   f"{float(m_to_mm(settled.spread_m)):.4f} mm, "
+                   f"{time.monotonic() - started:.2f} s)")
+    except KeyboardInterrupt:
+        report(f"interrupted at pose {pose}/{n_poses}. {_saved(done, n_poses)}")
+        raise
+    return len(todo)
+
+
+def _saved(done: set[int], n_poses: int) -> str:
+    return (f"{len(done)} of {n_poses} poses are saved; run the same command again to resume "
+            "(measured poses are kept and not repeated)")

@@ -1,0 +1,144 @@
+"""`twin capture`: measure a pose plan with a real (or virtual) encoder, durably."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+ROBOT_SOURCES = ("sim", "manual", "file")
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the subcommand."""
+    parser = subparsers.add_parser(
+        "capture",
+        help="measure a pose plan with the drawstring encoder",
+        description="Bring the robot to each pose of a plan, read the encoder until the length "
+        "settles, and append the pose to OUT/measurements.csv (fsync-ed before the next pose). "
+        "Also writes OUT/capture.toml for `twin calibrate`. Interrupted, it keeps every "
+        "measured pose; the same command again resumes at the first missing one.",
+    )
+    parser.add_argument("--plan", type=Path, required=True, metavar="PLAN.csv",
+                        help="poses to measure: CSV with q1..q6 in degrees")
+    parser.add_argument("--encoder", required=True, metavar="URL|DEVICE.toml",
+                        help="serial:///dev/ttyUSB0?baud=115200&protocol=ascii or a device "
+                        "TOML file")
+    parser.add_argument("--robot-source", choices=ROBOT_SOURCES, required=True,
+                        help="sim: the twin moves (with twin virtual-encoder); manual: the "
+                        "operator jogs and confirms; file: joint angles logged by the controller")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--robot", type=Path, help="robot model TOML (default: the ABB IRB "
+                        "120; with sim: the scenario's)")
+    parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
+                        "the scenario's told port)")
+    parser.add_argument("--scenario", type=Path, metavar="SCENARIO.toml",
+                        help="sim: the scenario the virtual encoder serves")
+    parser.add_argument("--seed", type=int, help="sim: the virtual encoder's --seed")
+    parser.add_argument("--pose-file", type=Path, metavar="FILE",
+                        help="sim: the virtual encoder's --pose-file")
+    parser.add_argument("--joint-log", type=Path, metavar="LOG.csv",
+                        help="file: the controller's log, columns pose,q1..q6 (deg)")
+    parser.add_argument("--joint-log-wait", type=float, default=60.0, metavar="S",
+                        help="file: how long to wait for a pose's row (default: 60 s)")
+    parser.add_argument("--settle-k", type=int, default=5, metavar="K",
+                        help="consecutive readings that must agree (default: 5)")
+    parser.add_argument("--settle-tol", type=float, default=0.01, metavar="MM",
+                        help="largest spread of those readings, mm (default: 0.01)")
+    parser.add_argument("--settle-timeout", type=float, default=10.0, metavar="S",
+                        help="longest wait for the length to settle (default: 10 s)")
+    parser.add_argument("--settle-interval", type=float, default=0.0, metavar="S",
+                        help="pause between readings, for devices with a slow update rate "
+                        "(default: 0 s)")
+    parser.add_argument("--max-failures", type=int, default=5, metavar="N",
+                        help="failed readings in a row before giving up (default: 5)")
+    parser.add_argument("--reconnect", type=float, default=5.0, metavar="S",
+                        help="how long to try reopening a lost port (default: 5 s)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the subcommand."""
+    from twin.capture import (
+        CAPTURE_NAME,
+        MEASUREMENTS_NAME,
+        ROBOT_NAME,
+        capture,
+        locked,
+        prepare,
+    )
+    from twin.encoders import open_encoder, resolve
+    from twin.encoders.settle import SettleRule
+    from twin.errors import InputError
+    from twin.io.capture import parse_port_mm, write_capture
+    from twin.io.measurements import JOINT_COLUMNS, check_joint_limits, read_table
+    from twin.io.results import write_json
+    from twin.robot import default_robot, load_robot, robot_to_toml
+    from twin.robots.base import RobotSource
+    from twin.units import deg_to_rad, mm_to_m
+
+    config = resolve(args.encoder)
+    try:
+        rule = SettleRule(k=args.settle_k, tolerance_m=float(mm_to_m(args.settle_tol)),
+                          timeout_s=args.settle_timeout, max_failures=args.max_failures,
+                          interval_s=args.settle_interval)
+    except ValueError as exc:
+        raise InputError(str(exc), "K >= 1, N >= 1, MM >= 0, timeout > 0, interval >= 0",
+                         source="--settle-* / --max-failures") from None
+    truth = None
+    if args.robot_source == "sim":
+        if args.scenario is None:
+            raise InputError("no --scenario", "the scenario the virtual encoder serves "
+                             "(--robot-source sim)", source="command line")
+        from twin.sim import load_scenario, simulate
+        from twin.units import dh_rows_to_display, m_to_mm
+
+        sim = simulate(load_scenario(args.scenario), args.seed)
+        robot, port_m = sim.robot, sim.port_nominal_m
+        truth = {"scenario": sim.scenario.name, "seed": sim.seed,
+                 "delta": dh_rows_to_display(sim.delta), "port": m_to_mm(sim.port_m).tolist(),
+                 "port_told": m_to_mm(port_m).tolist()}
+    else:
+        robot = load_robot(args.robot) if args.robot else default_robot()
+        if args.port is None:
+            raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
+                             source="command line")
+        port_m = parse_port_mm(args.port, "--port", "")
+    plan_deg, plan_lines = read_table(args.plan, JOINT_COLUMNS, "a plan CSV (q1..q6 in deg)")
+    check_joint_limits(plan_deg, plan_lines, robot, args.plan)
+    plan_q_rad = deg_to_rad(plan_deg)
+
+    source: RobotSource
+    if args.robot_source == "sim":
+        from twin.robots.sim import DEFAULT_POSE_FILE, SimRobot
+
+        source = SimRobot(plan_q_rad, args.pose_file or DEFAULT_POSE_FILE)
+    elif args.robot_source == "manual":
+        from twin.robots.manual import ManualRobot
+
+        source = ManualRobot(sys.stdout, sys.stdin)
+    else:
+        from twin.robots.file import FileRobot
+
+        if args.joint_log is None:
+            raise InputError("no --joint-log", "the controller's log CSV (--robot-source file)",
+                             source="command line")
+        source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
+
+    out: Path = args.out
+    with locked(out):
+        prepare(out, args.plan, plan_q_rad, robot_to_toml(robot))
+        if truth is not None:
+            write_json(out / "truth.json", truth)
+        write_capture(out / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,
+                      measurements=MEASUREMENTS_NAME,
+                      truth="truth.json" if truth is not None else None,
+                      encoder={"url": config.to_url()})
+        with open_encoder(config) as encoder:
+            measured = capture(plan_q_rad, out / MEASUREMENTS_NAME, encoder, source, rule,
+                               reconnect_s=args.reconnect,
+                               report=lambda line: print(line, flush=True))
+    print(f"measured {measured} poses; all {len(plan_q_rad)} are in {out / MEASUREMENTS_NAME}")
+    print(f"calibrate with: twin calibrate {out / CAPTURE_NAME}")
+    return 0
