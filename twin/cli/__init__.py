@@ -11,10 +11,20 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from twin.cli import calibrate, compensate, export, identify, plan, simulate
+from twin.cli import (
+    calibrate,
+    capture,
+    compensate,
+    export,
+    identify,
+    plan,
+    simulate,
+    virtual_encoder,
+)
 from twin.errors import InputError, TwinError
 
-SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export)
+SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, capture,
+               virtual_encoder)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
