@@ -42,6 +42,8 @@ TOLERANCE_RAD = 1e-10
 MAX_ITERATIONS = 100
 INITIAL_DAMPING = 1e-6
 """Initial λ of the damped step, in units of J Jᵀ (m²/rad²); J ~ 0.3 m/rad for the IRB 120."""
+MIN_DAMPING = 1e-12
+"""Floor of λ: keeps J Jᵀ + λ I invertible at a singular pose."""
 MAX_DAMPING = 1e8
 """A row whose λ grows past this is stuck at a local minimum of ‖e‖: unreachable."""
 
@@ -162,15 +164,15 @@ def solve_ik(
     error, jacobian = _errors(robot, q, p_target, R_target)
     damping = np.full(len(q), INITIAL_DAMPING)
     identity = np.eye(error.shape[1])
-    iteration = 0
-    for iteration in range(1, max_iterations + 1):
+    iterations = 0
+    while iterations < max_iterations:
         position_m, rotation_rad = norms(error)
         active = ((position_m > tolerance_m) | (rotation_rad > tolerance_rad)) & (
             damping < MAX_DAMPING
         )
         if not np.any(active):
-            iteration -= 1
             break
+        iterations += 1
         J, e = jacobian[active], error[active]
         JJt = J @ np.swapaxes(J, -1, -2) + damping[active, None, None] * identity
         step = (np.swapaxes(J, -1, -2) @ np.linalg.solve(JJt, e[..., None]))[..., 0]
@@ -183,12 +185,12 @@ def solve_ik(
         q[taken], error[taken], jacobian[taken] = (
             q_try[better], error_try[better], jacobian_try[better],
         )
-        damping[taken] = np.maximum(damping[taken] / 3.0, 1e-12)
+        damping[taken] = np.maximum(damping[taken] / 3.0, MIN_DAMPING)
         damping[rows[~better]] *= 10.0
     position_m, rotation_rad = norms(error)
     converged = (position_m <= tolerance_m) & (rotation_rad <= tolerance_rad)
     q, within = _into_limits(robot, q, np.asarray(q_seed, dtype=np.float64))
-    return IKResult(q, position_m, rotation_rad, converged, within, iteration)
+    return IKResult(q, position_m, rotation_rad, converged, within, iterations)
 
 
 def _best_of_starts(
