@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import CalibrationResult
-from twin.identifiability import WEAK_RTOL
+from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.metrics import Metrics
 from twin.solvers import get_solver
 from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm
@@ -21,23 +21,28 @@ def _metric_row(label: str, m: Metrics) -> str:
     return f"  {label:<18}" + "".join(f"{v:>10.4f}" for v in values)
 
 
+ARBITRARY = "their values are arbitrary: compare flange positions, not raw parameters"
+
+
+def _nominal_lines(nominal: Identifiability, along: str) -> list[str]:
+    lines = [
+        f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
+        f"{nominal.n_params}, condition {nominal.condition:.3g} "
+        f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
+        "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
+    ]
+    if nominal.unidentifiable:
+        lines.append(f"    (directions in column-scaled units; {along})")
+    return lines
+
+
 def format_identifiability(result: CalibrationResult) -> list[str]:
     """The identifiability and predicted-accuracy lines of one result (empty if not computed)."""
     nominal, identified = result.identifiability, result.identified_identifiability
     lines = []
     if nominal is not None:
-        lines += [
-            f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
-            f"{nominal.n_params}, condition {nominal.condition:.3g} "
-            f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
-            "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
-        ]
-        if nominal.unidentifiable:
-            lines.append(
-                "    (directions in column-scaled units; "
-                + ("held at their start values)" if result.method == "lm-base" else
-                   "their values are arbitrary: compare flange positions, not raw parameters)")
-            )
+        held = result.method == "lm-base"
+        lines += _nominal_lines(nominal, "held at their start values" if held else ARBITRARY)
     if identified is not None:
         lines.append(
             f"  at the identified geometry: rank {identified.rank} of {identified.n_params}, "
@@ -113,4 +118,14 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
             f"{result.solver.evaluations:>9}"
         )
     lines.append("  " + MAE_NOTE)
+    if first.identifiability is not None:
+        lines += _nominal_lines(first.identifiability, "lm-base holds them at their start "
+                                "values; for the others " + ARBITRARY)
+    predicted = [
+        f"{name} {float(m_to_mm(result.uncertainty.flange_rms_m)):.4f}"
+        for name, result in results.items() if result.uncertainty is not None
+    ]
+    if predicted:
+        lines.append("  predicted flange RMS error over the workspace [mm]: "
+                     + ", ".join(predicted))
     return "\n".join(lines)
