@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
         source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
 
     out: Path = args.out
-    with locked(out):
+    with locked(out), open_encoder(config) as encoder:
         prepare(out, args.plan, plan_q_rad, robot_to_toml(robot))
         if truth is not None:
             write_json(out / "truth.json", truth)
@@ -135,10 +135,9 @@ def run(args: argparse.Namespace) -> int:
                       measurements=MEASUREMENTS_NAME,
                       truth="truth.json" if truth is not None else None,
                       encoder={"url": config.to_url()})
-        with open_encoder(config) as encoder:
-            measured = capture(plan_q_rad, out / MEASUREMENTS_NAME, encoder, source, rule,
-                               reconnect_s=args.reconnect,
-                               report=lambda line: print(line, flush=True))
+        measured = capture(plan_q_rad, out / MEASUREMENTS_NAME, encoder, source, rule,
+                           reconnect_s=args.reconnect,
+                           report=lambda line: print(line, flush=True))
     print(f"measured {measured} poses; all {len(plan_q_rad)} are in {out / MEASUREMENTS_NAME}")
     print(f"calibrate with: twin calibrate {out / CAPTURE_NAME}")
     return 0

@@ -32,7 +32,9 @@ def open_serial(config: EncoderConfig) -> serial.Serial:
             exclusive=True,
         )
     except (serial.SerialException, OSError, ValueError) as exc:
-        raise EncoderDisconnectedError(f"cannot open encoder port {config.port}: {exc}") from None
+        raise EncoderDisconnectedError(
+            f"cannot open encoder port {config.port} (is the device plugged in, the path right "
+            f"and the port free?): {exc}") from None
 
 
 class AsciiEncoder(Encoder):

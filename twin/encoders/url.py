@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl, quote, urlsplit
@@ -204,8 +204,3 @@ def load_device(path: str | Path) -> EncoderConfig:
 def resolve(spec: str) -> EncoderConfig:
     """``--encoder`` value: a ``serial://`` URL or the path of a device TOML file."""
     return parse_url(spec) if spec.startswith("serial:") else load_device(spec)
-
-
-def with_port(config: EncoderConfig, port: str) -> EncoderConfig:
-    """The same settings on another device path."""
-    return replace(config, port=port)
