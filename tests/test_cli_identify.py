@@ -15,6 +15,7 @@ from twin.cli import main
 from twin.io.capture import write_capture
 from twin.io.measurements import read_table, write_measurements
 from twin.robot import RobotModel, robot_to_toml
+from twin.units import dh_rows_to_display
 
 PORT = "600,-400,100"
 
@@ -51,13 +52,22 @@ def test_identify_reports_rank_names_and_sigma(
 
 def test_identify_reads_a_capture_with_the_unknown_port_and_offset(
     csv_path: Path, tmp_path: Path, irb120: RobotModel, port_m: np.ndarray,
-    capsys: pytest.CaptureFixture[str],
+    true_delta: np.ndarray, capsys: pytest.CaptureFixture[str],
 ) -> None:
     """A capture.toml needs no --port; port and offset unknown give rank 21 of 28 with
-    d1+port_z among the unidentifiable directions."""
+    d1+port_z among the unidentifiable directions. With its truth file, the true flange error
+    is printed beside the prediction, and is within a factor of 3 of it."""
     (tmp_path / "robot.toml").write_text(robot_to_toml(irb120))
+    (tmp_path / "truth.json").write_text(json.dumps({"delta": dh_rows_to_display(true_delta)}))
     capture = tmp_path / "capture.toml"
-    write_capture(capture, robot="robot.toml", port_m=port_m, measurements=csv_path.name)
+    write_capture(capture, robot="robot.toml", port_m=port_m, measurements=csv_path.name,
+                  truth="truth.json")
+    assert main(["identify", str(capture)]) == 0
+    printed = capsys.readouterr().out
+    predicted = float(re.search(r"predicted flange RMS error over the workspace (\S+)",
+                                printed).group(1))
+    true = float(re.search(r"true flange RMS error over the workspace (\S+)", printed).group(1))
+    assert predicted / 3 < true < 3 * predicted
     assert main(["identify", str(capture), "--estimate-port", "--estimate-offset"]) == 0
     printed = capsys.readouterr().out
     assert "rank 21 of 28" in printed and "d1+port_z" in printed

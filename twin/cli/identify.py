@@ -19,9 +19,10 @@ from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identif
 from twin.io.atomic import write_atomic
 from twin.io.measurements import load_measurements
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
+from twin.io.truth import load_truth_delta
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
-from twin.uncertainty import flange_sigma, workspace_grid
+from twin.uncertainty import flange_error_rms, flange_sigma, workspace_grid
 from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm, mm_to_m
 
 MAP_GRID = 41
@@ -110,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if not args.sigma > 0:
         raise InputError(f"{args.sigma!r}", "a positive noise in mm", source="--sigma")
-    robot, port_m, measurements_path, _ = resolve_inputs(args.input, args.robot, args.port)
+    robot, port_m, measurements_path, truth_path = resolve_inputs(args.input, args.robot,
+                                                                  args.port)
     data = load_measurements(measurements_path, robot)
     model = CableModel(robot.dh, port_m, estimate_port=args.estimate_port,
                        estimate_offset=args.estimate_offset)
@@ -150,6 +152,13 @@ def run(args: argparse.Namespace) -> int:
         *_identifiability_lines(result.identified_identifiability),
         f"  predicted flange RMS error over the workspace "
         f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
+    ]
+    if truth_path is not None and truth_path.exists():
+        true_dh = robot.perturbed(load_truth_delta(truth_path, robot.n_joints)).dh
+        true_error = flange_error_rms(result.identified_robot.dh, true_dh, q_workspace)
+        lines.append(f"  true flange RMS error over the workspace {float(m_to_mm(true_error)):.4f}"
+                     f" mm (against the D-H table of {truth_path.name})")
+    lines += [
         "  standard deviations of the base parameters (dependent ones held: —)",
         *_sigma_table(model, uncertainty.sigma),
     ]
