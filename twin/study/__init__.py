@@ -7,8 +7,8 @@ interrupted and resumed), and end in the paper's Tables 6 and 7, a truth table a
 """
 
 from twin.study.plan import StudyPlan, load_study
-from twin.study.runner import run_study, write_report
+from twin.study.runner import run_study, run_trials, write_report
 from twin.study.store import COLUMNS, StudyStore, TrialOutcome
 
 __all__ = ["COLUMNS", "StudyPlan", "StudyStore", "TrialOutcome", "load_study", "run_study",
-           "write_report"]
+           "run_trials", "write_report"]

@@ -32,15 +32,15 @@ def open_store(plan: StudyPlan, folder: str | Path) -> StudyStore:
     return StudyStore(folder, manifest, plan.source)
 
 
-def run_study(
+def run_trials(
     plan: StudyPlan,
     folder: str | Path,
     executor: Executor,
     *,
     stream: TextIO | None = None,
     on_outcome: Callable[[TrialOutcome], None] | None = None,
-) -> dict[str, Any]:
-    """Run the unfinished trials of ``plan`` into ``folder`` and write the summary.
+) -> StudyStore:
+    """Run the trials of ``plan`` that ``folder`` does not hold yet, recording each as it ends.
 
     Args:
         plan: The study.
@@ -50,27 +50,34 @@ def run_study(
         on_outcome: Called in this process with each newly recorded trial.
 
     Returns:
-        The summary document (also written to `summary.json`).
+        The study folder's store, with every trial of the plan recorded.
     """
     store = open_store(plan, folder)
     finished = store.finished()
     todo = [key for key in plan.keys if key not in finished]
+    if not todo:
+        return store
     specs = {case.label: TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
              for case in plan.cases}
-    if todo:
-        progress = Progress(len(plan.keys), len(plan.keys) - len(todo), stream)
-        try:
-            with executor:
-                batches = make_batches(todo, executor.workers)
-                for outcomes in executor.run(partial(run_batch, specs), batches):
-                    for outcome in outcomes:
-                        if store.append(outcome):
-                            progress.advance()
-                            if on_outcome is not None:
-                                on_outcome(outcome)
-        finally:
-            progress.close()
-    return write_report(plan, store)
+    progress = Progress(len(plan.keys), len(plan.keys) - len(todo), stream)
+    try:
+        with executor:
+            batches = make_batches(todo, executor.workers)
+            for outcomes in executor.run(partial(run_batch, specs), batches):
+                for outcome in outcomes:
+                    if store.append(outcome):
+                        progress.advance()
+                        if on_outcome is not None:
+                            on_outcome(outcome)
+    finally:
+        progress.close()
+    return store
+
+
+def run_study(plan: StudyPlan, folder: str | Path, executor: Executor, *,
+              stream: TextIO | None = None) -> dict[str, Any]:
+    """:func:`run_trials`, then the summary and figures; returns the summary document."""
+    return write_report(plan, run_trials(plan, folder, executor, stream=stream))
 
 
 def write_report(plan: StudyPlan, store: StudyStore) -> dict[str, Any]:

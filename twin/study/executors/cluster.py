@@ -52,7 +52,8 @@ class DaskCluster:
         else:
             self._cluster = LocalCluster(
                 n_workers=self._n_local, threads_per_worker=1, processes=True,
-                host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR,
+                host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                silence_logs=logging.ERROR,
             )
             self.client = Client(self._cluster)
         return self

@@ -1,0 +1,173 @@
+"""Studies in one process: the [study] table, trials against the truth, the store, the tables."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.cli import main
+from twin.errors import InputError
+from twin.study import load_study
+from twin.study.runner import open_store
+from twin.study.store import COLUMNS, StudyStore, TrialOutcome
+from twin.study.summary import table7
+from twin.study.trial import TrialSpec, run_batch, trial_seed
+
+SCENARIO = """
+name = "study_test"
+seed = 11
+
+[port]
+position_mm = [600.0, -400.0, 100.0]
+
+[perturbation]
+a_mm = 1.0
+d_mm = 1.0
+alpha_deg = 0.1
+theta_deg = 0.1
+
+[poses]
+count = 40
+
+[encoder]
+sigma_mm = 0.01
+resolution_mm = 0.0
+
+[study]
+trials = 4
+methods = ["lm"]
+workspace_poses = 200
+"""
+
+
+def write_scenario(folder: Path, text: str = SCENARIO, name: str = "scenario.toml") -> Path:
+    """A small rigid scenario (40 poses, LM only) written to ``folder``."""
+    path = folder / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def outcomes(path: Path, keys: list[tuple[str, int]]) -> list[TrialOutcome]:
+    """Run the trials ``keys`` of the study at ``path`` in this process."""
+    plan = load_study(path)
+    specs = {c.label: TrialSpec(c.scenario, plan.methods, plan.workspace_poses)
+             for c in plan.cases}
+    return run_batch(specs, keys)
+
+
+def test_study_table_and_overrides(tmp_path: Path) -> None:
+    """[study] sets trials and methods; arguments override; aliases resolve to names."""
+    path = write_scenario(tmp_path)
+    plan = load_study(path)
+    assert (plan.trials, plan.methods, plan.workspace_poses) == (4, ("lm",), 200)
+    assert plan.keys == [("", k) for k in range(4)]
+    plan = load_study(path, trials=2, methods=["m2", "lm"])
+    assert (plan.trials, plan.methods) == (2, ("lm",))
+
+
+def with_study(lines: str) -> str:
+    """The test scenario with another [study] table."""
+    return SCENARIO.split("[study]")[0] + "[study]\n" + lines + "\n"
+
+
+@pytest.mark.parametrize(("study", "where"), [
+    ("trials = 0", "[study] trials"),
+    ("wrong = 1", "[study]"),
+    ('methods = ["nope"]', "unknown method"),
+    ('sweep = { "encoder.sigma_mm" = [0.01, -1.0] }', "sweep point encoder.sigma_mm=-1.0"),
+])
+def test_bad_study_table(tmp_path: Path, study: str, where: str) -> None:
+    """A wrong [study] key is one InputError naming the file and the key."""
+    path = write_scenario(tmp_path, with_study(study))
+    with pytest.raises(InputError) as error:
+        load_study(path)
+    assert str(path) in str(error.value) and where in str(error.value)
+
+
+def test_sweep_points_share_trial_seeds(tmp_path: Path) -> None:
+    """A sweep makes one validated case per value; trial k has the same seed at every point."""
+    text = with_study('methods = ["lm"]\nsweep = { "encoder.sigma_mm" = [0.005, 0.02] }')
+    plan = load_study(write_scenario(tmp_path, text))
+    assert [c.label for c in plan.cases] == ["encoder.sigma_mm=0.005", "encoder.sigma_mm=0.02"]
+    assert [c.scenario.noise.sigma_m for c in plan.cases] == pytest.approx([5e-6, 2e-5])
+    results = outcomes(tmp_path / "scenario.toml", [(plan.cases[0].label, 1),
+                                                    (plan.cases[1].label, 1)])
+    assert results[0].seed == results[1].seed == trial_seed(11, 1)
+    # Same poses and truth, more noise: the nominal model's error barely moves, the fit's does.
+    before = [r.rows[0]["before_rmse_mm"] for r in results]
+    assert before[0] == pytest.approx(before[1], rel=0.05)
+
+
+def test_trial_is_reproducible_and_near_the_bound(tmp_path: Path) -> None:
+    """The same trial gives the same numbers; on rigid Gaussian data LM's flange error against
+    the truth is of the order of the Cramér–Rao bound, and its identifiable parameter error is
+    small while its raw parameter error need not be."""
+    path = write_scenario(tmp_path)
+    first, again = outcomes(path, [("", 2)]), outcomes(path, [("", 2)])
+    timeless = [{k: v for k, v in row.items() if k != "seconds"} for row in first[0].rows]
+    assert timeless == [{k: v for k, v in row.items() if k != "seconds"}
+                        for row in again[0].rows]
+    row = first[0].rows[0]
+    assert set(row) == set(COLUMNS)
+    assert row["validation_rmse_mm"] < 0.1 * row["before_rmse_mm"]
+    assert 0.5 < row["crlb_ratio"] < 3.0
+    error = np.array(first[0].detail["methods"]["lm"]["parameter_error"])
+    units = np.array(first[0].detail["parameter_units"])
+    assert np.max(np.abs(error[units == "mm"])) < 0.5
+
+
+def test_store_repairs_a_torn_tail_and_counts_each_trial_once(tmp_path: Path) -> None:
+    """A run killed mid-write leaves a torn line: reopening drops it, keeps whole trials, and
+    appending a trial already recorded is a no-op."""
+    path = write_scenario(tmp_path)
+    plan = load_study(path)
+    done = outcomes(path, [("", 0), ("", 1)])
+    store = open_store(plan, tmp_path / "out")
+    assert [store.append(o) for o in done] == [True, True]
+    with (tmp_path / "out" / "results.csv").open("a") as handle:
+        handle.write("2,,123,lm,0.5,0.4")
+    with (tmp_path / "out" / "trials.jsonl").open("a") as handle:
+        handle.write('{"case": "", "trial": 2, "seed"')
+    store = open_store(plan, tmp_path / "out")
+    assert store.finished() == {("", 0), ("", 1)}
+    assert not store.append(done[0])
+    lines = (tmp_path / "out" / "results.csv").read_text().splitlines()
+    assert len(lines) == 3 and lines[0] == ",".join(COLUMNS)
+    details = (tmp_path / "out" / "trials.jsonl").read_text().splitlines()
+    assert sorted(json.loads(d)["trial"] for d in details) == [0, 1]
+    assert store.rows() == [r for o in done for r in o.rows]
+
+
+def test_changed_scenario_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Resuming a folder with a changed scenario exits with code 2 and names what changed;
+    more trials of the same scenario are allowed."""
+    path = write_scenario(tmp_path)
+    StudyStore(tmp_path / "out", {"scenario": load_study(path).document, "methods": ["lm"]},
+               path)
+    write_scenario(tmp_path, SCENARIO.replace("sigma_mm = 0.01", "sigma_mm = 0.02"))
+    assert main(["study", str(path), "--out", str(tmp_path / "out")]) == 2
+    message = capsys.readouterr().err
+    assert "encoder.sigma_mm" in message and str(path) in message and "0.02" in message
+    open_store(load_study(path, trials=9), tmp_path / "out2")
+    open_store(load_study(path, trials=12), tmp_path / "out2")
+
+
+def _rows(rmse: dict[str, list[float]]) -> list[dict[str, float | int | str]]:
+    return [{"trial": t, "case": "", "method": m, "validation_rmse_mm": v}
+            for m, values in rmse.items() for t, v in enumerate(values)]
+
+
+def test_table7_wilcoxon_and_missing_methods() -> None:
+    """M9 lower than LM in all ten trials gives the exact two-sided p = 2/2¹⁰; a study without
+    M9 says so instead of testing, and missing paper methods are named."""
+    rng = np.random.default_rng(0)
+    m9 = rng.uniform(0.2, 0.4, 10)
+    result = table7(_rows({"amlm-bipso": list(m9), "lm": list(m9 + 0.05)}), ["lm", "amlm-bipso"])
+    assert result["tests"]["lm"]["p_value"] == pytest.approx(2 / 2**10)
+    assert result["tests"]["lm"]["verdict"] == "M9 lower (significant)"
+    assert "M1" in result["missing"] and "M9" not in result["missing"]
+    alone = table7(_rows({"lm": list(m9)}), ["lm"])
+    assert not alone["tests"] and "M9 (AMLM-BIPSO) is not in this study" in alone["note"]

@@ -1,0 +1,83 @@
+"""`twin study` as a user runs it: interrupted twice, resumed, every trial counted once."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+from test_study import with_study, write_scenario
+
+TRIALS = 8
+METHODS = ("lm", "pso")
+POLL_S = 0.05
+WAIT_S = 240.0
+
+
+def recorded(folder: Path) -> Counter[int]:
+    """Rows per trial in `results.csv` (0 trials when it does not exist yet)."""
+    path = folder / "results.csv"
+    if not path.exists():
+        return Counter()
+    lines = path.read_text().splitlines(keepends=True)
+    whole = [line for line in lines if line.endswith("\n")]
+    return Counter(int(row["trial"]) for row in csv.DictReader(whole))
+
+
+def start(scenario: Path, out: Path) -> subprocess.Popen[bytes]:
+    """`python -m twin study` in its own process group."""
+    return subprocess.Popen([sys.executable, "-m", "twin", "study", str(scenario), "--out",
+                             str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+
+
+def wait_for_more_than(out: Path, count: int, process: subprocess.Popen[bytes]) -> int:
+    """Wait until more than ``count`` trials are recorded; returns how many are."""
+    deadline = time.monotonic() + WAIT_S
+    while time.monotonic() < deadline:
+        done = len(recorded(out))
+        if done > count:
+            return done
+        assert process.poll() is None, process.stderr.read().decode() if process.stderr else ""
+        time.sleep(POLL_S)
+    raise AssertionError(f"no trial beyond {count} within {WAIT_S} s")
+
+
+def test_interrupted_and_killed_runs_resume_to_every_trial_once(tmp_path: Path) -> None:
+    """Ctrl-C (SIGINT) stops a run with exit code 130; SIGKILL of the whole process group stops
+    another mid-write if it must; the third run finishes the rest. Each trial then has one row
+    per method, the tables and figures are written, and the progress bar reached the total."""
+    methods = ", ".join(f'"{m}"' for m in METHODS)
+    scenario = write_scenario(tmp_path, with_study(f"trials = {TRIALS}\nmethods = [{methods}]"))
+    out = tmp_path / "out"
+
+    first = start(scenario, out)
+    wait_for_more_than(out, 0, first)
+    first.send_signal(signal.SIGINT)
+    assert first.wait(timeout=60) == 130
+    after_first = recorded(out)
+    assert 0 < len(after_first) < TRIALS
+
+    second = start(scenario, out)
+    wait_for_more_than(out, len(after_first), second)
+    os.killpg(second.pid, signal.SIGKILL)
+    second.wait(timeout=60)
+    after_second = recorded(out)
+    assert len(after_first) < len(after_second)
+
+    third = subprocess.run([sys.executable, "-m", "twin", "study", str(scenario), "--out",
+                            str(out)], capture_output=True, text=True, timeout=WAIT_S)
+    assert third.returncode == 0, third.stderr
+    assert recorded(out) == {trial: len(METHODS) for trial in range(TRIALS)}
+    assert f"{TRIALS}/{TRIALS} trials" in third.stderr
+    summary = (out / "summary.md").read_text()
+    assert "Table 6 replica" in summary and "M9 (AMLM-BIPSO) is not in this study" in summary
+    assert "Table 6 replica" in third.stdout
+    for name in ("fig3_metrics.png", "fig4_convergence.png", "fig5_residuals.png",
+                 "parameter_error.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,99 @@
+"""Studies on real worker processes and a real Dask LocalCluster, with workers killed mid-run."""
+
+from __future__ import annotations
+
+import csv
+import io
+import multiprocessing
+import os
+import signal
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from test_study import with_study, write_scenario
+
+from twin.study import StudyPlan, load_study, run_trials
+from twin.study.executors import make_batches
+from twin.study.executors.cluster import DaskCluster
+from twin.study.executors.local import LocalProcesses
+from twin.study.store import TrialOutcome
+
+pytest.importorskip("dask.distributed")
+
+
+def recorded(folder: Path) -> Counter[int]:
+    """How many rows each trial has in `results.csv`."""
+    with (folder / "results.csv").open() as handle:
+        return Counter(int(row["trial"]) for row in csv.DictReader(handle))
+
+
+def numbers(folder: Path) -> list[dict[str, str]]:
+    """The rows of `results.csv` in trial order, without the wall time."""
+    with (folder / "results.csv").open() as handle:
+        rows = [{k: v for k, v in row.items() if k != "seconds"} for row in csv.DictReader(handle)]
+    return sorted(rows, key=lambda row: int(row["trial"]))
+
+
+def test_batches_cover_every_item_once() -> None:
+    """Batches keep order, cover every item once and give each worker several."""
+    items = list(range(37))
+    batches = make_batches(items, workers=2)
+    assert [i for batch in batches for i in batch] == items
+    assert len(batches) >= 8
+
+
+@pytest.fixture(scope="module")
+def calm(tmp_path_factory: pytest.TempPathFactory) -> tuple[StudyPlan, Path]:
+    """A 6-trial LM study and its folder after an undisturbed run on local processes."""
+    folder = tmp_path_factory.mktemp("calm")
+    plan = load_study(write_scenario(folder, with_study('trials = 6\nmethods = ["lm"]')))
+    run_trials(plan, folder / "out", LocalProcesses(2), stream=io.StringIO())
+    return plan, folder / "out"
+
+
+def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Path]) -> None:
+    """SIGKILL of a busy worker process breaks the pool; its batches run again on a fresh pool
+    and every trial is recorded exactly once, with the same numbers as an undisturbed run."""
+    plan, calm_out = calm
+    killed: list[int] = []
+
+    def kill_one(outcome: TrialOutcome) -> None:
+        children = multiprocessing.active_children()
+        if not killed and children:
+            killed.append(children[0].pid or 0)
+            os.kill(killed[0], signal.SIGKILL)
+
+    stream = io.StringIO()
+    run_trials(plan, tmp_path / "killed", LocalProcesses(2), stream=stream, on_outcome=kill_one)
+    assert killed
+    assert recorded(tmp_path / "killed") == {k: 1 for k in range(6)}
+    assert numbers(tmp_path / "killed") == numbers(calm_out)
+    assert "6/6 trials" in stream.getvalue()
+
+
+def test_dask_local_cluster_survives_a_killed_worker(
+    tmp_path: Path, calm: tuple[StudyPlan, Path]
+) -> None:
+    """On a 2-worker LocalCluster bound to 127.0.0.1, SIGKILL of a worker that is running a
+    batch gets the batch rescheduled: every trial is recorded once, with the numbers the local
+    processes give for the same seeds."""
+    plan, calm_out = calm
+    cluster = DaskCluster(workers=2)
+    killed: list[str] = []
+
+    def kill_busy(outcome: TrialOutcome) -> None:
+        if killed:
+            return
+        client = cluster.client
+        busy = [address for address, keys in client.processing().items() if keys]
+        if busy:
+            assert all(a.startswith("tcp://127.0.0.1:") for a in client.scheduler_info()["workers"])
+            pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(busy[0])
+
+    run_trials(plan, tmp_path / "dask", cluster, stream=io.StringIO(), on_outcome=kill_busy)
+    assert killed
+    assert recorded(tmp_path / "dask") == {k: 1 for k in range(6)}
+    assert numbers(tmp_path / "dask") == numbers(calm_out)
