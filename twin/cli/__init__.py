@@ -19,11 +19,12 @@ from twin.cli import (
     identify,
     plan,
     simulate,
+    study,
     virtual_encoder,
 )
 from twin.errors import InputError, TwinError
 
-SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, capture,
+SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, capture,
                virtual_encoder)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
