@@ -14,6 +14,29 @@ import rerun.blueprint as rrb
 from twin.units import DH_KEYS, display_unit
 from twin.viz import entities
 
+EYE_POSITION_M = (1.0, -1.1, 0.8)
+"""Where the 3D view's camera starts, base frame, m: in front of the arm, beside the port."""
+EYE_TARGET_M = (0.3, -0.15, 0.3)
+"""What the camera looks at, base frame, m: the middle of the IRB 120's workspace."""
+
+
+def _scene_view() -> rrb.Spatial3DView:
+    return rrb.Spatial3DView(
+        name="Robot, port and cable per pose",
+        origin=entities.WORLD,
+        eye_controls=rrb.EyeControls3D(position=EYE_POSITION_M, look_target=EYE_TARGET_M,
+                                       eye_up=(0.0, 0.0, 1.0)),
+    )
+
+
+def _panels() -> tuple[rrb.BlueprintPart, ...]:
+    """Side panels folded away so the views get the room; the compact timeline on ``pose``."""
+    return (
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(timeline=entities.POSE_TIMELINE, state="collapsed"),
+    )
+
 
 def _parameter_view(key: str, methods: Sequence[str], has_truth: bool) -> rrb.BarChartView:
     sources: list[str | None] = [None] if has_truth else []
@@ -41,7 +64,7 @@ def calibration_blueprint(methods: Sequence[str], has_truth: bool) -> rrb.Bluepr
         has_truth: Whether ``parameters/true`` and ``world/robot/true`` are logged.
     """
     scene = rrb.Vertical(
-        rrb.Spatial3DView(name="Robot, port and cable per pose", origin=entities.WORLD),
+        _scene_view(),
         rrb.TimeSeriesView(name="Residual per pose [mm]", origin=entities.RESIDUALS),
         row_shares=[3, 2],
     )
@@ -62,7 +85,7 @@ def calibration_blueprint(methods: Sequence[str], has_truth: bool) -> rrb.Bluepr
             rrb.Vertical(convergence, parameters, report, row_shares=[2, 3, 2]),
             column_shares=[3, 2],
         ),
-        rrb.TimePanel(timeline=entities.POSE_TIMELINE, expanded=True),
+        *_panels(),
     )
 
 
@@ -70,9 +93,9 @@ def scene_blueprint() -> rrb.Blueprint:
     """The default layout of a recording of measurements only (`twin simulate`)."""
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(name="Robot, port and cable per pose", origin=entities.WORLD),
+            _scene_view(),
             rrb.TextDocumentView(name="Report", origin=entities.REPORT),
             column_shares=[3, 1],
         ),
-        rrb.TimePanel(timeline=entities.POSE_TIMELINE, expanded=True),
+        *_panels(),
     )

@@ -26,10 +26,14 @@ from twin.viz.report import calibration_markdown
 from twin.viz.scene import NOMINAL_COLOR, TRUE_COLOR, log_scene, robot_color
 from twin.viz.writer import Writer
 
+BAR_GROUP_WIDTH = 0.8
+"""Width of one joint's group of bars (the truth, then each method), in joint-index units."""
+
 
 def log_parameters(
     writer: Writer, method: str | None, delta: NDArray[np.float64], values: NDArray[np.float64],
     names: tuple[str, ...], is_length: ArrayLike, color: tuple[int, int, int],
+    slot: tuple[int, int] = (0, 1),
 ) -> None:
     """One source's D-H errors as bars per row (mm, deg) and its values exactly (SI).
 
@@ -42,12 +46,17 @@ def log_parameters(
         names: Name of each value, shape (p,).
         is_length: Which values are lengths (m) rather than angles (rad), shape (p,).
         color: Bar colour.
+        slot: ``(index, count)``: this source's place among the sources drawn side by side in
+            one chart, so that the truth and each method get their own bar per joint.
     """
     display = dh_rows_to_display(delta)
-    joints = np.arange(1, delta.shape[1] + 1)
+    index, count = slot
+    width = BAR_GROUP_WIDTH / count
+    abscissa = np.arange(1, delta.shape[1] + 1) - BAR_GROUP_WIDTH / 2 + (index + 0.5) * width
     for key in DH_KEYS:
         writer.once(entities.parameter_bars(method, key),
-                    rr.BarChart(np.asarray(display[key]), abscissa=joints, color=color))
+                    rr.BarChart(np.asarray(display[key]), abscissa=abscissa, color=color,
+                                widths=np.full(abscissa.shape, width, dtype=np.float32)))
     writer.once(
         entities.parameter_exact(method),
         rr.Scalars(values),
@@ -88,10 +97,13 @@ def log_convergence(writer: Writer, method: str, result: CalibrationResult, orde
         "train_rmse": m_to_mm([record.train_rmse_m for record in history]),
         "validation_rmse": m_to_mm([record.validation_rmse_m for record in history]),
     }
-    color = robot_color(method, order)
+    color = np.asarray(robot_color(method, order))
+    lighter = (color + 255) // 2  # validation beside training in the same plot
     for quantity, values in series.items():
         path = entities.convergence(method, quantity)
-        writer.once(path, rr.SeriesLines(colors=color, names=f"{method} {quantity}"))
+        shade = lighter if quantity == "validation_rmse" else color
+        writer.once(path, rr.SeriesLines(colors=shade.astype(np.uint8),
+                                         names=f"{method} {quantity}"))
         writer.series(path, entities.ITERATION_TIMELINE, iterations,
                       rr.Scalars.columns(scalars=values))
 
@@ -122,15 +134,18 @@ def log_calibration(
     cable_to = "true" if truth_delta is not None else entities.identified_label(methods[0])
     log_scene(writer, robots, measurements, first.model.port_m, cable_to)
     log_residuals(writer, results, measurements)
+    has_truth = truth_delta is not None
+    sources = len(results) + has_truth
     for order, (name, result) in enumerate(results.items()):
         log_convergence(writer, name, result, order)
         log_parameters(writer, name, result.delta, result.solver.x, result.model.names,
-                       result.model.is_length, robot_color(name, order))
+                       result.model.is_length, robot_color(name, order),
+                       (order + has_truth, sources))
     if truth_delta is not None:
         truth = np.asarray(truth_delta, dtype=np.float64)
         n_dh = first.model.n_dh
         log_parameters(writer, None, truth, truth.ravel(), first.model.names[:n_dh],
-                       first.model.is_length[:n_dh], TRUE_COLOR)
+                       first.model.is_length[:n_dh], TRUE_COLOR, (0, sources))
     writer.once(entities.REPORT, rr.TextDocument(
         calibration_markdown(results, measurements, truth_delta),
         media_type=rr.MediaType.MARKDOWN,

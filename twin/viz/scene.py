@@ -27,7 +27,7 @@ METHOD_COLORS = ((230, 120, 20), (30, 120, 220), (200, 40, 160), (220, 200, 30),
 """Identified models, in the order the methods ran."""
 CABLE_COLOR = (240, 220, 60)
 PORT_COLOR = (255, 80, 80)
-LINK_RADIUS_UI = -2.5
+LINK_RADIUS_UI = -4.0
 """Negative radii are in UI points: the links keep their width at any zoom."""
 CABLE_RADIUS_UI = -1.0
 PORT_RADIUS_M = 0.012
@@ -69,7 +69,6 @@ def log_robots(writer: Writer, robots: Mapping[str, RobotModel], q_rad: ArrayLik
                 strips=origins.astype(np.float32),
                 colors=_colors(color, poses.size),
                 radii=np.full(poses.size, LINK_RADIUS_UI, dtype=np.float32),
-                labels=[label] * poses.size,
             ),
         )
 
