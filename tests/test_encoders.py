@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from twin.cable import cable_length
+from twin.capture import measure
 from twin.encoders import (
     EncoderConfig,
     EncoderDisconnectedError,
@@ -243,3 +244,25 @@ def test_unplugged_device_is_reported_as_disconnected() -> None:
     with pytest.raises(EncoderDisconnectedError, match=path):
         encoder.read_m()
     encoder.close()
+
+
+@pytest.mark.usefixtures("moved")
+def test_lost_port_is_reopened_on_the_same_path(ascii_path: str, tmp_path: Path) -> None:
+    """A USB adapter unplugged and plugged back reappears behind the same by-id link: the
+    reading that failed is retried on the reopened port and settles on the device's value."""
+    master, slave = os.openpty()
+    link = tmp_path / "usb-encoder-port0"
+    link.symlink_to(os.ttyname(slave))
+    encoder = open_encoder(parse_url(f"serial://{link}?timeout=0.3"))
+    os.close(slave)
+    link.unlink()
+    link.symlink_to(ascii_path)  # what udev does when the device comes back
+    os.close(master)  # unplugged: the open port fails
+    lines: list[str] = []
+    # The swing halves per reading: readings 4–6 are the first three within 0.012 mm.
+    rule = SettleRule(k=3, tolerance_m=float(mm_to_m(0.012)))
+    settled = measure(encoder, rule, 5.0, lines.append)
+    encoder.close()
+    assert any("trying to reopen" in line for line in lines)
+    assert settled.length_m == pytest.approx(np.mean([expected_m(j) for j in (4, 5, 6)]),
+                                             abs=mm_to_m(5e-4))

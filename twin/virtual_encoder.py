@@ -44,7 +44,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.errors import TwinError
+from twin.encoders.url import PROTOCOLS
+from twin.errors import UnknownChoiceError
 from twin.robots.sim import read_pose
 from twin.units import m_to_mm, mm_to_m
 
@@ -53,7 +54,6 @@ LengthSource = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.f
 Reading = Callable[[float, np.random.Generator], float]
 """What the encoder reads, m, for a true length in m, drawing its noise from the generator."""
 
-PROTOCOLS = ("ascii", "modbus")
 TRANSIENT_M = float(mm_to_m(0.05))
 """First swing of the cable after a move, m; it halves and changes sign at each reading."""
 QUERY = b"MEAS?"
@@ -256,7 +256,7 @@ def serve(instrument: Instrument, protocol: str, *, slave_id: int = 1, garbage_e
         announce: Called with the host-side device path once the device answers.
     """
     if protocol not in PROTOCOLS:
-        raise TwinError(f"protocol {protocol!r}: expected one of {', '.join(PROTOCOLS)}")
+        raise UnknownChoiceError("protocol", protocol, PROTOCOLS)
 
     def default_announce(path: str) -> None:
         print(path, flush=True)

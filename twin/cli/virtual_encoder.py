@@ -6,7 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-PROTOCOLS = ("ascii", "modbus")
+from twin.encoders.url import PROTOCOLS
+
 URL_QUERY = {"ascii": "protocol=ascii", "modbus": "protocol=modbus&scale=0.001"}
 """What the driver needs besides the path: the Modbus device counts µm in registers 0–1."""
 
