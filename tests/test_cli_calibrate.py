@@ -67,7 +67,7 @@ def _write(tmp_path: Path, name: str, content: str | bytes) -> Path:
         (["calibrate", "{csv}", "--port", "1,2"], "--port: found '1,2', expected three finite"),
         (["calibrate", "{csv}", "--port", "a,b,c"], "expected three finite numbers"),
         (["calibrate", "{csv}", "--port", PORT, "--method", "newton"],
-         "found unknown method 'newton', expected one of lm (m2)"),
+         "found unknown method 'newton', expected one of ekf (m1), lm (m2)"),
         (["calibrate", "{csv}", "--port", PORT, "--robot", "{tmp}/bad_robot.toml"],
          "bad_robot.toml: found no 'length_unit'"),
         (["calibrate", "{short}", "--port", PORT],
