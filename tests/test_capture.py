@@ -159,6 +159,8 @@ def test_recover_drops_a_partial_line_and_refuses_a_pose_twice(tmp_path: Path) -
     path.write_text(HEADER + "1,0,0,0,0,0,0,500.0\n1,0,0,0,0,0,0,500.0\n")
     with pytest.raises(InputError, match="pose 1 a second time"):
         recover(path, 5)
+    path.write_text("")
+    assert recover(path, 5) == (set(), None) and path.read_text() == HEADER
     path.write_text(HEADER + "7,0,0,0,0,0,0,500.0\n")
     with pytest.raises(InputError, match=r"a pose number in 1\.\.5"):
         recover(path, 5)
@@ -296,10 +298,15 @@ def test_file_robot_source_records_the_logged_angles(
 
 
 def test_file_robot_source_names_a_missing_pose(tmp_path: Path) -> None:
-    """A pose the controller never logged is an InputError naming the log and the pose."""
+    """A pose the controller has not logged (even in an empty log) is an InputError naming the
+    log and the pose once the wait is over."""
     log = tmp_path / "joints.csv"
-    log.write_text("pose,q1,q2,q3,q4,q5,q6\n1,0,0,0,0,0,0\n")
     robot = FileRobot(log, wait_s=0.0)
+    for text in ("", "pose,q1,q2,q3,q4,q5,q6\n"):  # nothing logged yet: keep waiting
+        log.write_text(text)
+        with pytest.raises(InputError, match="no row for pose 1/2"):
+            robot.move_to(1, 2, np.ones(6))
+    log.write_text("pose,q1,q2,q3,q4,q5,q6\n1,0,0,0,0,0,0\n")
     assert np.array_equal(robot.move_to(1, 2, np.ones(6)), np.zeros(6))
     with pytest.raises(InputError, match="no row for pose 2/2"):
         robot.move_to(2, 2, np.ones(6))

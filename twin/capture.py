@@ -95,6 +95,9 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
         return set(), None
     raw = path.read_bytes()
     note = None
+    if not raw.strip():
+        write_atomic(path, HEADER)
+        return set(), None
     if raw and not raw.endswith(b"\n"):
         keep = raw.rfind(b"\n") + 1
         note = f"{path}: dropped a partial last line {raw[keep:]!r} left by an interrupted write"

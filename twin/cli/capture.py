@@ -88,6 +88,9 @@ def run(args: argparse.Namespace) -> int:
                          source="--settle-* / --max-failures") from None
     truth = None
     if args.robot_source == "sim":
+        if args.robot is not None or args.port is not None:
+            raise InputError("--robot or --port with --robot-source sim", "neither: the "
+                             "scenario gives the robot and the port", source="command line")
         if args.scenario is None:
             raise InputError("no --scenario", "the scenario the virtual encoder serves "
                              "(--robot-source sim)", source="command line")

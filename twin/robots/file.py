@@ -1,8 +1,8 @@
 """Joint angles logged by the robot controller, matched to the plan by pose number.
 
 The controller (e.g. a RAPID program running the plan) appends one CSV row per pose once the
-robot stands still: ``pose,q1,…,q6`` with q in degrees (other columns are ignored). The capture
-waits for the row of each pose to appear, then reads the encoder.
+robot stands still: ``pose,q1,…,q6`` with q in degrees (other columns are ignored), one whole
+line per write. The capture waits for the row of each pose to appear, then reads the encoder.
 """
 
 from __future__ import annotations
@@ -37,6 +37,9 @@ class FileRobot(RobotSource):
         """Pose number -> joint angles in degrees, shape (n,); empty if there is no log yet."""
         if not self.path.exists():
             return {}
+        lines = self.path.read_text(encoding="utf-8", errors="replace").splitlines()
+        if sum(1 for line in lines if line.strip() and not line.lstrip().startswith("#")) < 2:
+            return {}  # the controller has not logged a pose yet
         values, lines = read_table(self.path, (POSE_COLUMN, *JOINT_COLUMNS),
                                    "a controller log CSV (pose, q1..q6 in deg)")
         logged: dict[int, NDArray[np.float64]] = {}
