@@ -37,8 +37,8 @@ class FileRobot(RobotSource):
         """Pose number -> joint angles in degrees, shape (n,); empty if there is no log yet."""
         if not self.path.exists():
             return {}
-        lines = self.path.read_text(encoding="utf-8", errors="replace").splitlines()
-        if sum(1 for line in lines if line.strip() and not line.lstrip().startswith("#")) < 2:
+        text = self.path.read_text(encoding="utf-8", errors="replace").splitlines()
+        if sum(1 for line in text if line.strip() and not line.lstrip().startswith("#")) < 2:
             return {}  # the controller has not logged a pose yet
         values, lines = read_table(self.path, (POSE_COLUMN, *JOINT_COLUMNS),
                                    "a controller log CSV (pose, q1..q6 in deg)")
