@@ -59,7 +59,8 @@ TRANSIENT_M = float(mm_to_m(0.05))
 QUERY = b"MEAS?"
 GARBAGE = (b"\xff\xfe+01\x0023.4\r\n", b"#?E+1!2\r\n", b"+0123.")
 """Corrupt ASCII answers, in turn: non-ASCII bytes, not a number, a partial line."""
-MICROMETRES_PER_MM = 1000
+MICROMETRE_M = float(mm_to_m(1e-3))
+"""One count of the Modbus integer registers, m."""
 
 
 class Instrument:
@@ -186,7 +187,7 @@ def _join(loop: asyncio.AbstractEventLoop, a: int, b: int) -> None:
 
 def _registers(length_m: float) -> list[int]:
     """The six registers of the table in the module docstring."""
-    counts = round(float(m_to_mm(length_m)) * MICROMETRES_PER_MM) & 0xFFFFFFFF
+    counts = round(length_m / MICROMETRE_M) & 0xFFFFFFFF
     high, low = counts >> 16, counts & 0xFFFF
     bits = int(np.array(m_to_mm(length_m), dtype=">f4").view(">u4"))
     return [high, low, low, high, bits >> 16, bits & 0xFFFF]
