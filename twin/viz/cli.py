@@ -145,7 +145,7 @@ def record_simulation(args: argparse.Namespace, sim: Simulation) -> None:
     Logs the nominal and the true robot in every recorded pose, the true port, the cable to
     the true robot's flange and a short report; a spawn fallback file goes to ``args.out``.
     """
-    with open_from_args(args, "simulate", getattr(args, "out", None)) as recording:
+    with open_from_args(args, "simulate", args.out) as recording:
         if recording is None:
             return
         from twin.viz.report import scene_markdown

@@ -120,7 +120,7 @@ class Recording:
             results: Results by method name (or a single result).
             measurements: Every measured pose (train and validation).
             truth_delta: True D-H errors, shape (4, n), m and rad, if known.
-                times: Extra sequence timelines stamped on every row, e.g. ``{"case": k}``.
+            times: Extra sequence timelines stamped on every row, e.g. ``{"case": k}``.
         """
         if isinstance(results, CalibrationResult):
             results = {results.method: results}
@@ -164,12 +164,17 @@ def grpc_uri(port: int) -> str:
 
 
 def spawn_viewer(stream: rr.RecordingStream, port: int) -> str | None:
-    """Start the native viewer listening on ``port``; None, or why it could not start."""
+    """Start the native viewer listening on ``port``; None, or why it could not start.
+
+    A viewer already listening on the port (left open from an earlier run, or forwarded from a
+    desktop) is used as it is, as ``rerun.spawn`` itself does.
+    """
+    if not port_is_free(port):
+        say(f"port {port} is taken: streaming to the viewer already listening there")
+        return None
     reason = why_no_viewer()
     if reason is not None:
         return reason
-    if not port_is_free(port):
-        return f"port {port} is in use (choose another with --rerun-grpc-port)"
     try:
         rr.spawn(port=port, connect=False, executable_path=rerun_executable(), recording=stream)
     except RuntimeError as exc:
