@@ -1,8 +1,10 @@
 """M1 — extended Kalman filter over the training poses (see :mod:`twin.solvers.kalman`).
 
-Random-walk state model, prior 1σ = half the search bound, R = σ², one iteration = one pass over
-the training poses in a fixed order shuffled from the seed. Stops when f changes by less than
-``budget.ftol_m2`` between passes, or after ``budget.max_iterations`` passes.
+Random-walk state model, prior 1σ = half the search bound, R = max(σ², f at the pass start), one
+iteration = one pass over the training poses in a fixed order shuffled from the seed; each pass
+filters from the prior with the model linearised at the previous pass's estimate (iterated EKF).
+Stops when f changes by less than ``budget.ftol_m2`` between passes, or after
+``budget.max_iterations`` passes.
 """
 
 from __future__ import annotations
