@@ -9,6 +9,7 @@ cluster's workers need the same `twin` installed.
 
 from __future__ import annotations
 
+import importlib
 import logging
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
@@ -16,6 +17,7 @@ from typing import Any
 from twin.errors import InputError, TwinError
 
 CONNECT_TIMEOUT = "20s"
+TRIAL_MODULE = "twin.study.trial"
 
 
 class DaskCluster:
@@ -56,6 +58,15 @@ class DaskCluster:
                 silence_logs=logging.ERROR,
             )
             self.client = Client(self._cluster)
+        try:
+            # Import the trial code on every worker now: a worker without twin fails here, with
+            # a clear message, and the first batches do not pay for the imports.
+            self.client.run(importlib.import_module, TRIAL_MODULE)
+        except ImportError as exc:
+            self.__exit__()
+            raise InputError(f"dask workers that cannot import {TRIAL_MODULE} ({exc})",
+                             "workers with the same twin installed as here",
+                             source="--scheduler") from None
         return self
 
     def __exit__(self, *exc: object) -> None:
