@@ -25,6 +25,8 @@ import numpy as np
 from twin.io.atomic import write_atomic
 
 DPI = 120
+FLOOR = 1e-4
+"""Parameter-error plots stop this fraction below their largest value."""
 
 
 def _pyplot() -> Any:
@@ -144,19 +146,25 @@ def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[
     for axis, unit in zip(axes, ("mm", "deg"), strict=True):
         columns = [i for i, u in enumerate(units) if u == unit]
         x = np.arange(len(columns))
+        curves = {}
         for method in methods:
             errors = np.array([d["methods"][method]["parameter_error"] for d in details
                                if method in d["methods"]])
             if errors.size:
-                rms = np.sqrt(np.mean(errors[:, columns] ** 2, axis=0))
-                axis.plot(x, rms, "o-", color=colors[method], label=method, markersize=3,
-                          linewidth=0.8)
+                curves[method] = np.sqrt(np.mean(errors[:, columns] ** 2, axis=0))
+        # Unknowns wholly in the null space (θ6, α6…) have no identifiable error: round-off
+        # would reach 1e-17, so the axis stops FLOOR below the largest error.
+        floor = max((float(np.max(c)) for c in curves.values()), default=1.0) * FLOOR
+        for method, rms in curves.items():
+            axis.plot(x, np.maximum(rms, floor), "o-", color=colors[method], label=method,
+                      markersize=3, linewidth=0.8)
         axis.set_xticks(x, [names[i] for i in columns], rotation=60, fontsize=8)
         axis.set_yscale("log")
+        axis.set_ylim(bottom=floor * 0.8)
         axis.set_ylabel(f"RMS identifiable error [{unit}]")
         axis.grid(alpha=0.3, which="both")
     axes[0].legend(ncol=5, fontsize=7)
-    axes[0].set_title(title)
+    axes[0].set_title(f"{title}: error off the null space (bottom row: not identifiable)")
     figure.tight_layout()
     _save(figure, path)
 
