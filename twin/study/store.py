@@ -164,7 +164,7 @@ class StudyStore:
         new = {"scenario": manifest["scenario"], "methods": list(self.methods)}
         change = first_difference(old, new) or "a different fingerprint"
         raise InputError(
-            f"a study in {self.folder} made from a different scenario: {change}",
+            f"a study in {self.folder} made from another scenario or methods: {change}",
             "the same scenario and methods to resume it, or a new --out folder",
             source=source,
         )
