@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.optimize import least_squares
 
 from twin.cable import Measurements
 from twin.calibration import calibrate, required_poses, split_rows
@@ -80,3 +81,24 @@ def test_too_few_poses(irb120: RobotModel, measurements: Measurements, port_m: n
     assert required_poses(24) == 30
     with pytest.raises(InputError, match="found 29 poses, expected at least 30"):
         calibrate(irb120, measurements.subset(np.arange(29)), port_m)
+
+
+def test_lm_reaches_the_bounded_optimum_when_the_truth_is_outside_the_box(
+    irb120: RobotModel, port_m: np.ndarray
+) -> None:
+    """δa2 = 6 mm lies outside the ±5 mm box: LM must end on the bound at the same cost as
+    scipy's bounded trf, not stop where the first clipped step fails to descend."""
+    rng = np.random.default_rng(12)
+    delta = np.zeros((4, 6))
+    delta[0, 1], delta[1, 0], delta[3, 2] = 6e-3, -2e-3, np.deg2rad(1.0)
+    data = synthesize(irb120.perturbed(delta), random_poses(irb120, 80, rng), port_m, 1e-5, rng)
+    result = calibrate(irb120, data, port_m, budget=Budget(ftol_m2=0.0))
+    train = data.subset(result.train_rows)
+    model = result.model
+    reference = least_squares(
+        lambda x: model.residuals(x, train), np.zeros(24),
+        jac=lambda x: model.jacobian(x, train)[1], bounds=model.bounds(), method="trf",
+    )
+    assert result.delta[0, 1] == pytest.approx(5e-3, abs=1e-12)
+    f = np.mean(model.residuals(result.solver.x, train) ** 2)
+    assert f <= np.mean(reference.fun**2) * 1.01

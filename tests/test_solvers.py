@@ -88,7 +88,9 @@ def test_first_stage_of_amlm_bipso_is_amlm_for_30_iterations(sim: Simulation) ->
     n = len(amlm.history)
     assert cascade.history[:n] == amlm.history
     assert len(cascade.history) == n + 30
-    assert cascade.history[-1].f_m2 <= amlm.history[-1].f_m2
+    # The swarm re-evaluates the AMLM result on the batched path: equal up to rounding of
+    # 1e-16 m on lengths of ~1 m, i.e. ~1e-11 relative on residuals at the noise floor.
+    assert cascade.history[-1].f_m2 <= amlm.history[-1].f_m2 * (1 + 1e-9)
 
 
 @pytest.mark.parametrize("method", STOCHASTIC)

@@ -50,6 +50,15 @@ def damped_step(J: Array, r: Array, mu: float) -> Array:
     return np.asarray(-np.linalg.solve(A, J.T @ r), dtype=np.float64)
 
 
+def free_unknowns(x: Array, gradient: Array, lower: Array, upper: Array) -> NDArray[np.bool_]:
+    """Unknowns the next step may move: all but those on a bound that the descent direction
+    −gradient pushes outwards (the active set of a bound-constrained least-squares problem).
+
+    Without this, a clipped step keeps pushing into the bound and bends every other component.
+    """
+    return ~(((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0)))
+
+
 def initial_damping(J: Array) -> float:
     """μ₀ = τ · max diag(JᵀJ)."""
     return TAU * float(np.max(np.sum(J * J, axis=0)))
@@ -91,7 +100,9 @@ def levenberg_marquardt(
         tracker.record(x, f)
     mu, nu = initial_damping(J), 2.0
     for _ in range(iterations):
-        step = damped_step(J, r, mu)
+        step = np.zeros_like(x)
+        free = free_unknowns(x, J.T @ r, lower, upper)
+        step[free] = damped_step(J[:, free], r, mu)
         if rule is not None:
             step = rule.propose(tracker, x, step)
         x_new = np.clip(x + step, lower, upper)
@@ -101,6 +112,11 @@ def levenberg_marquardt(
             tracker.record(x, f)
             # Only a reshaped step can point uphill while the LM step still descends: retry.
             if rule is not None and rule.rejected():
+                continue
+            # The projection onto the box spoilt the step: a more damped, shorter step may
+            # stay inside and descend; only an unclipped step that cannot descend is the end.
+            if not np.array_equal(h, step):
+                mu, nu = mu * nu, 2.0 * nu
                 continue
             return x, True
         r_new, J_new = tracker.jacobian(x_new)
