@@ -23,7 +23,7 @@ pytest.importorskip("dask.distributed")
 
 
 def recorded(folder: Path) -> Counter[int]:
-    """How many rows each trial has in `results.csv`."""
+    """How many rows (one per method) each trial has in `results.csv`."""
     with (folder / "results.csv").open() as handle:
         return Counter(int(row["trial"]) for row in csv.DictReader(handle))
 
@@ -45,9 +45,9 @@ def test_batches_cover_every_item_once() -> None:
 
 @pytest.fixture(scope="module")
 def calm(tmp_path_factory: pytest.TempPathFactory) -> tuple[StudyPlan, Path]:
-    """A 6-trial LM study and its folder after an undisturbed run on local processes."""
+    """A 12-trial LM + PSO study and its folder after an undisturbed run on local processes."""
     folder = tmp_path_factory.mktemp("calm")
-    plan = load_study(write_scenario(folder, with_study('trials = 6\nmethods = ["lm"]')))
+    plan = load_study(write_scenario(folder, with_study('trials = 12\nmethods = ["lm", "pso"]')))
     run_trials(plan, folder / "out", LocalProcesses(2), stream=io.StringIO())
     return plan, folder / "out"
 
@@ -67,9 +67,9 @@ def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Pat
     stream = io.StringIO()
     run_trials(plan, tmp_path / "killed", LocalProcesses(2), stream=stream, on_outcome=kill_one)
     assert killed
-    assert recorded(tmp_path / "killed") == {k: 1 for k in range(6)}
+    assert recorded(tmp_path / "killed") == {k: len(plan.methods) for k in range(12)}
     assert numbers(tmp_path / "killed") == numbers(calm_out)
-    assert "6/6 trials" in stream.getvalue()
+    assert "12/12 trials" in stream.getvalue()
 
 
 def test_dask_local_cluster_survives_a_killed_worker(
@@ -95,5 +95,5 @@ def test_dask_local_cluster_survives_a_killed_worker(
 
     run_trials(plan, tmp_path / "dask", cluster, stream=io.StringIO(), on_outcome=kill_busy)
     assert killed
-    assert recorded(tmp_path / "dask") == {k: 1 for k in range(6)}
+    assert recorded(tmp_path / "dask") == {k: len(plan.methods) for k in range(12)}
     assert numbers(tmp_path / "dask") == numbers(calm_out)
