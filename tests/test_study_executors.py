@@ -65,7 +65,9 @@ def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Pat
             os.kill(killed[0], signal.SIGKILL)
 
     stream = io.StringIO()
-    run_trials(plan, tmp_path / "killed", LocalProcesses(2), stream=stream, on_outcome=kill_one)
+    with pytest.warns(RuntimeWarning, match="worker process died"):
+        run_trials(plan, tmp_path / "killed", LocalProcesses(2), stream=stream,
+                   on_outcome=kill_one)
     assert killed
     assert recorded(tmp_path / "killed") == {k: len(plan.methods) for k in range(12)}
     assert numbers(tmp_path / "killed") == numbers(calm_out)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -85,6 +86,9 @@ class LocalProcesses:
                 if not clean:
                     _terminate(pool)
                 pool.shutdown(wait=True, cancel_futures=True)
+            if pending:
+                warnings.warn(f"a worker process died; running its {len(pending)} unfinished "
+                              "batches again on fresh processes", RuntimeWarning, stacklevel=2)
             fruitless = 0 if finished_any else fruitless + 1
             if pending and fruitless > MAX_FRUITLESS_RESTARTS:
                 raise TwinError(f"worker processes died {fruitless} times in a row without "
