@@ -59,9 +59,9 @@ def run_trials(
         return store
     specs = {case.label: TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
              for case in plan.cases}
-    progress = Progress(len(plan.keys), len(plan.keys) - len(todo), stream)
-    try:
-        with executor:
+    with executor:
+        progress = Progress(len(plan.keys), len(plan.keys) - len(todo), stream)
+        try:
             batches = make_batches(todo, executor.workers)
             for outcomes in executor.run(partial(run_batch, specs), batches):
                 for outcome in outcomes:
@@ -69,8 +69,8 @@ def run_trials(
                         progress.advance()
                         if on_outcome is not None:
                             on_outcome(outcome)
-    finally:
-        progress.close()
+        finally:
+            progress.close()
     return store
 
 
