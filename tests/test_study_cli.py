@@ -83,3 +83,31 @@ def test_interrupted_and_killed_runs_resume_to_every_trial_once(tmp_path: Path) 
     for name in ("fig3_metrics.png", "fig4_convergence.png", "fig5_residuals.png",
                  "parameter_error.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_rerun_recording_holds_each_trial_and_the_summary(tmp_path: Path) -> None:
+    """With --rerun-save, each trial's table is logged on the `trial` timeline as it lands and
+    the summary as the report; the .rrd is read back with Rerun's own reader."""
+    from rerun.chunk import RrdReader
+
+    from twin.cli import main
+
+    scenario = write_scenario(tmp_path, with_study('trials = 3\nmethods = ["lm"]'))
+    recording = tmp_path / "study.rrd"
+    assert main(["study", str(scenario), "--out", str(tmp_path / "out"),
+                 "--rerun-save", str(recording)]) == 0
+    texts: dict[str, list[tuple[int, str]]] = {}
+    for chunk in RrdReader(recording).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if "TextDocument:text" not in batch.schema.names:
+            continue
+        trials = batch.column("trial").to_pylist() if "trial" in batch.schema.names \
+            else [-1] * batch.num_rows
+        values = [v[0] for v in batch.column("TextDocument:text").to_pylist()]
+        texts.setdefault(chunk.entity_path.lstrip("/"), []).extend(zip(trials, values,
+                                                                        strict=True))
+    assert sorted(t for t, _ in texts["study/trial"]) == [0, 1, 2]
+    assert all(text.startswith(f"### Trial {t}") and "| lm |" in text
+               for t, text in texts["study/trial"])
+    ((_, report),) = texts["report"]
+    assert "Table 6 replica" in report and report == (tmp_path / "out" / "summary.md").read_text()

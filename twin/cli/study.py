@@ -11,6 +11,9 @@ from twin.errors import InputError
 from twin.solvers import solver_choices
 from twin.viz import add_rerun_flags, open_from_args
 
+TRIAL_REPORT = "study/trial"
+"""Rerun entity of each trial's table, on the ``case`` and ``trial`` timelines."""
+
 
 def _positive(text: str) -> int:
     try:
@@ -54,8 +57,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.study import load_study, run_study
-    from twin.study.summary import summary_markdown
+    from twin.study import TrialOutcome, load_study, run_study
+    from twin.study.summary import summary_markdown, trial_markdown
 
     methods = None
     if args.methods is not None:
@@ -76,9 +79,17 @@ def run(args: argparse.Namespace) -> int:
     print(f"twin study: {plan.cases[0].scenario.name}, {len(plan.cases)} case(s) × "
           f"{plan.trials} trials × {len(plan.methods)} methods ({', '.join(plan.methods)}) "
           f"-> {args.out}", file=sys.stderr)
-    document = run_study(plan, args.out, executor)
-    markdown = summary_markdown(document)
+    cases = {case.label: index for index, case in enumerate(plan.cases)}
     with open_from_args(args, "study", fallback_dir=args.out) as recording:
+        on_outcome = None
+        if recording is not None:
+            def on_outcome(outcome: TrialOutcome) -> None:
+                recording.log_report(
+                    trial_markdown(outcome.case, outcome.trial, outcome.rows), path=TRIAL_REPORT,
+                    times={"case": cases[outcome.case], "trial": outcome.trial})
+
+        document = run_study(plan, args.out, executor, on_outcome=on_outcome)
+        markdown = summary_markdown(document)
         if recording is not None:
             recording.log_report(markdown)
     print(markdown)

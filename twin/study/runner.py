@@ -75,9 +75,11 @@ def run_trials(
 
 
 def run_study(plan: StudyPlan, folder: str | Path, executor: Executor, *,
-              stream: TextIO | None = None) -> dict[str, Any]:
+              stream: TextIO | None = None,
+              on_outcome: Callable[[TrialOutcome], None] | None = None) -> dict[str, Any]:
     """:func:`run_trials`, then the summary and figures; returns the summary document."""
-    return write_report(plan, run_trials(plan, folder, executor, stream=stream))
+    return write_report(plan, run_trials(plan, folder, executor, stream=stream,
+                                         on_outcome=on_outcome))
 
 
 def write_report(plan: StudyPlan, store: StudyStore) -> dict[str, Any]:

@@ -229,6 +229,19 @@ def _case_markdown(case: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def trial_markdown(case: str, trial: int, rows: Sequence[Mapping[str, Any]]) -> str:
+    """One trial's results per method as a Markdown table (mm, s)."""
+    title = f"Trial {trial}" + (f", {case}" if case else "")
+    lines = [f"### {title}", "",
+             "| method | validation RMSE [mm] | flange error [mm] | bound ratio | iterations | "
+             "time [s] |", "|---|---|---|---|---|---|"]
+    for row in rows:
+        lines.append(f"| {row['method']} | {row['validation_rmse_mm']:.4f} | "
+                     f"{row['flange_error_mm']:.4f} | {row['crlb_ratio']:.2f} | "
+                     f"{row['iterations']} | {row['seconds']:.3f} |")
+    return "\n".join(lines) + "\n"
+
+
 def summary_markdown(document: Mapping[str, Any]) -> str:
     """The summary as Markdown."""
     lines = [f"# Study: {document['scenario']}", "",
