@@ -12,6 +12,8 @@ import time
 from typing import TextIO
 
 BAR_WIDTH = 28
+CLEAR_TO_END = "\x1b[K"
+"""ANSI: erase the rest of a redrawn line, which may be shorter than the one before."""
 PLAIN_INTERVAL_S = 5.0
 """Shortest time between two plain (non-terminal) progress lines, s."""
 
@@ -70,7 +72,7 @@ class Progress:
     def _draw(self, force: bool) -> None:
         if self._tty:
             end = "\n" if self.done >= self.total else ""
-            self.stream.write("\r" + self.line() + end)
+            self.stream.write("\r" + self.line() + CLEAR_TO_END + end)
         else:
             now = time.monotonic()
             if not force and now - self._last_plain < PLAIN_INTERVAL_S:
