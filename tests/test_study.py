@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -11,6 +12,7 @@ import pytest
 from twin.cli import main
 from twin.errors import InputError
 from twin.study import load_study
+from twin.study.progress import Progress, format_duration
 from twin.study.runner import open_store
 from twin.study.store import COLUMNS, StudyStore, TrialOutcome
 from twin.study.summary import table7
@@ -171,3 +173,15 @@ def test_table7_wilcoxon_and_missing_methods() -> None:
     assert "M1" in result["missing"] and "M9" not in result["missing"]
     alone = table7(_rows({"lm": list(m9)}), ["lm"])
     assert not alone["tests"] and "M9 (AMLM-BIPSO) is not in this study" in alone["note"]
+
+
+def test_progress_plain_lines() -> None:
+    """Off a terminal the bar prints plain lines: the start, then always the last one; trials
+    resumed from an earlier run count as done but not towards the rate."""
+    stream = io.StringIO()
+    progress = Progress(total=5, done=2, stream=stream)
+    assert "2/5 trials" in stream.getvalue() and "ETA --:--" in stream.getvalue()
+    progress.advance(3)
+    last = stream.getvalue().splitlines()[-1]
+    assert "5/5 trials" in last and last.endswith("done") and "\r" not in stream.getvalue()
+    assert format_duration(3725) == "1:02:05" and format_duration(65) == "1:05"
