@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import csv
 import io
 import json
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +52,16 @@ def write_scenario(folder: Path, text: str = SCENARIO, name: str = "scenario.tom
     path = folder / name
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def recorded(folder: Path) -> Counter[int]:
+    """Rows (one per method) per trial in `results.csv`, whole lines only (none if absent)."""
+    path = folder / "results.csv"
+    if not path.exists():
+        return Counter()
+    lines = path.read_text().splitlines(keepends=True)
+    whole = [line for line in lines if line.endswith("\n")]
+    return Counter(int(row["trial"]) for row in csv.DictReader(whole))
 
 
 def outcomes(path: Path, keys: list[tuple[str, int]]) -> list[TrialOutcome]:

@@ -2,31 +2,19 @@
 
 from __future__ import annotations
 
-import csv
 import os
 import signal
 import subprocess
 import sys
 import time
-from collections import Counter
 from pathlib import Path
 
-from test_study import with_study, write_scenario
+from test_study import recorded, with_study, write_scenario
 
 TRIALS = 30
 METHODS = ("lm", "pso", "bipso")
 POLL_S = 0.05
 WAIT_S = 240.0
-
-
-def recorded(folder: Path) -> Counter[int]:
-    """Rows per trial in `results.csv` (0 trials when it does not exist yet)."""
-    path = folder / "results.csv"
-    if not path.exists():
-        return Counter()
-    lines = path.read_text().splitlines(keepends=True)
-    whole = [line for line in lines if line.endswith("\n")]
-    return Counter(int(row["trial"]) for row in csv.DictReader(whole))
 
 
 def start(scenario: Path, out: Path) -> subprocess.Popen[bytes]:

@@ -7,11 +7,10 @@ import io
 import multiprocessing
 import os
 import signal
-from collections import Counter
 from pathlib import Path
 
 import pytest
-from test_study import with_study, write_scenario
+from test_study import recorded, with_study, write_scenario
 
 from twin.study import StudyPlan, load_study, run_trials
 from twin.study.executors import make_batches
@@ -20,12 +19,6 @@ from twin.study.executors.local import LocalProcesses
 from twin.study.store import TrialOutcome
 
 pytest.importorskip("dask.distributed")
-
-
-def recorded(folder: Path) -> Counter[int]:
-    """How many rows (one per method) each trial has in `results.csv`."""
-    with (folder / "results.csv").open() as handle:
-        return Counter(int(row["trial"]) for row in csv.DictReader(handle))
 
 
 def numbers(folder: Path) -> list[dict[str, str]]:
