@@ -197,3 +197,14 @@ def test_progress_plain_lines() -> None:
     last = stream.getvalue().splitlines()[-1]
     assert "5/5 trials" in last and last.endswith("done") and "\r" not in stream.getvalue()
     assert format_duration(3725) == "1:02:05" and format_duration(65) == "1:05"
+
+
+def test_changed_robot_file_is_refused(tmp_path: Path) -> None:
+    """The robot model a scenario names is part of the study: editing it is a change too."""
+    model = (Path(__file__).resolve().parents[1] / "models" / "irb120.toml").read_text()
+    (tmp_path / "robot.toml").write_text(model)
+    path = write_scenario(tmp_path, 'robot = "robot.toml"\n' + SCENARIO)
+    open_store(load_study(path), tmp_path / "out")
+    (tmp_path / "robot.toml").write_text(model.replace("d = 290.0", "d = 291.0", 1))
+    with pytest.raises(InputError, match=r"files\.robot"):
+        open_store(load_study(path), tmp_path / "out")

@@ -17,6 +17,7 @@ points differ by the swept setting only.
 from __future__ import annotations
 
 import copy
+import hashlib
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,7 @@ from typing import Any
 
 from twin.errors import InputError
 from twin.io.measurements import read_text
+from twin.robot import robot_to_toml
 from twin.sim.scenario import Scenario, parse_scenario
 from twin.solvers import SOLVERS, get_solver
 
@@ -46,7 +48,8 @@ class StudyPlan:
 
     Attributes:
         source: The scenario file.
-        document: The parsed scenario document, less ``study.trials`` (the study's identity).
+        document: The study's identity: the parsed scenario document less ``[study] trials``
+            and ``methods``, plus digests of the robot model and pose plan it names.
         cases: The sweep points, at least one.
         methods: Method names, in the registry's order when "all".
         trials: Trials per case.
@@ -120,6 +123,10 @@ def _sweep_points(study: dict[str, Any], source: Path) -> list[dict[str, Any]]:
     return [{key: values[i] for key, values in sweep.items()} for i in range(count)]
 
 
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
 def _positive(study: dict[str, Any], key: str, default: int, source: Path) -> int:
     value = study.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -179,5 +186,10 @@ def load_study(path: str | Path, *, trials: int | None = None,
     identity = copy.deepcopy(document)
     identity.get("study", {}).pop("trials", None)
     identity.get("study", {}).pop("methods", None)
+    # Files the scenario names are part of it: a changed robot model or pose plan is a change.
+    identity["files"] = {"robot": _digest(robot_to_toml(base.robot).encode("utf-8"))}
+    if base.pose_plan is not None:
+        identity["files"]["poses.plan"] = _digest(base.pose_plan.read_bytes()) \
+            if base.pose_plan.is_file() else "missing"
     return StudyPlan(source=path, document=identity, cases=tuple(cases), methods=chosen,
                      trials=n_trials, workspace_poses=workspace)
