@@ -157,7 +157,7 @@ def test_store_repairs_a_torn_tail_and_counts_each_trial_once(tmp_path: Path) ->
 
 def test_changed_scenario_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Resuming a folder with a changed scenario exits with code 2 and names what changed;
-    more trials of the same scenario are allowed."""
+    more trials of the same scenario, or its methods named in another order, are allowed."""
     path = write_scenario(tmp_path)
     StudyStore(tmp_path / "out", {"scenario": load_study(path).document, "methods": ["lm"]},
                path)
@@ -165,8 +165,8 @@ def test_changed_scenario_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert main(["study", str(path), "--out", str(tmp_path / "out")]) == 2
     message = capsys.readouterr().err
     assert "encoder.sigma_mm" in message and str(path) in message and "0.02" in message
-    open_store(load_study(path, trials=9), tmp_path / "out2")
-    open_store(load_study(path, trials=12), tmp_path / "out2")
+    open_store(load_study(path, trials=9, methods=["lm", "pso"]), tmp_path / "out2")
+    open_store(load_study(path, trials=12, methods=["m3", "m2"]), tmp_path / "out2")
 
 
 def _rows(rmse: dict[str, list[float]]) -> list[dict[str, float | int | str]]:

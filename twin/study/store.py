@@ -68,8 +68,8 @@ class TrialOutcome(NamedTuple):
 
 
 def fingerprint(document: Mapping[str, Any], methods: Sequence[str]) -> str:
-    """SHA-256 of the study's defining content, hex."""
-    text = json.dumps({"scenario": document, "methods": list(methods)}, sort_keys=True)
+    """SHA-256 of the study's defining content (methods in any order), hex."""
+    text = json.dumps({"scenario": document, "methods": sorted(methods)}, sort_keys=True)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
@@ -160,8 +160,8 @@ class StudyStore:
                              source=path) from None
         if stored.get("fingerprint") == self.fingerprint:
             return
-        old = {"scenario": stored.get("scenario"), "methods": stored.get("methods")}
-        new = {"scenario": manifest["scenario"], "methods": list(self.methods)}
+        old = {"scenario": stored.get("scenario"), "methods": sorted(stored.get("methods", []))}
+        new = {"scenario": manifest["scenario"], "methods": sorted(self.methods)}
         change = first_difference(old, new) or "a different fingerprint"
         raise InputError(
             f"a study in {self.folder} made from another scenario or methods: {change}",
