@@ -208,3 +208,11 @@ def test_changed_robot_file_is_refused(tmp_path: Path) -> None:
     (tmp_path / "robot.toml").write_text(model.replace("d = 290.0", "d = 291.0", 1))
     with pytest.raises(InputError, match=r"files\.robot"):
         open_store(load_study(path), tmp_path / "out")
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).resolve().parents[1] / "scenarios")
+                                        .glob("*.toml")), ids=lambda p: p.name)
+def test_every_shipped_scenario_is_a_valid_study(path: Path) -> None:
+    """Each scenario file's [study] table (or its absence) makes a valid study."""
+    plan = load_study(path)
+    assert plan.trials >= 1 and plan.methods and plan.cases
