@@ -11,7 +11,7 @@ from pathlib import Path
 
 from test_study import recorded, with_study, write_scenario
 
-TRIALS = 30
+TRIALS = 16
 METHODS = ("lm", "pso", "bipso")
 POLL_S = 0.05
 WAIT_S = 240.0
