@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from twin.cable import Measurements
+from twin.io.measurements import write_measurements
 from twin.robot import RobotModel, default_robot
 from twin.synthetic import random_poses, synthesize
 from twin.units import dh_rows_from_display, mm_to_m
@@ -42,6 +45,14 @@ def irb120() -> RobotModel:
 @pytest.fixture(scope="session")
 def true_robot(irb120: RobotModel) -> RobotModel:
     return irb120.perturbed(TRUE_DELTA)
+
+
+@pytest.fixture()
+def csv_path(measurements: Measurements, tmp_path: Path) -> Path:
+    """The core-made measurements written as a CSV file (degrees, mm)."""
+    path = tmp_path / "measurements.csv"
+    write_measurements(path, measurements)
+    return path
 
 
 @pytest.fixture(scope="session")

@@ -18,13 +18,6 @@ ROOT = Path(__file__).resolve().parents[1]
 PORT = "600,-400,100"
 
 
-@pytest.fixture()
-def csv_path(measurements: Measurements, tmp_path: Path) -> Path:
-    path = tmp_path / "measurements.csv"
-    write_measurements(path, measurements)
-    return path
-
-
 def test_summary_and_json(csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
                           true_delta: np.ndarray) -> None:
     """The summary names the metrics; the JSON has #2's keys in mm and degrees."""

@@ -10,21 +10,13 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from twin.cable import Measurements
 from twin.cli import main
 from twin.io.capture import write_capture
-from twin.io.measurements import read_table, write_measurements
+from twin.io.measurements import read_table
 from twin.robot import RobotModel, robot_to_toml
 from twin.units import dh_rows_to_display
 
 PORT = "600,-400,100"
-
-
-@pytest.fixture()
-def csv_path(measurements: Measurements, tmp_path: Path) -> Path:
-    path = tmp_path / "measurements.csv"
-    write_measurements(path, measurements)
-    return path
 
 
 def test_identify_reports_rank_names_and_sigma(

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import frozen_array
 from twin.errors import InputError
 from twin.units import (
     ANGLE_FACTORS,
@@ -43,16 +44,6 @@ N_JOINTS = 6
 _TOP_KEYS = ("name", "convention", "length_unit", "angle_unit", "joints")
 _REQUIRED_JOINT_KEYS = ("a", "d", "alpha", "theta", "lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius")
-
-
-def _frozen(values: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
-    array = np.array(values, dtype=np.float64)
-    if array.shape != shape:
-        raise ValueError(f"{what}: shape {array.shape}, expected {shape}")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{what}: non-finite values")
-    array.setflags(write=False)
-    return array
 
 
 @dataclass(frozen=True)
@@ -80,15 +71,15 @@ class RobotModel:
         if dh.ndim != 2 or dh.shape[0] != 4 or dh.shape[1] < 1:
             raise ValueError(f"dh: shape {dh.shape}, expected (4, n)")
         n = dh.shape[1]
-        object.__setattr__(self, "dh", _frozen(dh, (4, n), "dh"))
-        object.__setattr__(self, "lower_rad", _frozen(self.lower_rad, (n,), "lower_rad"))
-        object.__setattr__(self, "upper_rad", _frozen(self.upper_rad, (n,), "upper_rad"))
+        object.__setattr__(self, "dh", frozen_array(dh, (4, n), "dh"))
+        object.__setattr__(self, "lower_rad", frozen_array(self.lower_rad, (n,), "lower_rad"))
+        object.__setattr__(self, "upper_rad", frozen_array(self.upper_rad, (n,), "upper_rad"))
         if np.any(self.lower_rad >= self.upper_rad):
             raise ValueError("joint limits: lower must be below upper")
         for name in ("mass_kg", "radius_m"):
             value = getattr(self, name)
             if value is not None:
-                array = _frozen(value, (n,), name)
+                array = frozen_array(value, (n,), name)
                 if np.any(array < 0):
                     raise ValueError(f"{name}: negative values")
                 object.__setattr__(self, name, array)

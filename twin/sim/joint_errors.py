@@ -17,15 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import frozen_array
+
 Array = NDArray[np.float64]
-
-
-def _frozen_row(values: ArrayLike, n: int, name: str) -> Array:
-    array = np.array(np.broadcast_to(np.asarray(values, dtype=np.float64), (n,)))
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name}: non-finite values")
-    array.setflags(write=False)
-    return array
 
 
 @dataclass(frozen=True)
@@ -47,7 +41,8 @@ class JointErrors:
     def __post_init__(self) -> None:
         n = np.asarray(self.transmission_rad).shape[-1]
         for name in ("transmission_rad", "harmonic", "phase_rad", "backlash_rad"):
-            object.__setattr__(self, name, _frozen_row(getattr(self, name), n, name))
+            value = frozen_array(getattr(self, name), (n,), name, broadcast=True)
+            object.__setattr__(self, name, value)
         if np.any(self.transmission_rad < 0) or np.any(self.backlash_rad < 0):
             raise ValueError("amplitudes and backlash must be >= 0")
         if np.any(self.harmonic < 1) or np.any(self.harmonic != np.round(self.harmonic)):

@@ -1,0 +1,35 @@
+"""Validation of the arrays held by frozen value objects."""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def frozen_array(
+    values: ArrayLike, shape: tuple[int, ...], what: str, *, broadcast: bool = False
+) -> NDArray[np.float64]:
+    """A read-only float64 copy of ``values`` with the given shape and only finite entries.
+
+    Args:
+        values: The values.
+        shape: The required shape.
+        what: The field's name, for the error message.
+        broadcast: Accept values that broadcast to ``shape`` (e.g. one number for every joint).
+
+    Raises:
+        ValueError: naming the field, the shape found and the one expected, or non-finite values.
+    """
+    array = np.asarray(values, dtype=np.float64)
+    if broadcast and array.shape != shape:
+        with contextlib.suppress(ValueError):  # a shape that cannot broadcast is reported below
+            array = np.broadcast_to(array, shape)
+    if array.shape != shape:
+        raise ValueError(f"{what}: shape {array.shape}, expected {shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{what}: non-finite values")
+    array = np.array(array)
+    array.setflags(write=False)
+    return array
