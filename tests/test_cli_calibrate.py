@@ -104,3 +104,46 @@ def test_example_dataset_calibrates(capsys: pytest.CaptureFixture[str]) -> None:
     lines = capsys.readouterr().out.splitlines()
     validation = next(line for line in lines if "after, validation" in line)
     assert float(validation.split()[2]) < 0.02
+
+
+def test_capture_calibration_table_sets_unknowns_and_split(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A capture's [calibration] table chooses the unknowns and the split; flags win."""
+    from twin.io.capture import CalibrationSettings, write_capture
+    from twin.robot import default_robot, robot_to_toml
+
+    (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
+    capture = tmp_path / "capture.toml"
+    write_capture(capture, robot="robot.toml", port_m=np.array([0.6, -0.4, 0.1]),
+                  measurements=csv_path.name,
+                  calibration=CalibrationSettings(estimate_offset=True, train_fraction=0.75))
+    out = tmp_path / "r.json"
+    assert main(["calibrate", str(capture), "--json", str(out)]) == 0
+    document = json.loads(out.read_text())
+    assert "offset" in document and abs(document["offset"]) < 0.05
+    assert "90 train / 30 validation" in capsys.readouterr().out
+    assert main(["calibrate", str(capture), "--train-fraction", "0.5", "--json", str(out)]) == 0
+    assert "60 train / 60 validation" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        ("[calibration]\ntrain_fraction = 1.5\n", "calibration.train_fraction: found 1.5"),
+        ("[calibration]\nestimate_port = 1\n", "expected true or false"),
+        ("[calibration]\nsplit = 0.8\n", "found unknown key 'split'"),
+    ],
+)
+def test_bad_capture_calibration_table(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], table: str, message: str
+) -> None:
+    """A wrong [calibration] entry is one line naming the key, exit code 2."""
+    from twin.robot import default_robot, robot_to_toml
+
+    (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
+    capture = tmp_path / "capture.toml"
+    capture.write_text('robot = "robot.toml"\nport_mm = [600, -400, 100]\n'
+                       f'measurements = "{csv_path.name}"\n' + table)
+    assert main(["calibrate", str(capture)]) == 2
+    assert message in capsys.readouterr().err

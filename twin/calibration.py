@@ -36,20 +36,24 @@ WORKSPACE_POSES = 1000
 """Random poses within the joint limits over which the flange accuracy is predicted."""
 
 
-def split_rows(n_rows: int, seed: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """A random 80/20 split of ``n_rows`` poses, reproducible from ``seed``.
+def split_rows(
+    n_rows: int, seed: int, train_fraction: float = TRAIN_FRACTION
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """A random train/validation split of ``n_rows`` poses, reproducible from ``seed``.
 
     Returns:
         ``(train_rows, validation_rows)``, each sorted.
     """
+    if not 0 < train_fraction < 1:
+        raise ValueError(f"train_fraction: {train_fraction}, expected in (0, 1)")
     order = np.random.default_rng(seed).permutation(n_rows)
-    n_train = round(TRAIN_FRACTION * n_rows)
+    n_train = round(train_fraction * n_rows)
     return np.sort(order[:n_train]), np.sort(order[n_train:])
 
 
-def required_poses(n_params: int) -> int:
+def required_poses(n_params: int, train_fraction: float = TRAIN_FRACTION) -> int:
     """Fewest poses for which the training split has one pose per unknown and validation one."""
-    return max(ceil(n_params / TRAIN_FRACTION), n_params + 1)
+    return max(ceil(n_params / train_fraction), n_params + 1)
 
 
 @dataclass(frozen=True)
@@ -116,6 +120,7 @@ def make_problem(
     estimate_port: bool = False,
     estimate_offset: bool = False,
     sigma_m: float = DEFAULT_SIGMA_M,
+    train_fraction: float = TRAIN_FRACTION,
 ) -> tuple[Problem, NDArray[np.intp], NDArray[np.intp]]:
     """The problem the solvers see, with its train/validation split.
 
@@ -124,13 +129,15 @@ def make_problem(
     """
     model = CableModel(robot.dh, np.asarray(port_m, dtype=np.float64),
                        estimate_port=estimate_port, estimate_offset=estimate_offset)
-    needed = required_poses(model.n_params)
+    needed = required_poses(model.n_params, train_fraction)
     if len(measurements) < needed:
+        percent = round(100 * train_fraction)
         raise InputError(
             f"{len(measurements)} poses",
-            f"at least {needed} for {model.n_params} unknowns with an 80/20 split",
+            f"at least {needed} for {model.n_params} unknowns with a {percent}/{100 - percent} "
+            "split",
         )
-    train_rows, validation_rows = split_rows(len(measurements), seed)
+    train_rows, validation_rows = split_rows(len(measurements), seed, train_fraction)
     problem = Problem(model, measurements.subset(train_rows), measurements.subset(validation_rows),
                       sigma_m=sigma_m)
     return problem, train_rows, validation_rows
@@ -146,8 +153,11 @@ def calibrate_many(
     estimate_port: bool = False,
     estimate_offset: bool = False,
     budget: Budget | None = None,
+    train_fraction: float = TRAIN_FRACTION,
 ) -> dict[str, CalibrationResult]:
     """Run several methods on the same split, each with a generator seeded from ``seed``.
+
+    Takes the arguments of :func:`calibrate`, with a list of methods.
 
     Returns:
         Results keyed by each method's name, in the order given.
@@ -156,6 +166,7 @@ def calibrate_many(
     problem, train_rows, validation_rows = make_problem(
         robot, measurements, port_m, seed=seed,
         estimate_port=estimate_port, estimate_offset=estimate_offset,
+        train_fraction=train_fraction,
     )
     before = metrics(problem.model.residuals(np.zeros(problem.model.n_params), problem.validation))
     nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
@@ -192,6 +203,7 @@ def calibrate(
     estimate_port: bool = False,
     estimate_offset: bool = False,
     budget: Budget | None = None,
+    train_fraction: float = TRAIN_FRACTION,
 ) -> CalibrationResult:
     """Identify the D-H errors of ``robot`` from cable measurements.
 
@@ -200,12 +212,13 @@ def calibrate(
         measurements: Joint angles (rad) and cable lengths (m).
         port_m: Encoder port in the base frame, shape (3,), m.
         method: A method name or paper alias (``lm``, ``m2``, …).
-        seed: Seed of the 80/20 split and of any random draw of the method.
+        seed: Seed of the train/validation split and of any random draw of the method.
         estimate_port: Also identify a correction to the port position.
         estimate_offset: Also identify an unknown cable-length offset.
         budget: Iteration budget and stopping rule; the paper's by default.
+        train_fraction: Share of the poses used for identification (paper: 0.8).
     """
     return calibrate_many(
         robot, measurements, port_m, [method], seed=seed, estimate_port=estimate_port,
-        estimate_offset=estimate_offset, budget=budget,
+        estimate_offset=estimate_offset, budget=budget, train_fraction=train_fraction,
     )[get_solver(method).name]

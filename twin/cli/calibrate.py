@@ -9,9 +9,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import calibrate_many
+from twin.calibration import TRAIN_FRACTION, calibrate_many
 from twin.errors import InputError
-from twin.io.capture import load_capture, parse_port_mm
+from twin.io.capture import CalibrationSettings, load_capture, parse_port_mm
 from twin.io.measurements import load_measurements
 from twin.io.results import result_to_dict, write_json
 from twin.io.truth import load_truth_delta
@@ -43,6 +43,9 @@ def add_parser(subparsers: Any) -> None:
                         help="also identify a correction of the port position")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
+    parser.add_argument("--train-fraction", type=float, metavar="SHARE",
+                        help="share of the poses used for identification (default: the "
+                        "capture's, else 0.8)")
     parser.add_argument("--json", type=Path, metavar="OUT.json", help="write the result as JSON")
     add_rerun_flags(parser)
     parser.set_defaults(func=run)
@@ -56,21 +59,33 @@ class Inputs(NamedTuple):
     """Encoder port, base frame, shape (3,), m."""
     measurements_path: Path
     truth_path: Path | None
+    calibration: CalibrationSettings
 
 
-def resolve_inputs(input_path: Path, robot_path: Path | None, port: str | None) -> Inputs:
-    """The robot, port and files named by a capture.toml or a CSV with --robot and --port.
+def resolve_inputs(args: argparse.Namespace) -> Inputs:
+    """The robot, port, files and calibration settings named by a capture.toml or a CSV with
+    --robot and --port; flags win over the capture's ``[calibration]`` table.
 
     Raises:
         InputError: if a CSV comes without --port, or a file is wrong.
     """
+    input_path, robot_path, port = args.input, args.robot, args.port
+    fraction = getattr(args, "train_fraction", None)
+    if fraction is not None and not 0 < fraction < 1:
+        raise InputError(f"{fraction!r}", "a share in (0, 1)", source="--train-fraction")
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
+        settings = capture.calibration
         return Inputs(
             robot=load_robot(robot_path) if robot_path else capture.robot,
             port_m=parse_port_mm(port, "--port", "") if port else capture.port_m,
             measurements_path=capture.measurements,
             truth_path=capture.truth,
+            calibration=CalibrationSettings(
+                estimate_port=args.estimate_port or settings.estimate_port,
+                estimate_offset=args.estimate_offset or settings.estimate_offset,
+                train_fraction=fraction or settings.train_fraction,
+            ),
         )
     if port is None:
         raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or a "
@@ -80,19 +95,23 @@ def resolve_inputs(input_path: Path, robot_path: Path | None, port: str | None) 
         port_m=parse_port_mm(port, "--port", ""),
         measurements_path=input_path,
         truth_path=None,
+        calibration=CalibrationSettings(
+            estimate_port=args.estimate_port, estimate_offset=args.estimate_offset,
+            train_fraction=fraction or TRAIN_FRACTION,
+        ),
     )
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    robot, port_m, measurements_path, truth_path = resolve_inputs(args.input, args.robot,
-                                                                  args.port)
+    robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
     methods = list(SOLVERS) if args.method.strip().lower() == "all" else [args.method]
     measurements = load_measurements(measurements_path, robot)
     try:
         results = calibrate_many(
             robot, measurements, port_m, methods, seed=args.seed,
-            estimate_port=args.estimate_port, estimate_offset=args.estimate_offset,
+            estimate_port=settings.estimate_port, estimate_offset=settings.estimate_offset,
+            train_fraction=settings.train_fraction,
         )
     except InputError as exc:
         if exc.source is not None:

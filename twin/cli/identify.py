@@ -111,11 +111,10 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if not args.sigma > 0:
         raise InputError(f"{args.sigma!r}", "a positive noise in mm", source="--sigma")
-    robot, port_m, measurements_path, truth_path = resolve_inputs(args.input, args.robot,
-                                                                  args.port)
+    robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
     data = load_measurements(measurements_path, robot)
-    model = CableModel(robot.dh, port_m, estimate_port=args.estimate_port,
-                       estimate_offset=args.estimate_offset)
+    model = CableModel(robot.dh, port_m, estimate_port=settings.estimate_port,
+                       estimate_offset=settings.estimate_offset)
     x0 = np.zeros(model.n_params)
     sigma_m = float(mm_to_m(args.sigma))
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(args.seed))
@@ -138,8 +137,9 @@ def run(args: argparse.Namespace) -> int:
     ]
     try:
         result = calibrate(robot, data, port_m, method="lm-base", seed=args.seed,
-                           estimate_port=args.estimate_port,
-                           estimate_offset=args.estimate_offset)
+                           estimate_port=settings.estimate_port,
+                           estimate_offset=settings.estimate_offset,
+                           train_fraction=settings.train_fraction)
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=measurements_path) from None
     assert result.identified_identifiability is not None and result.uncertainty is not None

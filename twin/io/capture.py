@@ -6,6 +6,10 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     port_mm = [600.0, 300.0, 0.0]     # encoder port, base frame, mm
     measurements = "measurements.csv"
     truth = "truth.json"              # optional: the twin's ground truth
+    [calibration]                     # optional: how to calibrate it (flags still override)
+    estimate_port = false
+    estimate_offset = false
+    train_fraction = 0.8
     [encoder]                         # optional: how the data was captured
     url = "serial:///dev/ttyUSB0?baud=115200"
 """
@@ -15,20 +19,58 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.calibration import TRAIN_FRACTION
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.measurements import read_text
 from twin.robot import RobotModel, load_robot
 from twin.units import m_to_mm, mm_to_m
 
-_KEYS = ("robot", "port_mm", "measurements", "truth", "encoder")
+_KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder")
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    """How a capture is to be calibrated: which extra unknowns, which split.
+
+    Attributes:
+        estimate_port: Also identify a correction of the port position.
+        estimate_offset: Also identify an unknown cable-length offset.
+        train_fraction: Share of the poses used for identification, in (0, 1).
+    """
+
+    estimate_port: bool = False
+    estimate_offset: bool = False
+    train_fraction: float = TRAIN_FRACTION
+
+    def __post_init__(self) -> None:
+        if not 0 < self.train_fraction < 1:
+            raise ValueError(f"train_fraction: {self.train_fraction}, expected in (0, 1)")
+
+
+def _parse_calibration(table: object, source: Path) -> CalibrationSettings:
+    if not isinstance(table, dict):
+        raise InputError(f"{table!r}", "a table", source=source, where="calibration")
+    known = [field.name for field in fields(CalibrationSettings)]
+    for key, value in table.items():
+        where = f"calibration.{key}"
+        if key not in known:
+            raise InputError(f"unknown key {key!r}", "only " + ", ".join(known), source=source,
+                             where="calibration")
+        if key == "train_fraction":
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or not 0 < value < 1:
+                raise InputError(f"{value!r}", "a share in (0, 1)", source=source, where=where)
+        elif not isinstance(value, bool):
+            raise InputError(f"{value!r}", "true or false", source=source, where=where)
+    return CalibrationSettings(**table)
 
 
 @dataclass(frozen=True)
@@ -41,6 +83,7 @@ class Capture:
         port_m: Encoder port in the base frame, shape (3,), m.
         measurements: Path of the measurement CSV.
         truth: Path of the ground-truth JSON, or None.
+        calibration: The ``[calibration]`` settings (defaults when the table is absent).
         encoder: The ``[encoder]`` table as written, or empty.
     """
 
@@ -49,6 +92,7 @@ class Capture:
     port_m: NDArray[np.float64]
     measurements: Path
     truth: Path | None = None
+    calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
     encoder: dict[str, Any] = field(default_factory=dict)
 
 
@@ -104,6 +148,7 @@ def load_capture(path: str | Path) -> Capture:
         port_m=parse_port_mm(document["port_mm"], path, "port_mm"),
         measurements=folder / document["measurements"],
         truth=folder / document["truth"] if "truth" in document else None,
+        calibration=_parse_calibration(document.get("calibration", {}), path),
         encoder=encoder,
     )
 
@@ -115,6 +160,7 @@ def write_capture(
     port_m: NDArray[np.float64],
     measurements: str,
     truth: str | None = None,
+    calibration: CalibrationSettings | None = None,
     encoder: dict[str, str | int | float] | None = None,
 ) -> None:
     """Write a capture file atomically; ``robot``, ``measurements``, ``truth`` are relative."""
@@ -126,6 +172,13 @@ def write_capture(
     ]
     if truth is not None:
         lines.append(f"truth = {json.dumps(truth)}")
+    if calibration is not None:
+        lines += [
+            "[calibration]",
+            f"estimate_port = {json.dumps(calibration.estimate_port)}",
+            f"estimate_offset = {json.dumps(calibration.estimate_offset)}",
+            f"train_fraction = {calibration.train_fraction!r}",
+        ]
     if encoder:
         lines.append("[encoder]")
         lines += [f"{key} = {json.dumps(value)}" for key, value in encoder.items()]

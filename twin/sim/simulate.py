@@ -14,9 +14,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.cable import Measurements, cable_length
+from twin.calibration import TRAIN_FRACTION
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.capture import write_capture
+from twin.io.capture import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
 from twin.io.results import write_json
 from twin.kinematics import flange_position
@@ -184,6 +185,10 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
     write_measurements(out / MEASUREMENTS_FILE, sim.measurements)
     write_atomic(out / ROBOT_FILE, robot_to_toml(sim.robot))
     write_json(out / TRUTH_FILE, sim.truth)
+    settings = CalibrationSettings(
+        estimate_port=sim.scenario.estimate_port, estimate_offset=sim.scenario.estimate_offset,
+        train_fraction=sim.train_fraction or TRAIN_FRACTION,
+    )
     write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, port_m=sim.port_nominal_m,
-                  measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE)
+                  measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings)
     return out / CAPTURE_FILE

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.cable import CableModel
-from twin.calibration import calibrate_many
+from twin.calibration import TRAIN_FRACTION, calibrate_many
 from twin.identifiability import measurement_identifiability
 from twin.sim.scenario import Scenario
 from twin.sim.simulate import Simulation, simulate
@@ -100,6 +100,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     results = calibrate_many(
         sim.robot, sim.measurements, sim.port_nominal_m, spec.methods, seed=seed,
         estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
+        train_fraction=sim.train_fraction or TRAIN_FRACTION,
     )
     first = next(iter(results.values()))
     model = first.model
