@@ -76,3 +76,20 @@ def test_unknown_port_and_offset_are_fitted(
     sigma = float(np.sqrt(combination @ uncertainty.covariance @ combination))
     truth = true_delta[1, 0] - 4e-3
     assert float(combination @ result.solver.x) == pytest.approx(truth, abs=5 * sigma)
+
+
+def test_port_carries_what_it_trades_with_a_bounded_dh_error(
+    irb120: RobotModel, true_robot: RobotModel, port_m: np.ndarray
+) -> None:
+    """The port told 8 mm too high: d1 + port_z is one unseen combination, and if d1 (±5 mm)
+    carried it lm-base could not fit. The port correction is preferred as base parameter, so
+    the fit reaches the noise."""
+    rng = np.random.default_rng(8)
+    data = synthesize(true_robot, random_poses(irb120, 120, rng), port_m, SIGMA_M, rng)
+    told = port_m + np.array([0.0, 0.0, 8e-3])
+    result = calibrate(irb120, data, told, method="lm-base", estimate_port=True,
+                       budget=CONVERGED)
+    assert result.identifiability is not None
+    assert "port_z" in result.identifiability.base_names
+    assert "d1" not in result.identifiability.base_names
+    assert result.metrics["validation"].rmse < 2 * SIGMA_M

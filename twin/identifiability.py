@@ -31,6 +31,7 @@ How it is computed, and why:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -127,18 +128,22 @@ def name_direction(direction: ArrayLike, names: tuple[str, ...]) -> str:
     )
 
 
-def _base_in_order(R: Array, threshold: float) -> NDArray[np.intp]:
-    """Columns kept in order, each one that raises the rank of those kept (σ_min > threshold)."""
+def _base_in_order(R: Array, threshold: float, order: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Columns tried in ``order``, each kept if it raises the rank of those kept
+    (σ_min > threshold); returned ascending."""
     kept: list[int] = []
-    for column in range(R.shape[1]):
+    for column in order:
         trial = R[:, [*kept, column]]
         if np.linalg.svd(trial, compute_uv=False)[-1] > threshold:
-            kept.append(column)
-    return np.asarray(kept, dtype=np.intp)
+            kept.append(int(column))
+    return np.sort(np.asarray(kept, dtype=np.intp))
 
 
 def identifiability(
-    jacobian: ArrayLike, names: tuple[str, ...] | list[str], rtol: float = RANK_RTOL
+    jacobian: ArrayLike,
+    names: tuple[str, ...] | list[str],
+    rtol: float = RANK_RTOL,
+    prefer: Sequence[int] = (),
 ) -> Identifiability:
     """Rank, condition, base parameters and named null directions of a Jacobian.
 
@@ -146,6 +151,7 @@ def identifiability(
         jacobian: Cable-length Jacobian ∂ℓ/∂x, shape (m, p), m/m and m/rad.
         names: Names of the p unknowns.
         rtol: Relative singular-value cutoff of the rank.
+        prefer: Unknowns to try first as base parameters; the rest follow in the order of x.
 
     Returns:
         The :class:`Identifiability` of the measurement set at the geometry J was computed at.
@@ -163,7 +169,9 @@ def identifiability(
     singular_values = np.asarray(np.linalg.svd(R, compute_uv=False), dtype=np.float64)
     threshold = rtol * singular_values[0]
     rank = int(np.sum(singular_values > threshold))
-    base_local = _base_in_order(R, threshold)
+    first = np.flatnonzero(np.isin(visible, prefer))
+    order = np.r_[first, np.setdiff1d(np.arange(visible.size), first)].astype(np.intp)
+    base_local = _base_in_order(R, threshold, order)
     if base_local.size != rank:
         base_local = np.sort(scipy.linalg.qr(R, pivoting=True)[2][:rank])
     dependent_local = np.setdiff1d(np.arange(visible.size), base_local)
@@ -196,9 +204,14 @@ def identifiability(
 def measurement_identifiability(
     model: CableModel, x: ArrayLike, data: Measurements, rtol: float = RANK_RTOL
 ) -> Identifiability:
-    """:func:`identifiability` of the cable model's Jacobian at unknowns ``x`` (p,) and poses."""
+    """:func:`identifiability` of the cable model's Jacobian at unknowns ``x`` (p,) and poses.
+
+    The port correction and the length offset are preferred as base parameters: where they
+    trade against a D-H error (d1 + port_z), the unknown with the wide bound carries the
+    combination and the D-H error, bounded to ±5 mm, is the one held.
+    """
     _, jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)
-    return identifiability(jacobian, model.names, rtol)
+    return identifiability(jacobian, model.names, rtol, prefer=range(model.n_dh, model.n_params))
 
 
 class Observability(NamedTuple):
