@@ -25,14 +25,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import BSpline, make_interp_spline
 
 from twin.problem import Problem
 from twin.solvers.base import Tracker
 from twin.units import deg_to_rad, mm_to_m
+
+if TYPE_CHECKING:
+    from scipy.interpolate import BSpline
 
 Array = NDArray[np.float64]
 
@@ -110,6 +113,10 @@ def interpolating_curve(x: Array) -> tuple[Array, BSpline]:
 
     Degree drops below 3 only when fewer than 4 distinct consecutive particles remain.
     """
+    # Imported here: scipy.interpolate takes about half a second to import, and every command
+    # that loads the solver registry would pay it; only the swarm methods need it.
+    from scipy.interpolate import make_interp_spline
+
     t, kept = chord_parameters(x)
     if t.size < 2:
         raise ValueError("the B-spline needs at least two distinct particles")
