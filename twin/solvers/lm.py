@@ -108,14 +108,25 @@ def levenberg_marquardt(
         x_new = np.clip(x + step, lower, upper)
         h = x_new - x
         predicted = float(r @ r - np.sum((r + J @ h) ** 2))
+        clipped = h != step
+        while predicted <= 0.0 and np.any(clipped) and rule is None:
+            # The projection onto the box spoilt the step: hold the unknowns it clipped at
+            # their bound and step in the others (a projected step on the active set; ends,
+            # as the free set shrinks each time).
+            free &= ~clipped
+            step = np.zeros_like(x)
+            step[free] = damped_step(J[:, free], r, mu)
+            x_new = np.clip(x + step, lower, upper)
+            h = x_new - x
+            predicted = float(r @ r - np.sum((r + J @ h) ** 2))
+            clipped = h != step
         if predicted <= 0.0:
             tracker.record(x, f)
             # Only a reshaped step can point uphill while the LM step still descends: retry.
             if rule is not None and rule.rejected():
                 continue
-            # The projection onto the box spoilt the step: a more damped, shorter step may
-            # stay inside and descend; only an unclipped step that cannot descend is the end.
-            if not np.array_equal(h, step):
+            # A clipped reshaped step: a more damped, shorter one may stay inside and descend.
+            if np.any(clipped):
                 mu, nu = mu * nu, 2.0 * nu
                 continue
             return x, True
