@@ -92,11 +92,11 @@ def log_convergence(writer: Writer, method: str, result: CalibrationResult, orde
     if not history:
         return
     iterations = np.array([record.iteration for record in history])
-    series = {
-        "f": np.array([record.f_m2 for record in history]) * MM2_PER_M2,
-        "train_rmse": m_to_mm([record.train_rmse_m for record in history]),
-        "validation_rmse": m_to_mm([record.validation_rmse_m for record in history]),
-    }
+    series = dict(zip(entities.CONVERGENCE_QUANTITIES, (
+        np.array([record.f_m2 for record in history]) * MM2_PER_M2,
+        m_to_mm([record.train_rmse_m for record in history]),
+        m_to_mm([record.validation_rmse_m for record in history]),
+    ), strict=True))
     color = np.asarray(robot_color(method, order))
     lighter = (color + 255) // 2  # validation beside training in the same plot
     for quantity, values in series.items():
