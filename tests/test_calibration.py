@@ -7,7 +7,13 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.cable import Measurements
-from twin.calibration import calibrate, required_poses, split_rows
+from twin.calibration import (
+    CalibrationResult,
+    calibrate,
+    calibrate_many,
+    required_poses,
+    split_rows,
+)
 from twin.errors import InputError
 from twin.problem import Budget
 from twin.robot import RobotModel
@@ -102,3 +108,14 @@ def test_lm_reaches_the_bounded_optimum_when_the_truth_is_outside_the_box(
     assert result.delta[0, 1] == pytest.approx(5e-3, abs=1e-12)
     f = np.mean(model.residuals(result.solver.x, train) ** 2)
     assert f <= np.mean(reference.fun**2) * 1.01
+
+
+def test_on_result_sees_each_method_as_it_finishes(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """calibrate_many hands each method's result to on_result (what the live Rerun log uses),
+    in the order given, and returns the very same objects."""
+    seen: list[CalibrationResult] = []
+    results = calibrate_many(irb120, measurements, port_m, ["m7", "lm"], on_result=seen.append)
+    assert [result.method for result in seen] == ["amlm", "lm"] == list(results)
+    assert all(result is results[result.method] for result in seen)

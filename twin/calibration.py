@@ -11,9 +11,10 @@ This is the Python API the CLI mirrors::
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from math import ceil
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -111,6 +112,16 @@ class CalibrationResult:
         return float(self.model.split(self.solver.x)[2][0])
 
 
+class SplitProblem(NamedTuple):
+    """A problem and the rows of the measurements it trains and validates on."""
+
+    problem: Problem
+    train_rows: NDArray[np.intp]
+    """Row indices used for identification, shape (m_train,)."""
+    validation_rows: NDArray[np.intp]
+    """Held-out row indices, shape (m_val,)."""
+
+
 def make_problem(
     robot: RobotModel,
     measurements: Measurements,
@@ -121,7 +132,7 @@ def make_problem(
     estimate_offset: bool = False,
     sigma_m: float = DEFAULT_SIGMA_M,
     train_fraction: float = TRAIN_FRACTION,
-) -> tuple[Problem, NDArray[np.intp], NDArray[np.intp]]:
+) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
     Raises:
@@ -140,7 +151,7 @@ def make_problem(
     train_rows, validation_rows = split_rows(len(measurements), seed, train_fraction)
     problem = Problem(model, measurements.subset(train_rows), measurements.subset(validation_rows),
                       sigma_m=sigma_m)
-    return problem, train_rows, validation_rows
+    return SplitProblem(problem, train_rows, validation_rows)
 
 
 def calibrate_many(
@@ -154,20 +165,37 @@ def calibrate_many(
     estimate_offset: bool = False,
     budget: Budget | None = None,
     train_fraction: float = TRAIN_FRACTION,
+    on_result: Callable[[CalibrationResult], None] | None = None,
 ) -> dict[str, CalibrationResult]:
     """Run several methods on the same split, each with a generator seeded from ``seed``.
 
-    Takes the arguments of :func:`calibrate`, with a list of methods.
+    Takes the arguments of :func:`calibrate`, with a list of methods, and ``on_result``, called
+    with each method's result as soon as it is done (to show a run live).
 
     Returns:
         Results keyed by each method's name, in the order given.
     """
-    solvers = [get_solver(name) for name in methods]
-    problem, train_rows, validation_rows = make_problem(
+    split = make_problem(
         robot, measurements, port_m, seed=seed,
         estimate_port=estimate_port, estimate_offset=estimate_offset,
         train_fraction=train_fraction,
     )
+    return solve_many(robot, split, methods, seed=seed, budget=budget, on_result=on_result)
+
+
+def solve_many(
+    robot: RobotModel,
+    split: SplitProblem,
+    methods: Sequence[str],
+    *,
+    seed: int = 0,
+    budget: Budget | None = None,
+    on_result: Callable[[CalibrationResult], None] | None = None,
+) -> dict[str, CalibrationResult]:
+    """:func:`calibrate_many` on a problem already made (and so already checked) by
+    :func:`make_problem`."""
+    solvers = [get_solver(name) for name in methods]
+    problem, train_rows, validation_rows = split
     before = metrics(problem.model.residuals(np.zeros(problem.model.n_params), problem.validation))
     nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
@@ -190,6 +218,8 @@ def calibrate_many(
                 problem.model, solved.x, problem.train, nominal.base, q_workspace
             ),
         )
+        if on_result is not None:
+            on_result(results[solver.name])
     return results
 
 

@@ -9,7 +9,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import TRAIN_FRACTION, calibrate_many
+from twin.calibration import TRAIN_FRACTION, make_problem, solve_many
 from twin.errors import InputError
 from twin.io.capture import CalibrationSettings, load_capture, parse_port_mm
 from twin.io.measurements import load_measurements
@@ -17,8 +17,8 @@ from twin.io.results import result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
 from twin.robot import RobotModel, default_robot, load_robot
-from twin.solvers import SOLVERS, solver_choices
-from twin.viz import add_rerun_flags, record_calibration
+from twin.solvers import SOLVERS, get_solver, solver_choices
+from twin.viz import add_rerun_flags, calibration_log
 
 
 def add_parser(subparsers: Any) -> None:
@@ -105,11 +105,12 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
-    methods = list(SOLVERS) if args.method.strip().lower() == "all" else [args.method]
+    everything = args.method.strip().lower() == "all"
+    methods = list(SOLVERS) if everything else [get_solver(args.method).name]
     measurements = load_measurements(measurements_path, robot)
     try:
-        results = calibrate_many(
-            robot, measurements, port_m, methods, seed=args.seed,
+        split = make_problem(
+            robot, measurements, port_m, seed=args.seed,
             estimate_port=settings.estimate_port, estimate_offset=settings.estimate_offset,
             train_fraction=settings.train_fraction,
         )
@@ -120,15 +121,20 @@ def run(args: argparse.Namespace) -> int:
     truth = None
     if truth_path is not None and truth_path.exists():
         truth = load_truth_delta(truth_path, robot.n_joints)
-    if len(results) == 1:
-        (result,) = results.values()
-        print(format_result(result, truth))
-        document = result_to_dict(result)
-    else:
-        print(format_comparison(results))
-        document = {"methods": {name: result_to_dict(r) for name, r in results.items()}}
-    if args.json:
-        write_json(args.json, document)
-    record_calibration(args, results, measurements, truth,
-                       fallback_dir=args.json.parent if args.json else None)
+    fallback_dir = args.json.parent if args.json else None
+    with calibration_log(args, methods, robot, port_m, measurements, truth,
+                         fallback_dir=fallback_dir) as live:
+        results = solve_many(robot, split, methods, seed=args.seed,
+                             on_result=None if live is None else live.add)
+        if len(results) == 1:
+            (result,) = results.values()
+            print(format_result(result, truth))
+            document = result_to_dict(result)
+        else:
+            print(format_comparison(results))
+            document = {"methods": {name: result_to_dict(r) for name, r in results.items()}}
+        if args.json:
+            write_json(args.json, document)
+        if live is not None:
+            live.finish(results)
     return 0

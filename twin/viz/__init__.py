@@ -8,8 +8,8 @@ recording modules (and ``rerun``) only when a flag asks for them. See ``docs/rer
 from twin.viz.cli import (
     RerunOptions,
     add_rerun_flags,
+    calibration_log,
     open_from_args,
-    record_calibration,
     record_simulation,
     rerun_options,
 )
@@ -17,8 +17,8 @@ from twin.viz.cli import (
 __all__ = [
     "RerunOptions",
     "add_rerun_flags",
+    "calibration_log",
     "open_from_args",
-    "record_calibration",
     "record_simulation",
     "rerun_options",
 ]

@@ -9,21 +9,28 @@ bar charts in mm (δa, δd) and degrees (δα, δθ). The exact values under
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import Measurements
+from twin.cable import CableModel, Measurements
 from twin.calibration import CalibrationResult
 from twin.io.results import MM2_PER_M2
+from twin.kinematics import flange_position
 from twin.robot import RobotModel
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm
 from twin.viz import entities
 from twin.viz.blueprint import calibration_blueprint
 from twin.viz.report import calibration_markdown
-from twin.viz.scene import NOMINAL_COLOR, TRUE_COLOR, log_scene, robot_color
+from twin.viz.scene import (
+    NOMINAL_COLOR,
+    TRUE_COLOR,
+    log_port_and_cable,
+    log_robots,
+    robot_color,
+)
 from twin.viz.writer import Writer
 
 BAR_GROUP_WIDTH = 0.8
@@ -65,25 +72,24 @@ def log_parameters(
     )
 
 
-def log_residuals(
-    writer: Writer, results: Mapping[str, CalibrationResult], measurements: Measurements
-) -> None:
-    """Per-pose residuals over all poses, nominal (``residuals/before``) and after each method.
-
-    Residuals are in mm; each series says which poses were held out for validation.
-    """
-    first = next(iter(results.values()))
-    poses = np.arange(len(measurements))
-    before = first.model.residuals(np.zeros(first.model.n_params), measurements)
+def log_residuals_before(writer: Writer, model: CableModel, measurements: Measurements) -> None:
+    """Per-pose residuals of the nominal model over all poses (``residuals/before``), mm."""
+    before = model.residuals(np.zeros(model.n_params), measurements)
     writer.once(entities.RESIDUALS_BEFORE, rr.SeriesPoints(colors=NOMINAL_COLOR, names="before"))
-    writer.series(entities.RESIDUALS_BEFORE, entities.POSE_TIMELINE, poses,
-                  rr.Scalars.columns(scalars=m_to_mm(before)))
-    for order, (name, result) in enumerate(results.items()):
-        after = result.model.residuals(result.solver.x, measurements)
-        path = entities.residuals_after(name)
-        writer.once(path, rr.SeriesPoints(colors=robot_color(name, order), names=f"after {name}"))
-        writer.series(path, entities.POSE_TIMELINE, poses,
-                      rr.Scalars.columns(scalars=m_to_mm(after)))
+    writer.series(entities.RESIDUALS_BEFORE, entities.POSE_TIMELINE,
+                  np.arange(len(measurements)), rr.Scalars.columns(scalars=m_to_mm(before)))
+
+
+def log_residuals_after(
+    writer: Writer, result: CalibrationResult, measurements: Measurements, order: int
+) -> None:
+    """Per-pose residuals of one method's model over all poses (``residuals/after/<m>``), mm."""
+    after = result.model.residuals(result.solver.x, measurements)
+    path = entities.residuals_after(result.method)
+    writer.once(path, rr.SeriesPoints(colors=robot_color(result.method, order),
+                                      names=f"after {result.method}"))
+    writer.series(path, entities.POSE_TIMELINE, np.arange(len(measurements)),
+                  rr.Scalars.columns(scalars=m_to_mm(after)))
 
 
 def log_convergence(writer: Writer, method: str, result: CalibrationResult, order: int) -> None:
@@ -108,13 +114,86 @@ def log_convergence(writer: Writer, method: str, result: CalibrationResult, orde
                       rr.Scalars.columns(scalars=values))
 
 
+class CalibrationLog:
+    """Logs a calibration run as it goes: the setup at once, each method as it finishes
+    (:meth:`add`, e.g. as the ``on_result`` of :func:`twin.calibration.calibrate_many`), the
+    report at the end (:meth:`finish`).
+
+    Args:
+        writer: Where to log.
+        methods: The methods' names, in the order they will run.
+        robot: The nominal robot.
+        port_m: The port the calibration is told, shape (3,), m.
+        measurements: Every measured pose (train and validation).
+        truth_delta: True D-H errors, shape (4, n), m and rad, if known.
+    """
+
+    def __init__(
+        self,
+        writer: Writer,
+        methods: Sequence[str],
+        robot: RobotModel,
+        port_m: ArrayLike,
+        measurements: Measurements,
+        truth_delta: NDArray[np.float64] | None = None,
+    ) -> None:
+        if not methods:
+            raise ValueError("methods: empty, expected at least one method")
+        self.writer = writer
+        self.methods = list(methods)
+        self.measurements = measurements
+        self.truth_delta = truth_delta
+        self.port_m = np.asarray(port_m, dtype=np.float64)
+        self.sources = len(self.methods) + (truth_delta is not None)
+        nominal = CableModel(robot.dh, self.port_m)
+        writer.stream.send_blueprint(calibration_blueprint(self.methods, truth_delta is not None))
+        writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
+        robots = {"nominal": robot}
+        if truth_delta is not None:
+            robots["true"] = robot.perturbed(truth_delta)
+            # The physical cable went to the true flange; without the truth it is drawn to the
+            # first method's flange once that is known.
+            self._log_cable(robots["true"])
+            truth = np.asarray(truth_delta, dtype=np.float64)
+            log_parameters(writer, None, truth, truth.ravel(), nominal.names, nominal.is_length,
+                           TRUE_COLOR, (0, self.sources))
+        log_robots(writer, robots, measurements.q_rad)
+        log_residuals_before(writer, nominal, measurements)
+
+    def _log_cable(self, robot: RobotModel) -> None:
+        flange_m = flange_position(robot.dh, self.measurements.q_rad)
+        log_port_and_cable(self.writer, self.port_m, flange_m, self.measurements.length_m)
+
+    def add(self, result: CalibrationResult) -> None:
+        """Log one method's identified robot, residuals, convergence and parameters."""
+        order = self.methods.index(result.method)
+        if order == 0 and self.truth_delta is None:
+            self._log_cable(result.identified_robot)
+        log_robots(self.writer, {entities.identified_label(result.method):
+                                 result.identified_robot}, self.measurements.q_rad, order)
+        log_residuals_after(self.writer, result, self.measurements, order)
+        log_convergence(self.writer, result.method, result, order)
+        log_parameters(self.writer, result.method, result.delta, result.solver.x,
+                       result.model.names, result.model.is_length,
+                       robot_color(result.method, order),
+                       (order + (self.truth_delta is not None), self.sources))
+
+    def finish(self, results: Mapping[str, CalibrationResult]) -> None:
+        """Log the report: metrics of every method, flange error against the truth,
+        identifiability."""
+        self.writer.once(entities.REPORT, rr.TextDocument(
+            calibration_markdown(results, self.measurements, self.truth_delta),
+            media_type=rr.MediaType.MARKDOWN,
+        ))
+
+
 def log_calibration(
     writer: Writer,
     results: Mapping[str, CalibrationResult],
     measurements: Measurements,
     truth_delta: NDArray[np.float64] | None = None,
 ) -> None:
-    """Everything about one calibration run (one or several methods on the same data).
+    """Everything about a finished calibration run (one or several methods on the same data).
 
     Args:
         writer: Where to log.
@@ -124,29 +203,9 @@ def log_calibration(
     """
     if not results:
         raise ValueError("results: empty, expected at least one method")
-    methods = list(results)
-    first = results[methods[0]]
-    writer.stream.send_blueprint(calibration_blueprint(methods, truth_delta is not None))
-    robots: dict[str, RobotModel] = {"nominal": first.robot}
-    if truth_delta is not None:
-        robots["true"] = first.robot.perturbed(truth_delta)
-    robots.update({entities.identified_label(m): r.identified_robot for m, r in results.items()})
-    cable_to = "true" if truth_delta is not None else entities.identified_label(methods[0])
-    log_scene(writer, robots, measurements, first.model.port_m, cable_to)
-    log_residuals(writer, results, measurements)
-    has_truth = truth_delta is not None
-    sources = len(results) + has_truth
-    for order, (name, result) in enumerate(results.items()):
-        log_convergence(writer, name, result, order)
-        log_parameters(writer, name, result.delta, result.solver.x, result.model.names,
-                       result.model.is_length, robot_color(name, order),
-                       (order + has_truth, sources))
-    if truth_delta is not None:
-        truth = np.asarray(truth_delta, dtype=np.float64)
-        n_dh = first.model.n_dh
-        log_parameters(writer, None, truth, truth.ravel(), first.model.names[:n_dh],
-                       first.model.is_length[:n_dh], TRUE_COLOR, (0, sources))
-    writer.once(entities.REPORT, rr.TextDocument(
-        calibration_markdown(results, measurements, truth_delta),
-        media_type=rr.MediaType.MARKDOWN,
-    ))
+    first = next(iter(results.values()))
+    log = CalibrationLog(writer, list(results), first.robot, first.model.port_m, measurements,
+                         truth_delta)
+    for result in results.values():
+        log.add(result)
+    log.finish(results)

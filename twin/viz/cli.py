@@ -7,20 +7,21 @@ recording modules are imported only when a flag asks for them.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from twin.cable import Measurements
 
 if TYPE_CHECKING:
-    from twin.calibration import CalibrationResult
+    from twin.robot import RobotModel
     from twin.sim import Simulation
+    from twin.viz.calibration import CalibrationLog
     from twin.viz.recording import Recording
 
 DEFAULT_WEB_PORT = 9090
@@ -117,26 +118,37 @@ def open_from_args(
         yield recording
 
 
-def record_calibration(
+@contextmanager
+def calibration_log(
     args: argparse.Namespace,
-    results: Mapping[str, CalibrationResult],
+    methods: Sequence[str],
+    robot: RobotModel,
+    port_m: ArrayLike,
     measurements: Measurements,
     truth_delta: NDArray[np.float64] | None = None,
     *,
     fallback_dir: Path | None = None,
-) -> None:
-    """What `twin calibrate` calls: log its results if a ``--rerun-*`` flag asks for it.
+) -> Iterator[CalibrationLog | None]:
+    """What `twin calibrate` opens before it calibrates, if a ``--rerun-*`` flag asks for it:
+    the setup is logged at once, each method when it finishes, so a viewer shows the run live.
+
+    Yields None without a flag. The caller adds each result and finishes the log.
 
     Args:
         args: The parsed arguments.
-        results: Results by method name, as `calibrate_many` returns them.
+        methods: The methods' names, in the order they will run.
+        robot: The nominal robot.
+        port_m: The port the calibration is told, shape (3,), m.
         measurements: Every measured pose (train and validation).
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
         fallback_dir: Where to save when the viewer cannot be spawned.
     """
     with open_from_args(args, "calibrate", fallback_dir) as recording:
-        if recording is not None:
-            recording.log_calibration(results, measurements, truth_delta=truth_delta)
+        if recording is None:
+            yield None
+            return
+        yield recording.start_calibration(methods, robot, port_m, measurements,
+                                          truth_delta=truth_delta)
 
 
 def record_simulation(args: argparse.Namespace, sim: Simulation) -> None:

@@ -15,7 +15,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
@@ -33,7 +33,7 @@ from twin.io.atomic import fsync_directory
 from twin.robot import RobotModel
 from twin.viz import entities
 from twin.viz.blueprint import scene_blueprint
-from twin.viz.calibration import log_calibration
+from twin.viz.calibration import CalibrationLog, log_calibration
 from twin.viz.cli import RerunOptions
 from twin.viz.scene import log_scene
 from twin.viz.writer import Writer
@@ -125,6 +125,20 @@ class Recording:
         if isinstance(results, CalibrationResult):
             results = {results.method: results}
         log_calibration(Writer(self.stream, times), results, measurements, truth_delta)
+
+    def start_calibration(
+        self,
+        methods: Sequence[str],
+        robot: RobotModel,
+        port_m: ArrayLike,
+        measurements: Measurements,
+        *,
+        truth_delta: NDArray[np.float64] | None = None,
+    ) -> CalibrationLog:
+        """Log a calibration's setup now and return the log its methods are added to as they
+        finish (see :class:`twin.viz.calibration.CalibrationLog`)."""
+        return CalibrationLog(Writer(self.stream), methods, robot, port_m, measurements,
+                              truth_delta)
 
     def log_scene(
         self,

@@ -47,7 +47,9 @@ def _colors(color: tuple[int, int, int], rows: int) -> NDArray[np.uint8]:
     return np.tile(np.asarray(color, dtype=np.uint8), (rows, 1))
 
 
-def log_robots(writer: Writer, robots: Mapping[str, RobotModel], q_rad: ArrayLike) -> None:
+def log_robots(
+    writer: Writer, robots: Mapping[str, RobotModel], q_rad: ArrayLike, first_order: int = 0
+) -> None:
     """Each robot's links in every pose, ``world/robot/<label>``.
 
     Args:
@@ -55,10 +57,11 @@ def log_robots(writer: Writer, robots: Mapping[str, RobotModel], q_rad: ArrayLik
         robots: Label (``nominal``, ``true``, ``identified/<method>``) to model; identified
             models are coloured in the order given.
         q_rad: Joint angles, shape (m, n), rad.
+        first_order: Colour index of the first identified model (when logged one by one).
     """
     q_rad = np.asarray(q_rad, dtype=np.float64)
     poses = np.arange(q_rad.shape[0])
-    identified = 0
+    identified = first_order
     for label, robot in robots.items():
         origins = chain(robot.dh, q_rad).origins  # (m, n+1, 3): one polyline per pose
         color = robot_color(label, identified)
