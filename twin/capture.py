@@ -34,9 +34,9 @@ from twin.encoders.base import Encoder, EncoderDisconnectedError
 from twin.encoders.settle import Settled, SettleRule, settle
 from twin.errors import InputError, TwinError
 from twin.io.atomic import fsync_directory, write_atomic
-from twin.io.measurements import COLUMNS, JOINT_COLUMNS, format_measurements, read_table
+from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
 from twin.robots.base import RobotSource
-from twin.units import deg_to_rad, m_to_mm
+from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
 CAPTURE_COLUMNS = (POSE_COLUMN, *COLUMNS)
@@ -45,12 +45,6 @@ PLAN_NAME = "plan.csv"
 ROBOT_NAME = "robot.toml"
 CAPTURE_NAME = "capture.toml"
 LOCK_NAME = ".lock"
-
-
-def read_plan(path: str | Path) -> NDArray[np.float64]:
-    """The plan's joint angles, shape (N, n), rad (CSV columns q1..q6 in degrees)."""
-    values, _ = read_table(path, JOINT_COLUMNS, "a plan CSV (q1..q6 in deg)")
-    return deg_to_rad(values)
 
 
 def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float) -> str:
@@ -152,7 +146,7 @@ def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         stored = folder / name
         if not stored.exists():
             write_atomic(stored, text)
-        elif what == "plan" and not np.array_equal(read_plan(stored), plan_q_rad):
+        elif what == "plan" and not np.array_equal(load_plan(stored)[0], plan_q_rad):
             raise InputError(f"a capture of another plan than {plan_path}",
                              "the plan this capture was started with (or a new --out folder)",
                              source=stored)

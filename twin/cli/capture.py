@@ -72,11 +72,11 @@ def run(args: argparse.Namespace) -> int:
     from twin.encoders.settle import SettleRule
     from twin.errors import InputError
     from twin.io.capture import parse_port_mm, write_capture
-    from twin.io.measurements import JOINT_COLUMNS, check_joint_limits, read_table
+    from twin.io.measurements import load_plan
     from twin.io.results import write_json
     from twin.robot import default_robot, load_robot, robot_to_toml
     from twin.robots.base import RobotSource
-    from twin.units import deg_to_rad, mm_to_m
+    from twin.units import mm_to_m
 
     config = resolve(args.encoder)
     try:
@@ -108,9 +108,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
                              source="command line")
         port_m = parse_port_mm(args.port, "--port", "")
-    plan_deg, plan_lines = read_table(args.plan, JOINT_COLUMNS, "a plan CSV (q1..q6 in deg)")
-    check_joint_limits(plan_deg, plan_lines, robot, args.plan)
-    plan_q_rad = deg_to_rad(plan_deg)
+    plan_q_rad, _ = load_plan(args.plan, robot)
 
     source: RobotSource
     if args.robot_source == "sim":

@@ -30,10 +30,10 @@ from twin.compensation import (
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result_delta
-from twin.io.measurements import JOINT_COLUMNS, check_joint_limits, read_table
+from twin.io.measurements import JOINT_COLUMNS, load_plan, read_table
 from twin.metrics import Metrics
 from twin.robot import default_robot, load_robot
-from twin.units import deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
+from twin.units import m_to_mm, mm_to_m, rad_to_deg
 
 TARGET_COLUMNS = ("x", "y", "z")
 OUTPUT_COLUMNS = (*JOINT_COLUMNS, "status", "error_mm")
@@ -92,10 +92,7 @@ def run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot) if args.robot else default_robot()
     identified = robot.perturbed(load_result_delta(args.identified, robot.n_joints, args.method))
     if args.joints is not None:
-        q_deg, lines = read_table(args.joints, JOINT_COLUMNS,
-                                  "a program CSV (q1..q6 in degrees)")
-        check_joint_limits(q_deg, lines, robot, args.joints)
-        q_nominal = deg_to_rad(q_deg)
+        q_nominal, _ = load_plan(args.joints, robot, "a program CSV (q1..q6 in degrees)")
         solved = compensate_program(robot, identified, q_nominal)
     else:
         xyz_mm, _ = read_table(args.targets, TARGET_COLUMNS, "a target CSV (x,y,z in mm)")

@@ -134,6 +134,31 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
     return Measurements(deg_to_rad(q_deg), mm_to_m(length_mm))
 
 
+def load_plan(
+    path: str | Path,
+    robot: RobotModel | None = None,
+    what: str = "a pose plan CSV (q1..q6 in degrees)",
+) -> tuple[NDArray[np.float64], list[int]]:
+    """Read joint angles: CSV with columns q1..q6 in degrees (a measurement file without
+    ``length``: a pose plan, or a robot program); other columns are ignored.
+
+    Args:
+        path: The CSV file.
+        robot: If given, every joint angle is checked against its limits.
+        what: What the file is, for error messages.
+
+    Returns:
+        ``(q_rad, lines)``: joint angles, shape (N, 6), rad, and each pose's line in the file.
+
+    Raises:
+        InputError: on any problem with the file, naming line and column.
+    """
+    q_deg, lines = read_table(path, JOINT_COLUMNS, what)
+    if robot is not None:
+        check_joint_limits(q_deg, lines, robot, path)
+    return deg_to_rad(q_deg), lines
+
+
 def check_joint_limits(
     q_deg: NDArray[np.float64], lines: list[int], robot: RobotModel, path: str | Path
 ) -> None:

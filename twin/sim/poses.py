@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError, TwinError
-from twin.io.measurements import JOINT_COLUMNS, check_joint_limits, read_table
+from twin.io.measurements import load_plan
 from twin.kinematics import flange_position
 from twin.sim.twin import Twin
-from twin.units import deg_to_rad, m_to_mm
+from twin.units import m_to_mm
 
 Array = NDArray[np.float64]
 
@@ -106,9 +106,7 @@ def read_pose_plan(path: str | Path, twin: Twin, constraints: PoseConstraints) -
     Raises:
         InputError: naming the line of the first pose outside the limits or the constraints.
     """
-    q_deg, lines = read_table(path, JOINT_COLUMNS, "a pose plan CSV (q1..q6 in degrees)")
-    check_joint_limits(q_deg, lines, twin.robot, path)
-    q_rad = deg_to_rad(q_deg)
+    q_rad, lines = load_plan(path, twin.robot)
     for name, failed in constraints.violations(twin, q_rad):
         if np.any(failed):
             row = int(np.flatnonzero(failed)[0])
