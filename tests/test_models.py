@@ -50,7 +50,7 @@ def test_mjcf_steps_without_warnings(path: Path) -> None:
 
 def test_irb120_mjcf_is_the_builders_model() -> None:
     """irb120.xml is what the builder makes of models/irb120.toml with the paper scenario's
-    port and servos: its flange equals the core's FK (to the file's 6 digits) and its port,
+    port and servos: its flange equals the core's FK to 1e-9 m and its port,
     stiffness and masses are the scenario's and the model file's."""
     scenario = load_scenario(PAPER)
     robot = scenario.robot
@@ -62,8 +62,9 @@ def test_irb120_mjcf_is_the_builders_model() -> None:
     for pose, expected in zip(q, core, strict=True):
         data.qpos[:] = pose
         mujoco.mj_kinematics(model, data)
-        assert np.allclose(data.site_xpos[site], expected[:3, 3], atol=5e-6)
-        assert np.allclose(data.site_xmat[site].reshape(3, 3), expected[:3, :3], atol=1e-5)
+        assert np.allclose(data.site_xpos[site], expected[:3, 3], rtol=0, atol=1e-9)
+        assert np.allclose(data.site_xmat[site].reshape(3, 3), expected[:3, :3], rtol=0,
+                           atol=1e-9)
     assert np.allclose(model.site_pos[model.site("port").id], scenario.port_m)
     assert scenario.physics.stiffness_nm_per_rad is not None
     assert np.allclose(model.actuator_gainprm[:6, 0], scenario.physics.stiffness_nm_per_rad)
