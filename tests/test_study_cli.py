@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -85,8 +86,12 @@ def test_rerun_recording_holds_each_trial_and_the_summary(tmp_path: Path) -> Non
     assert main(["study", str(scenario), "--out", str(tmp_path / "out"),
                  "--rerun-save", str(recording)]) == 0
     texts: dict[str, list[tuple[int, str]]] = {}
+    curves: dict[str, list[float]] = {}
     for chunk in RrdReader(recording).stream().to_chunks():
         batch = chunk.to_record_batch()
+        if "Scalars:scalars" in batch.schema.names:
+            curves.setdefault(chunk.entity_path.lstrip("/"), []).extend(
+                v[0] for v in batch.column("Scalars:scalars").to_pylist())
         if "TextDocument:text" not in batch.schema.names:
             continue
         trials = batch.column("trial").to_pylist() if "trial" in batch.schema.names \
@@ -97,5 +102,12 @@ def test_rerun_recording_holds_each_trial_and_the_summary(tmp_path: Path) -> Non
     assert sorted(t for t, _ in texts["study/trial"]) == [0, 1, 2]
     assert all(text.startswith(f"### Trial {t}") and "| lm |" in text
                for t, text in texts["study/trial"])
+    # Each trial's convergence curve, equal to the history the study stored for it.
+    details = [json.loads(line) for line in (tmp_path / "out" / "trials.jsonl").read_text()
+               .splitlines()]
+    for detail in details:
+        history = detail["methods"]["lm"]["history_mm"]
+        assert curves[f"convergence/lm/trials/{detail['trial']}"] == history
+    assert len(details) == 3
     ((_, report),) = texts["report"]
     assert "Table 6 replica" in report and report == (tmp_path / "out" / "summary.md").read_text()

@@ -87,6 +87,9 @@ def run(args: argparse.Namespace) -> int:
                 recording.log_report(
                     trial_markdown(outcome.case, outcome.trial, outcome.rows), path=TRIAL_REPORT,
                     times={"case": cases[outcome.case], "trial": outcome.trial})
+                label = f"{outcome.case}-{outcome.trial}" if outcome.case else str(outcome.trial)
+                recording.log_histories({method: detail["history_mm"] for method, detail
+                                         in outcome.detail["methods"].items()}, label)
 
         document = run_study(plan, args.out, executor, on_outcome=on_outcome)
         markdown = summary_markdown(document)

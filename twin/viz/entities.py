@@ -49,6 +49,11 @@ def convergence(method: str, quantity: str) -> str:
     return f"convergence/{method}/{quantity}"
 
 
+def trial_convergence(method: str, trial: str) -> str:
+    """One study trial's validation RMSE per iteration for one method (``trial`` names it)."""
+    return f"convergence/{method}/trials/{trial}"
+
+
 def parameter_source(method: str | None) -> str:
     """``parameters/identified/<method>``, or ``parameters/true`` for ``None``."""
     return f"parameters/identified/{method}" if method else "parameters/true"

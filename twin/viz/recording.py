@@ -35,7 +35,7 @@ from twin.viz import entities
 from twin.viz.blueprint import scene_blueprint
 from twin.viz.calibration import CalibrationLog, log_calibration
 from twin.viz.cli import RerunOptions
-from twin.viz.scene import log_scene
+from twin.viz.scene import log_scene, robot_color
 from twin.viz.writer import Writer
 
 APPLICATION_ID = "twin"
@@ -152,6 +152,20 @@ class Recording:
         """Robots in every pose, the port and the cable (see :func:`twin.viz.scene.log_scene`)."""
         self.stream.send_blueprint(scene_blueprint())
         log_scene(Writer(self.stream, times), robots, measurements, port_m, cable_to)
+
+    def log_histories(self, histories_mm: Mapping[str, Sequence[float]], trial: str) -> None:
+        """One study trial's validation RMSE per iteration [mm] for each method, on the
+        ``iteration`` timeline under ``convergence/<method>/trials/<trial>``, so the curves of
+        all trials lie side by side in each method's plot."""
+        writer = Writer(self.stream)
+        for order, (method, values) in enumerate(histories_mm.items()):
+            if not len(values):
+                continue
+            path = entities.trial_convergence(method, trial)
+            writer.once(path, rr.SeriesLines(colors=robot_color(method, order),
+                                             names=f"{method} {trial}"))
+            writer.series(path, entities.ITERATION_TIMELINE, np.arange(len(values)),
+                          rr.Scalars.columns(scalars=np.asarray(values, dtype=np.float64)))
 
     def log_report(self, markdown: str, path: str = entities.REPORT,
                    times: Mapping[str, int] | None = None) -> None:
