@@ -15,9 +15,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from twin.calibration import make_problem
-from twin.problem import Budget
 from twin.robot import default_robot
 from twin.solvers.lm import SOLVER as LM
+from twin.stopping import Budget
 from twin.synthetic import random_poses, synthesize
 from twin.units import dh_rows_from_display, mm_to_m
 

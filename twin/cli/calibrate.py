@@ -18,6 +18,7 @@ from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.solvers import SOLVERS, get_solver, solver_choices
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.viz import add_rerun_flags, calibration_log
 
 
@@ -43,6 +44,13 @@ def add_parser(subparsers: Any) -> None:
                         help="also identify a correction of the port position")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
+    parser.add_argument("--stop", choices=PROTOCOLS,
+                        help="stopping protocol: 'converge' (default: stop on stated "
+                        "convergence tests) or 'paper' (the paper's: f changes by less than "
+                        "0.001 mm², 60 iterations, cascades 30 + 30); default: the capture's")
+    parser.add_argument("--max-iterations", type=int, metavar="N",
+                        help="iteration limit of every method and cascade stage (default: the "
+                        "protocol's, 200 to converge, 60 / 30 + 30 for the paper's)")
     parser.add_argument("--train-fraction", type=float, metavar="SHARE",
                         help="share of the poses used for identification (default: the "
                         "capture's, else 0.8)")
@@ -73,6 +81,10 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     fraction = getattr(args, "train_fraction", None)
     if fraction is not None and not 0 < fraction < 1:
         raise InputError(f"{fraction!r}", "a share in (0, 1)", source="--train-fraction")
+    stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
+    if limit is not None and not 1 <= limit <= MAX_ITERATIONS:
+        raise InputError(f"{limit!r}", f"an integer from 1 to {MAX_ITERATIONS}",
+                         source="--max-iterations")
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
         settings = capture.calibration
@@ -85,6 +97,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
                 estimate_port=args.estimate_port or settings.estimate_port,
                 estimate_offset=args.estimate_offset or settings.estimate_offset,
                 train_fraction=fraction or settings.train_fraction,
+                stop=stop or settings.stop,
+                max_iterations=limit or settings.max_iterations,
             ),
         )
     if port is None:
@@ -97,7 +111,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         truth_path=None,
         calibration=CalibrationSettings(
             estimate_port=args.estimate_port, estimate_offset=args.estimate_offset,
-            train_fraction=fraction or TRAIN_FRACTION,
+            train_fraction=fraction or TRAIN_FRACTION, stop=stop or PROTOCOLS[0],
+            max_iterations=limit,
         ),
     )
 
@@ -124,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     fallback_dir = args.json.parent if args.json else None
     with calibration_log(args, methods, robot, port_m, measurements, truth,
                          fallback_dir=fallback_dir) as live:
-        results = solve_many(robot, split, methods, seed=args.seed,
+        results = solve_many(robot, split, methods, seed=args.seed, budget=settings.budget,
                              on_result=None if live is None else live.add)
         if len(results) == 1:
             (result,) = results.values()
