@@ -133,6 +133,9 @@ def test_capture_calibration_table_sets_unknowns_and_split(
         ("[calibration]\ntrain_fraction = 1.5\n", "calibration.train_fraction: found 1.5"),
         ("[calibration]\nestimate_port = 1\n", "expected true or false"),
         ("[calibration]\nsplit = 0.8\n", "found unknown key 'split'"),
+        ("[calibration]\nstop = \"fast\"\n", "calibration.stop: found 'fast', expected one of "
+         "converge, paper"),
+        ("[calibration]\nmax_iterations = 0\n", "calibration.max_iterations: found 0"),
     ],
 )
 def test_bad_capture_calibration_table(
@@ -147,3 +150,36 @@ def test_bad_capture_calibration_table(
                        f'measurements = "{csv_path.name}"\n' + table)
     assert main(["calibrate", str(capture)]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_stop_protocol_from_capture_and_flag(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The capture's stop protocol is used and reported; --stop and --max-iterations win; the
+    JSON says which test stopped each stage."""
+    from twin.io.capture import CalibrationSettings, write_capture
+    from twin.robot import default_robot, robot_to_toml
+
+    (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
+    capture = tmp_path / "capture.toml"
+    write_capture(capture, robot="robot.toml", port_m=np.array([0.6, -0.4, 0.1]),
+                  measurements=csv_path.name, calibration=CalibrationSettings(stop="paper"))
+    out = tmp_path / "r.json"
+    assert main(["calibrate", str(capture), "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "(paper protocol)" in printed and "the paper's rule fired" in printed
+    document = json.loads(out.read_text())
+    assert document["stop"]["protocol"] == "paper" and document["stop_reason"] == "f_change"
+    assert document["converged"] is False
+    assert main(["calibrate", str(capture), "--stop", "converge", "--method", "m9",
+                 "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    document = json.loads(out.read_text())
+    assert [stage["method"] for stage in document["stop"]["stages"]] == ["amlm", "bipso"]
+    assert document["stop"]["stages"][0]["stop_reason"] in ("ftol", "xtol", "gtol")
+    assert document["converged"] is True and "stage bipso" in printed
+    assert main(["calibrate", str(capture), "--max-iterations", "2", "--json", str(out)]) == 0
+    document = json.loads(out.read_text())
+    assert document["stop_reason"] == "max_iterations" and document["iterations"] == 2
+    assert main(["calibrate", str(capture), "--max-iterations", "0"]) == 2
+    assert "--max-iterations: found 0" in capsys.readouterr().err

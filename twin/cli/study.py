@@ -9,6 +9,7 @@ from typing import Any
 
 from twin.errors import InputError
 from twin.solvers import solver_choices
+from twin.stopping import PROTOCOLS
 from twin.viz import add_rerun_flags, open_from_args
 
 TRIAL_REPORT = "study/trial"
@@ -45,6 +46,9 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--methods", metavar="M1,M2,…|all",
                         help="comma-separated names or aliases, or 'all' (default: [study] "
                         "methods, else all): " + ", ".join(solver_choices()))
+    parser.add_argument("--stop", choices=PROTOCOLS,
+                        help="stopping protocol of every method (default: the scenario's "
+                        "[calibration] stop, else converge); part of the study's identity")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=_positive, metavar="K",
                        help="run on a Dask LocalCluster of K worker processes on 127.0.0.1 "
@@ -66,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         if not methods:
             raise InputError(f"{args.methods!r}", "comma-separated method names, or all",
                              source="--methods")
-    plan = load_study(args.scenario, trials=args.trials, methods=methods)
+    plan = load_study(args.scenario, trials=args.trials, methods=methods, stop=args.stop)
     executor: Any
     if args.scheduler or args.workers:
         from twin.study.executors.cluster import DaskCluster

@@ -135,13 +135,15 @@ def _positive(study: dict[str, Any], key: str, default: int, source: Path) -> in
 
 
 def load_study(path: str | Path, *, trials: int | None = None,
-               methods: list[str] | None = None) -> StudyPlan:
+               methods: list[str] | None = None, stop: str | None = None) -> StudyPlan:
     """Read a scenario file and its ``[study]`` table.
 
     Args:
         path: The scenario TOML.
         trials: Trials per case; overrides ``[study] trials``.
         methods: Method names or aliases; overrides ``[study] methods``.
+        stop: Stopping protocol; overrides ``[calibration] stop`` (and so is part of the
+            study's identity, like any scenario key).
 
     Raises:
         InputError: naming the file and key that are wrong.
@@ -151,6 +153,10 @@ def load_study(path: str | Path, *, trials: int | None = None,
         document = tomllib.loads(read_text(path, "a scenario TOML file"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"invalid TOML ({exc})", "a scenario TOML file", source=path) from None
+    if stop is not None:
+        calibration = document.setdefault("calibration", {})
+        if isinstance(calibration, dict):
+            calibration["stop"] = stop
     base = parse_scenario(document, path)
     study = dict(base.study)
     unknown = sorted(set(study) - set(STUDY_KEYS))
