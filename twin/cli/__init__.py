@@ -68,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     try:
         with command_scope():
-            check_command_paths(list(vars(args).values()))
+            check_command_paths(vars(args).values())
             return int(args.func(args) or 0)
     except InputError as exc:
         print(f"twin: error: {exc}", file=sys.stderr)

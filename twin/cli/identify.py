@@ -25,7 +25,15 @@ from twin.io.truth import load_truth_delta
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 from twin.uncertainty import flange_error_rms, flange_sigma, workspace_grid
-from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm, mm_to_m
+from twin.units import (
+    DH_KEYS,
+    RESULT_MM_DECIMALS,
+    dh_rows_to_display,
+    display_unit,
+    m_to_mm,
+    mm_to_m,
+    rounded,
+)
 
 MAP_GRID = 41
 """Grid points per axis of the accuracy map over joints 2 and 3."""
@@ -178,7 +186,8 @@ def run(args: argparse.Namespace) -> int:
             "nominal": {
                 **identifiability_to_dict(nominal, "nominal"),
                 "observability": indices._asdict(),
-                "cramer_rao_flange_rms": float(m_to_mm(score.flange_rms_m)),
+                "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
+                                                 RESULT_MM_DECIMALS)[0],
                 "sigma_assumed": args.sigma,
             },
             "calibration": result_to_dict(result),

@@ -34,7 +34,7 @@ import re
 import stat
 import sys
 import tomllib
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextvars import ContextVar
 from itertools import accumulate
 from pathlib import Path, PosixPath
@@ -284,7 +284,7 @@ def _check_writable(folder: Path, path: Path, expected: str) -> None:
         raise InputError(f"a folder {folder} that is not writable", expected, source=path)
 
 
-def check_command_paths(values: Iterator[object] | list[object]) -> None:
+def check_command_paths(values: Iterable[object]) -> None:
     """What the CLI calls before a command runs: protect its command-line inputs, then check
     its command-line outputs (:class:`InputPath`, :class:`OutputFile`, :class:`OutputFolder`
     values, or lists of them, among ``values``)."""
