@@ -22,9 +22,10 @@ import numpy as np
 from twin.cable import CableModel, Measurements
 from twin.design import choose_port, plan_poses, score_poses
 from twin.identifiability import measurement_identifiability
-from twin.problem import Budget, Problem
+from twin.problem import Problem
 from twin.robot import default_robot
 from twin.solvers import get_solver
+from twin.stopping import Budget
 from twin.synthetic import random_poses, synthesize
 from twin.uncertainty import flange_error_rms
 from twin.units import dh_rows_from_display, m_to_mm, mm_to_m
@@ -91,7 +92,7 @@ def main() -> None:
     print(f"\n3. lm-base on noisy data, {DRAWS} noise draws, true flange RMS error [mm]")
     true_robot = robot.perturbed(DELTA.ravel())
     errors: dict[str, list[float]] = {"planned": [], "random": []}
-    budget = Budget(ftol_m2=1e-18)
+    budget = Budget()
     solver = get_solver("lm-base")
     for draw in range(DRAWS):
         noise_rng = np.random.default_rng(100 + draw)

@@ -15,8 +15,8 @@ from twin.calibration import (
     split_rows,
 )
 from twin.errors import InputError
-from twin.problem import Budget
 from twin.robot import RobotModel
+from twin.stopping import Budget
 from twin.synthetic import random_poses, synthesize
 from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
 
@@ -78,7 +78,7 @@ def test_noise_free_data_fits_exactly(
     numerical zero (the paper's 0.001 mm² rule alone stops at a few µm)."""
     rng = np.random.default_rng(9)
     data = synthesize(true_robot, random_poses(irb120, 60, rng), port_m, 0.0, rng)
-    result = calibrate(irb120, data, port_m, budget=Budget(ftol_m2=0.0))
+    result = calibrate(irb120, data, port_m, budget=Budget())
     assert result.metrics["validation"].rmse < 1e-10
 
 
@@ -98,7 +98,7 @@ def test_lm_reaches_the_bounded_optimum_when_the_truth_is_outside_the_box(
     delta = np.zeros((4, 6))
     delta[0, 1], delta[1, 0], delta[3, 2] = 6e-3, -2e-3, np.deg2rad(1.0)
     data = synthesize(irb120.perturbed(delta), random_poses(irb120, 80, rng), port_m, 1e-5, rng)
-    result = calibrate(irb120, data, port_m, budget=Budget(ftol_m2=0.0))
+    result = calibrate(irb120, data, port_m, budget=Budget())
     train = data.subset(result.train_rows)
     model = result.model
     reference = least_squares(

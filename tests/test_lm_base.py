@@ -7,14 +7,14 @@ import pytest
 
 from twin.cable import CableModel, Measurements
 from twin.calibration import calibrate
-from twin.problem import Budget
 from twin.robot import RobotModel
 from twin.solvers import SOLVERS, get_solver
+from twin.stopping import Budget
 from twin.synthetic import random_poses, synthesize
 from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
 
 SIGMA_M = 1e-5
-CONVERGED = Budget(ftol_m2=1e-18)
+CONVERGED = Budget()
 """Run to convergence: the paper's rule stops LM at f changes of 0.001 mm², above the noise."""
 
 

@@ -16,9 +16,9 @@ from twin.errors import InputError
 from twin.io.capture import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
-from twin.problem import Budget
 from twin.robot import load_robot
 from twin.sim import load_scenario, parse_scenario, simulate, write_simulation
+from twin.stopping import Budget
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
 
@@ -116,7 +116,7 @@ def test_geometric_scenario_lm_recovers_flange_within_cramer_rao() -> None:
     scenario = load_scenario(GEOMETRIC)
     sim = simulate(scenario)
     result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, method="lm", seed=0,
-                       budget=Budget(ftol_m2=1e-18))
+                       budget=Budget())
     sigma = scenario.noise.sigma_m
     assert result.metrics["validation"].rmse < 1.5 * sigma
     workspace = random_poses(sim.robot, 1000, np.random.default_rng(1))

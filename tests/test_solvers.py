@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from twin.calibration import CalibrationResult, calibrate_many, make_problem
-from twin.problem import Budget
 from twin.sim import Simulation, load_scenario, simulate
 from twin.solvers import SOLVERS, get_solver
 from twin.solvers.amlm import GAMMA_MAX, AdaptiveMomentum
 from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES
+from twin.stopping import Budget, StopReason
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
 
@@ -78,16 +78,24 @@ def test_swarms_evaluate_whole_swarms_per_iteration(results: dict[str, Calibrati
     assert bipso.evaluations == N_PARTICLES + (N_PARTICLES + N_INTERPOLATED) * bipso.iterations
 
 
-def test_first_stage_of_amlm_bipso_is_amlm_for_30_iterations(sim: Simulation) -> None:
-    """M9's history starts exactly as M7 run for 30 iterations with the f-change rule off,
-    and its BIPSO stage never ends worse than the AMLM stage did."""
+@pytest.mark.parametrize("budget", [Budget.paper(), Budget()], ids=["paper", "converge"])
+def test_first_stage_of_amlm_bipso_is_amlm(sim: Simulation, budget: Budget) -> None:
+    """M9's history starts exactly as M7 run with the stage's budget (paper: 30 iterations with
+    the f-change rule off; converge: to its own stopping test), its BIPSO stage never ends worse
+    than the AMLM stage did, and each stage says why it stopped."""
     problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
-    budget = Budget(max_iterations=30, stage_iterations=30, ftol_m2=0.0)
-    amlm = get_solver("m7").solve(problem, budget, np.random.default_rng(0))
+    amlm = get_solver("m7").solve(problem, budget.stage(), np.random.default_rng(0))
     cascade = get_solver("m9").solve(problem, budget, np.random.default_rng(0))
     n = len(amlm.history)
     assert cascade.history[:n] == amlm.history
-    assert len(cascade.history) == n + 30
+    assert cascade.stages[0] == ("amlm", *amlm.stages[0][1:])
+    assert [stage.method for stage in cascade.stages] == ["amlm", "bipso"]
+    assert cascade.stages[1].iterations == len(cascade.history) - n
+    if budget.protocol == "paper":
+        assert len(cascade.history) == n + 30
+        assert cascade.stop_label == "max_iterations+max_iterations"
+    else:
+        assert amlm.converged and cascade.stages[1].stop_reason == StopReason.STALLED
     # The swarm re-evaluates the AMLM result on the batched path: equal up to rounding of
     # 1e-16 m on lengths of ~1 m, i.e. ~1e-11 relative on residuals at the noise floor.
     assert cascade.history[-1].f_m2 <= amlm.history[-1].f_m2 * (1 + 1e-9)
@@ -136,7 +144,8 @@ def test_thirty_filter_passes_stay_put_with_non_geometric_errors() -> None:
     continuing from its own posterior ran into a bound here, at 2.4 mm validation RMSE)."""
     paper = simulate(load_scenario(SCENARIO.parent / "paper_irb120.toml"), 534926514)
     results = calibrate_many(paper.robot, paper.measurements, paper.port_nominal_m,
-                             ["lm", "ukf-vslm", "ekf-qibas"], seed=534926514)
+                             ["lm", "ukf-vslm", "ekf-qibas"], seed=534926514,
+                             budget=Budget.paper())
     lm = results["lm"].metrics["validation"].rmse
     for method in ("ukf-vslm", "ekf-qibas"):
         history = results[method].solver.history

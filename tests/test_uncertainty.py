@@ -8,8 +8,8 @@ import pytest
 from twin.cable import CableModel, Measurements
 from twin.calibration import calibrate
 from twin.identifiability import measurement_identifiability
-from twin.problem import Budget
 from twin.robot import RobotModel
+from twin.stopping import Budget
 from twin.synthetic import random_poses
 from twin.uncertainty import (
     base_covariance,
@@ -96,7 +96,7 @@ def test_calibration_carries_covariance_and_an_honest_accuracy(
     flange accuracy is within a factor of 3 of the true flange error over the workspace, and
     every base parameter's true error lies within 5 σ of its estimate up to the null space."""
     result = calibrate(irb120, measurements, port_m, method="lm-base",
-                       budget=Budget(ftol_m2=1e-18))
+                       budget=Budget())
     uncertainty = result.uncertainty
     assert uncertainty is not None and result.identifiability is not None
     assert 0.7 * SIGMA_M < uncertainty.noise_sigma_m < 1.4 * SIGMA_M

@@ -11,8 +11,8 @@ from twin.errors import InputError, TwinError, UnknownChoiceError
 from twin.io.measurements import load_measurements, write_measurements
 from twin.kinematics import flange_position, flange_position_jacobian, flange_transform
 from twin.metrics import Metrics
-from twin.problem import Budget
 from twin.robot import RobotModel, default_robot, load_robot
+from twin.stopping import Budget, StopReason
 
 __all__ = [
     "Budget",
@@ -22,6 +22,7 @@ __all__ = [
     "Measurements",
     "Metrics",
     "RobotModel",
+    "StopReason",
     "TwinError",
     "UnknownChoiceError",
     "cable_length",

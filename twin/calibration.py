@@ -12,7 +12,7 @@ This is the Python API the CLI mirrors::
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from math import ceil
 from typing import NamedTuple
 
@@ -23,9 +23,10 @@ from twin.cable import CableModel, Measurements
 from twin.errors import InputError
 from twin.identifiability import Identifiability, measurement_identifiability
 from twin.metrics import Metrics, metrics
-from twin.problem import DEFAULT_SIGMA_M, Budget, Problem
+from twin.problem import DEFAULT_SIGMA_M, Problem
 from twin.robot import RobotModel
 from twin.solvers import SolverResult, get_solver
+from twin.stopping import Budget, at_bounds
 from twin.synthetic import random_poses
 from twin.uncertainty import CalibrationUncertainty, calibration_uncertainty
 
@@ -73,6 +74,7 @@ class CalibrationResult:
         identifiability: What the training poses identify at the start (nominal) geometry.
         identified_identifiability: The same at the identified geometry.
         uncertainty: Noise estimate, base-parameter covariance and predicted flange accuracy.
+        budget: The iteration limits and stopping tests the method ran with.
     """
 
     robot: RobotModel
@@ -85,6 +87,7 @@ class CalibrationResult:
     identifiability: Identifiability | None = None
     identified_identifiability: Identifiability | None = None
     uncertainty: CalibrationUncertainty | None = None
+    budget: Budget = field(default_factory=Budget)
 
     @property
     def method(self) -> str:
@@ -100,6 +103,12 @@ class CalibrationResult:
     def identified_robot(self) -> RobotModel:
         """The nominal robot with the identified errors added."""
         return self.robot.perturbed(self.delta)
+
+    @property
+    def at_bounds(self) -> tuple[str, ...]:
+        """Names of the unknowns the method left on a bound of the search box."""
+        lower, upper = self.model.bounds()
+        return tuple(np.asarray(self.model.names)[at_bounds(self.solver.x, lower, upper)])
 
     @property
     def port_m(self) -> Array:
@@ -199,9 +208,10 @@ def solve_many(
     before = metrics(problem.model.residuals(np.zeros(problem.model.n_params), problem.validation))
     nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
+    budget = budget or Budget()
     results = {}
     for solver in solvers:
-        solved = solver.solve(problem, budget or Budget(), np.random.default_rng(seed))
+        solved = solver.solve(problem, budget, np.random.default_rng(seed))
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
             train_rows=train_rows, validation_rows=validation_rows,
@@ -217,6 +227,7 @@ def solve_many(
             uncertainty=calibration_uncertainty(
                 problem.model, solved.x, problem.train, nominal.base, q_workspace
             ),
+            budget=budget,
         )
         if on_result is not None:
             on_result(results[solver.name])
@@ -245,7 +256,8 @@ def calibrate(
         seed: Seed of the train/validation split and of any random draw of the method.
         estimate_port: Also identify a correction to the port position.
         estimate_offset: Also identify an unknown cable-length offset.
-        budget: Iteration budget and stopping rule; the paper's by default.
+        budget: Iteration limits and stopping tests; by default ``Budget()``, run to
+            convergence (``Budget.paper()`` is the paper's protocol).
         train_fraction: Share of the poses used for identification (paper: 0.8).
     """
     return calibrate_many(

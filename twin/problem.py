@@ -1,4 +1,7 @@
-"""A calibration problem as the solvers see it: model, data split, bounds, start, budget."""
+"""A calibration problem as the solvers see it: model, data split, bounds and start.
+
+How long a method runs is its :class:`~twin.stopping.Budget`.
+"""
 
 from __future__ import annotations
 
@@ -8,34 +11,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.cable import CableModel, Measurements
+from twin.stopping import scale
 from twin.units import mm_to_m
 
 Array = NDArray[np.float64]
 
 DEFAULT_SIGMA_M = float(mm_to_m(0.01))
 """Default expected length noise (1σ): a 0.01 mm class drawstring encoder."""
-
-
-@dataclass(frozen=True)
-class Budget:
-    """Iteration budget and stopping rule shared by every method (method-notes §3).
-
-    Attributes:
-        max_iterations: Iterations of a single-stage method (paper: 60).
-        stage_iterations: Iterations of each stage of a cascade (paper: 30 + 30).
-        ftol_m2: Stop when the objective f = mean r² changes by less than this between
-            consecutive iterations, m² (paper: 0.001 mm²).
-    """
-
-    max_iterations: int = 60
-    stage_iterations: int = 30
-    ftol_m2: float = float(mm_to_m(1.0) ** 2 * 1e-3)
-
-    def __post_init__(self) -> None:
-        if self.max_iterations < 1 or self.stage_iterations < 1:
-            raise ValueError("iterations must be >= 1")
-        if not self.ftol_m2 >= 0:
-            raise ValueError("ftol_m2 must be >= 0")
 
 
 @dataclass(frozen=True)
@@ -76,3 +58,8 @@ class Problem:
     def upper(self) -> Array:
         """Upper bounds of x, shape (p,)."""
         return self.model.bounds()[1]
+
+    @property
+    def scale(self) -> Array:
+        """Scale of each unknown for the step tests: half its search range, shape (p,)."""
+        return scale(self.lower, self.upper)

@@ -58,6 +58,24 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     return lines
 
 
+def format_stop(result: CalibrationResult) -> list[str]:
+    """Why the method stopped (each stage of a cascade), and the unknowns left on a bound."""
+    stages = result.solver.stages
+    if len(stages) == 1:
+        lines = [f"  stopped: {stages[0].stop_reason.describe(result.budget)}"]
+    else:
+        lines = [f"  stage {stage.method} ({stage.iterations} iterations): "
+                 f"{stage.stop_reason.describe(result.budget)}" for stage in stages]
+        if result.solver.converged and not result.solver.stop_reason.converged:
+            lines.append(f"  the {stages[-1].method} stage found nothing better: the result is "
+                         f"the converged {stages[0].method} point")
+    held = result.at_bounds
+    if held:
+        lines.append("  at a bound of the search box: " + ", ".join(held)
+                     + " (the truth may lie outside it)")
+    return lines
+
+
 def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
     """Before/after metrics, run statistics and the identified D-H errors as a table.
 
@@ -74,8 +92,8 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         _metric_row("after, train", result.metrics["train"]),
         _metric_row("after, validation", result.metrics["validation"]),
         f"  {result.solver.iterations} iterations, {result.solver.evaluations} evaluations, "
-        f"{result.solver.seconds:.3f} s, "
-        + ("converged" if result.solver.converged else "stopped at the iteration limit"),
+        f"{result.solver.seconds:.3f} s ({result.budget.protocol} protocol)",
+        *format_stop(result),
         "  " + MAE_NOTE,
         *format_identifiability(result),
     ]
@@ -103,10 +121,12 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
 
 def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
     """A table like the paper's Table 6: validation metrics and time per method."""
-    lines = [
-        "  method      paper    RMSE     MAE*      std      MAX [mm]   time [s]   iter    evals",
-    ]
     first = next(iter(results.values()))
+    lines = [
+        f"  {first.budget.protocol} protocol; validation residuals",
+        "  method      paper    RMSE     MAE*      std      MAX [mm]   time [s]   iter    evals"
+        "  stopped by",
+    ]
     before = m_to_mm(list(first.metrics["before"]))
     lines.append(f"  {'before':<10}  {'':<5}" + "".join(f"{v:>9.4f}" for v in before))
     for name, result in results.items():
@@ -115,7 +135,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         lines.append(
             f"  {name:<10}  {alias:<5}" + "".join(f"{x:>9.4f}" for x in v)
             + f"{result.solver.seconds:>11.3f}{result.solver.iterations:>7}"
-            f"{result.solver.evaluations:>9}"
+            f"{result.solver.evaluations:>9}  {result.solver.stop_label}"
         )
     lines.append("  " + MAE_NOTE)
     if first.identifiability is not None:

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import TRAIN_FRACTION, SplitProblem, make_problem, solve_many
-from twin.cli.arguments import seed, share
+from twin.cli.arguments import integer, seed, share
 from twin.errors import InputError
 from twin.identifiability import RankWarning, measurement_identifiability, spread_rank
 from twin.io.capture import CalibrationSettings, load_capture, parse_port_mm
@@ -22,6 +22,7 @@ from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.solvers import SOLVERS, get_solver, solver_choices
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.viz import add_rerun_flags, calibration_log
 
 
@@ -49,6 +50,13 @@ def add_parser(subparsers: Any) -> None:
                         help="also identify a correction of the port position")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
+    parser.add_argument("--stop", choices=PROTOCOLS,
+                        help="stopping protocol: 'converge' (default: stop on stated "
+                        "convergence tests) or 'paper' (the paper's: f changes by less than "
+                        "0.001 mm², 60 iterations, cascades 30 + 30); default: the capture's")
+    parser.add_argument("--max-iterations", type=integer(1, MAX_ITERATIONS), metavar="N",
+                        help="iteration limit of every method and cascade stage (default: the "
+                        "protocol's, 200 to converge, 60 / 30 + 30 for the paper's)")
     parser.add_argument("--train-fraction", type=share, metavar="SHARE",
                         help="share of the poses used for identification (default: the "
                         "capture's, else 0.8)")
@@ -78,6 +86,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     """
     input_path, robot_path, port = args.input, args.robot, args.port
     fraction = getattr(args, "train_fraction", None)
+    stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
         settings = capture.calibration
@@ -90,6 +99,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
                 estimate_port=args.estimate_port or settings.estimate_port,
                 estimate_offset=args.estimate_offset or settings.estimate_offset,
                 train_fraction=fraction or settings.train_fraction,
+                stop=stop or settings.stop,
+                max_iterations=limit or settings.max_iterations,
             ),
         )
     if port is None:
@@ -102,7 +113,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         truth_path=None,
         calibration=CalibrationSettings(
             estimate_port=args.estimate_port, estimate_offset=args.estimate_offset,
-            train_fraction=fraction or TRAIN_FRACTION,
+            train_fraction=fraction or TRAIN_FRACTION, stop=stop or PROTOCOLS[0],
+            max_iterations=limit,
         ),
     )
 
@@ -147,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     fallback_dir = args.json.parent if args.json else None
     with calibration_log(args, methods, robot, port_m, measurements, truth,
                          fallback_dir=fallback_dir) as live:
-        results = solve_many(robot, split, methods, seed=args.seed,
+        results = solve_many(robot, split, methods, seed=args.seed, budget=settings.budget,
                              on_result=None if live is None else live.add)
         if len(results) == 1:
             (result,) = results.values()

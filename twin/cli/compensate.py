@@ -153,7 +153,9 @@ def _verify(args: argparse.Namespace) -> int:
     print(f"{scenario.name}: simulated {len(sim.measurements)} poses (seed {sim.seed}); "
           "calibrating…", flush=True)
     result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m,
-                       method=args.method or "lm", seed=sim.seed)
+                       method=args.method or "lm", seed=sim.seed, budget=scenario.budget,
+                       estimate_port=scenario.estimate_port,
+                       estimate_offset=scenario.estimate_offset)
     validation = result.metrics["validation"]
     print(f"  {result.method}: validation RMSE {m_to_mm(validation.rmse):.4f} mm "
           f"(before {m_to_mm(result.metrics['before'].rmse):.4f} mm)")

@@ -150,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         result = calibrate(robot, data, port_m, method="lm-base", seed=args.seed,
                            estimate_port=settings.estimate_port,
                            estimate_offset=settings.estimate_offset,
-                           train_fraction=settings.train_fraction)
+                           train_fraction=settings.train_fraction, budget=settings.budget)
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=measurements_path) from None
     assert result.identified_identifiability is not None and result.uncertainty is not None

@@ -10,6 +10,8 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     estimate_port = false
     estimate_offset = false
     train_fraction = 0.8
+    stop = "converge"                 # or "paper" (twin.stopping)
+    max_iterations = 200              # optional: another iteration limit
     [encoder]                         # optional: how the data was captured
     url = "serial:///dev/ttyUSB0?baud=115200"
 """
@@ -30,6 +32,7 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_toml
 from twin.robot import RobotModel, load_robot
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
 
 _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder")
@@ -37,21 +40,35 @@ _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder")
 
 @dataclass(frozen=True)
 class CalibrationSettings:
-    """How a capture is to be calibrated: which extra unknowns, which split.
+    """How a capture is to be calibrated: which extra unknowns, which split, when to stop.
 
     Attributes:
         estimate_port: Also identify a correction of the port position.
         estimate_offset: Also identify an unknown cable-length offset.
         train_fraction: Share of the poses used for identification, in (0, 1).
+        stop: The stopping protocol, one of :data:`twin.stopping.PROTOCOLS`.
+        max_iterations: Iteration limit of every method and stage, or None for the protocol's.
     """
 
     estimate_port: bool = False
     estimate_offset: bool = False
     train_fraction: float = TRAIN_FRACTION
+    stop: str = PROTOCOLS[0]
+    max_iterations: int | None = None
 
     def __post_init__(self) -> None:
         if not 0 < self.train_fraction < 1:
             raise ValueError(f"train_fraction: {self.train_fraction}, expected in (0, 1)")
+        if self.stop not in PROTOCOLS:
+            raise ValueError(f"stop: {self.stop!r}, expected one of {', '.join(PROTOCOLS)}")
+        if self.max_iterations is not None and not 1 <= self.max_iterations <= MAX_ITERATIONS:
+            raise ValueError(f"max_iterations: {self.max_iterations}, expected 1 to "
+                             f"{MAX_ITERATIONS}")
+
+    @property
+    def budget(self) -> Budget:
+        """The iteration limits and stopping tests these settings ask for."""
+        return Budget.named(self.stop, self.max_iterations)
 
 
 def _parse_calibration(table: object, source: Path) -> CalibrationSettings:
@@ -67,6 +84,15 @@ def _parse_calibration(table: object, source: Path) -> CalibrationSettings:
             if isinstance(value, bool) or not isinstance(value, int | float) \
                     or not 0 < value < 1:
                 raise InputError(f"{value!r}", "a share in (0, 1)", source=source, where=where)
+        elif key == "stop":
+            if value not in PROTOCOLS:
+                raise InputError(f"{value!r}", "one of " + ", ".join(PROTOCOLS), source=source,
+                                 where=where)
+        elif key == "max_iterations":
+            if isinstance(value, bool) or not isinstance(value, int) \
+                    or not 1 <= value <= MAX_ITERATIONS:
+                raise InputError(f"{value!r}", f"an integer from 1 to {MAX_ITERATIONS}",
+                                 source=source, where=where)
         elif not isinstance(value, bool):
             raise InputError(f"{value!r}", "true or false", source=source, where=where)
     return CalibrationSettings(**table)
@@ -175,7 +201,10 @@ def write_capture(
             f"estimate_port = {json.dumps(calibration.estimate_port)}",
             f"estimate_offset = {json.dumps(calibration.estimate_offset)}",
             f"train_fraction = {calibration.train_fraction!r}",
+            f"stop = {json.dumps(calibration.stop)}",
         ]
+        if calibration.max_iterations is not None:
+            lines.append(f"max_iterations = {calibration.max_iterations}")
     if encoder:
         lines.append("[encoder]")
         lines += [f"{key} = {json.dumps(value)}" for key, value in encoder.items()]

@@ -113,6 +113,16 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
             "evaluations": solver.evaluations,
             "seconds": solver.seconds,
             "converged": solver.converged,
+            "stop_reason": solver.stop_label,
+            "stop": {
+                "protocol": result.budget.protocol,
+                "stages": [
+                    {"method": stage.method, "iterations": stage.iterations,
+                     "stop_reason": stage.stop_reason.value}
+                    for stage in solver.stages
+                ],
+            },
+            "at_bounds": list(result.at_bounds),
             "history": [
                 {
                     "iteration": record.iteration,

@@ -47,10 +47,12 @@ joint errors), paths relative to the scenario file::
     gravity = true                         # with compliance
     tension_n = 0.0                        # cable tension, with compliance
 
-    [calibration]                          # hints for whoever calibrates the data
+    [calibration]                          # how the data are calibrated (studies, capture.toml)
     train_fraction = 0.8
     estimate_port = false
     estimate_offset = false
+    stop = "converge"                      # stopping protocol: "converge" or "paper"
+    max_iterations = 200                   # optional: iteration limit of every method and stage
 
     [study]                                # left to twin.study: passed through unread
 
@@ -77,6 +79,7 @@ from twin.sim.noise import NoiseModel
 from twin.sim.perturbation import DISTRIBUTIONS, Perturbation
 from twin.sim.physics import Physics
 from twin.sim.poses import PoseConstraints
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import deg_to_rad, mm_to_m
 
 Array = NDArray[np.float64]
@@ -93,7 +96,8 @@ _TABLES = {
     "joints": ("repeatability_mm", "transmission_arcsec", "transmission_harmonic",
                "transmission_phase_deg", "backlash_arcsec"),
     "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n"),
-    "calibration": ("train_fraction", "estimate_port", "estimate_offset"),
+    "calibration": ("train_fraction", "estimate_port", "estimate_offset", "stop",
+                    "max_iterations"),
 }
 DEFAULT_RESOLUTION_MM = 0.004
 
@@ -122,6 +126,8 @@ class Scenario:
         train_fraction: Share of poses for identification, or None (the core's 80 %).
         estimate_port: Hint: calibrate with a port correction.
         estimate_offset: Hint: calibrate with a length offset.
+        stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
+        max_iterations: Iteration limit of every method and stage, or None (the protocol's).
         study: The ``[study]`` table as written, for twin.study.
         source: The file, or None.
     """
@@ -144,8 +150,15 @@ class Scenario:
     train_fraction: float | None = None
     estimate_port: bool = False
     estimate_offset: bool = False
+    stop: str = PROTOCOLS[0]
+    max_iterations: int | None = None
     study: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+
+    @property
+    def budget(self) -> Budget:
+        """The iteration limits and stopping tests the calibration runs with."""
+        return Budget.named(self.stop, self.max_iterations)
 
     def __post_init__(self) -> None:
         n = self.robot.n_joints
@@ -166,6 +179,8 @@ class Scenario:
             raise ValueError(f"perturbation scale: expected shape (4, {n})")
         if self.train_fraction is not None and not 0 < self.train_fraction < 1:
             raise ValueError("train_fraction: expected in (0, 1)")
+        if self.stop not in PROTOCOLS:
+            raise ValueError(f"stop: expected one of {', '.join(PROTOCOLS)}")
 
 
 class _Table:
@@ -348,6 +363,14 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         if calibration.has("train_fraction") else None
     if train_fraction == 1.0:
         raise calibration.error("train_fraction", "1.0", "a share below 1 (some poses held out)")
+    stop = calibration.text("stop", PROTOCOLS[0])
+    if stop not in PROTOCOLS:
+        raise calibration.error("stop", repr(stop), "one of " + ", ".join(PROTOCOLS))
+    max_iterations = calibration.integer("max_iterations", minimum=1) \
+        if calibration.has("max_iterations") else None
+    if max_iterations is not None and max_iterations > MAX_ITERATIONS:
+        raise calibration.error("max_iterations", repr(max_iterations),
+                                f"an integer from 1 to {MAX_ITERATIONS}")
 
     return Scenario(
         name=name,
@@ -382,6 +405,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         train_fraction=train_fraction,
         estimate_port=calibration.boolean("estimate_port", False),
         estimate_offset=calibration.boolean("estimate_offset", False),
+        stop=stop,
+        max_iterations=max_iterations,
         study=study,
         source=source,
     )

@@ -190,7 +190,8 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
     write_json(out / TRUTH_FILE, sim.truth)
     settings = CalibrationSettings(
         estimate_port=sim.scenario.estimate_port, estimate_offset=sim.scenario.estimate_offset,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION,
+        train_fraction=sim.train_fraction or TRAIN_FRACTION, stop=sim.scenario.stop,
+        max_iterations=sim.scenario.max_iterations,
     )
     write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, port_m=sim.port_nominal_m,
                   measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings)

@@ -8,9 +8,9 @@ printed — not LM's gain ratio). γ_0 = 0.
 
 Our reading where the paper is silent: a step is accepted only if f decreases; on rejection μ is
 raised (Nielsen), the momentum is dropped (γ = 0 until the next accepted step) and the step is
-retried. The applied step is the one after projection onto the bounds. Every tried step counts as
-an iteration, as in M2. Stopping as M2: an accepted step changing f by less than
-``budget.ftol_m2``, or ``budget.max_iterations`` iterations.
+retried. The momentum mixes the LM step on the box (as M2 takes it) and the applied step is the
+mixture projected onto the box. Every tried step counts as an iteration, as in M2, and the same
+tests stop it (:mod:`twin.stopping`).
 """
 
 from __future__ import annotations
@@ -20,9 +20,10 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.problem import Budget, Problem
-from twin.solvers.base import Solver, SolverResult, Tracker
+from twin.problem import Problem
+from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
 from twin.solvers.lm import levenberg_marquardt
+from twin.stopping import Budget
 
 Array = NDArray[np.float64]
 
@@ -67,19 +68,18 @@ class AdaptiveMomentum:
         return had_momentum
 
 
-def amlm(tracker: Tracker, x0: Array, iterations: int, ftol_m2: float) -> tuple[Array, bool]:
-    """Run AMLM from ``x0`` (p,) for at most ``iterations`` iterations; see the module docstring.
+def amlm(tracker: Tracker, x0: Array, budget: Budget, rng: np.random.Generator | None = None
+         ) -> Outcome:
+    """Run AMLM from ``x0`` (p,) until a test of ``budget`` stops it; see the module docstring.
 
-    Returns:
-        ``(x, converged)``: the last accepted iterate, and whether the f-change rule fired.
+    AMLM draws nothing at random; ``rng`` is accepted so that it can be a cascade's stage.
     """
-    return levenberg_marquardt(tracker, x0, iterations, ftol_m2, rule=AdaptiveMomentum())
+    return levenberg_marquardt(tracker, x0, budget, rule=AdaptiveMomentum())
 
 
 def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> SolverResult:
     tracker = Tracker(problem, "amlm")
-    x, converged = amlm(tracker, problem.x0, budget.max_iterations, budget.ftol_m2)
-    return tracker.finish(x, converged)
+    return tracker.finish(amlm(tracker, problem.x0, budget))
 
 
 SOLVER = Solver(name="amlm", alias="m7", title="Adaptive-momentum Levenberg–Marquardt",

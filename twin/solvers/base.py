@@ -3,7 +3,9 @@
 A method is a :class:`Solver`: a name, a paper alias and a function
 ``solve(problem, budget, rng) -> SolverResult``. Solvers evaluate the objective only through a
 :class:`Tracker`, which counts evaluations, records the per-iteration history (f, train and
-validation RMSE) and measures wall time the same way for all of them.
+validation RMSE) and measures wall time the same way for all of them. Every run, and every
+stage of a cascade, ends with a :class:`~twin.stopping.StopReason` that says which test
+stopped it.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.problem import Budget, Problem
+from twin.problem import Problem
+from twin.stopping import Budget, StopReason
 
 Array = NDArray[np.float64]
 
@@ -33,6 +36,25 @@ class IterationRecord(NamedTuple):
     """RMSE on the validation poses, m."""
 
 
+class Outcome(NamedTuple):
+    """Where one run or stage ended and why."""
+
+    x: Array
+    """The unknowns it returns, shape (p,), m and rad."""
+    reason: StopReason
+    """The test that stopped it."""
+    moved: bool = True
+    """False if it returns its start unchanged (a search that found nothing better)."""
+
+
+class Stage(NamedTuple):
+    """One stage of a method: a single-stage method has one, a cascade two."""
+
+    method: str
+    iterations: int
+    stop_reason: StopReason
+
+
 class SolverResult(NamedTuple):
     """What a method returns."""
 
@@ -46,9 +68,18 @@ class SolverResult(NamedTuple):
     """Jacobian evaluations."""
     seconds: float
     """Wall time of the solve."""
+    stop_reason: StopReason
+    """Why the (last stage of the) method stopped."""
     converged: bool
-    """True if the stopping rule fired before the iteration budget ran out."""
+    """True if x is a point where a convergence test (ftol, xtol, gtol) fired."""
+    stages: tuple[Stage, ...]
+    """Each stage's name, iterations and stop reason, in order."""
     history: tuple[IterationRecord, ...]
+
+    @property
+    def stop_label(self) -> str:
+        """The stop reasons of the stages joined by ``+``, e.g. ``gtol+stalled``."""
+        return "+".join(stage.stop_reason.value for stage in self.stages)
 
 
 SolveFunction = Callable[[Problem, Budget, np.random.Generator], SolverResult]
@@ -113,17 +144,30 @@ class Tracker:
             )
         )
 
-    def finish(self, x: ArrayLike, converged: bool) -> SolverResult:
-        """The result, with the wall time since the tracker was made."""
-        x = np.array(x, dtype=np.float64)
+    @property
+    def iterations(self) -> int:
+        """Iterations recorded so far (the start is iteration 0)."""
+        return max(len(self.history) - 1, 0)
+
+    def finish(self, outcome: Outcome) -> SolverResult:
+        """The result of a single-stage method, with the wall time since the tracker was made."""
+        return self.finish_stages(outcome, [Stage(self.method, self.iterations, outcome.reason)],
+                                  converged=outcome.reason.converged)
+
+    def finish_stages(self, outcome: Outcome, stages: list[Stage], converged: bool
+                      ) -> SolverResult:
+        """The result of a method whose stages are given, with the wall time so far."""
+        x = np.array(outcome.x, dtype=np.float64)
         x.setflags(write=False)
         return SolverResult(
             method=self.method,
             x=x,
-            iterations=max(len(self.history) - 1, 0),
+            iterations=self.iterations,
             evaluations=self.evaluations,
             jacobians=self.jacobians,
             seconds=time.perf_counter() - self._start,
+            stop_reason=outcome.reason,
             converged=converged,
+            stages=tuple(stages),
             history=tuple(self.history),
         )

@@ -15,28 +15,27 @@ Each iteration: the PSO update of M3 (eq. 18), then the B-spline step. Our readi
   updated particles with the M interpolated points, keep the best N (velocities and personal
   bests stay with their slots) and keep G_best elitist — never worse than before.
 
-All N + M candidates are evaluated in one batched call per iteration. Like M3 it runs its whole
-budget.
+All N + M candidates are evaluated in one batched call per iteration. It stops like M3.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from twin.problem import Budget, Problem
-from twin.solvers.base import Solver, SolverResult, Tracker
+from twin.problem import Problem
+from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
 from twin.solvers.swarm import N_INTERPOLATED, Array, particle_swarm
+from twin.stopping import Budget
 
 
-def bipso(tracker: Tracker, center: Array, iterations: int, rng: np.random.Generator) -> Array:
-    """Run BIPSO around ``center`` (p,) for ``iterations`` iterations; returns G_best (p,)."""
-    return particle_swarm(tracker, center, iterations, rng, n_interpolated=N_INTERPOLATED)
+def bipso(tracker: Tracker, center: Array, budget: Budget, rng: np.random.Generator) -> Outcome:
+    """Run BIPSO around ``center`` (p,) until ``budget`` stops it; G_best and why it stopped."""
+    return particle_swarm(tracker, center, budget, rng, n_interpolated=N_INTERPOLATED)
 
 
 def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> SolverResult:
     tracker = Tracker(problem, "bipso")
-    x = bipso(tracker, problem.x0, budget.max_iterations, rng)
-    return tracker.finish(x, converged=False)
+    return tracker.finish(bipso(tracker, problem.x0, budget, rng))
 
 
 SOLVER = Solver(name="bipso", alias="m8", title="B-spline-interpolated PSO", solve=_solve)

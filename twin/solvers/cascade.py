@@ -1,9 +1,15 @@
 """Two-stage cascades (M4, M5, M6, M9): a first method, then a second one started from its result.
 
-Each stage runs ``budget.stage_iterations`` iterations (paper: 30 + 30). As the paper says ("the
-former iteration runs 30 times, followed by the latter iteration running 30 times"), the f-change
-stopping rule is not applied inside a cascade (stages use :data:`STAGE_FTOL_M2` = 0); a stage still
-ends early if it cannot move (LM with a zero step). The history runs on across the stages.
+Under the paper's protocol each stage runs ``budget.stage_iterations`` iterations (30 + 30) and,
+as the paper says ("the former iteration runs 30 times, followed by the latter iteration running
+30 times"), the f-change rule is not applied inside a cascade; a stage still ends early when it
+cannot move (an LM stage whose every unknown is held, say). Under ``converge`` each stage runs
+until its own tests stop it (:mod:`twin.stopping`), within ``stage_iterations``.
+
+The result names both stages' stop reasons. It counts as converged when the point it returns is
+one where a convergence test fired: the second stage's, or the first stage's when the second
+(a search that keeps the best point it has seen) found nothing better. The history runs on
+across the stages.
 """
 
 from __future__ import annotations
@@ -13,16 +19,14 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.problem import Budget, Problem
-from twin.solvers.base import SolverResult, Tracker
+from twin.problem import Problem
+from twin.solvers.base import Outcome, SolverResult, Stage, Tracker
+from twin.stopping import Budget
 
 Array = NDArray[np.float64]
 
-Stage = Callable[[Tracker, Array, int, np.random.Generator], Array]
-"""``stage(tracker, x_start (p,), iterations, rng) -> x (p,)``, run for its whole budget."""
-
-STAGE_FTOL_M2 = 0.0
-"""f-change threshold inside a cascade: 0, the stages run their whole budget."""
+StageFunction = Callable[[Tracker, Array, Budget, np.random.Generator], Outcome]
+"""``stage(tracker, x_start (p,), budget, rng) -> Outcome``."""
 
 
 def run_cascade(
@@ -30,11 +34,17 @@ def run_cascade(
     budget: Budget,
     rng: np.random.Generator,
     method: str,
-    first: Stage,
-    second: Stage,
+    first: tuple[str, StageFunction],
+    second: tuple[str, StageFunction],
 ) -> SolverResult:
-    """Run ``first`` from ``problem.x0``, then ``second`` from its result, in one tracker."""
+    """Run the ``first`` (name, stage) from ``problem.x0``, then ``second`` from its result."""
     tracker = Tracker(problem, method)
-    x_first = first(tracker, problem.x0, budget.stage_iterations, rng)
-    x = second(tracker, x_first, budget.stage_iterations, rng)
-    return tracker.finish(x, converged=False)
+    stage_budget = budget.stage()
+    stages = []
+    first_outcome = first[1](tracker, problem.x0, stage_budget, rng)
+    stages.append(Stage(first[0], tracker.iterations, first_outcome.reason))
+    done = tracker.iterations
+    outcome = second[1](tracker, first_outcome.x, stage_budget, rng)
+    stages.append(Stage(second[0], tracker.iterations - done, outcome.reason))
+    converged = outcome.reason.converged or (not outcome.moved and first_outcome.reason.converged)
+    return tracker.finish_stages(outcome, stages, converged)

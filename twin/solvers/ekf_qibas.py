@@ -12,18 +12,20 @@ and angles sensibly:
 - the best of x, the antennae and the moves becomes x (elitist);
 - the antenna length decays, d ← 0.95 d, with δ = 2d; d₀ = 0.5 (0.5 mm / 0.5°).
 
-30 + 30 iterations, see :mod:`twin.solvers.cascade`.
+Two stages, see :mod:`twin.solvers.cascade`; under ``converge`` QIBAS stops when its best f
+stalls (:mod:`twin.stopping`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from twin.problem import Budget, Problem
-from twin.solvers.base import Solver, SolverResult, Tracker
+from twin.problem import Problem
+from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
 from twin.solvers.cascade import Array, run_cascade
 from twin.solvers.kalman import ekf
 from twin.solvers.swarm import initial_radius
+from twin.stopping import Budget, StopReason, stalled
 
 ANTENNA_START = 0.5
 """Initial antenna length d₀ in units of r (1 mm / 1°)."""
@@ -33,8 +35,9 @@ DECAY = 0.95
 """Per-iteration decay of d and δ."""
 
 
-def qibas(tracker: Tracker, x0: Array, iterations: int, rng: np.random.Generator) -> Array:
-    """Quadratic-interpolated beetle antennae search from ``x0`` (p,); returns the best x (p,)."""
+def qibas(tracker: Tracker, x0: Array, budget: Budget, rng: np.random.Generator) -> Outcome:
+    """Quadratic-interpolated beetle antennae search from ``x0`` (p,) until ``budget`` stops
+    it; returns the best x (p,) seen."""
     problem = tracker.problem
     scale = initial_radius(problem)
     x = np.clip(x0, problem.lower, problem.upper)
@@ -42,7 +45,9 @@ def qibas(tracker: Tracker, x0: Array, iterations: int, rng: np.random.Generator
     if not tracker.history:
         tracker.record(x, f)
     d = ANTENNA_START
-    for _ in range(iterations):
+    best_f = [f]
+    reason = StopReason.MAX_ITERATIONS
+    for _ in range(budget.max_iterations):
         b = rng.standard_normal(x.size)
         b *= scale / np.linalg.norm(b)
         step = STEP_RATIO * d
@@ -59,13 +64,16 @@ def qibas(tracker: Tracker, x0: Array, iterations: int, rng: np.random.Generator
         best = int(np.argmin(costs))
         x, f = candidates[best], float(costs[best])
         tracker.record(x, f)
+        best_f.append(f)
         d *= DECAY
-    return x
+        if stalled(best_f, budget):
+            reason = StopReason.STALLED
+            break
+    return Outcome(x, reason, moved=f < best_f[0])
 
 
 def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> SolverResult:
-    return run_cascade(problem, budget, rng, "ekf-qibas",
-                       lambda tracker, x0, passes, rng: ekf(tracker, x0, passes, rng)[0], qibas)
+    return run_cascade(problem, budget, rng, "ekf-qibas", ("ekf", ekf), ("qibas", qibas))
 
 
 SOLVER = Solver(name="ekf-qibas", alias="m5", title="EKF cascaded with QIBAS", solve=_solve)

@@ -16,12 +16,20 @@ model's 2.2 mm. On geometric data f(x_s) falls to σ² after a pass or two, and 
 Iterated passes (our reading; see docs/methods.md): every pass filters all training poses from
 the prior (x0, P0), with the measurement model linearised at the previous pass's posterior
 (x_s, P_s) — the iterated EKF, and for the UKF the iterated posterior linearisation filter
-(García-Fernández et al. 2015). The first pass is the plain filter. Continuing instead from the
+(García-Fernández et al. 2015). The first pass is not a plain EKF: a plain EKF re-linearises each
+measurement at the running estimate, while every pass here, the first included, linearises all
+poses once at the pass's start point (x0 for the first pass) — a linearised Kalman filter whose
+passes re-linearise. Continuing instead from the
 previous pass's posterior uses every pose again as new information: the covariance then shrinks
 pass after pass while the directions the cable barely sees keep the prior's, and the estimate
 drifts along them (on one paper-scenario trial it ran into a ±8° bound after 16 passes and the
 validation RMSE rose from 0.27 to 2.4 mm). The estimate is projected onto the bounds after each
 pass.
+
+Stopping (:mod:`twin.stopping`): under ``converge``, when a pass moves the estimate by less than
+``xtol`` of the unknowns' scale (*xtol*: the iteration has reached its fixed point) or changes f
+by less than ``ftol`` (relative, *ftol*); under the paper's protocol, standalone M1 stops when f
+changes by less than 0.001 mm² (*f_change*) and a cascade's filter stage runs all its passes.
 
 Linearisation, once per pass and batched over the poses (our choice, for speed): at the start
 of a pass the measurement model of every pose is linearised around x_s in ONE batched
@@ -45,7 +53,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.solvers.base import Tracker
+from twin.solvers.base import Outcome, Tracker
+from twin.stopping import Budget, StopReason, small_step
 
 Array = NDArray[np.float64]
 
@@ -104,26 +113,21 @@ def ukf_linearisation(tracker: Tracker, x: Array, P: Array) -> Linearisation:
 def run_filter(
     tracker: Tracker,
     x0: Array,
-    passes: int,
+    budget: Budget,
     rng: np.random.Generator,
-    ftol_m2: float,
     linearise: Linearise,
-) -> tuple[Array, bool]:
-    """Run ``passes`` filter passes over the training poses from ``x0`` (p,).
+) -> Outcome:
+    """Run filter passes over the training poses from ``x0`` (p,) until ``budget`` stops them.
 
     Args:
         tracker: Evaluates the problem and records f after each pass.
         x0: Start (prior mean), shape (p,).
-        passes: Iteration budget (one iteration = one pass).
+        budget: Pass limit (one iteration = one pass) and stopping tests.
         rng: Draws the pose order (once).
-        ftol_m2: Stop when f changes by less than this between passes, m²; 0 runs every pass.
         linearise: :func:`ekf_linearisation` or :func:`ukf_linearisation`.
-
-    Returns:
-        ``(x, converged)``.
     """
     problem = tracker.problem
-    lower, upper = problem.lower, problem.upper
+    lower, upper, unit = problem.lower, problem.upper, problem.scale
     order = rng.permutation(len(problem.train))
     x_prior = np.clip(x0, lower, upper)
     P_prior = np.diag((PRIOR_FRACTION * upper) ** 2)
@@ -133,7 +137,7 @@ def run_filter(
     model = linearise(tracker, x, P)
     if not tracker.history:
         tracker.record(x, model.f_m2)
-    for _ in range(passes):
+    for _ in range(budget.max_iterations):
         r_m2 = max(problem.sigma_m**2, model.f_m2)  # see the module docstring
         x, P = x_prior.copy(), P_prior.copy()  # each pass filters from the prior: see above
         for i in order:  # sequential by nature: each update conditions on the ones before it
@@ -146,23 +150,24 @@ def run_filter(
             x -= gain * predicted_m
             P -= np.outer(gain, pxz)
         x = np.clip(x, lower, upper)
-        f_old = model.f_m2
+        previous = model
         model = linearise(tracker, x, P)
         tracker.record(x, model.f_m2)
-        if abs(f_old - model.f_m2) < ftol_m2:
-            return x, True
-    return x, False
+        change = abs(previous.f_m2 - model.f_m2)
+        if budget.xtol > 0 and small_step(x - previous.x, x, unit, budget.xtol):
+            return Outcome(x, StopReason.XTOL)
+        if budget.ftol > 0 and change <= budget.ftol * previous.f_m2:
+            return Outcome(x, StopReason.FTOL)
+        if budget.ftol_m2 > 0 and change < budget.ftol_m2:
+            return Outcome(x, StopReason.F_CHANGE)
+    return Outcome(x, StopReason.MAX_ITERATIONS)
 
 
-def ekf(
-    tracker: Tracker, x0: Array, passes: int, rng: np.random.Generator, ftol_m2: float = 0.0
-) -> tuple[Array, bool]:
+def ekf(tracker: Tracker, x0: Array, budget: Budget, rng: np.random.Generator) -> Outcome:
     """EKF passes (M1, and the first stage of M5 and M6); see :func:`run_filter`."""
-    return run_filter(tracker, x0, passes, rng, ftol_m2, ekf_linearisation)
+    return run_filter(tracker, x0, budget, rng, ekf_linearisation)
 
 
-def ukf(
-    tracker: Tracker, x0: Array, passes: int, rng: np.random.Generator, ftol_m2: float = 0.0
-) -> tuple[Array, bool]:
+def ukf(tracker: Tracker, x0: Array, budget: Budget, rng: np.random.Generator) -> Outcome:
     """UKF passes (first stage of M4); see :func:`run_filter`."""
-    return run_filter(tracker, x0, passes, rng, ftol_m2, ukf_linearisation)
+    return run_filter(tracker, x0, budget, rng, ukf_linearisation)

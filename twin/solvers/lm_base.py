@@ -26,9 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.identifiability import measurement_identifiability
-from twin.problem import Budget, Problem
+from twin.problem import Problem
 from twin.solvers.base import Solver, SolverResult, Tracker
 from twin.solvers.lm import levenberg_marquardt
+from twin.stopping import Budget
 
 Array = NDArray[np.float64]
 
@@ -49,8 +50,7 @@ class BaseTracker(Tracker):
 def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> SolverResult:
     base_mask = measurement_identifiability(problem.model, problem.x0, problem.train).base_mask
     tracker = BaseTracker(problem, "lm-base", base_mask)
-    x, converged = levenberg_marquardt(tracker, problem.x0, budget.max_iterations, budget.ftol_m2)
-    return tracker.finish(x, converged)
+    return tracker.finish(levenberg_marquardt(tracker, problem.x0, budget))
 
 
 SOLVER = Solver(

@@ -5,18 +5,19 @@ stage (:func:`twin.solvers.kalman.ukf`: 2p sigma points per pose, evaluated in o
 followed by a variable-step-size LM. Our reconstruction of the latter: the damped LM step Δx
 (M2's loop and μ rule) is scaled by the step length η from {0.5, 1, 1.5, 2} that gives the
 lowest f — all four candidates evaluated in one batched call — so the step length adapts each
-iteration beside μ. 30 + 30 iterations, see :mod:`twin.solvers.cascade`.
+iteration beside μ. Two stages, see :mod:`twin.solvers.cascade`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from twin.problem import Budget, Problem
-from twin.solvers.base import Solver, SolverResult, Tracker
-from twin.solvers.cascade import STAGE_FTOL_M2, Array, run_cascade
+from twin.problem import Problem
+from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
+from twin.solvers.cascade import Array, run_cascade
 from twin.solvers.kalman import ukf
 from twin.solvers.lm import levenberg_marquardt
+from twin.stopping import Budget
 
 STEP_LENGTHS = np.array([0.5, 1.0, 1.5, 2.0])
 """Candidate multipliers η of the LM step."""
@@ -39,14 +40,13 @@ class VariableStepLength:
         return False
 
 
-def vslm(tracker: Tracker, x0: Array, iterations: int, rng: np.random.Generator) -> Array:
-    """Variable-step-size LM from ``x0`` (p,) for a cascade's whole budget; see the module doc."""
-    return levenberg_marquardt(tracker, x0, iterations, STAGE_FTOL_M2, rule=VariableStepLength())[0]
+def vslm(tracker: Tracker, x0: Array, budget: Budget, rng: np.random.Generator) -> Outcome:
+    """Variable-step-size LM from ``x0`` (p,) until ``budget`` stops it; see the module doc."""
+    return levenberg_marquardt(tracker, x0, budget, rule=VariableStepLength())
 
 
 def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> SolverResult:
-    return run_cascade(problem, budget, rng, "ukf-vslm",
-                       lambda tracker, x0, passes, rng: ukf(tracker, x0, passes, rng)[0], vslm)
+    return run_cascade(problem, budget, rng, "ukf-vslm", ("ukf", ukf), ("vslm", vslm))
 
 
 SOLVER = Solver(name="ukf-vslm", alias="m4", title="UKF cascaded with variable-step LM",

@@ -37,11 +37,13 @@ COLUMNS = (
     "trial", "case", "seed", "method",
     *(f"{stage}_{key}_mm" for stage in STAGES for key in METRIC_KEYS),
     "flange_error_mm", "crlb_mm", "crlb_ratio",
-    "iterations", "evaluations", "seconds", "converged",
+    "iterations", "evaluations", "seconds", "converged", "stop_reason",
 )
 """Columns of `results.csv`, one row per trial × method. Lengths in mm; ``mae`` is the paper's
 "STD"; ``flange_error_mm`` is the RMS flange-position error over the workspace against the truth,
-``crlb_mm`` its Cramér–Rao bound and ``crlb_ratio`` their ratio."""
+``crlb_mm`` its Cramér–Rao bound and ``crlb_ratio`` their ratio; ``converged`` is true when a
+convergence test (ftol, xtol, gtol) fired at the point returned; ``stop_reason`` names the test
+that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``)."""
 _INTEGER_COLUMNS = ("trial", "seed", "iterations", "evaluations")
 
 TrialKey = tuple[str, int]
@@ -101,7 +103,7 @@ def _format(value: Any) -> str:
 
 
 def _parse(column: str, text: str) -> Any:
-    if column in ("case", "method"):
+    if column in ("case", "method", "stop_reason"):
         return text
     if column == "converged":
         return text == "true"

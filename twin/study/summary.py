@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -86,6 +87,7 @@ def table6(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> dict[st
             "iterations": _stats([r["iterations"] for r in group]),
             "evaluations": _stats([r["evaluations"] for r in group]),
             "converged": sum(bool(r["converged"]) for r in group) / len(group),
+            "stop_reasons": dict(Counter(r["stop_reason"] for r in group).most_common()),
         }
     return table
 
@@ -178,18 +180,22 @@ def _paper(method_alias: str, key: str) -> str:
     return "" if value is None else f"{value:g}"
 
 
+def _reasons(counts: Mapping[str, int]) -> str:
+    return ", ".join(f"{reason} ×{count}" for reason, count in counts.items())
+
+
 def _case_markdown(case: Mapping[str, Any]) -> list[str]:
     t6, t7, truth = case["table6"], case["table7"], case["truth"]
     lines = [
         f"### Table 6 replica — validation residuals, {case['trials']} trials (mean ± std)",
         "",
         "| method | paper | RMSE [mm] | STD* [mm] | MAX [mm] | time [s] | iterations | "
-        "converged | paper RMSE / STD / MAX | paper time |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "converged | stopped by | paper RMSE / STD / MAX | paper time |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     before = t6["before"]
     lines.append(f"| before | | {_pm(before['rmse'])} | {_pm(before['mae'])} | "
-                 f"{_pm(before['max'])} | | | | 2.177 / 2.006 / 3.99 | |")
+                 f"{_pm(before['max'])} | | | | | 2.177 / 2.006 / 3.99 | |")
     for method, row in t6.items():
         if method == "before":
             continue
@@ -198,7 +204,8 @@ def _case_markdown(case: Mapping[str, Any]) -> list[str]:
         lines.append(
             f"| {method} | {a.upper()} | {_pm(row['rmse'])} | {_pm(row['mae'])} | "
             f"{_pm(row['max'])} | {_pm(row['seconds'], 3)} | {row['iterations']['mean']:.1f} | "
-            f"{row['converged']:.0%} | {paper if paper.strip(' /') else ''} | "
+            f"{row['converged']:.0%} | {_reasons(row['stop_reasons'])} | "
+            f"{paper if paper.strip(' /') else ''} | "
             f"{_paper(a, 'seconds')} |")
     lines += ["", '\\* STD is the paper\'s label; its formula (eq. 32) is the mean absolute '
               "error (MAE). The true standard deviation is in summary.json. The paper's figures "

@@ -100,7 +100,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     results = calibrate_many(
         sim.robot, sim.measurements, sim.port_nominal_m, spec.methods, seed=seed,
         estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION,
+        train_fraction=sim.train_fraction or TRAIN_FRACTION, budget=scenario.budget,
     )
     first = next(iter(results.values()))
     model = first.model
@@ -127,6 +127,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
             crlb_ratio=flange_m / crlb_m if crlb_m > 0 else float("nan"),
             iterations=result.solver.iterations, evaluations=result.solver.evaluations,
             seconds=result.solver.seconds, converged=result.solver.converged,
+            stop_reason=result.solver.stop_label,
         )
         rows.append(row)
         methods[name] = {
