@@ -37,6 +37,7 @@ from twin.errors import InputError, TwinError
 from twin.io.atomic import WRITE_EXPECTED, fsync_directory, write_atomic
 from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
 from twin.io.paths import os_error, read_bytes, read_text
+from twin.robot import load_robot, robot_to_toml
 from twin.robots.base import RobotSource
 from twin.units import m_to_mm
 
@@ -164,8 +165,9 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
             load_plan(stored_plan, journal=True)[0], plan_q_rad):
         raise InputError(f"a capture of another plan than {plan_path}", resume,
                          source=stored_plan)
-    if stored_robot.exists() and read_text(stored_robot, "a robot model",
-                                           journal=True) != robot_text:
+    # Written again by today's writer, so that a file of an older twin (unrounded numbers)
+    # compares equal when it holds the same robot.
+    if stored_robot.exists() and robot_to_toml(load_robot(stored_robot)) != robot_text:
         raise InputError("a capture of another robot model", resume, source=stored_robot)
     journal = folder / MEASUREMENTS_NAME
     if journal.exists():
