@@ -1,8 +1,16 @@
-"""Shared fixtures: the IRB 120, a known perturbation and data made by the core's model."""
+"""Shared fixtures: the IRB 120, a known perturbation and data made by the core's model; and
+:class:`Refusals`, which holds the CLI to its promise on a user's mistake."""
 
 from __future__ import annotations
 
+import hashlib
+import os
+import stat
+import subprocess
+import sys
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -60,3 +68,66 @@ def measurements(irb120: RobotModel, true_robot: RobotModel) -> Measurements:
     """120 poses of the perturbed robot, σ = 0.01 mm, seeded."""
     rng = np.random.default_rng(7)
     return synthesize(true_robot, random_poses(irb120, 120, rng), PORT_M, 1e-5, rng)
+
+
+def snapshot(paths: Sequence[Path]) -> dict[str, str]:
+    """What must not change: the SHA-256 of every regular file at or under the paths (the
+    folders' listings included, hidden files too), the type and device number of the rest."""
+    found: dict[str, str] = {}
+    for path in paths:
+        files = sorted(path.rglob("*")) if path.is_dir() else [path]
+        for item in files:
+            info = os.stat(item) if item.exists() else None
+            if info is None:
+                found[str(item)] = "missing"
+            elif stat.S_ISREG(info.st_mode):
+                found[str(item)] = hashlib.sha256(item.read_bytes()).hexdigest()
+            else:
+                found[str(item)] = f"mode {stat.S_IFMT(info.st_mode):o}, device {info.st_rdev}"
+    return found
+
+
+class Refusals:
+    """Runs the CLI on a user's mistake and checks the promise: the exit code (2 unless told),
+    exactly one line on stderr, ``twin: error: …`` naming what was wrong, no traceback, and
+    every input byte for byte as it was (folders: no file added, removed or changed)."""
+
+    def __init__(self, capsys: pytest.CaptureFixture[str]) -> None:
+        self.capsys = capsys
+
+    def cli(self, argv: Sequence[Any], inputs: Sequence[Path], match: str,
+            code: int = 2) -> str:
+        """Run ``twin.cli.main`` in this process; returns the error line."""
+        from twin.cli import main
+
+        before = snapshot(inputs)
+        self.capsys.readouterr()
+        assert main([str(arg) for arg in argv]) == code
+        error = self.capsys.readouterr().err
+        self._check(error, match, before, inputs)
+        return error
+
+    def process(self, argv: Sequence[Any], inputs: Sequence[Path], match: str, code: int = 2,
+                timeout: float = 60.0, **popen: Any) -> str:
+        """Run ``python -m twin`` as a process that must end within ``timeout`` seconds (a
+        hang fails the test instead of hanging it); returns the error line."""
+        before = snapshot(inputs)
+        run = subprocess.run([sys.executable, "-m", "twin", *map(str, argv)],
+                             capture_output=True, text=True, timeout=timeout, check=False,
+                             stdin=subprocess.DEVNULL, **popen)
+        assert run.returncode == code, run.stderr
+        self._check(run.stderr, match, before, inputs)
+        return run.stderr
+
+    @staticmethod
+    def _check(error: str, match: str, before: dict[str, str], inputs: Sequence[Path]) -> None:
+        assert "Traceback" not in error, error
+        assert error.startswith("twin: error: ") and error.count("\n") == 1, error
+        assert match in error, error
+        assert snapshot(inputs) == before
+
+
+@pytest.fixture()
+def refusals(capsys: pytest.CaptureFixture[str]) -> Refusals:
+    """See :class:`Refusals`."""
+    return Refusals(capsys)

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from twin.calibration import calibrate
-from twin.capture import CAPTURE_COLUMNS, HEADER, locked, recover
+from twin.capture import CAPTURE_COLUMNS, HEADER, check_folder, locked, recover
 from twin.cli import main
 from twin.errors import InputError, TwinError
 from twin.io.capture import load_capture
@@ -164,6 +164,28 @@ def test_recover_drops_a_partial_line_and_refuses_a_pose_twice(tmp_path: Path) -
     path.write_text(HEADER + "7,0,0,0,0,0,0,500.0\n")
     with pytest.raises(InputError, match=r"a pose number in 1\.\.5"):
         recover(path, 5)
+
+
+def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
+    """A folder whose robot.toml an older twin wrote at full precision resumes with the same
+    robot; another robot (a 0.01 mm longer link) is refused."""
+    from twin.robot import default_robot, robot_to_toml
+
+    robot = default_robot()
+    plan = tmp_path / "plan.csv"
+    plan.write_text("q1,q2,q3,q4,q5,q6\n10,20,-30,40,50,60\n")
+    q_rad = deg_to_rad([[10.0, 20.0, -30.0, 40.0, 50.0, 60.0]])
+    columns = ", ".join(f"{key} = {value!r}" for key, value in (
+        ("a", 0.0), ("d", 290.0), ("alpha", -90.00000000000001), ("theta", 0.0),
+        ("lower", -165.00000000000003), ("upper", 165.00000000000003), ("mass", 3.067),
+        ("radius", 60.0)))
+    rows = robot_to_toml(robot).splitlines()
+    rows[5] = "  { " + columns + " },"
+    (tmp_path / "robot.toml").write_text("\n".join(rows) + "\n")
+    check_folder(tmp_path, plan, q_rad, robot_to_toml(robot))
+    other = robot.perturbed(np.r_[0.0, 1e-5, np.zeros(22)])
+    with pytest.raises(InputError, match="a capture of another robot model"):
+        check_folder(tmp_path, plan, q_rad, robot_to_toml(other))
 
 
 @pytest.mark.parametrize("protocol", ["ascii", "modbus"])

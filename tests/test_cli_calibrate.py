@@ -182,4 +182,4 @@ def test_stop_protocol_from_capture_and_flag(
     document = json.loads(out.read_text())
     assert document["stop_reason"] == "max_iterations" and document["iterations"] == 2
     assert main(["calibrate", str(capture), "--max-iterations", "0"]) == 2
-    assert "--max-iterations: found 0" in capsys.readouterr().err
+    assert "--max-iterations: found '0', expected an integer" in capsys.readouterr().err

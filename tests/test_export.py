@@ -33,16 +33,30 @@ def poses(irb120: RobotModel) -> np.ndarray:
     return rng.uniform(irb120.lower_rad, irb120.upper_rad, (N_POSES, irb120.n_joints))
 
 
-def _assert_same_poses(expected: np.ndarray, found: np.ndarray) -> None:
-    np.testing.assert_allclose(found[:, :3, 3], expected[:, :3, 3], rtol=0.0, atol=1e-9)
-    np.testing.assert_allclose(found[:, :3, :3], expected[:, :3, :3], rtol=0.0, atol=1e-9)
+def _assert_same_poses(expected: np.ndarray, found: np.ndarray, atol: float = 1e-9) -> None:
+    np.testing.assert_allclose(found[:, :3, 3], expected[:, :3, 3], rtol=0.0, atol=atol)
+    np.testing.assert_allclose(found[:, :3, :3], expected[:, :3, :3], rtol=0.0, atol=atol)
+
+
+def _as_written(dh: np.ndarray) -> np.ndarray:
+    """A D-H table as a model file states it: lengths to 1 µm, angles to 1e-6 degree."""
+    return np.vstack([np.round(dh[:2] * 1e3, 3) / 1e3,
+                      np.deg2rad(np.round(np.rad2deg(dh[2:]), 6))])
 
 
 def test_dh_export_reads_back(identified: RobotModel, poses: np.ndarray) -> None:
-    """The dh export is a model file whose table and FK equal the identified robot's."""
+    """The dh export is a model file of the identified table rounded to 1 µm and 1e-6 degree:
+    its FK equals that rounded table's to 1e-9 m; against the unrounded table the flange moves
+    by no more than the 2n half-µm lengths and 2n half-1e-6° angles (at 1 m) can add up to."""
     robot = parse_robot(tomllib.loads(export_text(identified, "dh")), "export.toml")
-    np.testing.assert_allclose(robot.dh, identified.dh, rtol=0.0, atol=1e-15)
-    _assert_same_poses(flange_transform(identified.dh, poses), flange_transform(robot.dh, poses))
+    np.testing.assert_allclose(robot.dh, _as_written(identified.dh), rtol=0.0, atol=1e-15)
+    exported = flange_transform(robot.dh, poses)
+    _assert_same_poses(flange_transform(_as_written(identified.dh), poses), exported)
+    shift = np.linalg.norm(exported[:, :3, 3] - flange_transform(identified.dh, poses)[:, :3, 3],
+                           axis=1)
+    n, reach = identified.n_joints, 1.0
+    worst = 2 * n * 0.5e-6 + 2 * n * np.deg2rad(0.5e-6) * reach
+    assert np.max(shift) <= worst
 
 
 def test_urdf_export_loads_in_pinocchio(identified: RobotModel, poses: np.ndarray) -> None:
@@ -88,7 +102,10 @@ def test_export_cli_writes_each_format(
                  "--out", str(out)]) == 0
     if format_name == "dh":
         exported = load_robot(out)
-        np.testing.assert_allclose(exported.dh, identified.dh, rtol=0.0, atol=1e-15)
+        # The result file holds 1e-6 mm and degree, the model file 1 µm and 1e-6 degree.
+        np.testing.assert_allclose(exported.dh[:2], identified.dh[:2], rtol=0.0, atol=0.6e-6)
+        np.testing.assert_allclose(exported.dh[2:], identified.dh[2:], rtol=0.0,
+                                   atol=np.deg2rad(1.1e-6))
         assert exported.name == f"{irb120.name} (identified)"
     elif format_name == "urdf":
         assert pin.buildModelFromUrdf(str(out)).existFrame("flange")

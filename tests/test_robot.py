@@ -25,12 +25,21 @@ def test_shipped_model_equals_models_file() -> None:
 
 
 def test_toml_round_trip(irb120: RobotModel, tmp_path: Path) -> None:
-    """robot_to_toml writes what load_robot reads back (to the last bit of the mm/deg value)."""
+    """robot_to_toml rounds lengths to 1 µm and angles to 1e-6 degree; load_robot reads back
+    exactly the numbers written, so writing the robot read back gives the same bytes."""
+    robot = irb120.perturbed(np.full(24, 1e-4) + np.random.default_rng(3).normal(0, 1e-5, 24))
+    text = robot_to_toml(robot)
     path = tmp_path / "robot.toml"
-    path.write_text(robot_to_toml(irb120.perturbed(np.full(24, 1e-4))))
+    path.write_text(text)
     back = load_robot(path)
-    np.testing.assert_allclose(back.dh, irb120.perturbed(np.full(24, 1e-4)).dh, rtol=1e-15,
-                               atol=1e-18)
+    assert robot_to_toml(back) == text
+    lengths, angles = back.dh[:2] - robot.dh[:2], np.rad2deg(back.dh[2:] - robot.dh[2:])
+    assert np.max(np.abs(lengths)) <= 0.5e-6 + 1e-15 and np.max(np.abs(lengths)) > 0
+    assert np.max(np.abs(angles)) <= 0.5e-6 + 1e-12
+    for line in text.splitlines()[5:-1]:  # no float noise: at most 6 decimals per number
+        for item in line.strip("{ },").split(", "):
+            value = item.split(" = ")[1]
+            assert len(value.split(".")[1]) <= 6, item
     assert back.mass_kg is not None and back.radius_m is not None
 
 

@@ -26,6 +26,9 @@ PORT_BOUND_M = float(mm_to_m(50.0))
 """Search bound on the port correction when it is estimated."""
 OFFSET_BOUND_M = float(mm_to_m(100.0))
 """Search bound on the length offset when it is estimated."""
+MAX_POSES = 100_000
+"""The most poses a plan, a scenario or a verification may ask for: a typo like 1e9 must be an
+error, not an exhausted memory."""
 
 
 def cable_length(dh: ArrayLike, q_rad: ArrayLike, port_m: ArrayLike) -> Array:

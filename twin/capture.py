@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import math
 import os
 import time
 from collections.abc import Callable, Iterator
@@ -33,8 +34,10 @@ from twin.cable import Measurements
 from twin.encoders.base import Encoder, EncoderDisconnectedError
 from twin.encoders.settle import Settled, SettleRule, settle
 from twin.errors import InputError, TwinError
-from twin.io.atomic import fsync_directory, write_atomic
+from twin.io.atomic import WRITE_EXPECTED, fsync_directory, write_atomic
 from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
+from twin.io.paths import os_error, read_bytes, read_text
+from twin.robot import load_robot, robot_to_toml
 from twin.robots.base import RobotSource
 from twin.units import m_to_mm
 
@@ -45,6 +48,9 @@ PLAN_NAME = "plan.csv"
 ROBOT_NAME = "robot.toml"
 CAPTURE_NAME = "capture.toml"
 LOCK_NAME = ".lock"
+JOURNAL = "a capture measurement CSV (pose, q1..q6, length)"
+RECONNECT_POLL_S = 0.5
+"""How often a lost port is tried again, s."""
 
 
 def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float) -> str:
@@ -63,14 +69,17 @@ def append_line(path: Path, line: str) -> None:
     power cut can leave part of it, which :func:`recover` drops.
     """
     data = line.encode("utf-8")
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
     try:
-        written = os.write(fd, data)
-        if written != len(data):
-            raise TwinError(f"{path}: wrote {written} of {len(data)} bytes (disk full?)")
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+        try:
+            written = os.write(fd, data)
+            if written != len(data):
+                raise TwinError(f"{path}: wrote {written} of {len(data)} bytes (disk full?)")
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        raise os_error(path, "appending to it", exc, WRITE_EXPECTED) from None
 
 
 def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
@@ -87,7 +96,7 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
     if not path.exists():
         write_atomic(path, HEADER)
         return set(), None
-    raw = path.read_bytes()
+    raw = read_bytes(path, JOURNAL, journal=True)
     note = None
     if not raw.strip():
         write_atomic(path, HEADER)
@@ -98,13 +107,17 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
         if keep == 0:
             write_atomic(path, HEADER)
             return set(), note
-        with open(path, "r+b") as handle:
-            handle.truncate(keep)
-            handle.flush()
-            os.fsync(handle.fileno())
+        try:
+            with open(path, "r+b") as handle:
+                handle.truncate(keep)
+                handle.flush()
+                os.fsync(handle.fileno())
+        except OSError as exc:
+            raise os_error(path, "truncating its partial last line", exc,
+                           WRITE_EXPECTED) from None
     if raw.count(b"\n") <= 1:
         return set(), note
-    values, lines = read_table(path, CAPTURE_COLUMNS, "a capture measurement CSV")
+    values, lines = read_table(path, CAPTURE_COLUMNS, JOURNAL, journal=True)
     done: set[int] = set()
     for number, line in zip(values[:, 0], lines, strict=True):
         pose = int(number)
@@ -121,8 +134,12 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
 @contextlib.contextmanager
 def locked(folder: Path) -> Iterator[None]:
     """Hold the capture folder's lock, or fail at once if another capture holds it."""
-    folder.mkdir(parents=True, exist_ok=True)
-    fd = os.open(folder / LOCK_NAME, os.O_WRONLY | os.O_CREAT, 0o644)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(folder / LOCK_NAME, os.O_WRONLY | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise os_error(folder / LOCK_NAME, "creating it", exc, "a folder to write into") \
+            from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -134,25 +151,47 @@ def locked(folder: Path) -> Iterator[None]:
         os.close(fd)
 
 
+def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
+                 robot_text: str) -> None:
+    """Refuse, before anything is written, a folder that holds something else than a capture
+    of this plan and robot (another capture, a `twin simulate` output, unrelated files).
+
+    Raises:
+        InputError: naming the file that belongs to something else.
+    """
+    resume = "the capture this folder was started with (or a new --out folder)"
+    stored_plan, stored_robot = folder / PLAN_NAME, folder / ROBOT_NAME
+    if stored_plan.exists() and not np.array_equal(
+            load_plan(stored_plan, journal=True)[0], plan_q_rad):
+        raise InputError(f"a capture of another plan than {plan_path}", resume,
+                         source=stored_plan)
+    # Written again by today's writer, so that a file of an older twin (unrounded numbers)
+    # compares equal when it holds the same robot.
+    if stored_robot.exists() and robot_to_toml(load_robot(stored_robot)) != robot_text:
+        raise InputError("a capture of another robot model", resume, source=stored_robot)
+    journal = folder / MEASUREMENTS_NAME
+    if journal.exists():
+        first = read_bytes(journal, JOURNAL, journal=True).split(b"\n", 1)
+        head = first[0] + (b"\n" if len(first) > 1 else b"")
+        if not HEADER.encode("utf-8").startswith(head.lstrip()):
+            text = head[:60].decode("utf-8", errors="replace").strip()
+            raise InputError(f"a measurement file of another kind ({text!r})",
+                             f"the header {HEADER.strip()} of a capture, or a new --out folder",
+                             source=journal, where="line 1")
+
+
 def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
             robot_text: str) -> None:
     """Store the plan and the robot model, or check they are those of the capture to resume.
 
     Raises:
-        InputError: if ``folder`` holds a capture of another plan or robot.
+        InputError: if ``folder`` holds something else (see :func:`check_folder`).
     """
-    for name, text, what in ((PLAN_NAME, plan_path.read_text(encoding="utf-8"), "plan"),
-                             (ROBOT_NAME, robot_text, "robot model")):
-        stored = folder / name
-        if not stored.exists():
-            write_atomic(stored, text)
-        elif what == "plan" and not np.array_equal(load_plan(stored)[0], plan_q_rad):
-            raise InputError(f"a capture of another plan than {plan_path}",
-                             "the plan this capture was started with (or a new --out folder)",
-                             source=stored)
-        elif what != "plan" and stored.read_text(encoding="utf-8") != text:
-            raise InputError("a capture of another robot model", "the robot this capture was "
-                             "started with (or a new --out folder)", source=stored)
+    check_folder(folder, plan_path, plan_q_rad, robot_text)
+    for name, text in ((PLAN_NAME, read_text(plan_path, "a pose plan CSV")),
+                       (ROBOT_NAME, robot_text)):
+        if not (folder / name).exists():
+            write_atomic(folder / name, text)
     fsync_directory(folder)
 
 
@@ -160,20 +199,24 @@ class CaptureError(TwinError):
     """The capture stopped on a fault; every row written before it stays."""
 
 
-def measure(encoder: Encoder, rule: SettleRule, reconnect_s: float,
+def measure(encoder: Encoder, rule: SettleRule, reconnect_s: float | None,
             report: Callable[[str], None]) -> Settled:
-    """Settle one reading; if the port fails, reopen it for up to ``reconnect_s`` and retry.
+    """Settle one reading; if the port fails, reopen it for up to ``reconnect_s`` (None: until
+    it comes back) and retry.
 
     Raises:
         EncoderDisconnectedError: if the device does not come back in time.
     """
+    if reconnect_s is not None and not 0 <= reconnect_s < math.inf:
+        raise ValueError(f"reconnect_s: {reconnect_s}, expected a finite time >= 0 or None")
     while True:
         try:
             return settle(encoder.read_m, rule,
                           on_failure=lambda exc: report(f"  retrying: {exc}"))
         except EncoderDisconnectedError as lost:
-            report(f"  {lost}; trying to reopen for {reconnect_s:g} s")
-            deadline = time.monotonic() + reconnect_s
+            limit = "until it comes back" if reconnect_s is None else f"for {reconnect_s:g} s"
+            report(f"  {lost}; trying to reopen {limit}")
+            deadline = math.inf if reconnect_s is None else time.monotonic() + reconnect_s
             while True:
                 try:
                     encoder.open()
@@ -181,7 +224,8 @@ def measure(encoder: Encoder, rule: SettleRule, reconnect_s: float,
                 except EncoderDisconnectedError:
                     if time.monotonic() >= deadline:
                         raise lost from None
-                    time.sleep(min(0.5, reconnect_s))
+                    time.sleep(RECONNECT_POLL_S if reconnect_s is None
+                               else min(RECONNECT_POLL_S, reconnect_s))
 
 
 def capture(
@@ -191,7 +235,7 @@ def capture(
     robot: RobotSource,
     rule: SettleRule,
     *,
-    reconnect_s: float = 5.0,
+    reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
 ) -> int:
     """Measure every plan pose that has no row yet, appending each row durably.
@@ -202,7 +246,8 @@ def capture(
         encoder: The open encoder.
         robot: Where the joint angles come from.
         rule: When a reading counts as settled.
-        reconnect_s: How long to try reopening a port that failed, s.
+        reconnect_s: How long to try reopening a port that failed, s (None: until it comes
+            back).
         report: Receives progress and fault lines.
 
     Returns:

@@ -31,19 +31,27 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import frozen_array
 from twin.errors import InputError
+from twin.io.paths import read_toml
 from twin.units import (
     ANGLE_FACTORS,
     DH_KEYS,
+    FILE_DEG_DECIMALS,
+    FILE_MM_DECIMALS,
     LENGTH_FACTORS,
-    dh_rows_to_display,
+    MAX_LENGTH_M,
+    dh_rows_rounded,
     m_to_mm,
     rad_to_deg,
+    rounded,
 )
 
 N_JOINTS = 6
 _TOP_KEYS = ("name", "convention", "length_unit", "angle_unit", "joints")
 _REQUIRED_JOINT_KEYS = ("a", "d", "alpha", "theta", "lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius")
+MAX_ANGLE_RAD = 4 * math.pi
+"""Largest |alpha|, |theta| and |joint limit| accepted from a model file: two turns."""
+MAX_MASS_KG = 1e4
 
 
 @dataclass(frozen=True)
@@ -116,6 +124,9 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     for key in _TOP_KEYS:
         if key not in document:
             raise InputError(f"no {key!r}", f"a {key!r} key", source=source)
+    for key in ("name", "convention", "length_unit", "angle_unit"):
+        if not isinstance(document[key], str):
+            raise InputError(f"{document[key]!r}", "a string", source=source, where=key)
     if document["convention"] != "dh":
         raise InputError(
             f"convention {document['convention']!r}", "'dh' (standard D-H)",
@@ -142,6 +153,11 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     to_m, to_rad = LENGTH_FACTORS[length_unit], ANGLE_FACTORS[angle_unit]
     factor = {"a": to_m, "d": to_m, "alpha": to_rad, "theta": to_rad, "lower": to_rad,
               "upper": to_rad, "mass": 1.0, "radius": to_m}
+    # Plausible magnitudes, in SI: every real arm is far inside, and beyond them the
+    # kinematics overflows or wraps around.
+    largest = {"a": MAX_LENGTH_M, "d": MAX_LENGTH_M, "alpha": MAX_ANGLE_RAD,
+               "theta": MAX_ANGLE_RAD, "lower": MAX_ANGLE_RAD, "upper": MAX_ANGLE_RAD,
+               "mass": MAX_MASS_KG, "radius": MAX_LENGTH_M}
     columns: dict[str, list[float]] = {key: [] for key in factor}
     for index, joint in enumerate(joints, start=1):
         where = f"joint {index}"
@@ -165,6 +181,12 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
                 raise InputError(f"{key} = {value!r}", "a number", source=source, where=where)
             if not math.isfinite(value):
                 raise InputError(f"{key} = {value}", "a finite number", source=source,
+                                 where=where)
+            if abs(value * factor[key]) > largest[key]:
+                unit = "kg" if key == "mass" else length_unit if key in ("a", "d", "radius") \
+                    else angle_unit
+                raise InputError(f"{key} = {value}", f"a number within "
+                                 f"±{largest[key] / factor[key]:g} {unit}", source=source,
                                  where=where)
             columns[key].append(float(value) * factor[key])
         if columns["lower"][-1] >= columns["upper"][-1]:
@@ -198,18 +220,7 @@ def load_robot(path: str | Path) -> RobotModel:
         InputError: if the file is missing, not TOML, or not a valid model.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("no such file", "a robot model TOML file", source=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"an unreadable file ({exc.__class__.__name__})",
-                         "a UTF-8 TOML robot model", source=path) from None
-    try:
-        document = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"invalid TOML ({exc})", "a TOML robot model", source=path) from None
-    return parse_robot(document, path)
+    return parse_robot(read_toml(path, "a robot model TOML file"), path)
 
 
 def default_robot() -> RobotModel:
@@ -219,7 +230,9 @@ def default_robot() -> RobotModel:
 
 
 def robot_to_toml(robot: RobotModel) -> str:
-    """The model-file text (mm, degrees) of a robot; `parse_robot` reads it back to 1 ulp."""
+    """The model-file text (mm, degrees) of a robot, lengths rounded to 1 µm and angles to
+    1e-6 degree (masses to 1 g): numbers a person can read and type. The file reads back to
+    exactly the numbers written, and writing it again gives the same bytes."""
     lines = [
         f"name = {json.dumps(robot.name)}",
         'convention = "dh"',
@@ -227,15 +240,15 @@ def robot_to_toml(robot: RobotModel) -> str:
         'angle_unit = "deg"',
         "joints = [",
     ]
-    columns = dh_rows_to_display(robot.dh)
-    columns["lower"] = rad_to_deg(robot.lower_rad).tolist()
-    columns["upper"] = rad_to_deg(robot.upper_rad).tolist()
+    columns = dh_rows_rounded(robot.dh, FILE_MM_DECIMALS)
+    columns["lower"] = rounded(rad_to_deg(robot.lower_rad), FILE_DEG_DECIMALS)
+    columns["upper"] = rounded(rad_to_deg(robot.upper_rad), FILE_DEG_DECIMALS)
     if robot.mass_kg is not None:
-        columns["mass"] = robot.mass_kg.tolist()
+        columns["mass"] = rounded(robot.mass_kg, 3)
     if robot.radius_m is not None:
-        columns["radius"] = m_to_mm(robot.radius_m).tolist()
+        columns["radius"] = rounded(m_to_mm(robot.radius_m), FILE_MM_DECIMALS)
     for i in range(robot.n_joints):
-        items = [f"{key} = {float(values[i])!r}" for key, values in columns.items()]
+        items = [f"{key} = {values[i]!r}" for key, values in columns.items()]
         lines.append("  { " + ", ".join(items) + " },")
     lines.append("]")
     return "\n".join(lines) + "\n"

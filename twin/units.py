@@ -1,10 +1,13 @@
 """The one place where millimetres and degrees meet the SI values used inside.
 
 Everything inside `twin` is in metres and radians. Files, the CLI and reports speak mm and
-degrees; they convert here and nowhere else.
+degrees; they convert here and nowhere else, and numbers written to files are rounded here to
+what they mean (:func:`rounded`).
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -49,7 +52,7 @@ def dh_rows_to_display(rows_si: NDArray[np.float64]) -> dict[str, list[float]]:
     }
 
 
-def dh_rows_from_display(rows: dict[str, ArrayLike]) -> NDArray[np.float64]:
+def dh_rows_from_display(rows: Mapping[str, ArrayLike]) -> NDArray[np.float64]:
     """Inverse of :func:`dh_rows_to_display`: mm/deg dict to a (4, n) block in SI."""
     return np.stack(
         [
@@ -57,6 +60,44 @@ def dh_rows_from_display(rows: dict[str, ArrayLike]) -> NDArray[np.float64]:
             for key, is_length in zip(DH_KEYS, DH_IS_LENGTH, strict=True)
         ]
     )
+
+
+FILE_MM_DECIMALS = 3
+"""Robot files and plans: lengths to 1 µm."""
+FILE_DEG_DECIMALS = 6
+"""Robot files, plans and results: angles to 1e-6 degree (about 1e-8 rad)."""
+RESULT_MM_DECIMALS = 6
+"""Results: lengths and metrics to 1e-6 mm."""
+RESULT_SIGNIFICANT = 6
+"""Results: values with a unit of their own (the objective f in mm²), 6 significant digits."""
+MAX_LENGTH_M = 1000.0
+"""Largest length accepted from a file or flag (a link, a port, a cable, a target), m: every
+real one is far shorter, and a 1e300 would overflow the kinematics."""
+
+
+def rounded(values: ArrayLike, decimals: int) -> list[float]:
+    """Values rounded to ``decimals`` decimal places, as written to files.
+
+    Python's correctly rounded ``round`` gives floats whose shortest repr has at most that many
+    decimals, so a file written from them reads back to exactly these values and writes again
+    byte for byte; ``-0.0`` is written as ``0.0``.
+    """
+    return [round(float(v), decimals) + 0.0 for v in np.ravel(np.asarray(values, dtype=float))]
+
+
+def dh_rows_rounded(rows_si: NDArray[np.float64], mm_decimals: int,
+                    deg_decimals: int = FILE_DEG_DECIMALS) -> dict[str, list[float]]:
+    """:func:`dh_rows_to_display`, rounded as written to a file (lengths to ``mm_decimals``)."""
+    return {
+        key: rounded(values, mm_decimals if is_length else deg_decimals)
+        for (key, values), is_length in zip(dh_rows_to_display(rows_si).items(), DH_IS_LENGTH,
+                                            strict=True)
+    }
+
+
+def significant(value: float, digits: int = RESULT_SIGNIFICANT) -> float:
+    """``value`` rounded to ``digits`` significant digits (it reads back exactly, as above)."""
+    return float(f"{value:.{digits}g}") + 0.0
 
 
 def display_unit(key: str) -> str:

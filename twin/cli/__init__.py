@@ -1,12 +1,17 @@
 """The `twin` command line. Each subcommand is a module with ``add_parser(subparsers)``.
 
-User mistakes (:class:`~twin.errors.InputError`) print one line on stderr and exit with code 2;
-no traceback.
+User mistakes (:class:`~twin.errors.InputError`, a bad flag, an ``OSError`` on a named file)
+print one line on stderr and exit with code 2; no traceback. Faults that are not the user's
+(a device that stops answering mid-capture) exit with code 1, a crash with a traceback.
+
+Before a command runs, every output path it names is checked against the rules of
+:mod:`twin.io.paths` (never one of its inputs, never a directory, device or FIFO, a writable
+folder), so that a mistake costs no work and overwrites nothing.
 """
 
 from __future__ import annotations
 
-import argparse
+import os
 import sys
 import warnings
 from collections.abc import Sequence
@@ -22,17 +27,20 @@ from twin.cli import (
     study,
     virtual_encoder,
 )
+from twin.cli.arguments import ArgumentParser, UsageError
 from twin.errors import InputError, TwinError
+from twin.io.paths import check_command_paths, command_scope
 
 SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, capture,
                virtual_encoder)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> ArgumentParser:
     """The argument parser with every subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="twin",
         description="Kinematic calibration of serial robots with a drawstring encoder, "
         "and its digital twin.",
@@ -52,12 +60,29 @@ def _show_warning(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code."""
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except UsageError as exc:
+        print(f"twin: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     warnings.showwarning = _show_warning
     try:
-        return int(args.func(args) or 0)
+        with command_scope():
+            check_command_paths(vars(args).values())
+            return int(args.func(args) or 0)
     except InputError as exc:
         print(f"twin: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenPipeError:
+        # The reader of stdout went away (`| head`): stop quietly, as a killed pipe writer.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
+    except OSError as exc:
+        if exc.filename is None:
+            raise
+        # Reading and writing convert their errors where they happen; this is the net below.
+        print(f"twin: error: {exc.filename}: found {(exc.strerror or str(exc)).lower()}, "
+              "expected a file that can be read or written", file=sys.stderr)
         return EXIT_USAGE
     except TwinError as exc:
         print(f"twin: error: {exc}", file=sys.stderr)

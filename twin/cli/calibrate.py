@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import TRAIN_FRACTION, make_problem, solve_many
+from twin.calibration import TRAIN_FRACTION, SplitProblem, make_problem, solve_many
+from twin.cli.arguments import integer, seed, share
 from twin.errors import InputError
+from twin.identifiability import RankWarning, measurement_identifiability, spread_rank
 from twin.io.capture import CalibrationSettings, load_capture, parse_port_mm
 from twin.io.measurements import load_measurements
+from twin.io.paths import InputPath, OutputFile
 from twin.io.results import result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
@@ -31,15 +35,17 @@ def add_parser(subparsers: Any) -> None:
         "INPUT is a measurement CSV (q1..q6 in degrees, length in mm; needs --port) or a "
         "capture.toml written by `twin simulate` or `twin capture`.",
     )
-    parser.add_argument("input", type=Path, metavar="INPUT",
-                        help="MEASUREMENTS.csv or capture.toml")
-    parser.add_argument("--robot", type=Path, help="robot model TOML (default: the ABB IRB 120)")
+    parser.add_argument("input", type=InputPath, metavar="INPUT",
+                        help="MEASUREMENTS.csv (- for standard input) or capture.toml")
+    parser.add_argument("--robot", type=InputPath,
+                        help="robot model TOML (default: the ABB IRB 120)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame")
     parser.add_argument(
         "--method", default="lm",
         help="method name or paper alias, or 'all': " + ", ".join(solver_choices()),
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the split and of the method")
+    parser.add_argument("--seed", type=seed, default=0,
+                        help="seed of the split and of the method")
     parser.add_argument("--estimate-port", action="store_true",
                         help="also identify a correction of the port position")
     parser.add_argument("--estimate-offset", action="store_true",
@@ -48,13 +54,14 @@ def add_parser(subparsers: Any) -> None:
                         help="stopping protocol: 'converge' (default: stop on stated "
                         "convergence tests) or 'paper' (the paper's: f changes by less than "
                         "0.001 mm², 60 iterations, cascades 30 + 30); default: the capture's")
-    parser.add_argument("--max-iterations", type=int, metavar="N",
+    parser.add_argument("--max-iterations", type=integer(1, MAX_ITERATIONS), metavar="N",
                         help="iteration limit of every method and cascade stage (default: the "
                         "protocol's, 200 to converge, 60 / 30 + 30 for the paper's)")
-    parser.add_argument("--train-fraction", type=float, metavar="SHARE",
+    parser.add_argument("--train-fraction", type=share, metavar="SHARE",
                         help="share of the poses used for identification (default: the "
                         "capture's, else 0.8)")
-    parser.add_argument("--json", type=Path, metavar="OUT.json", help="write the result as JSON")
+    parser.add_argument("--json", type=OutputFile, metavar="OUT.json",
+                        help="write the result as JSON")
     add_rerun_flags(parser)
     parser.set_defaults(func=run)
 
@@ -79,12 +86,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     """
     input_path, robot_path, port = args.input, args.robot, args.port
     fraction = getattr(args, "train_fraction", None)
-    if fraction is not None and not 0 < fraction < 1:
-        raise InputError(f"{fraction!r}", "a share in (0, 1)", source="--train-fraction")
     stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
-    if limit is not None and not 1 <= limit <= MAX_ITERATIONS:
-        raise InputError(f"{limit!r}", f"an integer from 1 to {MAX_ITERATIONS}",
-                         source="--max-iterations")
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
         settings = capture.calibration
@@ -117,12 +119,29 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     )
 
 
+def warn_rank_deficient(robot: RobotModel, split: SplitProblem, source: Path,
+                        seed: int) -> None:
+    """Warn, before anything is calibrated, when the training poses identify fewer directions
+    than the same unknowns on well-spread poses: the result is then arbitrary along the
+    directions these poses miss (all rows alike give rank 1)."""
+    problem = split.problem
+    found = measurement_identifiability(problem.model, problem.x0, problem.train).rank
+    reachable = spread_rank(problem.model, robot, np.random.default_rng(seed))
+    if found < reachable:
+        warnings.warn(
+            f"{source}: the {len(problem.train)} training poses identify {found} of the "
+            f"{reachable} directions well-spread poses identify ({problem.model.n_params} "
+            "unknowns); the calibration below is arbitrary along the other "
+            f"{reachable - found}: measure more varied poses (twin plan)",
+            RankWarning, stacklevel=2)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
     everything = args.method.strip().lower() == "all"
     methods = list(SOLVERS) if everything else [get_solver(args.method).name]
-    measurements = load_measurements(measurements_path, robot)
+    measurements = load_measurements(measurements_path, robot, stdin=True)
     try:
         split = make_problem(
             robot, measurements, port_m, seed=args.seed,
@@ -133,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         if exc.source is not None:
             raise
         raise InputError(exc.found, exc.expected, source=measurements_path) from None
+    warn_rank_deficient(robot, split, measurements_path, args.seed)
     truth = None
     if truth_path is not None and truth_path.exists():
         truth = load_truth_delta(truth_path, robot.n_joints)

@@ -7,7 +7,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from twin.cli.arguments import integer, number, pause, seconds, seed
+from twin.io.paths import InputPath, OutputFile, OutputFolder
+
 ROBOT_SOURCES = ("sim", "manual", "file")
+MAX_READINGS = 1000
+"""Most readings --settle-k and --max-failures may ask for."""
 
 
 def add_parser(subparsers: Any) -> None:
@@ -20,7 +25,7 @@ def add_parser(subparsers: Any) -> None:
         "Also writes OUT/capture.toml for `twin calibrate`. Interrupted, it keeps every "
         "measured pose; the same command again resumes at the first missing one.",
     )
-    parser.add_argument("--plan", type=Path, required=True, metavar="PLAN.csv",
+    parser.add_argument("--plan", type=InputPath, required=True, metavar="PLAN.csv",
                         help="poses to measure: CSV with q1..q6 in degrees")
     parser.add_argument("--encoder", required=True, metavar="URL|DEVICE.toml",
                         help="serial:///dev/ttyUSB0?baud=115200&protocol=ascii or a device "
@@ -28,33 +33,37 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--robot-source", choices=ROBOT_SOURCES, required=True,
                         help="sim: the twin moves (with twin virtual-encoder); manual: the "
                         "operator jogs and confirms; file: joint angles logged by the controller")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--robot", type=Path, help="robot model TOML (default: the ABB IRB "
+    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
+                        help="output folder")
+    parser.add_argument("--robot", type=InputPath, help="robot model TOML (default: the ABB IRB "
                         "120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")
-    parser.add_argument("--scenario", type=Path, metavar="SCENARIO.toml",
+    parser.add_argument("--scenario", type=InputPath, metavar="SCENARIO.toml",
                         help="sim: the scenario the virtual encoder serves")
-    parser.add_argument("--seed", type=int, help="sim: the virtual encoder's --seed")
-    parser.add_argument("--pose-file", type=Path, metavar="FILE",
+    parser.add_argument("--seed", type=seed, help="sim: the virtual encoder's --seed")
+    parser.add_argument("--pose-file", type=OutputFile, metavar="FILE",
                         help="sim: the virtual encoder's --pose-file")
-    parser.add_argument("--joint-log", type=Path, metavar="LOG.csv",
+    parser.add_argument("--joint-log", type=InputPath, metavar="LOG.csv",
                         help="file: the controller's log, columns pose,q1..q6 (deg)")
-    parser.add_argument("--joint-log-wait", type=float, default=60.0, metavar="S",
-                        help="file: how long to wait for a pose's row (default: 60 s)")
-    parser.add_argument("--settle-k", type=int, default=5, metavar="K",
+    parser.add_argument("--joint-log-wait", type=seconds(zero=True), default=60.0, metavar="S",
+                        help="file: how long to wait for a pose's row, or none (default: 60 s)")
+    parser.add_argument("--settle-k", type=integer(1, MAX_READINGS), default=5, metavar="K",
                         help="consecutive readings that must agree (default: 5)")
-    parser.add_argument("--settle-tol", type=float, default=0.01, metavar="MM",
+    parser.add_argument("--settle-tol", type=number(0.0, 1000.0), default=0.01, metavar="MM",
                         help="largest spread of those readings, mm (default: 0.01)")
-    parser.add_argument("--settle-timeout", type=float, default=10.0, metavar="S",
-                        help="longest wait for the length to settle (default: 10 s)")
-    parser.add_argument("--settle-interval", type=float, default=0.0, metavar="S",
+    parser.add_argument("--settle-timeout", type=seconds(zero=False), default=10.0,
+                        metavar="S", help="longest wait for the length to settle, or none to "
+                        "wait until it does (default: 10 s)")
+    parser.add_argument("--settle-interval", type=pause, default=0.0, metavar="S",
                         help="pause between readings, for devices with a slow update rate "
                         "(default: 0 s)")
-    parser.add_argument("--max-failures", type=int, default=5, metavar="N",
-                        help="failed readings in a row before giving up (default: 5)")
-    parser.add_argument("--reconnect", type=float, default=5.0, metavar="S",
-                        help="how long to try reopening a lost port (default: 5 s)")
+    parser.add_argument("--max-failures", type=integer(1, MAX_READINGS), default=5,
+                        metavar="N", help="failed readings in a row before giving up "
+                        "(default: 5)")
+    parser.add_argument("--reconnect", type=seconds(zero=True), default=5.0, metavar="S",
+                        help="how long to try reopening a lost port, or none to keep trying "
+                        "(default: 5 s)")
     parser.set_defaults(func=run)
 
 
@@ -65,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
         MEASUREMENTS_NAME,
         ROBOT_NAME,
         capture,
+        check_folder,
         locked,
         prepare,
     )
@@ -79,13 +89,9 @@ def run(args: argparse.Namespace) -> int:
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
-    try:
-        rule = SettleRule(k=args.settle_k, tolerance_m=float(mm_to_m(args.settle_tol)),
-                          timeout_s=args.settle_timeout, max_failures=args.max_failures,
-                          interval_s=args.settle_interval)
-    except ValueError as exc:
-        raise InputError(str(exc), "K >= 1, N >= 1, MM >= 0, timeout > 0, interval >= 0",
-                         source="--settle-* / --max-failures") from None
+    rule = SettleRule(k=args.settle_k, tolerance_m=float(mm_to_m(args.settle_tol)),
+                      timeout_s=args.settle_timeout, max_failures=args.max_failures,
+                      interval_s=args.settle_interval)
     truth = None
     if args.robot_source == "sim":
         if args.robot is not None or args.port is not None:
@@ -128,8 +134,10 @@ def run(args: argparse.Namespace) -> int:
         source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
 
     out: Path = args.out
+    robot_text = robot_to_toml(robot)
+    check_folder(out, args.plan, plan_q_rad, robot_text)
     with locked(out), open_encoder(config) as encoder:
-        prepare(out, args.plan, plan_q_rad, robot_to_toml(robot))
+        prepare(out, args.plan, plan_q_rad, robot_text)
         if truth is not None:
             write_json(out / "truth.json", truth)
         write_capture(out / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,

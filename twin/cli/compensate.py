@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.cable import MAX_POSES
+from twin.cli.arguments import integer, seed
 from twin.compensation import (
     STATUS_OK,
     STATUS_UNREACHABLE,
@@ -31,9 +33,10 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result_delta
 from twin.io.measurements import JOINT_COLUMNS, load_plan, read_table
+from twin.io.paths import InputPath, OutputFile
 from twin.metrics import Metrics
 from twin.robot import default_robot, load_robot
-from twin.units import m_to_mm, mm_to_m, rad_to_deg
+from twin.units import FILE_DEG_DECIMALS, MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg, rounded
 
 TARGET_COLUMNS = ("x", "y", "z")
 OUTPUT_COLUMNS = (*JOINT_COLUMNS, "status", "error_mm")
@@ -52,26 +55,27 @@ def add_parser(subparsers: Any) -> None:
         "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
         "calibrate and compare the true flange error with and without compensation.",
     )
-    parser.add_argument("--robot", type=Path, help="nominal robot model TOML (default: the "
-                        "ABB IRB 120)")
-    parser.add_argument("--identified", type=Path, metavar="RESULT.json",
+    parser.add_argument("--robot", type=InputPath, help="nominal robot model TOML (default: "
+                        "the ABB IRB 120)")
+    parser.add_argument("--identified", type=InputPath, metavar="RESULT.json",
                         help="calibration result written by `twin calibrate --json`")
     parser.add_argument("--method", help="result to use from a `--method all` result file; "
                         "with --verify, the calibration method (default lm)")
     request = parser.add_mutually_exclusive_group(required=True)
-    request.add_argument("--targets", type=Path, metavar="TARGETS.csv",
-                         help="flange targets, columns x,y,z in mm")
-    request.add_argument("--joints", type=Path, metavar="PROGRAM.csv",
-                         help="program joint angles, columns q1..q6 in degrees")
-    request.add_argument("--verify", type=Path, metavar="SCENARIO.toml",
+    request.add_argument("--targets", type=InputPath, metavar="TARGETS.csv",
+                         help="flange targets, columns x,y,z in mm (- for standard input)")
+    request.add_argument("--joints", type=InputPath, metavar="PROGRAM.csv",
+                         help="program joint angles, columns q1..q6 in degrees (- for "
+                         "standard input)")
+    request.add_argument("--verify", type=InputPath, metavar="SCENARIO.toml",
                          help="measure compensation in the twin for a scenario")
-    parser.add_argument("--out", type=Path, metavar="CORRECTED.csv",
+    parser.add_argument("--out", type=OutputFile, metavar="CORRECTED.csv",
                         help="corrected joint angles (with --targets or --joints)")
-    parser.add_argument("--seed", type=int, help="seed of the random IK starts (default 0) or "
+    parser.add_argument("--seed", type=seed, help="seed of the random IK starts (default 0) or "
                         "of the simulation (default: the scenario's)")
-    parser.add_argument("--count", type=int, default=VERIFY_TARGETS,
+    parser.add_argument("--count", type=integer(1, MAX_POSES), default=VERIFY_TARGETS,
                         help=f"targets for --verify (default {VERIFY_TARGETS})")
-    parser.add_argument("--figure", type=Path, metavar="OUT.png",
+    parser.add_argument("--figure", type=OutputFile, metavar="OUT.png",
                         help="with --verify: histogram of the true flange errors")
     parser.set_defaults(func=run)
 
@@ -90,12 +94,19 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
                          source=missing)
     robot = load_robot(args.robot) if args.robot else default_robot()
-    identified = robot.perturbed(load_result_delta(args.identified, robot.n_joints, args.method))
+    identified = robot.perturbed(load_result_delta(args.identified, robot, args.method))
     if args.joints is not None:
-        q_nominal, _ = load_plan(args.joints, robot, "a program CSV (q1..q6 in degrees)")
+        q_nominal, _ = load_plan(args.joints, robot, "a program CSV (q1..q6 in degrees)",
+                                 stdin=True)
         solved = compensate_program(robot, identified, q_nominal)
     else:
-        xyz_mm, _ = read_table(args.targets, TARGET_COLUMNS, "a target CSV (x,y,z in mm)")
+        xyz_mm, lines = read_table(args.targets, TARGET_COLUMNS, "a target CSV (x,y,z in mm)",
+                                   stdin=True)
+        far = np.flatnonzero(np.linalg.norm(xyz_mm, axis=1) > m_to_mm(MAX_LENGTH_M))
+        if far.size:
+            raise InputError(f"a target {np.linalg.norm(xyz_mm[far[0]]):g} mm from the base",
+                             f"targets within {float(m_to_mm(MAX_LENGTH_M)):g} mm",
+                             source=args.targets, where=f"line {lines[far[0]]}")
         target_m = mm_to_m(xyz_mm)
         nominal = nominal_ik(robot, target_m, np.random.default_rng(args.seed or 0))
         q_nominal = nominal.q_rad
@@ -107,12 +118,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def format_corrected(solved: IKResult) -> str:
-    """CSV text: q1..q6 (deg, empty when unreachable), status, remaining flange error (mm)."""
+    """CSV text: q1..q6 (deg to 1e-6, empty when unreachable), status, remaining flange error
+    (mm)."""
     q_deg = rad_to_deg(solved.q_rad)
     error_mm = m_to_mm(solved.position_error_m)
     lines = [",".join(OUTPUT_COLUMNS)]
     for q, status, error in zip(q_deg, solved.status, error_mm, strict=True):
-        angles = [""] * len(q) if status == STATUS_UNREACHABLE else [f"{v:.9f}" for v in q]
+        angles = [""] * len(q) if status == STATUS_UNREACHABLE \
+            else list(map(repr, rounded(q, FILE_DEG_DECIMALS)))
         lines.append(",".join([*angles, str(status), f"{error:.6f}"]))
     return "\n".join(lines) + "\n"
 
@@ -135,8 +148,6 @@ def _verify(args: argparse.Namespace) -> int:
     from twin.calibration import calibrate
     from twin.sim import Twin, load_scenario, simulate
 
-    if args.count < 1:
-        raise InputError(f"{args.count}", "a positive number of targets", source="--count")
     scenario = load_scenario(args.verify)
     sim = simulate(scenario, seed=args.seed)
     print(f"{scenario.name}: simulated {len(sim.measurements)} poses (seed {sim.seed}); "

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
+from twin.errors import UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result_delta
+from twin.io.paths import InputPath, OutputFile
 from twin.robot import default_robot, load_robot
 
 
@@ -22,21 +23,24 @@ def add_parser(subparsers: Any) -> None:
         "the identified robot as a model TOML (dh: mm and degrees, usable with --robot), a "
         "URDF (ROS, Pinocchio; link 'flange') or an MJCF (MuJoCo; site 'flange').",
     )
-    parser.add_argument("result", type=Path, metavar="RESULT.json",
+    parser.add_argument("result", type=InputPath, metavar="RESULT.json",
                         help="calibration result written by `twin calibrate --json`")
-    parser.add_argument("--robot", type=Path, help="nominal robot model TOML (default: the "
-                        "ABB IRB 120)")
+    parser.add_argument("--robot", type=InputPath, help="nominal robot model TOML (default: "
+                        "the ABB IRB 120), the robot the result was identified for")
     parser.add_argument("--method", help="result to use from a `--method all` result file")
     parser.add_argument("--format", required=True, dest="format_name",
                         help="one of " + ", ".join(FORMATS))
-    parser.add_argument("--out", type=Path, required=True, metavar="FILE", help="output file")
+    parser.add_argument("--out", type=OutputFile, required=True, metavar="FILE",
+                        help="output file")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    if args.format_name not in FORMATS:
+        raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
     robot = load_robot(args.robot) if args.robot else default_robot()
-    delta = load_result_delta(args.result, robot.n_joints, args.method)
+    delta = load_result_delta(args.result, robot, args.method)
     identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
     write_atomic(args.out, export_text(identified, args.format_name))
     print(f"wrote {args.out} ({args.format_name}, {identified.name})")

@@ -12,18 +12,28 @@ from numpy.typing import NDArray
 
 from twin.cable import CableModel
 from twin.calibration import WORKSPACE_POSES, calibrate
+from twin.cli.arguments import seed, sigma_mm
 from twin.cli.calibrate import resolve_inputs
 from twin.design import score_poses
 from twin.errors import InputError
 from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identifiability
 from twin.io.atomic import write_atomic
 from twin.io.measurements import load_measurements
+from twin.io.paths import InputPath, OutputFile
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 from twin.uncertainty import flange_error_rms, flange_sigma, workspace_grid
-from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm, mm_to_m
+from twin.units import (
+    DH_KEYS,
+    RESULT_MM_DECIMALS,
+    dh_rows_to_display,
+    display_unit,
+    m_to_mm,
+    mm_to_m,
+    rounded,
+)
 
 MAP_GRID = 41
 """Grid points per axis of the accuracy map over joints 2 and 3."""
@@ -39,21 +49,24 @@ def add_parser(subparsers: Any) -> None:
         "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
         "and the same at the identified geometry, with per-parameter standard deviations.",
     )
-    parser.add_argument("input", type=Path, metavar="INPUT",
-                        help="MEASUREMENTS.csv (needs --port) or capture.toml")
-    parser.add_argument("--robot", type=Path, help="robot model TOML (default: the ABB IRB 120)")
+    parser.add_argument("input", type=InputPath, metavar="INPUT",
+                        help="MEASUREMENTS.csv (needs --port; - for standard input) or "
+                        "capture.toml")
+    parser.add_argument("--robot", type=InputPath,
+                        help="robot model TOML (default: the ABB IRB 120)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame")
     parser.add_argument("--estimate-port", action="store_true",
                         help="treat the port position as unknown too")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
-    parser.add_argument("--sigma", type=float, default=0.01, metavar="MM",
+    parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
-    parser.add_argument("--seed", type=int, default=0,
+    parser.add_argument("--seed", type=seed, default=0,
                         help="seed of the split, of the calibration and of the workspace poses")
-    parser.add_argument("--map", type=Path, metavar="OUT.png",
+    parser.add_argument("--map", type=OutputFile, metavar="OUT.png",
                         help="write a map of the predicted flange error over joints 2 and 3")
-    parser.add_argument("--json", type=Path, metavar="OUT.json", help="write the report as JSON")
+    parser.add_argument("--json", type=OutputFile, metavar="OUT.json",
+                        help="write the report as JSON")
     parser.set_defaults(func=run)
 
 
@@ -109,10 +122,8 @@ def _write_map(path: Path, robot: RobotModel, dh: NDArray[np.float64],
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    if not args.sigma > 0:
-        raise InputError(f"{args.sigma!r}", "a positive noise in mm", source="--sigma")
     robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
-    data = load_measurements(measurements_path, robot)
+    data = load_measurements(measurements_path, robot, stdin=True)
     model = CableModel(robot.dh, port_m, estimate_port=settings.estimate_port,
                        estimate_offset=settings.estimate_offset)
     x0 = np.zeros(model.n_params)
@@ -175,7 +186,8 @@ def run(args: argparse.Namespace) -> int:
             "nominal": {
                 **identifiability_to_dict(nominal, "nominal"),
                 "observability": indices._asdict(),
-                "cramer_rao_flange_rms": float(m_to_mm(score.flange_rms_m)),
+                "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
+                                                 RESULT_MM_DECIMALS)[0],
                 "sigma_assumed": args.sigma,
             },
             "calibration": result_to_dict(result),

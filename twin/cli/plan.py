@@ -8,22 +8,23 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import CableModel
+from twin.cable import MAX_POSES, CableModel
 from twin.calibration import WORKSPACE_POSES
+from twin.cli.arguments import integer, seed, sigma_mm
 from twin.design import DesignScore, choose_port, score_poses
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture import parse_port_mm
 from twin.io.measurements import JOINT_COLUMNS
+from twin.io.paths import InputPath, OutputFile
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.synthetic import random_poses
-from twin.units import m_to_mm, mm_to_m, rad_to_deg
+from twin.units import FILE_DEG_DECIMALS, m_to_mm, mm_to_m, rad_to_deg, rounded
 
 DEFAULT_CANDIDATES = 2000
 """Candidate poses drawn within the joint limits."""
@@ -40,15 +41,17 @@ def add_parser(subparsers: Any) -> None:
         "with N random poses. Given several --port, plan for each and keep the port whose "
         "plan predicts the smallest flange error over the workspace.",
     )
-    parser.add_argument("--robot", type=Path, help="robot model TOML (default: the ABB IRB 120)")
+    parser.add_argument("--robot", type=InputPath,
+                        help="robot model TOML (default: the ABB IRB 120)")
     parser.add_argument("--port", action="append", required=True, metavar="X,Y,Z",
                         help="encoder port in mm, robot base frame; repeat to choose among "
                         "several")
-    parser.add_argument("--poses", type=int, required=True, metavar="N", help="poses to plan")
-    parser.add_argument("--candidates", type=int, default=DEFAULT_CANDIDATES, metavar="M",
-                        help=f"random candidate poses (default {DEFAULT_CANDIDATES})")
-    parser.add_argument("--seed", type=int, default=0, help="seed of every random draw")
-    parser.add_argument("--sigma", type=float, default=0.01, metavar="MM",
+    parser.add_argument("--poses", type=integer(1, MAX_POSES), required=True, metavar="N",
+                        help="poses to plan")
+    parser.add_argument("--candidates", type=integer(1, MAX_POSES), default=DEFAULT_CANDIDATES,
+                        metavar="M", help=f"random candidate poses (default {DEFAULT_CANDIDATES})")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of every random draw")
+    parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the predicted accuracy (default 0.01)")
     parser.add_argument("--estimate-port", action="store_true",
                         help="plan for a calibration that also identifies the port")
@@ -59,7 +62,7 @@ def add_parser(subparsers: Any) -> None:
                         "by default they are poses the rig can measure: flange above the "
                         "floor, no collision, cable in range and clear of the links (the MuJoCo "
                         "twin's default constraints, per port)")
-    parser.add_argument("--out", type=Path, required=True, metavar="plan.csv",
+    parser.add_argument("--out", type=OutputFile, required=True, metavar="plan.csv",
                         help="where to write the plan")
     parser.set_defaults(func=run)
 
@@ -80,7 +83,12 @@ def _feasible_sampler(
     constraints = PoseConstraints()
 
     def draw(port_m: NDArray[np.float64], count: int) -> NDArray[np.float64]:
-        return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
+        try:
+            return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
+        except InputError as exc:
+            port = ",".join(f"{v:g}" for v in m_to_mm(port_m))
+            raise InputError(exc.found, exc.expected + " (or --joint-limits-only)",
+                             source=f"--port {port}") from None
 
     return draw
 
@@ -89,8 +97,6 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot = load_robot(args.robot) if args.robot else default_robot()
     ports_m = np.stack([parse_port_mm(value, "--port", "") for value in args.port])
-    if not args.sigma > 0:
-        raise InputError(f"{args.sigma!r}", "a positive noise in mm", source="--sigma")
     model = CableModel(robot.dh, ports_m[0], estimate_port=args.estimate_port,
                        estimate_offset=args.estimate_offset)
     if not model.n_params <= args.poses <= args.candidates:
@@ -112,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     planned = score_poses(at_port, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace)
     drawn = score_poses(at_port, x0, q_random, plan.base_mask, sigma_m, q_workspace)
     rows = [",".join(JOINT_COLUMNS)]
-    rows += [",".join(repr(float(v)) for v in q) for q in rad_to_deg(plan.q_rad)]
+    rows += [",".join(map(repr, rounded(q, FILE_DEG_DECIMALS))) for q in rad_to_deg(plan.q_rad)]
     write_atomic(args.out, "\n".join(rows) + "\n")
     lines = []
     if len(ports_m) > 1:

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
+from twin.cli.arguments import seed
+from twin.io.paths import InputPath, OutputFolder
 from twin.viz import add_rerun_flags, record_simulation
 
 
@@ -18,9 +19,11 @@ def add_parser(subparsers: Any) -> None:
         "a scenario TOML, and write measurements.csv, robot.toml (nominal model), truth.json "
         "and capture.toml to --out; `twin calibrate OUT/capture.toml` then needs nothing else.",
     )
-    parser.add_argument("scenario", type=Path, metavar="SCENARIO.toml", help="scenario file")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--seed", type=int, help="seed of every random draw (default: the "
+    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml",
+                        help="scenario file")
+    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
+                        help="output folder")
+    parser.add_argument("--seed", type=seed, help="seed of every random draw (default: the "
                         "scenario's)")
     add_rerun_flags(parser)
     parser.set_defaults(func=run)

@@ -4,26 +4,22 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
+from twin.cli.arguments import integer
 from twin.errors import InputError
+from twin.io.paths import InputPath, OutputFolder
 from twin.solvers import solver_choices
 from twin.stopping import PROTOCOLS
+from twin.study.executors.cluster import reach_scheduler
 from twin.viz import add_rerun_flags, open_from_args
 
 TRIAL_REPORT = "study/trial"
 """Rerun entity of each trial's table, on the ``case`` and ``trial`` timelines."""
 
 
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"found {text!r}, expected an integer >= 1")
-    return value
+MAX_TRIALS = 100_000
+MAX_WORKERS = 1024
 
 
 def add_parser(subparsers: Any) -> None:
@@ -37,11 +33,11 @@ def add_parser(subparsers: Any) -> None:
         "and the errors against the truth) and PNG figures. Running again with the same DIR "
         "resumes. See docs/studies.md.",
     )
-    parser.add_argument("scenario", type=Path, metavar="SCENARIO.toml",
+    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml",
                         help="scenario file, with an optional [study] table")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
                         help="study folder (created; resumed if it holds this study)")
-    parser.add_argument("--trials", type=_positive, metavar="N",
+    parser.add_argument("--trials", type=integer(1, MAX_TRIALS), metavar="N",
                         help="trials per case (default: [study] trials, else 10)")
     parser.add_argument("--methods", metavar="M1,M2,…|all",
                         help="comma-separated names or aliases, or 'all' (default: [study] "
@@ -50,7 +46,7 @@ def add_parser(subparsers: Any) -> None:
                         help="stopping protocol of every method (default: the scenario's "
                         "[calibration] stop, else converge); part of the study's identity")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive, metavar="K",
+    where.add_argument("--workers", type=integer(1, MAX_WORKERS), metavar="K",
                        help="run on a Dask LocalCluster of K worker processes on 127.0.0.1 "
                        "(default: local processes, one per core)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
@@ -64,6 +60,8 @@ def run(args: argparse.Namespace) -> int:
     from twin.study import TrialOutcome, load_study, run_study
     from twin.study.summary import summary_markdown, trial_markdown
 
+    if args.scheduler:
+        reach_scheduler(args.scheduler)
     methods = None
     if args.methods is not None:
         methods = [m.strip() for m in args.methods.split(",") if m.strip()]

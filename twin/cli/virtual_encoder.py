@@ -6,7 +6,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from twin.cli.arguments import integer, seed
 from twin.encoders.url import PROTOCOLS
+from twin.io.paths import InputPath
 
 URL_QUERY = {"ascii": "protocol=ascii", "modbus": "protocol=modbus&scale=0.001"}
 """What the driver needs besides the path: the Modbus device counts µm in registers 0–1."""
@@ -22,29 +24,27 @@ def add_parser(subparsers: Any) -> None:
         "`twin capture --robot-source sim`). Prints the device path as its first line and a "
         "serial URL for `twin capture --encoder` as its second, then serves until stopped.",
     )
-    parser.add_argument("scenario", type=Path, metavar="SCENARIO.toml", help="scenario file")
+    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml",
+                        help="scenario file")
     parser.add_argument("--protocol", choices=PROTOCOLS, default="ascii",
                         help="ASCII line protocol or Modbus RTU (default: ascii)")
-    parser.add_argument("--seed", type=int, help="seed of the truth and of the noise "
+    parser.add_argument("--seed", type=seed, help="seed of the truth and of the noise "
                         "(default: the scenario's)")
     parser.add_argument("--pose-file", type=Path, metavar="FILE",
                         help="where the simulated robot publishes its pose (default: a file in "
                         "the temporary folder, the same as twin capture's)")
-    parser.add_argument("--slave", type=int, default=1, help="Modbus slave id (default: 1)")
-    parser.add_argument("--garbage-every", type=int, default=0, metavar="N",
+    parser.add_argument("--slave", type=integer(1, 247), default=1,
+                        help="Modbus slave id (default: 1)")
+    parser.add_argument("--garbage-every", type=integer(0, 1_000_000), default=0, metavar="N",
                         help="corrupt every N-th answer, to test fault handling (default: never)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.errors import InputError
     from twin.robots.sim import DEFAULT_POSE_FILE
     from twin.virtual_encoder import scenario_instrument, serve
 
-    if not 1 <= args.slave <= 247 or args.garbage_every < 0:
-        raise InputError(f"--slave {args.slave} --garbage-every {args.garbage_every}",
-                         "a slave id in 1..247 and N >= 0", source="command line")
     instrument = scenario_instrument(args.scenario, args.pose_file or DEFAULT_POSE_FILE,
                                      args.seed)
 

@@ -3,11 +3,13 @@
 After the robot stops, the cable and the arm still move a little. A reading is accepted when
 ``k`` consecutive readings lie within ``tolerance`` of each other (max − min); their mean is the
 measurement. Failed readings (timeouts, garbage, CRC errors) are retried up to
-``max_failures`` in a row; the whole wait is bounded by ``timeout``.
+``max_failures`` in a row; the whole wait is bounded by ``timeout`` (unless the user turned the
+limit off explicitly).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from collections.abc import Callable
@@ -25,22 +27,25 @@ class SettleRule:
     Attributes:
         k: Consecutive readings that must agree.
         tolerance_m: Largest spread (max − min) of those readings, m.
-        timeout_s: Longest wait for the value to settle, s.
+        timeout_s: Longest wait for the value to settle, s; None waits until it settles.
         max_failures: Failed readings in a row before giving up.
         interval_s: Pause between readings, s.
     """
 
     k: int = 5
     tolerance_m: float = float(mm_to_m(0.01))
-    timeout_s: float = 10.0
+    timeout_s: float | None = 10.0
     max_failures: int = 5
     interval_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.k < 1 or self.max_failures < 1:
             raise ValueError("k and max_failures must be >= 1")
-        if not (self.tolerance_m >= 0 and self.timeout_s > 0 and self.interval_s >= 0):
-            raise ValueError("tolerance_m >= 0, timeout_s > 0 and interval_s >= 0 expected")
+        timeout_ok = self.timeout_s is None or 0 < self.timeout_s < math.inf
+        if not (0 <= self.tolerance_m < math.inf and timeout_ok
+                and 0 <= self.interval_s < math.inf):
+            raise ValueError("finite tolerance_m >= 0, timeout_s > 0 (or None) and "
+                             "interval_s >= 0 expected")
 
 
 class Settled(NamedTuple):
@@ -81,7 +86,7 @@ def settle(
         EncoderDisconnectedError: as soon as the port fails.
     """
     window: deque[float] = deque(maxlen=rule.k)
-    deadline = clock() + rule.timeout_s
+    deadline = math.inf if rule.timeout_s is None else clock() + rule.timeout_s
     readings = failures = in_a_row = 0
     while True:
         readings += 1

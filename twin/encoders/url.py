@@ -20,14 +20,13 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl, quote, urlsplit
 
 from twin.errors import InputError, UnknownChoiceError
-from twin.io.measurements import read_text
+from twin.io.paths import read_toml
 from twin.units import LENGTH_FACTORS
 
 PROTOCOLS = ("ascii", "modbus")
@@ -35,6 +34,8 @@ PARITIES = ("N", "E", "O", "M", "S")
 WORD_ORDERS = ("big", "little")
 """Modbus 32-bit word order: ``big`` high word first (ABCD), ``little`` low word first (CDAB)."""
 VALUE_TYPES = ("int32", "int16", "float32")
+MAX_TIMEOUT_S = 3600.0
+"""Longest wait for one answer, s."""
 FUNCTIONS = (3, 4)
 """Modbus read functions: 3 = holding registers, 4 = input registers."""
 
@@ -90,7 +91,7 @@ class EncoderConfig:
             ("baud", self.baud > 0, "a positive baud rate"),
             ("bytesize", self.bytesize in (5, 6, 7, 8), "5, 6, 7 or 8"),
             ("stopbits", self.stopbits in (1, 1.5, 2), "1, 1.5 or 2"),
-            ("timeout", math.isfinite(self.timeout) and self.timeout > 0, "a positive time in s"),
+            ("timeout", 0 < self.timeout <= MAX_TIMEOUT_S, f"a time in (0, {MAX_TIMEOUT_S:g}] s"),
             ("query", bool(self.query), "a non-empty query"),
             ("slave", 1 <= self.slave <= 247, "a slave id in 1..247"),
             ("register", 0 <= self.register <= 65535, "a register address in 0..65535"),
@@ -194,10 +195,7 @@ def parse_url(url: str) -> EncoderConfig:
 
 def load_device(path: str | Path) -> EncoderConfig:
     """Read a device TOML file (the URL keys, with ``port``)."""
-    try:
-        document = tomllib.loads(read_text(path, "a device TOML file"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"invalid TOML ({exc})", "a device TOML file", source=path) from None
+    document = read_toml(path, "a device TOML file")
     return config_from_mapping(document, str(path))
 
 

@@ -1,4 +1,8 @@
-"""Atomic, durable writes: a failure leaves either the old file or the new one, never half."""
+"""Atomic, durable writes: a failure leaves either the old file or the new one, never half.
+
+Every file is created with the mode the process umask gives (0644 under the usual 022), like
+any other tool: the temporary file's private 0600 is not carried over.
+"""
 
 from __future__ import annotations
 
@@ -6,23 +10,61 @@ import os
 import tempfile
 from pathlib import Path
 
+from twin.io.paths import check_output, os_error
+
+WRITE_EXPECTED = "a file that can be written (a writable folder with free space)"
+
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file in the same folder, fsync, then rename."""
+    """Write ``data`` to ``path`` via a temporary file in the same folder, fsync, then rename.
+
+    Raises:
+        InputError: if ``path`` is not a valid output (:func:`twin.io.paths.check_output`: an
+            input of the running command, a directory, a device…) or writing fails.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_output(path)
     payload = data.encode("utf-8") if isinstance(data, str) else data
-    fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
+                                         dir=path.parent)
+    except OSError as exc:
+        raise os_error(path, "creating it", exc, WRITE_EXPECTED) from None
     try:
         with os.fdopen(fd, "wb") as handle:
+            os.fchmod(handle.fileno(), file_mode())
             handle.write(payload)
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(temporary, path)
+        fsync_directory(path.parent)
+    except OSError as exc:
+        Path(temporary).unlink(missing_ok=True)
+        raise os_error(path, "writing it", exc, WRITE_EXPECTED) from None
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
-    fsync_directory(path.parent)
+
+
+def file_mode() -> int:
+    """The mode of a new file under the process umask (0o644 under 022)."""
+    return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    # Linux reports the umask in /proc; setting it to read it back is racy with other threads
+    # that create files, so that is only the fallback.
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    umask = os.umask(0o022)
+    os.umask(umask)
+    return umask
 
 
 def fsync_directory(folder: str | Path) -> None:

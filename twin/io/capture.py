@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -31,10 +30,10 @@ from numpy.typing import NDArray
 from twin.calibration import TRAIN_FRACTION
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.measurements import read_text
+from twin.io.paths import read_toml
 from twin.robot import RobotModel, load_robot
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
-from twin.units import m_to_mm, mm_to_m
+from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
 
 _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder")
 
@@ -138,9 +137,10 @@ def parse_port_mm(value: object, source: str | Path, where: str) -> NDArray[np.f
         except (TypeError, ValueError):
             number = math.nan
         numbers.append(number)
-    if len(numbers) != 3 or not all(math.isfinite(n) for n in numbers):
-        raise InputError(f"{value!r}", "three finite numbers X,Y,Z in mm", source=source,
-                         where=where)
+    largest = float(m_to_mm(MAX_LENGTH_M))
+    if len(numbers) != 3 or not all(math.isfinite(n) and abs(n) <= largest for n in numbers):
+        raise InputError(f"{value!r}", "three finite numbers X,Y,Z in mm, each within "
+                         f"±{largest:.0f}", source=source, where=where)
     return mm_to_m(numbers)
 
 
@@ -151,10 +151,7 @@ def load_capture(path: str | Path) -> Capture:
         InputError: naming the key that is wrong.
     """
     path = Path(path)
-    try:
-        document = tomllib.loads(read_text(path, "a capture TOML file"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"invalid TOML ({exc})", "a capture TOML file", source=path) from None
+    document = read_toml(path, "a capture TOML file")
     unknown = sorted(set(document) - set(_KEYS))
     if unknown:
         raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(_KEYS), source=path)

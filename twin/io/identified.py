@@ -1,40 +1,66 @@
-"""Identified D-H errors read back from a calibration result (`twin calibrate --json`)."""
+"""Identified D-H errors read back from a calibration result (`twin calibrate --json`).
+
+A result is applied (exported, compensated) only where it can be right:
+
+- to the robot it was identified for: the result's ``robot`` (name and nominal D-H table) must
+  be the robot it is applied to, the table within :data:`ROBOT_TOLERANCE_MM` and
+  :data:`ROBOT_TOLERANCE_DEG` (a model file stores 1 µm and 1e-6 degree); a result written
+  before ``robot`` was recorded is applied with a warning;
+- within the search bounds every method keeps to (±5 mm, ±8°, :data:`twin.cable.DH_BOUND_M`
+  and :data:`twin.cable.DH_BOUND_RAD`), give or take :data:`BOUND_TOLERANCE_MM` and
+  :data:`BOUND_TOLERANCE_DEG` for the rounding of the file.
+"""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.cable import DH_BOUND_M, DH_BOUND_RAD
 from twin.errors import InputError, UnknownChoiceError
-from twin.io.truth import parse_delta, read_json
+from twin.io.paths import read_json
+from twin.io.truth import parse_dh_rows
+from twin.robot import RobotModel
+from twin.units import (
+    DH_IS_LENGTH,
+    DH_KEYS,
+    deg_to_rad,
+    dh_rows_to_display,
+    display_unit,
+    m_to_mm,
+    mm_to_m,
+    rad_to_deg,
+)
 
 RESULT_FILE = "a calibration result JSON file (twin calibrate --json)"
+ROBOT_TOLERANCE_MM = 1e-3
+"""Largest difference of a length of the nominal D-H tables that still names the same robot."""
+ROBOT_TOLERANCE_DEG = 1e-5
+"""Largest difference of an angle of the nominal D-H tables that still names the same robot."""
+BOUND_TOLERANCE_MM = 1e-3
+"""How far beyond ±5 mm an identified length error may lie (rounding), mm."""
+BOUND_TOLERANCE_DEG = 1e-3
+"""How far beyond ±8° an identified angle error may lie (rounding), degrees."""
 
 
-def load_result_delta(
-    path: str | Path, n_joints: int, method: str | None = None
-) -> NDArray[np.float64]:
-    """The identified D-H errors of a result file, shape (4, n), m and rad.
+class ResultWarning(UserWarning):
+    """A result that is applied, but could not be checked in full."""
 
-    A file of one result has ``"delta"`` at the top; a file written with ``--method all`` has
-    ``{"methods": {name: result}}`` and needs ``method`` to pick one.
 
-    Args:
-        path: The result JSON file.
-        n_joints: Number of joints n of the robot.
-        method: Name of the result to take from a multi-method file; must match the single
-            result's ``"method"`` if given for a single-result file.
-
-    Raises:
-        InputError: if the file is not a result, or ``method`` is missing or unknown.
-    """
-    document = read_json(path, RESULT_FILE)
+def _pick(document: Any, path: Path, method: str | None) -> tuple[dict[str, Any], str]:
+    """The one result of a file, and where it sits in the file."""
     if not isinstance(document, dict):
         raise InputError(f"a JSON {type(document).__name__}", "a JSON object", source=path)
-    methods = document.get("methods")
-    if isinstance(methods, dict):
+    if "methods" in document:
+        methods = document["methods"]
+        if not isinstance(methods, dict) or not all(isinstance(r, dict)
+                                                    for r in methods.values()):
+            raise InputError("a 'methods' that is not an object of results",
+                             '{"methods": {"lm": {result}, …}}', source=path, where="methods")
         if method is None:
             raise InputError(
                 "results of several methods (" + ", ".join(methods) + ")",
@@ -42,8 +68,89 @@ def load_result_delta(
             )
         if method not in methods:
             raise UnknownChoiceError("method", method, methods, source=str(path))
-        return parse_delta(methods[method], n_joints, path, where=f"methods.{method}.delta")
+        return methods[method], f"methods.{method}."
     if method is not None and document.get("method") != method:
         raise UnknownChoiceError("method", method, [str(document.get("method"))],
                                  source=str(path))
-    return parse_delta(document, n_joints, path)
+    return document, ""
+
+
+def check_result_robot(entry: dict[str, Any], robot: RobotModel, path: Path,
+                       where: str) -> None:
+    """Refuse a result identified for another robot than ``robot``.
+
+    Raises:
+        InputError: if the result's robot has another name or nominal table.
+    """
+    if "robot" not in entry:
+        warnings.warn(f"{path}: the result does not say which robot it was identified for (a "
+                      f"file written before twin recorded it); applied to {robot.name} "
+                      "unchecked", ResultWarning, stacklevel=2)
+        return
+    recorded = entry["robot"]
+    if not isinstance(recorded, dict) or not isinstance(recorded.get("name"), str):
+        raise InputError("a 'robot' without a name", '"robot": {"name": …, "dh": {…}}',
+                         source=path, where=f"{where}robot")
+    if recorded["name"] != robot.name:
+        raise InputError(f"a result identified for {recorded['name']!r}",
+                         f"a result for {robot.name!r}, the robot it is applied to (--robot)",
+                         source=path, where=f"{where}robot.name")
+    nominal = parse_dh_rows(recorded.get("dh"), robot.n_joints, path, f"{where}robot.dh", "dh")
+    tolerance = np.where(np.array(DH_IS_LENGTH)[:, None], mm_to_m(ROBOT_TOLERANCE_MM),
+                         deg_to_rad(ROBOT_TOLERANCE_DEG))
+    apart = np.abs(nominal - robot.dh) > tolerance
+    if np.any(apart):
+        row, joint = np.argwhere(apart)[0]
+        key = DH_KEYS[row]
+        raise InputError(
+            f"a result identified for another nominal table of {robot.name} ({key}{joint + 1} "
+            f"differs)", f"the nominal D-H table of the robot it is applied to, within "
+            f"{ROBOT_TOLERANCE_MM:g} mm and {ROBOT_TOLERANCE_DEG:g} deg",
+            source=path, where=f"{where}robot.dh.{key}")
+
+
+def check_bounds(delta: NDArray[np.float64], path: Path, where: str) -> None:
+    """Refuse D-H errors beyond the search bounds: no method returns them, so the file is not
+    what a calibration wrote.
+
+    Args:
+        delta: D-H errors, shape (4, n), m and rad.
+    """
+    bound = np.where(np.array(DH_IS_LENGTH)[:, None], DH_BOUND_M + mm_to_m(BOUND_TOLERANCE_MM),
+                     DH_BOUND_RAD + deg_to_rad(BOUND_TOLERANCE_DEG))
+    beyond = np.abs(delta) > bound
+    if np.any(beyond):
+        row, joint = np.argwhere(beyond)[0]
+        key = DH_KEYS[row]
+        value = dh_rows_to_display(delta)[key][joint]
+        raise InputError(
+            f"δ{key}{joint + 1} = {value:g} {display_unit(key)}", "D-H errors within the "
+            f"search bounds (±{float(m_to_mm(DH_BOUND_M)):g} mm, "
+            f"±{float(rad_to_deg(DH_BOUND_RAD)):g} deg)", source=path,
+            where=f"{where}delta.{key}")
+
+
+def load_result_delta(
+    path: str | Path, robot: RobotModel, method: str | None = None
+) -> NDArray[np.float64]:
+    """The identified D-H errors of a result file for ``robot``, shape (4, n), m and rad.
+
+    A file of one result has ``"delta"`` at the top; a file written with ``--method all`` has
+    ``{"methods": {name: result}}`` and needs ``method`` to pick one.
+
+    Args:
+        path: The result JSON file.
+        robot: The nominal robot the result is to be applied to.
+        method: Name of the result to take from a multi-method file; must match the single
+            result's ``"method"`` if given for a single-result file.
+
+    Raises:
+        InputError: if the file is not a result, ``method`` is missing or unknown, the result
+            was identified for another robot, or its errors lie beyond the search bounds.
+    """
+    path = Path(path)
+    entry, where = _pick(read_json(path, RESULT_FILE), path, method)
+    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta")
+    check_result_robot(entry, robot, path, where)
+    check_bounds(delta, path, where)
+    return delta

@@ -18,8 +18,9 @@ from numpy.typing import NDArray
 from twin.cable import Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
+from twin.io.paths import MAX_LINE_CHARS, read_text
 from twin.robot import RobotModel
-from twin.units import deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
+from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 
 JOINT_COLUMNS = tuple(f"q{i}" for i in range(1, 7))
 LENGTH_COLUMN = "length"
@@ -30,37 +31,32 @@ class UnitWarning(UserWarning):
     """Values that look like they are in the wrong unit."""
 
 
-def read_text(path: str | Path, what: str) -> str:
-    """The UTF-8 text of a user file, or an InputError saying why it cannot be read."""
-    path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError("no such file", what, source=path) from None
-    except IsADirectoryError:
-        raise InputError("a directory", what, source=path) from None
-    except OSError as exc:
-        raise InputError(f"an unreadable file ({exc.strerror})", what, source=path) from None
-    if b"\x00" in raw:
-        raise InputError("binary data", what, source=path)
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"bytes that are not UTF-8 at offset {exc.start}", what,
-                         source=path) from None
-
-
 def read_table(
-    path: str | Path, columns: tuple[str, ...], what: str
+    path: str | Path, columns: tuple[str, ...], what: str, *, stdin: bool = False,
+    journal: bool = False,
 ) -> tuple[NDArray[np.float64], list[int]]:
     """Read the named numeric columns of a CSV file.
 
-    Blank lines and lines starting with ``#`` are skipped; other columns are ignored.
+    Blank lines and lines starting with ``#`` are skipped; other columns are ignored. Lines are
+    at most :data:`~twin.io.paths.MAX_LINE_CHARS` long.
+
+    Args:
+        path: The file (``-``: standard input, if ``stdin``).
+        columns: The columns to read.
+        what: What the file should be, for messages.
+        stdin: Whether ``-`` means standard input.
+        journal: The command's own resumable file (see :func:`twin.io.paths.read_bytes`).
 
     Returns:
         ``(values, lines)``: values (rows, len(columns)) as written, and each row's line number.
     """
-    text = read_text(path, what)
+    text = read_text(path, what, stdin=stdin, journal=journal)
+    for number, line in enumerate(io.StringIO(text), start=1):
+        # Before the csv module, whose field limit would otherwise raise its own error.
+        if len(line.rstrip("\r\n")) > MAX_LINE_CHARS:
+            raise InputError(f"a line of {len(line.rstrip())} characters",
+                             f"{what} with lines of at most {MAX_LINE_CHARS}", source=path,
+                             where=f"line {number}")
     expected_header = "a header " + ",".join(columns)
     rows = [
         (number, fields)
@@ -107,21 +103,26 @@ def read_table(
     return values, lines
 
 
-def load_measurements(path: str | Path, robot: RobotModel | None = None) -> Measurements:
+def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
+                      stdin: bool = False) -> Measurements:
     """Read a measurement CSV (degrees, mm) into SI measurements.
 
     Args:
         path: The CSV file.
         robot: If given, every joint angle is checked against its limits.
+        stdin: Whether the path ``-`` means standard input.
 
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
-    values, lines = read_table(path, COLUMNS, "a measurement CSV (q1..q6 in deg, length in mm)")
+    values, lines = read_table(path, COLUMNS, "a measurement CSV (q1..q6 in deg, length in mm)",
+                               stdin=stdin)
     q_deg, length_mm = values[:, :6], values[:, 6]
-    bad = np.flatnonzero(length_mm <= 0)
+    longest_mm = float(m_to_mm(MAX_LENGTH_M))
+    bad = np.flatnonzero((length_mm <= 0) | (length_mm > longest_mm))
     if bad.size:
-        raise InputError(f"{length_mm[bad[0]]:g} mm", "a positive cable length in mm",
+        raise InputError(f"{length_mm[bad[0]]:g} mm",
+                         f"a positive cable length in mm, at most {longest_mm:g}",
                          source=path, where=f"line {lines[bad[0]]}, column length")
     if robot is not None:
         check_joint_limits(q_deg, lines, robot, path)
@@ -138,6 +139,9 @@ def load_plan(
     path: str | Path,
     robot: RobotModel | None = None,
     what: str = "a pose plan CSV (q1..q6 in degrees)",
+    *,
+    stdin: bool = False,
+    journal: bool = False,
 ) -> tuple[NDArray[np.float64], list[int]]:
     """Read joint angles: CSV with columns q1..q6 in degrees (a measurement file without
     ``length``: a pose plan, or a robot program); other columns are ignored.
@@ -146,6 +150,8 @@ def load_plan(
         path: The CSV file.
         robot: If given, every joint angle is checked against its limits.
         what: What the file is, for error messages.
+        stdin: Whether the path ``-`` means standard input.
+        journal: The command's own file (see :func:`twin.io.paths.read_bytes`).
 
     Returns:
         ``(q_rad, lines)``: joint angles, shape (N, 6), rad, and each pose's line in the file.
@@ -153,7 +159,7 @@ def load_plan(
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
-    q_deg, lines = read_table(path, JOINT_COLUMNS, what)
+    q_deg, lines = read_table(path, JOINT_COLUMNS, what, stdin=stdin, journal=journal)
     if robot is not None:
         check_joint_limits(q_deg, lines, robot, path)
     return deg_to_rad(q_deg), lines

@@ -1,4 +1,8 @@
-"""Calibration results as JSON (mm and degrees), written atomically."""
+"""Calibration results as JSON (mm and degrees), written atomically.
+
+Lengths and metrics are rounded to 1e-6 mm, angles to 1e-6 degree and the objective f (mm²) to
+6 significant digits: far below any noise, and the file reads back to exactly what it says.
+"""
 
 from __future__ import annotations
 
@@ -7,17 +11,37 @@ import math
 from pathlib import Path
 from typing import Any
 
+from numpy.typing import ArrayLike
+
 from twin.calibration import CalibrationResult
 from twin.identifiability import Identifiability
 from twin.io.atomic import write_atomic
 from twin.metrics import Metrics
-from twin.units import dh_rows_to_display, m_to_mm
+from twin.robot import RobotModel
+from twin.units import (
+    FILE_DEG_DECIMALS,
+    RESULT_MM_DECIMALS,
+    dh_rows_rounded,
+    m_to_mm,
+    rounded,
+    significant,
+)
 
 MM2_PER_M2 = float(m_to_mm(1.0)) ** 2
 
 
+def _mm(values_m: ArrayLike) -> list[float]:
+    return rounded(m_to_mm(values_m), RESULT_MM_DECIMALS)
+
+
 def _metrics_mm(m: Metrics) -> dict[str, float]:
-    return {key: float(m_to_mm(value)) for key, value in m._asdict().items()}
+    return {key: _mm(value)[0] for key, value in m._asdict().items()}
+
+
+def robot_to_dict(robot: RobotModel) -> dict[str, Any]:
+    """The ``robot`` JSON object: the name and nominal D-H table (mm, degrees) a result was
+    identified for, so that it is never applied to another robot."""
+    return {"name": robot.name, "dh": dh_rows_rounded(robot.dh, RESULT_MM_DECIMALS)}
 
 
 def identifiability_to_dict(identifiability: Identifiability, at: str) -> dict[str, Any]:
@@ -38,6 +62,11 @@ def _finite_or_none(values: list[float]) -> list[float | None]:
     return [v if math.isfinite(v) else None for v in values]
 
 
+def _sigma_display(sigma_dh: Any) -> dict[str, list[float]]:
+    """Per-parameter σ, shape (4, n), as rounded mm and degrees (nan stays nan)."""
+    return dh_rows_rounded(sigma_dh, RESULT_MM_DECIMALS, FILE_DEG_DECIMALS)
+
+
 def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
     """``identifiability`` (nominal and identified), ``sigma`` (null: not identifiable), mm/deg."""
     fields: dict[str, Any] = {}
@@ -52,16 +81,14 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         n_dh = result.model.n_dh
         sigma_dh = uncertainty.sigma[:n_dh].reshape(result.model.dh.shape)
         fields["sigma"] = {
-            key: _finite_or_none(values) for key, values in dh_rows_to_display(sigma_dh).items()
+            key: _finite_or_none(values) for key, values in _sigma_display(sigma_dh).items()
         }
         if result.model.estimate_port:
-            fields["sigma"]["port"] = _finite_or_none(
-                m_to_mm(uncertainty.sigma[n_dh : n_dh + 3]).tolist()
-            )
+            fields["sigma"]["port"] = _finite_or_none(_mm(uncertainty.sigma[n_dh : n_dh + 3]))
         if result.model.estimate_offset:
-            fields["sigma"]["offset"] = _finite_or_none([float(m_to_mm(uncertainty.sigma[-1]))])[0]
-        fields["noise_sigma"] = float(m_to_mm(uncertainty.noise_sigma_m))
-        fields["predicted_flange_rms"] = float(m_to_mm(uncertainty.flange_rms_m))
+            fields["sigma"]["offset"] = _finite_or_none(_mm(uncertainty.sigma[-1]))[0]
+        fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
+        fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
     return fields
 
 
@@ -71,12 +98,13 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
     document: dict[str, Any] = {
         "method": result.method,
         "seed": result.seed,
-        "delta": dh_rows_to_display(result.delta),
+        "robot": robot_to_dict(result.robot),
+        "delta": dh_rows_rounded(result.delta, RESULT_MM_DECIMALS),
     }
     if result.model.estimate_port:
-        document["port"] = m_to_mm(result.port_m).tolist()
+        document["port"] = _mm(result.port_m)
     if result.model.estimate_offset:
-        document["offset"] = float(m_to_mm(result.offset_m))
+        document["offset"] = _mm(result.offset_m)[0]
     document.update(_uncertainty_fields(result))
     document.update(
         {
@@ -98,9 +126,9 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
             "history": [
                 {
                     "iteration": record.iteration,
-                    "f": record.f_m2 * MM2_PER_M2,
-                    "rmse": float(m_to_mm(record.train_rmse_m)),
-                    "validation_rmse": float(m_to_mm(record.validation_rmse_m)),
+                    "f": significant(record.f_m2 * MM2_PER_M2),
+                    "rmse": _mm(record.train_rmse_m)[0],
+                    "validation_rmse": _mm(record.validation_rmse_m)[0],
                 }
                 for record in solver.history
             ],

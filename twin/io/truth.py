@@ -1,12 +1,12 @@
 """Ground-truth files (`truth.json`) written by the twin beside a simulated capture.
 
 The D-H error block ``"delta"`` is the same in a truth file and in a calibration result
-(`twin calibrate --json`); :func:`read_json` and :func:`parse_delta` read it for both.
+(`twin calibrate --json`); :func:`parse_delta` reads it for both.
 """
 
 from __future__ import annotations
 
-import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -14,21 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError
-from twin.io.measurements import read_text
+from twin.io.paths import read_json
 from twin.units import DH_KEYS, dh_rows_from_display
-
-
-def read_json(path: str | Path, what: str) -> Any:
-    """The parsed JSON document of a user file.
-
-    Raises:
-        InputError: if the file cannot be read or is not JSON.
-    """
-    try:
-        return json.loads(read_text(path, what))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"invalid JSON ({exc.msg} at line {exc.lineno})", what,
-                         source=path) from None
 
 
 def parse_delta(
@@ -45,21 +32,34 @@ def parse_delta(
     Raises:
         InputError: if there is no ``delta`` with lists a, d (mm), alpha, theta (deg) of n numbers.
     """
-    delta = document.get("delta") if isinstance(document, dict) else None
-    if not isinstance(delta, dict) or any(
-        not isinstance(delta.get(key), list) or len(delta[key]) != n_joints
-        or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in delta[key])
+    block = document.get("delta") if isinstance(document, dict) else None
+    return parse_dh_rows(block, n_joints, source, where, "delta")
+
+
+def parse_dh_rows(
+    block: Any, n_joints: int, source: str | Path, where: str, name: str
+) -> NDArray[np.float64]:
+    """A D-H block ``{"a": [mm…], "d": [mm…], "alpha": [deg…], "theta": [deg…]}`` of n finite
+    numbers each, as a (4, n) array in m and rad.
+
+    Raises:
+        InputError: naming ``where`` if the block has another shape or a value is not finite.
+    """
+    expected = f"{name!r} with lists a, d (mm), alpha, theta (deg) of {n_joints} numbers"
+    if not isinstance(block, dict) or any(
+        not isinstance(block.get(key), list) or len(block[key]) != n_joints
+        or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in block[key])
         for key in DH_KEYS
     ):
-        raise InputError(
-            "no valid 'delta'", f"'delta' with lists a, d (mm), alpha, theta (deg) of {n_joints}",
-            source=source, where=where,
-        )
-    rows = dh_rows_from_display(delta)
-    if not np.all(np.isfinite(rows)):
-        raise InputError("a non-finite value in 'delta'", "finite numbers", source=source,
+        raise InputError(f"no valid {name!r}", expected, source=source, where=where)
+    try:
+        display = {key: [float(v) for v in block[key]] for key in DH_KEYS}
+    except OverflowError:
+        display = {key: [math.inf] for key in DH_KEYS}
+    if not all(math.isfinite(v) for values in display.values() for v in values):
+        raise InputError(f"a non-finite value in {name!r}", "finite numbers", source=source,
                          where=where)
-    return rows
+    return dh_rows_from_display(display)
 
 
 def load_truth_delta(path: str | Path, n_joints: int) -> NDArray[np.float64]:

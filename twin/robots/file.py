@@ -7,6 +7,7 @@ line per write. The capture waits for the row of each pose to appear, then reads
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from numpy.typing import NDArray
 
 from twin.errors import InputError
 from twin.io.measurements import JOINT_COLUMNS, read_table
+from twin.io.paths import read_bytes
 from twin.robots.base import RobotSource
 from twin.units import deg_to_rad
 
@@ -26,22 +28,23 @@ class FileRobot(RobotSource):
 
     Args:
         path: The controller's CSV log.
-        wait_s: How long to wait for a pose's row to appear, s.
+        wait_s: How long to wait for a pose's row to appear, s; None waits until it does.
         poll_s: How often to look again, s.
     """
 
-    def __init__(self, path: str | Path, wait_s: float = 0.0, poll_s: float = 0.2) -> None:
+    def __init__(self, path: str | Path, wait_s: float | None = 0.0,
+                 poll_s: float = 0.2) -> None:
         self.path, self.wait_s, self.poll_s = Path(path), wait_s, poll_s
 
     def _logged(self) -> dict[int, NDArray[np.float64]]:
         """Pose number -> joint angles in degrees, shape (n,); empty if there is no log yet."""
         if not self.path.exists():
             return {}
-        text = self.path.read_text(encoding="utf-8", errors="replace").splitlines()
-        if sum(1 for line in text if line.strip() and not line.lstrip().startswith("#")) < 2:
+        what = "a controller log CSV (pose, q1..q6 in deg)"
+        text = read_bytes(self.path, what).splitlines()
+        if sum(1 for line in text if line.strip() and not line.lstrip().startswith(b"#")) < 2:
             return {}  # the controller has not logged a pose yet
-        values, lines = read_table(self.path, (POSE_COLUMN, *JOINT_COLUMNS),
-                                   "a controller log CSV (pose, q1..q6 in deg)")
+        values, lines = read_table(self.path, (POSE_COLUMN, *JOINT_COLUMNS), what)
         logged: dict[int, NDArray[np.float64]] = {}
         for row, line in zip(values, lines, strict=True):
             pose = int(row[0])
@@ -54,7 +57,7 @@ class FileRobot(RobotSource):
     def move_to(self, pose: int, n_poses: int, target_q_rad: NDArray[np.float64]
                 ) -> NDArray[np.float64]:
         """The logged angles of this pose, waiting up to ``wait_s`` for them."""
-        deadline = time.monotonic() + self.wait_s
+        deadline = math.inf if self.wait_s is None else time.monotonic() + self.wait_s
         while (q_deg := self._logged().get(pose)) is None:
             if time.monotonic() >= deadline:
                 raise InputError(f"no row for pose {pose}/{n_poses}",

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
+from twin.io.paths import read_text
 from twin.robots.base import RobotSource
 from twin.units import deg_to_rad, rad_to_deg
 
@@ -62,10 +63,10 @@ def read_pose(path: str | Path) -> CommandedPose | None:
     Raises:
         InputError: if the file is not a pose file.
     """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
+    if not Path(path).exists():
         return None
+    text = read_text(path, "a pose file written by twin capture --robot-source sim",
+                     journal=True)
     try:
         document = json.loads(text)
         return CommandedPose(int(document["pose"]), deg_to_rad(document["q_deg"]),

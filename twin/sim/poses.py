@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.errors import InputError, TwinError
+from twin.errors import InputError
 from twin.io.measurements import load_plan
 from twin.kinematics import flange_position
 from twin.sim.twin import Twin
@@ -78,16 +78,18 @@ def sample_poses(
     Candidates are drawn in batches and filtered; the accepted ones keep their draw order.
 
     Raises:
-        TwinError: if the constraints leave (almost) no usable pose.
+        InputError: if the constraints leave (almost) no usable pose (a user's setting: the
+            port, the cable range, the flange height); the caller names its source.
     """
     robot = twin.robot
     accepted: list[Array] = []
     found = drawn = 0
     while found < count:
         if drawn >= MAX_DRAWS_PER_POSE * count:
-            raise TwinError(
-                f"only {found} of {count} poses satisfy the constraints after {drawn} draws; "
-                "widen the cable range, move the port or lower the flange height"
+            raise InputError(
+                f"only {found} of {count} poses that satisfy the constraints after {drawn} "
+                "draws", "constraints that leave usable poses: widen the cable range, move "
+                "the port or lower the flange height"
             )
         batch = rng.uniform(robot.lower_rad, robot.upper_rad, size=(2 * count, robot.n_joints))
         drawn += len(batch)

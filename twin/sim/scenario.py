@@ -63,7 +63,6 @@ and what was expected.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -71,8 +70,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.cable import MAX_POSES
 from twin.errors import InputError
-from twin.io.measurements import read_text
+from twin.io.paths import read_toml
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.sim.joint_errors import JointErrors
 from twin.sim.noise import NoiseModel
@@ -229,10 +229,13 @@ class _Table:
             raise self.error(key, repr(value), expected)
         return float(value)
 
-    def integer(self, key: str, default: int | None = None, *, minimum: int = 0) -> int:
+    def integer(self, key: str, default: int | None = None, *, minimum: int = 0,
+                maximum: int | None = None) -> int:
         value = self.values.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.error(key, repr(value), f"an integer >= {minimum}")
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum \
+                or (maximum is not None and value > maximum):
+            within = f"in {minimum}..{maximum}" if maximum is not None else f">= {minimum}"
+            raise self.error(key, repr(value), f"an integer {within}")
         return int(value)
 
     def boolean(self, key: str, default: bool) -> bool:
@@ -305,7 +308,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     plan = folder / poses.text("plan") if poses.has("plan") else None
     if plan is None:
         poses.required("count", "the number of poses (or a plan)")
-    count = poses.integer("count", minimum=1) if poses.has("count") else 0
+    count = poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") else 0
 
     encoder = tables["encoder"]
     cable_range = mm_to_m(encoder.vector("range_mm", 2, minimum=0.0, default=[50.0, 1500.0]))
@@ -416,8 +419,4 @@ def load_scenario(path: str | Path) -> Scenario:
         InputError: if the file is missing, not TOML, or not a valid scenario.
     """
     path = Path(path)
-    try:
-        document = tomllib.loads(read_text(path, "a scenario TOML file"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"invalid TOML ({exc})", "a scenario TOML file", source=path) from None
-    return parse_scenario(document, path)
+    return parse_scenario(read_toml(path, "a scenario TOML file"), path)

@@ -138,8 +138,7 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
         seed: Seed of every random draw; None uses the scenario's.
 
     Raises:
-        InputError: if a pose plan is invalid.
-        TwinError: if the pose constraints leave no usable pose.
+        InputError: if a pose plan is invalid, or the pose constraints leave no usable pose.
     """
     seed = scenario.seed if seed is None else int(seed)
     rng = np.random.default_rng(seed)
@@ -161,7 +160,11 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
                              source=scenario.pose_plan)
         q = q[: scenario.pose_count] if scenario.pose_count else q
     else:
-        q = sample_poses(twin, scenario.pose_count, scenario.constraints, rng)
+        try:
+            q = sample_poses(twin, scenario.pose_count, scenario.constraints, rng)
+        except InputError as exc:
+            raise InputError(exc.found, exc.expected, source=scenario.source,
+                             where="[port], [poses], [encoder] range_mm") from None
     joint_sigma = scenario.noise.joint_sigma_rad(true_robot.dh, q)
     jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
     rest = twin.at_rest(q + jitter, approach_directions(q))

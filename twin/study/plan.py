@@ -18,13 +18,12 @@ from __future__ import annotations
 
 import copy
 import hashlib
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from twin.errors import InputError
-from twin.io.measurements import read_text
+from twin.io.paths import read_bytes, read_toml
 from twin.robot import robot_to_toml
 from twin.sim.scenario import Scenario, parse_scenario
 from twin.solvers import SOLVERS, get_solver
@@ -149,10 +148,7 @@ def load_study(path: str | Path, *, trials: int | None = None,
         InputError: naming the file and key that are wrong.
     """
     path = Path(path)
-    try:
-        document = tomllib.loads(read_text(path, "a scenario TOML file"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"invalid TOML ({exc})", "a scenario TOML file", source=path) from None
+    document = read_toml(path, "a scenario TOML file")
     if stop is not None:
         calibration = document.setdefault("calibration", {})
         if isinstance(calibration, dict):
@@ -195,7 +191,8 @@ def load_study(path: str | Path, *, trials: int | None = None,
     # Files the scenario names are part of it: a changed robot model or pose plan is a change.
     identity["files"] = {"robot": _digest(robot_to_toml(base.robot).encode("utf-8"))}
     if base.pose_plan is not None:
-        identity["files"]["poses.plan"] = _digest(base.pose_plan.read_bytes()) \
+        identity["files"]["poses.plan"] = _digest(
+            read_bytes(base.pose_plan, "a pose plan CSV")) \
             if base.pose_plan.is_file() else "missing"
     return StudyPlan(source=path, document=identity, cases=tuple(cases), methods=chosen,
                      trials=n_trials, workspace_poses=workspace)

@@ -24,7 +24,8 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from twin.errors import InputError
-from twin.io.atomic import write_atomic
+from twin.io.atomic import WRITE_EXPECTED, write_atomic
+from twin.io.paths import os_error, read_json, read_text
 
 RESULTS = "results.csv"
 DETAILS = "trials.jsonl"
@@ -112,10 +113,18 @@ def _parse(column: str, text: str) -> Any:
 
 
 def _append_durably(path: Path, text: str) -> None:
-    with path.open("a", encoding="utf-8") as handle:
-        handle.write(text)
-        handle.flush()
-        os.fsync(handle.fileno())
+    try:
+        with path.open("a", encoding="utf-8") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+    except OSError as exc:
+        raise os_error(path, "appending to it", exc, WRITE_EXPECTED) from None
+
+
+def _read(path: Path, what: str) -> str:
+    return read_text(path, f"{what} of an earlier `twin study` run, or a new --out folder",
+                     journal=True)
 
 
 class StudyStore:
@@ -132,7 +141,10 @@ class StudyStore:
         self.folder = Path(folder)
         self.methods = tuple(manifest["methods"])
         self.fingerprint = fingerprint(manifest["scenario"], self.methods)
-        self.folder.mkdir(parents=True, exist_ok=True)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise os_error(self.folder, "creating it", exc, "a folder to write into") from None
         manifest_path = self.folder / MANIFEST
         if manifest_path.exists():
             self._check_same(manifest_path, manifest, source)
@@ -154,12 +166,11 @@ class StudyStore:
         return self.folder / DETAILS
 
     def _check_same(self, path: Path, manifest: Mapping[str, Any], source: str | Path) -> None:
-        try:
-            stored = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"an unreadable {MANIFEST} ({exc})",
-                             "the manifest of an earlier `twin study` run, or a new --out folder",
-                             source=path) from None
+        stored = read_json(path, f"the {MANIFEST} of an earlier `twin study` run, or a new --out "
+                           "folder", journal=True)
+        if not isinstance(stored, dict):
+            raise InputError(f"a JSON {type(stored).__name__}", f"the {MANIFEST} of an earlier "
+                             "`twin study` run, or a new --out folder", source=path)
         if stored.get("fingerprint") == self.fingerprint:
             return
         old = {"scenario": stored.get("scenario"), "methods": sorted(stored.get("methods", []))}
@@ -193,7 +204,7 @@ class StudyStore:
         if not self.results_path.exists():
             write_atomic(self.results_path, ",".join(COLUMNS) + "\n")
             return {}, False
-        text = self.results_path.read_text(encoding="utf-8")
+        text = _read(self.results_path, f"the {RESULTS}")
         lines = text.splitlines(keepends=True)
         dirty = bool(lines) and not lines[-1].endswith("\n")
         if dirty:
@@ -202,11 +213,21 @@ class StudyStore:
             raise InputError(f"{RESULTS} with another header",
                              f"the header {','.join(COLUMNS)}", source=self.results_path)
         rows: dict[TrialKey, list[dict[str, Any]]] = {}
-        for number, values in enumerate(csv.reader(lines[1:]), start=2):
+        try:
+            records = list(csv.reader(lines[1:]))
+        except csv.Error as exc:
+            raise InputError(f"a line that is not CSV ({exc})", "the rows an earlier run wrote",
+                             source=self.results_path) from None
+        for number, values in enumerate(records, start=2):
             if len(values) != len(COLUMNS):
                 raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}",
                                  source=self.results_path, where=f"line {number}")
-            row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
+            try:
+                row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
+            except ValueError as exc:
+                raise InputError(f"a value that is not a number ({exc})", "the rows an earlier "
+                                 "run wrote", source=self.results_path,
+                                 where=f"line {number}") from None
             rows.setdefault((row["case"], row["trial"]), []).append(row)
         return rows, dirty
 
@@ -215,12 +236,13 @@ class StudyStore:
             return {}, False
         details: dict[TrialKey, dict[str, Any]] = {}
         dirty = False
-        for line in self.details_path.read_text(encoding="utf-8").splitlines(keepends=True):
+        for line in _read(self.details_path, f"the {DETAILS}").splitlines(keepends=True):
             try:
                 detail: Any = json.loads(line) if line.endswith("\n") else None
-            except json.JSONDecodeError:
+            except (json.JSONDecodeError, RecursionError):
                 detail = None
-            key = (detail["case"], detail["trial"]) if isinstance(detail, dict) else None
+            key = (detail.get("case"), detail.get("trial")) if isinstance(detail, dict) \
+                else None
             if key is None or key not in finished or key in details:
                 dirty = True
                 continue

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.cable import Measurements
+from twin.io.paths import OutputFile
 
 if TYPE_CHECKING:
     from twin.robot import RobotModel
@@ -73,7 +74,7 @@ def _port(text: str) -> int:
 def add_rerun_flags(parser: argparse.ArgumentParser) -> None:
     """Add ``--rerun-save``, ``--rerun-spawn``, ``--rerun-serve`` and their port options."""
     group = parser.add_argument_group("Rerun visualisation (see docs/rerun.md)")
-    group.add_argument("--rerun-save", type=Path, metavar="FILE.rrd",
+    group.add_argument("--rerun-save", type=OutputFile, metavar="FILE.rrd",
                        help="write a Rerun recording; open it later with `rerun FILE.rrd`")
     group.add_argument("--rerun-spawn", action="store_true",
                        help="stream to the native Rerun viewer (needs a display; without one "

@@ -11,13 +11,43 @@ from __future__ import annotations
 
 import importlib
 import logging
+import socket
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
+from urllib.parse import urlsplit
 
 from twin.errors import InputError, TwinError
 
 CONNECT_TIMEOUT = "20s"
 TRIAL_MODULE = "twin.study.trial"
+SCHEMES = ("tcp", "tls", "ws", "wss")
+"""Dask comm protocols a remote scheduler may listen on."""
+PROBE_TIMEOUT_S = 5.0
+"""How long :func:`reach_scheduler` waits for the scheduler's port to answer, s."""
+
+
+def reach_scheduler(address: str, timeout_s: float = PROBE_TIMEOUT_S) -> None:
+    """Check that ``address`` is a scheduler URL and that something listens there, before a
+    study creates its folder (a TCP connection; Dask itself then says if it is a scheduler).
+
+    Raises:
+        InputError: if the address is not ``SCHEME://HOST:PORT`` or nothing answers there.
+    """
+    expected = "the address of a running dask scheduler, tcp://HOST:PORT"
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if parts.scheme not in SCHEMES or not parts.hostname or port is None \
+            or parts.path not in ("", "/") or parts.query:
+        raise InputError(f"{address!r}", expected, source="--scheduler")
+    try:
+        socket.create_connection((parts.hostname, port), timeout=timeout_s).close()
+    except OSError as exc:
+        reason = exc.strerror or exc.__class__.__name__
+        raise InputError(f"no scheduler reachable at {address} ({reason})", expected,
+                         source="--scheduler") from None
 
 
 class DaskCluster:

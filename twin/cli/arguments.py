@@ -1,0 +1,116 @@
+"""The parser every subcommand shares, and the types of its numeric flags.
+
+A bad flag is one line on stderr, like any other user mistake::
+
+    twin: error: --seed: found 'abc', expected an integer in 0..9223372036854775807
+
+Each numeric flag is checked where it is parsed: finite, in its range, counts with an upper
+limit that keeps a typo (``--poses 1e9``) from exhausting memory, times finite or an explicit
+``none`` where waiting for ever makes sense. Paths say whether they are read or written
+(:class:`~twin.io.paths.InputPath`, :class:`~twin.io.paths.OutputFile`,
+:class:`~twin.io.paths.OutputFolder`), so that the CLI checks every output before any work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+from collections.abc import Callable
+from typing import NoReturn
+
+SEED_MAX = 2**63 - 1
+"""Largest seed (a TOML integer holds no more)."""
+MAX_SECONDS = 86400.0
+"""Longest time limit or pause a flag may set: a day."""
+NONE = "none"
+"""The word that turns a time limit off."""
+
+
+class UsageError(Exception):
+    """A flag the parser refused; the CLI prints it as one line and exits with code 2."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse, with errors raised as :class:`UsageError` (one line) instead of the usage."""
+
+    def error(self, message: str) -> NoReturn:
+        """Raise the message in the form ``--flag: found X, expected Y``."""
+        flag = re.match(r"argument ([^:]+): (.*)", message, flags=re.S)
+        if flag:
+            raise UsageError(f"{flag[1]}: {flag[2]}")
+        raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def integer(minimum: int, maximum: int) -> Callable[[str], int]:
+    """An argparse type: a whole number in ``minimum..maximum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = minimum - 1
+        if not minimum <= value <= maximum:
+            raise argparse.ArgumentTypeError(
+                f"found {text!r}, expected an integer in {minimum}..{maximum}")
+        return value
+
+    return parse
+
+
+seed = integer(0, SEED_MAX)
+"""An argparse type: a seed, a non-negative integer."""
+
+
+def number(minimum: float, maximum: float, *, above: bool = False) -> Callable[[str], float]:
+    """An argparse type: a finite number in ``[minimum, maximum]`` (``(minimum, maximum]`` if
+    ``above``)."""
+    low = "(" if above else "["
+
+    def parse(text: str) -> float:
+        value = _number(text)
+        if not (minimum < value if above else minimum <= value) or not value <= maximum:
+            raise argparse.ArgumentTypeError(
+                f"found {text!r}, expected a number in {low}{minimum:g}, {maximum:g}]")
+        return value
+
+    return parse
+
+
+def share(text: str) -> float:
+    """An argparse type: a share strictly between 0 and 1."""
+    value = _number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"found {text!r}, expected a share in (0, 1)")
+    return value
+
+
+def seconds(*, zero: bool) -> Callable[[str], float | None]:
+    """An argparse type: a time limit in s, finite and at most :data:`MAX_SECONDS` (above 0
+    unless ``zero``), or ``none`` for no limit."""
+    within = number(0.0, MAX_SECONDS, above=not zero)
+
+    def parse(text: str) -> float | None:
+        if text.strip().lower() == NONE:
+            return None
+        try:
+            return within(text)
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(
+                f"found {text!r}, expected a time in {'[' if zero else '('}0, {MAX_SECONDS:g}] "
+                f"s, or {NONE} for no limit") from None
+
+    return parse
+
+
+sigma_mm = number(0.0, 1000.0, above=True)
+"""An argparse type: a length noise 1σ in mm."""
+pause = number(0.0, MAX_SECONDS)
+"""An argparse type: a pause in s, finite, at most :data:`MAX_SECONDS`."""
