@@ -72,7 +72,7 @@ def format_stop(result: CalibrationResult) -> list[str]:
     held = result.at_bounds
     if held:
         lines.append("  at a bound of the search box: " + ", ".join(held)
-                     + " (the truth may lie outside it)")
+                     + " (the truth may lie outside the box, or the data barely see it)")
     return lines
 
 
