@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from twin.cli import (
     calibrate,
     capture,
+    check,
     compensate,
     export,
     identify,
@@ -24,7 +25,7 @@ from twin.cli import (
 )
 from twin.errors import InputError, TwinError
 
-SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, capture,
+SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, check, capture,
                virtual_encoder)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

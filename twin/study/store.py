@@ -25,6 +25,7 @@ from typing import Any, NamedTuple
 
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
+from twin.io.measurements import read_text
 
 RESULTS = "results.csv"
 DETAILS = "trials.jsonl"
@@ -111,6 +112,47 @@ def _parse(column: str, text: str) -> Any:
     return float(text)
 
 
+def parse_results(text: str, source: str | Path) -> tuple[dict[TrialKey, list[dict[str, Any]]],
+                                                         bool]:
+    """The rows of a `results.csv` text, grouped by trial, and whether its last line was torn
+    (and left out).
+
+    Raises:
+        InputError: for another header or a line with the wrong number of fields.
+    """
+    lines = text.splitlines(keepends=True)
+    torn = bool(lines) and not lines[-1].endswith("\n")
+    if torn:
+        lines = lines[:-1]
+    if not lines or lines[0].strip() != ",".join(COLUMNS):
+        raise InputError(f"{RESULTS} with another header", f"the header {','.join(COLUMNS)}",
+                         source=source)
+    rows: dict[TrialKey, list[dict[str, Any]]] = {}
+    for number, values in enumerate(csv.reader(lines[1:]), start=2):
+        if len(values) != len(COLUMNS):
+            raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}", source=source,
+                             where=f"line {number}")
+        try:
+            row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
+        except ValueError as exc:
+            raise InputError(f"an unreadable value ({exc})", "the numbers `twin study` writes",
+                             source=source, where=f"line {number}") from None
+        rows.setdefault((row["case"], row["trial"]), []).append(row)
+    return rows, torn
+
+
+def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
+    """The finished rows of another study's folder, grouped by trial, read only: a torn last
+    line is left out and nothing is repaired or written.
+
+    Raises:
+        InputError: if the folder has no readable `results.csv`.
+    """
+    path = Path(folder) / RESULTS
+    text = read_text(path, f"the {RESULTS} of an earlier `twin study` or `twin check` run")
+    return parse_results(text, path)[0]
+
+
 def _append_durably(path: Path, text: str) -> None:
     with path.open("a", encoding="utf-8") as handle:
         handle.write(text)
@@ -193,22 +235,7 @@ class StudyStore:
         if not self.results_path.exists():
             write_atomic(self.results_path, ",".join(COLUMNS) + "\n")
             return {}, False
-        text = self.results_path.read_text(encoding="utf-8")
-        lines = text.splitlines(keepends=True)
-        dirty = bool(lines) and not lines[-1].endswith("\n")
-        if dirty:
-            lines = lines[:-1]
-        if not lines or lines[0].strip() != ",".join(COLUMNS):
-            raise InputError(f"{RESULTS} with another header",
-                             f"the header {','.join(COLUMNS)}", source=self.results_path)
-        rows: dict[TrialKey, list[dict[str, Any]]] = {}
-        for number, values in enumerate(csv.reader(lines[1:]), start=2):
-            if len(values) != len(COLUMNS):
-                raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}",
-                                 source=self.results_path, where=f"line {number}")
-            row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
-            rows.setdefault((row["case"], row["trial"]), []).append(row)
-        return rows, dirty
+        return parse_results(self.results_path.read_text(encoding="utf-8"), self.results_path)
 
     def _read_details(self, finished: set[TrialKey]) -> tuple[dict[TrialKey, dict[str, Any]], bool]:
         if not self.details_path.exists():
