@@ -40,7 +40,8 @@ def add_parser(subparsers: Any) -> None:
         "the same seeds, trial by trial (one-sided Wilcoxon signed-rank). Exit code 0 when all "
         "pass, 1 when one fails or regressed, 2 on a user error. See docs/studies.md, Checks.",
     )
-    add_study_arguments(parser)
+    add_study_arguments(parser, "scenario file, with an [expect] table (unless --expect) and "
+                        "an optional [study] table")
     parser.add_argument("--expect", type=Path, metavar="FILE.toml",
                         help="expectations file with an [expect] table; replaces the scenario's")
     parser.add_argument("--junit", type=Path, metavar="FILE.xml",

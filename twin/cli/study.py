@@ -28,10 +28,11 @@ def _positive(text: str) -> int:
     return value
 
 
-def add_study_arguments(parser: argparse.ArgumentParser) -> None:
+def add_study_arguments(parser: argparse.ArgumentParser,
+                        scenario_help: str = "scenario file, with an optional [study] table"
+                        ) -> None:
     """The scenario, the study folder, trials, methods and where trials run (also `twin check`)."""
-    parser.add_argument("scenario", type=Path, metavar="SCENARIO.toml",
-                        help="scenario file, with an optional [study] table")
+    parser.add_argument("scenario", type=Path, metavar="SCENARIO.toml", help=scenario_help)
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="study folder (created; resumed if it holds this study)")
     parser.add_argument("--trials", type=_positive, metavar="N",

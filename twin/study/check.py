@@ -137,9 +137,10 @@ class CheckReport:
         n = max((c.trials for c in self.comparisons), default=0)
         lines = [f"baseline {self.baseline}: {n} paired trials, one-sided Wilcoxon signed-rank "
                  "test that this study is worse",
-                 f"regression: p < {SIGNIFICANCE:g} and worse by more than {self.tolerance:.0%} "
-                 "(median paired difference / the baseline's median)"]
-        few = [c for c in self.comparisons if c.changed < MIN_CHANGED]
+                 f"regression: p < {SIGNIFICANCE:g} and worse by more than "
+                 f"{100 * self.tolerance:g}% (median paired difference / the baseline's median)"]
+        # Nothing changed is a definite answer; a few changes are not.
+        few = [c for c in self.comparisons if 0 < c.changed < MIN_CHANGED]
         if few:
             lines.append(
                 f"note: {len(few)} of {len(self.comparisons)} comparisons have fewer than "
