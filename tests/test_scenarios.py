@@ -64,6 +64,7 @@ def _document(**changes: object) -> dict:
         ({"physics__compliance": False}, "[physics] stiffness_nm_per_rad", "compliance = false"),
         ({"calibration__train_fraction": 1.0}, "[calibration] train_fraction", "1.0"),
         ({"study": 3}, "[study]", "3"),
+        ({"expect": ["lm"]}, "[expect]", "['lm']"),
     ],
 )
 def test_mistakes_name_file_key_and_expectation(changes: dict, where: str, found: str) -> None:
@@ -76,11 +77,12 @@ def test_mistakes_name_file_key_and_expectation(changes: dict, where: str, found
     assert "expected" in message
 
 
-def test_study_table_is_passed_through_unread() -> None:
-    """A [study] table with any content is kept as written for twin.study."""
+def test_study_and_expect_tables_are_passed_through_unread() -> None:
+    """[study] and [expect] tables with any content are kept as written for twin.study."""
     study = {"trials": 50, "methods": ["lm", "m9"], "sweep": {"encoder.sigma_mm": [0.001, 0.01]}}
-    scenario = parse_scenario(_document(study=study), PAPER)
-    assert scenario.study == study
+    expect = {"lm": ["flange_error_mm p95 <= 0.03"], "*": ["anything, read by twin check"]}
+    scenario = parse_scenario(_document(study=study, expect=expect), PAPER)
+    assert scenario.study == study and scenario.expect == expect
 
 
 def test_missing_file_and_bad_toml_are_input_errors(tmp_path: Path) -> None:

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from twin.cli import (
     calibrate,
     capture,
+    check,
     compensate,
     export,
     identify,
@@ -31,7 +32,7 @@ from twin.cli.arguments import ArgumentParser, UsageError
 from twin.errors import InputError, TwinError
 from twin.io.paths import check_command_paths, command_scope
 
-SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, capture,
+SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, check, capture,
                virtual_encoder)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

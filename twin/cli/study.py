@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from twin.cli.arguments import integer
 from twin.errors import InputError
@@ -14,6 +14,9 @@ from twin.stopping import PROTOCOLS
 from twin.study.executors.cluster import reach_scheduler
 from twin.viz import add_rerun_flags, open_from_args
 
+if TYPE_CHECKING:
+    from twin.study.executors import Executor
+
 TRIAL_REPORT = "study/trial"
 """Rerun entity of each trial's table, on the ``case`` and ``trial`` timelines."""
 
@@ -22,19 +25,12 @@ MAX_TRIALS = 100_000
 MAX_WORKERS = 1024
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "study",
-        help="Monte-Carlo study of a scenario: every method on the same seeded trials",
-        description="Simulate N seeded trials of SCENARIO (perturbation, poses, noise), run every "
-        "method on each trial's same data and split, append the results to DIR/results.csv as "
-        "trials finish, then write DIR/summary.md, DIR/summary.json (the paper's Tables 6 and 7 "
-        "and the errors against the truth) and PNG figures. Running again with the same DIR "
-        "resumes. See docs/studies.md.",
-    )
-    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml",
-                        help="scenario file, with an optional [study] table")
+def add_study_arguments(parser: argparse.ArgumentParser,
+                        scenario_help: str = "scenario file, with an optional [study] table"
+                        ) -> None:
+    """The scenario, the study folder, trials, methods, the stopping protocol and where trials
+    run (also `twin check`)."""
+    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml", help=scenario_help)
     parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
                         help="study folder (created; resumed if it holds this study)")
     parser.add_argument("--trials", type=integer(1, MAX_TRIALS), metavar="N",
@@ -51,6 +47,45 @@ def add_parser(subparsers: Any) -> None:
                        "(default: local processes, one per core)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                        help="run on the Dask cluster of this scheduler (workers need twin)")
+
+
+def methods_from_args(args: argparse.Namespace) -> list[str] | None:
+    """The names given with ``--methods``, or None."""
+    if args.methods is None:
+        return None
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    if not methods:
+        raise InputError(f"{args.methods!r}", "comma-separated method names, or all",
+                         source="--methods")
+    return methods
+
+
+def executor_from_args(args: argparse.Namespace) -> Executor:
+    """A Dask cluster with ``--workers``/``--scheduler`` (a scheduler that cannot be reached is
+    an input error, raised before anything is written), else local processes."""
+    if args.scheduler:
+        reach_scheduler(args.scheduler)
+    if args.scheduler or args.workers:
+        from twin.study.executors.cluster import DaskCluster
+
+        return DaskCluster(args.scheduler, args.workers)
+    from twin.study.executors.local import LocalProcesses
+
+    return LocalProcesses()
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the subcommand."""
+    parser = subparsers.add_parser(
+        "study",
+        help="Monte-Carlo study of a scenario: every method on the same seeded trials",
+        description="Simulate N seeded trials of SCENARIO (perturbation, poses, noise), run every "
+        "method on each trial's same data and split, append the results to DIR/results.csv as "
+        "trials finish, then write DIR/summary.md, DIR/summary.json (the paper's Tables 6 and 7 "
+        "and the errors against the truth) and PNG figures. Running again with the same DIR "
+        "resumes. See docs/studies.md.",
+    )
+    add_study_arguments(parser)
     add_rerun_flags(parser)
     parser.set_defaults(func=run)
 
@@ -60,24 +95,9 @@ def run(args: argparse.Namespace) -> int:
     from twin.study import TrialOutcome, load_study, run_study
     from twin.study.summary import summary_markdown, trial_markdown
 
-    if args.scheduler:
-        reach_scheduler(args.scheduler)
-    methods = None
-    if args.methods is not None:
-        methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-        if not methods:
-            raise InputError(f"{args.methods!r}", "comma-separated method names, or all",
-                             source="--methods")
-    plan = load_study(args.scenario, trials=args.trials, methods=methods, stop=args.stop)
-    executor: Any
-    if args.scheduler or args.workers:
-        from twin.study.executors.cluster import DaskCluster
-
-        executor = DaskCluster(args.scheduler, args.workers)
-    else:
-        from twin.study.executors.local import LocalProcesses
-
-        executor = LocalProcesses()
+    executor = executor_from_args(args)
+    plan = load_study(args.scenario, trials=args.trials, methods=methods_from_args(args),
+                      stop=args.stop)
     print(f"twin study: {plan.cases[0].scenario.name}, {len(plan.cases)} case(s) × "
           f"{plan.trials} trials × {len(plan.methods)} methods ({', '.join(plan.methods)}) "
           f"-> {args.out}", file=sys.stderr)

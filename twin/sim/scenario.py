@@ -55,6 +55,7 @@ joint errors), paths relative to the scenario file::
     max_iterations = 200                   # optional: iteration limit of every method and stage
 
     [study]                                # left to twin.study: passed through unread
+    [expect]                               # left to twin.study.expect (`twin check`): unread
 
 Every mistake is one :class:`~twin.errors.InputError` naming the file, the key, what was found
 and what was expected.
@@ -86,7 +87,7 @@ Array = NDArray[np.float64]
 ARCSEC_PER_DEG = 3600.0
 
 _TOP = ("name", "description", "seed", "robot", "port", "perturbation", "poses", "encoder",
-        "joints", "physics", "calibration", "study")
+        "joints", "physics", "calibration", "study", "expect")
 _TABLES = {
     "port": ("position_mm", "told_error_mm", "told_mm"),
     "perturbation": ("distribution", "a_mm", "d_mm", "alpha_deg", "theta_deg"),
@@ -129,6 +130,7 @@ class Scenario:
         stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
         max_iterations: Iteration limit of every method and stage, or None (the protocol's).
         study: The ``[study]`` table as written, for twin.study.
+        expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
         source: The file, or None.
     """
 
@@ -153,6 +155,7 @@ class Scenario:
     stop: str = PROTOCOLS[0]
     max_iterations: int | None = None
     study: dict[str, Any] = field(default_factory=dict)
+    expect: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
 
     @property
@@ -280,10 +283,13 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     n = robot.n_joints
     if not top.has("seed"):
         top.required("seed", "an integer seed")
-    study = document.get("study", {})
-    if not isinstance(study, dict):
-        raise InputError(f"{study!r}", "a table (read by twin.study)", source=source,
-                         where="[study]")
+    passed_through = {}
+    for key in ("study", "expect"):
+        value = document.get(key, {})
+        if not isinstance(value, dict):
+            raise InputError(f"{value!r}", "a table (read by twin.study)", source=source,
+                             where=f"[{key}]")
+        passed_through[key] = value
 
     port = tables["port"]
     port.required("position_mm", "the true port [x, y, z] in mm")
@@ -407,7 +413,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         estimate_offset=calibration.boolean("estimate_offset", False),
         stop=stop,
         max_iterations=max_iterations,
-        study=study,
+        study=passed_through["study"],
+        expect=passed_through["expect"],
         source=source,
     )
 

@@ -4,6 +4,8 @@ A study is a scenario (:mod:`twin.sim.scenario`) with a ``[study]`` table; each 
 seeded simulation on which every method runs on the same split. Trials run on local processes
 or a Dask cluster, are appended durably to the study folder as they finish (so a run can be
 interrupted and resumed), and end in the paper's Tables 6 and 7, a truth table and figures.
+A check (:mod:`twin.study.check`, public as :mod:`twin.testing`) holds a study's results to the
+scenario's ``[expect]`` table and, optionally, to a baseline study.
 """
 
 from twin.study.plan import StudyPlan, load_study

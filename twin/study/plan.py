@@ -48,7 +48,8 @@ class StudyPlan:
     Attributes:
         source: The scenario file.
         document: The study's identity: the parsed scenario document less ``[study] trials``
-            and ``methods``, plus digests of the robot model and pose plan it names.
+            and ``methods`` and the ``[expect]`` table (what a check asks of the results, not
+            what the trials are), plus digests of the robot model and pose plan it names.
         cases: The sweep points, at least one.
         methods: Method names, in the registry's order when "all".
         trials: Trials per case.
@@ -186,6 +187,8 @@ def load_study(path: str | Path, *, trials: int | None = None,
             raise InputError(exc.found, exc.expected, source=path,
                              where=f"[study] sweep point {label}: {exc.where}") from None
     identity = copy.deepcopy(document)
+    # Editing an expectation must not invalidate the trials already run.
+    identity.pop("expect", None)
     identity.get("study", {}).pop("trials", None)
     identity.get("study", {}).pop("methods", None)
     # Files the scenario names are part of it: a changed robot model or pose plan is a change.

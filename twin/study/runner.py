@@ -82,8 +82,9 @@ def run_study(plan: StudyPlan, folder: str | Path, executor: Executor, *,
                                          on_outcome=on_outcome))
 
 
-def write_report(plan: StudyPlan, store: StudyStore) -> dict[str, Any]:
-    """Write `summary.md`, `summary.json` and the figures from what the folder holds."""
+def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True) -> dict[str, Any]:
+    """Write `summary.md`, `summary.json` and (unless ``figures`` is False) the figures from
+    what the folder holds."""
     keys = plan.keys
     labels = [case.label for case in plan.cases]
     context = {"scenario": plan.cases[0].scenario.name, "source": str(plan.source),
@@ -92,6 +93,7 @@ def write_report(plan: StudyPlan, store: StudyStore) -> dict[str, Any]:
     document = summarize(store.rows(keys), plan.methods, labels, context)
     details = store.details(keys)
     by_case = {label: [d for d in details if d["case"] == label] for label in labels}
-    document["figures"] = write_figures(store.folder, document, by_case, plan.methods)
+    document["figures"] = write_figures(store.folder, document, by_case, plan.methods) \
+        if figures else []
     write_summary(store.folder, document)
     return document

@@ -112,6 +112,52 @@ def _parse(column: str, text: str) -> Any:
     return float(text)
 
 
+def parse_results(text: str, source: str | Path) -> tuple[dict[TrialKey, list[dict[str, Any]]],
+                                                         bool]:
+    """The rows of a `results.csv` text, grouped by trial, and whether its last line was torn
+    (and left out).
+
+    Raises:
+        InputError: for another header or a line with the wrong number of fields.
+    """
+    lines = text.splitlines(keepends=True)
+    torn = bool(lines) and not lines[-1].endswith("\n")
+    if torn:
+        lines = lines[:-1]
+    if not lines or lines[0].strip() != ",".join(COLUMNS):
+        raise InputError(f"{RESULTS} with another header", f"the header {','.join(COLUMNS)}",
+                         source=source)
+    rows: dict[TrialKey, list[dict[str, Any]]] = {}
+    try:
+        records = list(csv.reader(lines[1:]))
+    except csv.Error as exc:
+        raise InputError(f"a line that is not CSV ({exc})", "the rows `twin study` writes",
+                         source=source) from None
+    for number, values in enumerate(records, start=2):
+        if len(values) != len(COLUMNS):
+            raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}", source=source,
+                             where=f"line {number}")
+        try:
+            row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
+        except ValueError as exc:
+            raise InputError(f"a value that is not a number ({exc})", "the rows `twin study` "
+                             "writes", source=source, where=f"line {number}") from None
+        rows.setdefault((row["case"], row["trial"]), []).append(row)
+    return rows, torn
+
+
+def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
+    """The finished rows of another study's folder, grouped by trial, read only: a torn last
+    line is left out and nothing is repaired or written.
+
+    Raises:
+        InputError: if the folder has no readable `results.csv`.
+    """
+    path = Path(folder) / RESULTS
+    text = read_text(path, f"the {RESULTS} of an earlier `twin study` or `twin check` run")
+    return parse_results(text, path)[0]
+
+
 def _append_durably(path: Path, text: str) -> None:
     try:
         with path.open("a", encoding="utf-8") as handle:
@@ -204,32 +250,7 @@ class StudyStore:
         if not self.results_path.exists():
             write_atomic(self.results_path, ",".join(COLUMNS) + "\n")
             return {}, False
-        text = _read(self.results_path, f"the {RESULTS}")
-        lines = text.splitlines(keepends=True)
-        dirty = bool(lines) and not lines[-1].endswith("\n")
-        if dirty:
-            lines = lines[:-1]
-        if not lines or lines[0].strip() != ",".join(COLUMNS):
-            raise InputError(f"{RESULTS} with another header",
-                             f"the header {','.join(COLUMNS)}", source=self.results_path)
-        rows: dict[TrialKey, list[dict[str, Any]]] = {}
-        try:
-            records = list(csv.reader(lines[1:]))
-        except csv.Error as exc:
-            raise InputError(f"a line that is not CSV ({exc})", "the rows an earlier run wrote",
-                             source=self.results_path) from None
-        for number, values in enumerate(records, start=2):
-            if len(values) != len(COLUMNS):
-                raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}",
-                                 source=self.results_path, where=f"line {number}")
-            try:
-                row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
-            except ValueError as exc:
-                raise InputError(f"a value that is not a number ({exc})", "the rows an earlier "
-                                 "run wrote", source=self.results_path,
-                                 where=f"line {number}") from None
-            rows.setdefault((row["case"], row["trial"]), []).append(row)
-        return rows, dirty
+        return parse_results(_read(self.results_path, f"the {RESULTS}"), self.results_path)
 
     def _read_details(self, finished: set[TrialKey]) -> tuple[dict[TrialKey, dict[str, Any]], bool]:
         if not self.details_path.exists():
