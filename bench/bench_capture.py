@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.cable import cable_length
 from twin.capture import HEADER, append_line, format_row
 from twin.encoders import open_encoder, parse_url
 from twin.encoders.settle import SettleRule, settle
+from twin.kinds.length import cable_length
 from twin.robot import default_robot
 from twin.robots.sim import publish_pose
 from twin.units import deg_to_rad, mm_to_m
@@ -36,7 +36,7 @@ PORT_M = mm_to_m([600.0, -400.0, 100.0])
 
 def start_device(protocol: str, pose_file: Path) -> str:
     robot = default_robot()
-    instrument = Instrument(lambda q, _from: cable_length(robot.dh, q, PORT_M),
+    instrument = Instrument(lambda q, _from: cable_length(robot.structure, robot.dh, q, PORT_M),
                             lambda length_m, _rng: length_m, 6, pose_file, seed=0)
     paths: queue.Queue[str] = queue.Queue()
     threading.Thread(target=serve, args=(instrument, protocol), daemon=True,

@@ -19,15 +19,17 @@ import time
 
 import numpy as np
 
-from twin.cable import CableModel, Measurements
+from twin.calibration import make_model
+from twin.dataset import Measurements
 from twin.design import choose_port, plan_poses, score_poses
 from twin.identifiability import measurement_identifiability
 from twin.problem import Problem
+from twin.rig import Rig
 from twin.robot import default_robot
 from twin.solvers import get_solver
 from twin.stopping import Budget
 from twin.synthetic import random_poses, synthesize
-from twin.uncertainty import flange_error_rms
+from twin.uncertainty import rms_distance
 from twin.units import dh_rows_from_display, m_to_mm, mm_to_m
 
 PORT_M = mm_to_m([600.0, -400.0, 100.0])
@@ -50,14 +52,14 @@ def main() -> None:
     q = random_poses(robot, 200, rng)
     data = Measurements(q, np.ones(len(q)))
     for port, offset in [(False, False), (True, False), (False, True), (True, True)]:
-        model = CableModel(robot.dh, PORT_M, estimate_port=port, estimate_offset=offset)
+        model = make_model(robot, Rig.cable(PORT_M), estimate_port=port, estimate_offset=offset)
         ident = measurement_identifiability(model, np.zeros(model.n_params), data)
         label = "known port" + (" +port" if port else "") + (" +offset" if offset else "")
         print(f"  {label:<24} rank {ident.rank:>2} of {ident.n_params}, condition "
               f"{ident.condition:6.1f}: {', '.join(ident.unidentifiable)}")
 
     print(f"\n2. {N_POSES} D-optimal vs {N_POSES} random poses (predicted, σ = 0.01 mm)")
-    model = CableModel(robot.dh, PORT_M)
+    model = make_model(robot, Rig.cable(PORT_M))
     x0 = np.zeros(24)
     candidates = random_poses(robot, 2000, rng)
     workspace = random_poses(robot, 1000, rng)
@@ -100,8 +102,8 @@ def main() -> None:
             # Every planned pose trains; the validation set only feeds the history.
             measured = synthesize(true_robot, poses, PORT_M, SIGMA_M, noise_rng)
             solved = solver.solve(Problem(model, measured, measured), budget, noise_rng)
-            identified = model.split(solved.x)[0]
-            errors[label].append(flange_error_rms(identified, true_robot.dh, workspace))
+            identified = model.flange_positions(solved.x, model.poses(workspace))
+            errors[label].append(rms_distance(identified, true_robot.flange_positions(workspace)))
     for label, values in errors.items():
         print(f"  {label:<8} median {float(m_to_mm(median(values))):.4f}  "
               f"max {float(m_to_mm(max(values))):.4f}")

@@ -3,7 +3,7 @@
 Run by hand: ``python bench/bench_kinematics.py``. Prints the median wall time of repeated runs
 of each pair, side by side in one run, and their ratio:
 
-1. flange positions of 100 D-H tables (a swarm) × 96 poses: ``twin.kinematics.flange_position``
+1. flange positions of 100 D-H tables (a swarm) × 96 poses: ``twin.kinematics.point_position``
    on all at once vs a Pinocchio model per table and ``framesForwardKinematics`` per pose;
 2. the cable residuals and their analytic Jacobian (24 D-H columns) on 96 poses, one call, vs
    Pinocchio's flange joint Jacobian (6 columns only) in a loop over the poses;
@@ -22,10 +22,11 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from twin.cable import CableModel
+from twin.calibration import make_model
 from twin.compensation import compensate_program, reachable_targets
-from twin.kinematics import flange_position, flange_position_jacobian
+from twin.kinematics import point_jacobian, point_position
 from twin.pinocchio_bridge import FLANGE_FRAME, build_model
+from twin.rig import Rig
 from twin.robot import default_robot
 from twin.synthetic import random_poses, synthesize
 from twin.units import mm_to_m
@@ -72,7 +73,7 @@ def main() -> None:
                 out[k, i] = data.oMf[frame].translation
         return out
 
-    ours_s, ours = timed(lambda: flange_position(tables, q))
+    ours_s, ours = timed(lambda: point_position(robot.structure, tables, q))
     theirs_s, theirs = timed(pinocchio_fk, repeats=3)
     assert np.max(np.abs(ours - theirs)) < 1e-9
     report(f"FK, {N_TABLES} tables × {N_POSES} poses", ours_s, theirs_s, "Pinocchio loop")
@@ -80,7 +81,7 @@ def main() -> None:
     # 2. Residuals and Jacobian of the cable model.
     port_m = mm_to_m([600.0, -400.0, 100.0])
     data = synthesize(robot.perturbed(scale * 0.5), q, port_m, 1e-5, rng)
-    cable = CableModel(robot.dh, port_m)
+    cable = make_model(robot, Rig.cable(port_m))
     x = np.zeros(cable.n_params)
 
     def residuals_and_jacobian() -> tuple[np.ndarray, np.ndarray]:
@@ -97,8 +98,8 @@ def main() -> None:
 
     ours_s, _ = timed(residuals_and_jacobian, repeats=50)
     theirs_s, theirs = timed(pinocchio_jacobians, repeats=50)
-    _, ours_jacobian = flange_position_jacobian(tables[0], q)
-    assert np.max(np.abs(ours_jacobian[..., 3 * robot.n_joints:] - theirs)) < 1e-9
+    ours_jacobian = point_jacobian(robot.structure, tables[0], q).joints
+    assert np.max(np.abs(ours_jacobian - theirs)) < 1e-9
     report(f"cable residuals + 24-column Jacobian, {N_POSES} poses (vs joint Jacobian only)",
            ours_s, theirs_s, "Pinocchio loop")
     print(f"  throughput      {1.0 / ours_s:10.0f} residual+Jacobian evaluations/s")

@@ -13,8 +13,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from twin.cable import cable_length
-from twin.kinematics import flange_position
+from twin.kinds.length import cable_length
 from twin.robot import default_robot
 from twin.sim import Physics, Twin, build_spec, load_scenario, simulate
 from twin.synthetic import random_poses
@@ -49,8 +48,9 @@ def main() -> None:
             mujoco.mj_kinematics(model, data)
 
     timings = {
-        "core cable_length (vectorised)": _best_seconds(lambda: cable_length(robot.dh, q, PORT_M)),
-        "core flange_position (vectorised)": _best_seconds(lambda: flange_position(robot.dh, q)),
+        "core cable_length (vectorised)": _best_seconds(
+            lambda: cable_length(robot.structure, robot.dh, q, PORT_M)),
+        "core flange_position (vectorised)": _best_seconds(lambda: robot.flange_positions(q)),
         "MuJoCo mj_kinematics per pose": _best_seconds(mujoco_fk),
         "twin lengths, rigid": _best_seconds(lambda: rigid.lengths(q)),
         "twin lengths, static equilibrium": _best_seconds(lambda: compliant.lengths(q), 1),
@@ -62,7 +62,7 @@ def main() -> None:
         per_pose = seconds / N_POSES
         print(f"  {name:<36}{per_pose * 1e6:>10.2f}{1 / per_pose:>12.0f}{seconds / base:>15.2f}")
 
-    shift = compliant.flange_positions(q) - flange_position(robot.dh, q)
+    shift = compliant.flange_positions(q) - robot.flange_positions(q)
     sag_um = np.linalg.norm(shift, axis=1) * 1e6
     print(f"flange sag at equilibrium ({paper.name} physics): RMS {np.sqrt(np.mean(sag_um**2)):.1f}"
           f" µm, median {np.median(sag_um):.1f} µm, max {np.max(sag_um):.1f} µm")
@@ -70,7 +70,7 @@ def main() -> None:
         ("gravity only", Physics(paper.physics.stiffness_nm_per_rad, True, 0.0)),
         ("tension only (5 N)", Physics(paper.physics.stiffness_nm_per_rad, False, 5.0)),
     ]:
-        part = Twin.build(robot, PORT_M, physics).flange_positions(q) - flange_position(robot.dh, q)
+        part = Twin.build(robot, PORT_M, physics).flange_positions(q) - robot.flange_positions(q)
         print(f"  {label:<20} RMS {np.sqrt(np.mean(np.sum(part**2, axis=1))) * 1e6:.1f} µm")
 
     for path in sorted((ROOT / "scenarios").glob("*_irb120.toml")):

@@ -43,7 +43,7 @@ from twin.stopping import Budget
 from twin.study import load_study, run_study
 from twin.study.executors.local import LocalProcesses
 from twin.study.trial import TrialSpec, trial_seed, workspace
-from twin.uncertainty import flange_error_rms
+from twin.uncertainty import rms_distance
 from twin.units import m_to_mm
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -253,7 +253,8 @@ def bipso_changes(regime: str, scenario: Scenario, trial: int) -> list[StageChan
     def measure(x: np.ndarray) -> tuple[float, float, float]:
         f = float(np.mean(model.residuals(x, problem.train) ** 2))
         validation = float(np.sqrt(np.mean(model.residuals(x, problem.validation) ** 2)))
-        flange = flange_error_rms(sim.true_robot.dh, model.split(x)[0], q_workspace)
+        flange = rms_distance(model.flange_positions(x, model.poses(q_workspace)),
+                              sim.true_robot.flange_positions(q_workspace))
         return f, float(m_to_mm(validation)), float(m_to_mm(flange))
 
     changes = []

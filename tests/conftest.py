@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from twin.cable import Measurements
+from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
 from twin.robot import RobotModel, default_robot
 from twin.synthetic import random_poses, synthesize

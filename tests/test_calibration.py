@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from twin.cable import Measurements
 from twin.calibration import (
     CalibrationResult,
     calibrate,
@@ -14,11 +13,12 @@ from twin.calibration import (
     required_poses,
     split_rows,
 )
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.robot import RobotModel
 from twin.stopping import Budget
 from twin.synthetic import random_poses, synthesize
-from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
+from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 
 def test_split_is_reproducible_and_disjoint() -> None:
@@ -38,11 +38,13 @@ def test_lm_recovers_flange_positions_within_twice_the_cramer_rao_bound(
     poses is within 2× the Cramér–Rao bound computed from the true Jacobian (~0.01 mm)."""
     result = calibrate(irb120, measurements, port_m, method="lm", seed=0)
     workspace = random_poses(irb120, 1000, np.random.default_rng(11))
-    error = flange_error_rms(result.identified_robot.dh, true_robot.dh, workspace)
+    error = rms_distance(result.identified_robot.flange_positions(workspace),
+                         true_robot.flange_positions(workspace))
     bound = cramer_rao_flange_rms(
         result.model, true_delta.ravel(), measurements.subset(result.train_rows), 1e-5, workspace
     )
-    before = flange_error_rms(irb120.dh, true_robot.dh, workspace)
+    before = rms_distance(irb120.flange_positions(workspace),
+                          true_robot.flange_positions(workspace))
     assert 0.003e-3 < bound < 0.03e-3
     assert error < 2 * bound, (error, bound)
     assert before > 100 * error

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.cable import Measurements
 from twin.cli import main
+from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.cable import Measurements
 from twin.calibration import calibrate
 from twin.cli import main
 from twin.compensation import (
@@ -22,26 +21,27 @@ from twin.compensation import (
     reachable_targets,
     solve_ik,
 )
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.identified import load_result_delta
 from twin.io.results import result_to_dict, write_json
-from twin.kinematics import flange_jacobian, flange_position, flange_transform
+from twin.kinematics import flange_jacobian
 from twin.robot import RobotModel
-from twin.uncertainty import flange_error_rms
+from twin.uncertainty import rms_distance
 
 
 def test_flange_jacobian_matches_finite_differences(true_robot: RobotModel) -> None:
     """The geometric Jacobian's columns equal central differences of position and rotation."""
     rng = np.random.default_rng(3)
     q = rng.uniform(true_robot.lower_rad, true_robot.upper_rad, (20, true_robot.n_joints))
-    base_T_flange, jacobian = flange_jacobian(true_robot.dh, q)
-    np.testing.assert_allclose(base_T_flange, flange_transform(true_robot.dh, q), atol=1e-15)
+    base_T_flange, jacobian = flange_jacobian(true_robot.structure, true_robot.dh, q)
+    np.testing.assert_allclose(base_T_flange, true_robot.flange_transforms(q), atol=1e-15)
     step = 1e-6
     for i in range(true_robot.n_joints):
         dq = np.zeros(true_robot.n_joints)
         dq[i] = step
-        plus = flange_transform(true_robot.dh, q + dq)
-        minus = flange_transform(true_robot.dh, q - dq)
+        plus = true_robot.flange_transforms(q + dq)
+        minus = true_robot.flange_transforms(q - dq)
         linear = (plus[:, :3, 3] - minus[:, :3, 3]) / (2 * step)
         # dR/dq · Rᵀ = [ω]×: read ω off the skew-symmetric part.
         skew = (plus[:, :3, :3] - minus[:, :3, :3]) / (2 * step) @ np.swapaxes(
@@ -59,7 +59,7 @@ def test_program_compensation_reaches_nominal_pose(
     q, _ = reachable_targets(irb120, 500, rng)
     solved = compensate_program(irb120, true_robot, q)
     assert np.all(solved.status == STATUS_OK)
-    reached, wanted = flange_transform(true_robot.dh, solved.q_rad), flange_transform(irb120.dh, q)
+    reached, wanted = true_robot.flange_transforms(solved.q_rad), irb120.flange_transforms(q)
     np.testing.assert_allclose(reached[:, :3, 3], wanted[:, :3, 3], atol=2e-10)
     np.testing.assert_allclose(reached[:, :3, :3], wanted[:, :3, :3], atol=2e-10)
     # Millimetre-sized table errors need corrections of a few degrees at most near the wrist,
@@ -73,10 +73,10 @@ def test_target_compensation_is_minimum_norm(irb120: RobotModel, true_robot: Rob
     q, target = reachable_targets(irb120, 300, rng)
     solved = compensate_targets(true_robot, target, q)
     assert np.all(solved.ok)
-    np.testing.assert_allclose(flange_position(true_robot.dh, solved.q_rad), target, atol=2e-10)
+    np.testing.assert_allclose(true_robot.flange_positions(solved.q_rad), target, atol=2e-10)
     # The change lies in the row space of the position Jacobian (the minimum-norm solution's
     # first-order condition); its component in the null space is second order.
-    _, jacobian = flange_jacobian(true_robot.dh, solved.q_rad)
+    _, jacobian = flange_jacobian(true_robot.structure, true_robot.dh, solved.q_rad)
     change = solved.q_rad - q
     _, _, vt = np.linalg.svd(jacobian[:, :3, :])
     null_part = np.einsum("mkj,mj->mk", vt[:, 3:, :], change)
@@ -89,7 +89,7 @@ def test_nominal_ik_finds_in_limit_solutions(irb120: RobotModel) -> None:
     _, target = reachable_targets(irb120, 200, rng)
     solved = nominal_ik(irb120, target, np.random.default_rng(5))
     assert np.all(solved.ok)
-    np.testing.assert_allclose(flange_position(irb120.dh, solved.q_rad), target, atol=2e-10)
+    np.testing.assert_allclose(irb120.flange_positions(solved.q_rad), target, atol=2e-10)
     assert np.all(solved.q_rad >= irb120.lower_rad) and np.all(solved.q_rad <= irb120.upper_rad)
 
 
@@ -102,7 +102,7 @@ def test_unreachable_and_out_of_limits_are_flagged(irb120: RobotModel) -> None:
     # Joint 3 at its upper limit: the same pose with q3 a little beyond needs no limit change
     # in the table, only a target that the chain reaches past the limit.
     q = np.array([[0.2, 0.3, irb120.upper_rad[2] + 0.01, 0.4, 0.5, 0.6]])
-    target = flange_position(irb120.dh, q)
+    target = irb120.flange_positions(q)
     solved = solve_ik(irb120, target, q - np.array([0, 0, 0.02, 0, 0, 0]))
     assert solved.status.tolist() == [STATUS_JOINT_LIMIT]
     assert solved.q_rad[0, 2] > irb120.upper_rad[2]
@@ -119,12 +119,12 @@ def test_compensation_with_identified_model_reaches_identification_accuracy(
     q, target = reachable_targets(irb120, 1000, rng)
     solved = compensate_targets(identified, target, q)
     check = check_compensation(
-        target, flange_position(true_robot.dh, q), flange_position(true_robot.dh, solved.q_rad),
+        target, true_robot.flange_positions(q), true_robot.flange_positions(solved.q_rad),
         solved,
     )
     assert check.n_failed == 0
     assert check.nominal.rmse > 1e-3
-    floor = flange_error_rms(identified.dh, true_robot.dh, q)
+    floor = rms_distance(identified.flange_positions(q), true_robot.flange_positions(q))
     assert check.compensated.rmse < 3 * floor
     assert check.compensated.rmse < 0.1 * check.nominal.rmse
 
@@ -174,8 +174,8 @@ def test_cli_corrects_a_program(
     assert lines[0] == "q1,q2,q3,q4,q5,q6,status,error_mm"
     corrected = np.deg2rad([[float(v) for v in line.split(",")[:6]] for line in lines[1:]])
     assert [line.split(",")[6] for line in lines[1:]] == [STATUS_OK, STATUS_OK]
-    reached = flange_transform(identified.dh, corrected)
-    wanted = flange_transform(irb120.dh, np.deg2rad(q_deg))
+    reached = identified.flange_transforms(corrected)
+    wanted = irb120.flange_transforms(np.deg2rad(q_deg))
     # Angles are written to 1e-6 degree (≤ 0.5e-6° each, ~1e-8 m at the flange); the result
     # file's table to 1e-6 mm and degree.
     np.testing.assert_allclose(reached[:, :3, 3], wanted[:, :3, 3], atol=5e-8)
@@ -195,7 +195,7 @@ def test_cli_targets_report_unreachable_rows(
     assert [row[6] for row in rows] == [STATUS_OK, STATUS_UNREACHABLE, STATUS_OK]
     assert rows[1][:6] == [""] * 6 and float(rows[1][7]) > 1000.0
     q = np.deg2rad([[float(v) for v in rows[i][:6]] for i in (0, 2)])
-    np.testing.assert_allclose(flange_position(identified.dh, q) * 1e3,
+    np.testing.assert_allclose(identified.flange_positions(q) * 1e3,
                                [[400, 100, 500], [300, -200, 400]], atol=5e-5)
 
 

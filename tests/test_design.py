@@ -7,8 +7,9 @@ import itertools
 import numpy as np
 import pytest
 
-from twin.cable import CableModel
+from twin.calibration import make_model
 from twin.design import choose_port, d_optimal_rows, plan_poses, score_poses
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 
@@ -50,7 +51,7 @@ def test_30_planned_poses_beat_30_random_ones(irb120: RobotModel, port_m: np.nda
     """30 D-optimal poses of 1500 candidates predict a lower flange error over the workspace
     than every one of 10 draws of 30 random poses, by a margin (under 0.8× their median)."""
     rng = np.random.default_rng(0)
-    model = CableModel(irb120.dh, port_m)
+    model = make_model(irb120, Rig.cable(port_m))
     x0 = np.zeros(24)
     candidates = random_poses(irb120, 1500, rng)
     workspace = random_poses(irb120, 500, rng)
@@ -76,7 +77,7 @@ def test_port_choice_avoids_a_port_that_sees_along_one_direction(
     candidates = random_poses(irb120, 600, rng)
     workspace = random_poses(irb120, 300, rng)
     far = np.array([20.0, 0.0, 0.3])
-    choice = choose_port(CableModel(irb120.dh, port_m), np.stack([far, port_m]), candidates,
+    choice = choose_port(make_model(irb120, Rig.cable(port_m)), np.stack([far, port_m]), candidates,
                          30, SIGMA_M, workspace)
     assert choice.best == 1 == int(np.argmin(choice.flange_rms_m))
     assert choice.flange_rms_m[0] > 2 * choice.flange_rms_m[1]

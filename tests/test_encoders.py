@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.cable import cable_length
 from twin.capture import measure
 from twin.encoders import (
     EncoderConfig,
@@ -30,6 +29,7 @@ from twin.encoders import (
 )
 from twin.encoders.settle import SettleRule, SettleTimeoutError, settle
 from twin.errors import InputError
+from twin.kinds.length import cable_length
 from twin.robot import default_robot
 from twin.robots.sim import publish_pose
 from twin.units import deg_to_rad, m_to_mm, mm_to_m
@@ -38,7 +38,7 @@ from twin.virtual_encoder import TRANSIENT_M, Instrument, serve
 PORT_M = mm_to_m([600.0, -400.0, 100.0])
 Q_RAD = deg_to_rad([20.0, 30.0, -40.0, 10.0, 50.0, 0.0])
 ROBOT = default_robot()
-TRUE_M = float(cable_length(ROBOT.dh, Q_RAD[None, :], PORT_M)[0])
+TRUE_M = float(cable_length(ROBOT.structure, ROBOT.dh, Q_RAD[None, :], PORT_M)[0])
 
 
 def expected_m(j: int) -> float:
@@ -48,7 +48,7 @@ def expected_m(j: int) -> float:
 
 def start_device(protocol: str, pose_file: Path, garbage_every: int = 0) -> str:
     """Serve an exact virtual encoder on a new pty in a daemon thread; its host path."""
-    instrument = Instrument(lambda q, _from: cable_length(ROBOT.dh, q, PORT_M),
+    instrument = Instrument(lambda q, _from: cable_length(ROBOT.structure, ROBOT.dh, q, PORT_M),
                             lambda length_m, _rng: length_m, 6, pose_file, seed=0)
     paths: queue.Queue[str] = queue.Queue()
     threading.Thread(target=serve, args=(instrument, protocol), daemon=True,

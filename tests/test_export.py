@@ -10,9 +10,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from twin.cable import Measurements
 from twin.calibration import calibrate
 from twin.cli import main
+from twin.dataset import Measurements
 from twin.export import FORMATS, export_text
 from twin.io.results import result_to_dict, write_json
 from twin.kinematics import flange_transform
@@ -50,9 +50,10 @@ def test_dh_export_reads_back(identified: RobotModel, poses: np.ndarray) -> None
     by no more than the 2n half-µm lengths and 2n half-1e-6° angles (at 1 m) can add up to."""
     robot = parse_robot(tomllib.loads(export_text(identified, "dh")), "export.toml")
     np.testing.assert_allclose(robot.dh, _as_written(identified.dh), rtol=0.0, atol=1e-15)
-    exported = flange_transform(robot.dh, poses)
-    _assert_same_poses(flange_transform(_as_written(identified.dh), poses), exported)
-    shift = np.linalg.norm(exported[:, :3, 3] - flange_transform(identified.dh, poses)[:, :3, 3],
+    exported = robot.flange_transforms(poses)
+    written = flange_transform(identified.structure, _as_written(identified.dh), poses)
+    _assert_same_poses(written, exported)
+    shift = np.linalg.norm(exported[:, :3, 3] - identified.flange_transforms(poses)[:, :3, 3],
                            axis=1)
     n, reach = identified.n_joints, 1.0
     worst = 2 * n * 0.5e-6 + 2 * n * np.deg2rad(0.5e-6) * reach
@@ -69,7 +70,7 @@ def test_urdf_export_loads_in_pinocchio(identified: RobotModel, poses: np.ndarra
     for q in poses:
         pin.framesForwardKinematics(model, data, q)
         found.append(data.oMf[frame].homogeneous.copy())
-    _assert_same_poses(flange_transform(identified.dh, poses), np.array(found))
+    _assert_same_poses(identified.flange_transforms(poses), np.array(found))
 
 
 def test_mjcf_export_loads_in_mujoco(identified: RobotModel, poses: np.ndarray) -> None:
@@ -84,7 +85,7 @@ def test_mjcf_export_loads_in_mujoco(identified: RobotModel, poses: np.ndarray) 
         mujoco.mj_kinematics(model, data)
         found[row, :3, :3] = data.site_xmat[site].reshape(3, 3)
         found[row, :3, 3] = data.site_xpos[site]
-    _assert_same_poses(flange_transform(identified.dh, poses), found)
+    _assert_same_poses(identified.flange_transforms(poses), found)
     np.testing.assert_allclose(model.jnt_range, np.stack([identified.lower_rad,
                                                          identified.upper_rad], axis=1))
 

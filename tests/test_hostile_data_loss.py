@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from conftest import PORT_M, Refusals
 
-from twin.cable import Measurements
 from twin.calibration import calibrate
+from twin.dataset import Measurements
 from twin.io.capture import write_capture
 from twin.io.results import result_to_dict, write_json
 from twin.robot import RobotModel, robot_to_toml

@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from conftest import PORT_M
 
-from twin.cable import Measurements
 from twin.calibration import calibrate
 from twin.cli import main
+from twin.dataset import Measurements
 from twin.io.atomic import write_atomic
 from twin.io.measurements import load_plan
 from twin.io.results import result_to_dict

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from conftest import PORT_M, Refusals
 
-from twin.cable import Measurements
 from twin.calibration import calibrate
 from twin.cli import main
+from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
 from twin.io.results import result_to_dict
 from twin.robot import RobotModel, robot_to_toml

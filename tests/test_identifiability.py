@@ -5,13 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.cable import CableModel, Measurements
+from twin.calibration import make_model
+from twin.dataset import Measurements
 from twin.identifiability import (
     identifiability,
     measurement_identifiability,
     name_direction,
     observability,
 )
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 
@@ -27,7 +29,7 @@ def poses(irb120: RobotModel) -> Measurements:
 
 def _at_nominal(robot: RobotModel, port_m: np.ndarray, data: Measurements,
                 port: bool = False, offset: bool = False):
-    model = CableModel(robot.dh, port_m, estimate_port=port, estimate_offset=offset)
+    model = make_model(robot, Rig.cable(port_m), estimate_port=port, estimate_offset=offset)
     return model, measurement_identifiability(model, np.zeros(model.n_params), data)
 
 
@@ -52,7 +54,7 @@ def test_negligible_columns_are_not_scaled_into_fake_rank(irb120, port_m, poses)
     """θ6 and α6 columns are zero up to round-off: declared unidentifiable directly. Scaling
     round-off (here 1e-17-sized noise) to unit norm like the other columns would report a fake
     rank above 19."""
-    model = CableModel(irb120.dh, port_m)
+    model = make_model(irb120, Rig.cable(port_m))
     _, J = model.jacobian(np.zeros(24), poses)
     blind = [model.names.index("alpha6"), model.names.index("theta6")]
     J[:, blind] = 1e-17 * np.random.default_rng(2).normal(size=(len(poses), 2))
@@ -68,10 +70,10 @@ def test_null_directions_leave_every_length_unchanged(irb120, port_m, poses) -> 
     beyond round-off. Every null direction is invisible to first order: a 1e-6 step moves the
     lengths a thousand times less than the same step along a base parameter."""
     model, ident = _at_nominal(irb120, port_m, poses)
-    start = model.lengths(np.zeros(24), poses.q_rad)
+    start = model.residuals(np.zeros(24), poses)
 
     def change(step: np.ndarray) -> float:
-        return float(np.max(np.abs(model.lengths(step, poses.q_rad) - start)))
+        return float(np.max(np.abs(model.residuals(step, poses) - start)))
 
     directions = dict(zip(ident.unidentifiable, ident.null_space.T, strict=True))
     for name in ("theta6", "alpha6", "d2-d3"):
@@ -101,7 +103,7 @@ def test_unknown_port_and_offset_add_named_directions(irb120, port_m, poses) -> 
 def test_identified_geometry_sees_more_but_weakly(irb120, port_m, poses, true_delta) -> None:
     """Away from the nominal geometry the parallel axes and the centred flange are broken by
     the errors themselves: the rank rises above 19 through weak directions; α6 stays unseen."""
-    model = CableModel(irb120.dh, port_m)
+    model = make_model(irb120, Rig.cable(port_m))
     ident = measurement_identifiability(model, true_delta.ravel(), poses)
     assert ident.rank > 19 and ident.weak >= 1
     assert "alpha6" in ident.unidentifiable
@@ -140,7 +142,7 @@ def test_observability_indices_of_known_singular_values() -> None:
 
 def test_base_set_does_not_depend_on_the_pose_set(irb120, port_m, poses) -> None:
     """Any subset of poses rich enough gives the same base parameters (no round-off ties)."""
-    model = CableModel(irb120.dh, port_m)
+    model = make_model(irb120, Rig.cable(port_m))
     bases = {
         measurement_identifiability(model, np.zeros(24), poses.subset(rows)).base_names
         for rows in (np.arange(40), np.arange(50, 120), np.arange(0, 200, 3))

@@ -1,19 +1,50 @@
-"""Forward kinematics and its analytic Jacobian."""
+"""Forward kinematics of any revolute chain and its analytic Jacobians."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
 
-from twin.kinematics import chain, flange_position, flange_position_jacobian, flange_transform
-from twin.robot import RobotModel
+from twin.kinematics import (
+    PARAMETRISATIONS,
+    Structure,
+    fixed_transforms,
+    flange_jacobian,
+    flange_transform,
+    frames,
+    point_jacobian,
+    point_position,
+)
+from twin.robot import RobotModel, default_robot
 from twin.synthetic import random_poses
+
+STANDARD = Structure.standard(6)
+
+
+def _rz(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def _random_rigid(rng: np.random.Generator) -> np.ndarray:
+    transform = np.eye(4)
+    transform[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    transform[:3, 3] = rng.normal(scale=0.1, size=3)
+    return transform
+
+
+def _mixed(rng: np.random.Generator) -> Structure:
+    """A structure with every parametrisation, a base and a tool transform."""
+    kinds = tuple(rng.choice(PARAMETRISATIONS, 6))
+    return Structure(kinds, base=_random_rigid(rng), tool=_random_rigid(rng))
 
 
 def test_irb120_flange_at_home(irb120: RobotModel) -> None:
     """At q = 0 the IRB 120 flange centre is at (374, 0, 630) mm (method-notes §1)."""
-    p = flange_position(irb120.dh, np.zeros((1, 6)))
+    p = point_position(STANDARD, irb120.dh, np.zeros((1, 6)))
     np.testing.assert_allclose(p[0], [0.374, 0.0, 0.630], atol=1e-12)
 
 
@@ -28,7 +59,54 @@ def test_transform_matches_dh_matrix_product(irb120: RobotModel) -> None:
             T = T @ np.array([[ct, -st_ * ca, st_ * sa, a * ct], [st_, ct * ca, -ct * sa, a * st_],
                               [0, sa, ca, d], [0, 0, 0, 1]])
         expected[k] = T
-    np.testing.assert_allclose(flange_transform(irb120.dh, q), expected, atol=1e-14)
+    np.testing.assert_allclose(flange_transform(STANDARD, irb120.dh, q), expected, atol=1e-14)
+
+
+def _elementary(kind: str, slots: np.ndarray, q: float) -> np.ndarray:
+    """Each parametrisation's link transform written out as 4×4 products (module docstring)."""
+    a, s1, alpha, theta = slots
+
+    def rot(axis: str, angle: float) -> np.ndarray:
+        transform = np.eye(4)
+        transform[:3, :3] = Rotation.from_euler(axis, angle).as_matrix()
+        return transform
+
+    def trans(axis: int, value: float) -> np.ndarray:
+        transform = np.eye(4)
+        transform[axis, 3] = value
+        return transform
+
+    if kind == "dh":
+        return rot("z", q + theta) @ trans(2, s1) @ trans(0, a) @ rot("x", alpha)
+    if kind == "mdh":
+        return rot("x", alpha) @ trans(0, a) @ rot("z", q + theta) @ trans(2, s1)
+    return rot("z", q + theta) @ trans(0, a) @ rot("x", alpha) @ rot("y", s1)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_every_parametrisation_matches_its_matrix_product(seed: int) -> None:
+    """Mixed D-H, modified D-H and Hayati joints with base and tool transforms: the flange pose,
+    a flange point and the fixed-transform form all equal the written-out matrix product."""
+    rng = np.random.default_rng(seed)
+    structure = _mixed(rng)
+    robot = default_robot()
+    table = robot.dh + rng.normal(scale=0.05, size=(4, 6))
+    q = random_poses(robot, 8, rng)
+    point = rng.normal(scale=0.05, size=3)
+    fixed = fixed_transforms(structure, table)
+    poses = flange_transform(structure, table, q)
+    points = point_position(structure, table, q, point)
+    for k, qk in enumerate(q):
+        expected = structure.base.copy()
+        via_fixed = fixed[0].copy()
+        for i, kind in enumerate(structure.parametrisation):
+            expected = expected @ _elementary(kind, table[:, i], qk[i])
+            via_fixed = via_fixed @ _rz(qk[i]) @ fixed[i + 1]
+        expected = expected @ structure.tool
+        np.testing.assert_allclose(poses[k], expected, atol=1e-13)
+        np.testing.assert_allclose(via_fixed, expected, atol=1e-13)
+        np.testing.assert_allclose(points[k], expected[:3, :3] @ point + expected[:3, 3],
+                                   atol=1e-13)
 
 
 def test_batched_tables_equal_one_by_one(irb120: RobotModel) -> None:
@@ -36,36 +114,64 @@ def test_batched_tables_equal_one_by_one(irb120: RobotModel) -> None:
     rng = np.random.default_rng(1)
     q = random_poses(irb120, 20, rng)
     tables = irb120.dh + rng.normal(scale=1e-3, size=(7, 4, 6))
-    batched = flange_position(tables, q)
+    points = rng.normal(scale=0.02, size=(7, 3))
+    batched = point_position(STANDARD, tables, q, points)
     assert batched.shape == (7, 20, 3)
     for k in range(7):
-        np.testing.assert_array_equal(batched[k], flange_position(tables[k], q))
+        np.testing.assert_array_equal(batched[k], point_position(STANDARD, tables[k], q,
+                                                                 points[k]))
 
 
-def test_chain_ends_at_flange(irb120: RobotModel) -> None:
-    """The last frame of the chain is the flange, the first the base."""
+def test_frames_end_at_the_flange(irb120: RobotModel) -> None:
+    """The last joint frame is the flange of a bare chain, the first the base."""
     q = random_poses(irb120, 5, np.random.default_rng(2))
-    frames = chain(irb120.dh, q)
-    assert frames.origins.shape == (5, 7, 3)
-    np.testing.assert_allclose(frames.origins[:, -1], flange_position(irb120.dh, q), atol=1e-15)
-    np.testing.assert_array_equal(frames.origins[:, 0], 0.0)
+    chain = frames(STANDARD, irb120.dh, q)
+    assert chain.origins.shape == (5, 7, 3)
+    np.testing.assert_allclose(chain.origins[:, -1], irb120.flange_positions(q), atol=1e-15)
+    np.testing.assert_allclose(chain.flange, irb120.flange_transforms(q), atol=1e-15)
+    np.testing.assert_array_equal(chain.origins[:, 0], 0.0)
 
 
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
-def test_position_jacobian_matches_finite_differences(seed: int) -> None:
-    """∂P/∂(a, d, α, θ) equals central differences at random tables and poses."""
+def test_point_jacobian_matches_finite_differences(seed: int) -> None:
+    """∂p/∂table, ∂p/∂q and ∂p/∂point equal central differences, every parametrisation."""
     rng = np.random.default_rng(seed)
-    from twin.robot import default_robot
-
+    structure = _mixed(rng)
     robot = default_robot()
-    dh = robot.dh + rng.normal(scale=2e-3, size=(4, 6))
+    table = robot.dh + rng.normal(scale=2e-3, size=(4, 6))
     q = random_poses(robot, 4, rng)
-    _, jacobian = flange_position_jacobian(dh, q)
+    point = rng.normal(scale=0.05, size=3)
+    jacobian = point_jacobian(structure, table, q, point)
     eps = 1e-6
     steps = np.eye(24).reshape(24, 4, 6) * eps
-    numeric = (flange_position(dh + steps, q) - flange_position(dh - steps, q)) / (2 * eps)
-    np.testing.assert_allclose(jacobian, np.moveaxis(numeric, 0, -1), atol=1e-8)
+    numeric = (point_position(structure, table + steps, q, point)
+               - point_position(structure, table - steps, q, point)) / (2 * eps)
+    np.testing.assert_allclose(jacobian.table, np.moveaxis(numeric, 0, -1), atol=1e-8)
+    joint_steps = np.eye(6)[:, None, :] * eps
+    numeric_q = (point_position(structure, table, q + joint_steps, point)
+                 - point_position(structure, table, q - joint_steps, point)) / (2 * eps)
+    np.testing.assert_allclose(jacobian.joints, np.moveaxis(numeric_q, 0, -1), atol=1e-8)
+    point_steps = np.eye(3) * eps
+    numeric_t = (point_position(structure, table, q, point + point_steps)
+                 - point_position(structure, table, q, point - point_steps))
+    np.testing.assert_allclose(jacobian.rotation, np.moveaxis(numeric_t / (2 * eps), 0, -1),
+                               atol=1e-8)
+
+
+def test_flange_jacobian_is_the_twist_per_joint(irb120: RobotModel) -> None:
+    """Linear rows are ∂p/∂q; angular rows turn the flange frame as finite differences say."""
+    rng = np.random.default_rng(6)
+    structure = _mixed(rng)
+    q = random_poses(irb120, 3, rng)
+    pose, jacobian = flange_jacobian(structure, irb120.dh, q)
+    np.testing.assert_allclose(jacobian[:, :3], point_jacobian(structure, irb120.dh, q).joints,
+                               atol=1e-15)
+    eps = 1e-7
+    for i in range(6):
+        moved = flange_transform(structure, irb120.dh, q + np.eye(6)[i] * eps)
+        delta = Rotation.from_matrix(moved[:, :3, :3] @ np.swapaxes(pose[:, :3, :3], 1, 2))
+        np.testing.assert_allclose(delta.as_rotvec() / eps, jacobian[:, 3:, i], atol=1e-6)
 
 
 def test_batched_poses_with_one_table(irb120: RobotModel) -> None:
@@ -74,9 +180,25 @@ def test_batched_poses_with_one_table(irb120: RobotModel) -> None:
     rng = np.random.default_rng(5)
     q = random_poses(irb120, 12, rng).reshape(3, 4, 6)
     tables = irb120.dh + rng.normal(scale=1e-3, size=(3, 4, 6))
-    one_table = flange_position(irb120.dh, q)
-    paired = flange_position(tables, q)
+    one_table = point_position(STANDARD, irb120.dh, q)
+    paired = point_position(STANDARD, tables, q)
     assert one_table.shape == paired.shape == (3, 4, 3)
     for k in range(3):
-        np.testing.assert_allclose(one_table[k], flange_position(irb120.dh, q[k]), atol=1e-15)
-        np.testing.assert_allclose(paired[k], flange_position(tables[k], q[k]), atol=1e-15)
+        np.testing.assert_allclose(one_table[k], irb120.flange_positions(q[k]), atol=1e-15)
+        np.testing.assert_allclose(paired[k], point_position(STANDARD, tables[k], q[k]),
+                                   atol=1e-15)
+
+
+def test_structure_names_and_units() -> None:
+    """A Hayati joint's second slot is the angle β; names follow the slot order."""
+    structure = Structure(("dh", "hayati", "dh", "dh", "mdh", "dh"))
+    names = structure.parameter_names
+    assert names[:6] == ("a1", "a2", "a3", "a4", "a5", "a6")
+    assert names[6:12] == ("d1", "beta2", "d3", "d4", "d5", "d6")
+    assert not structure.is_length[1, 1] and structure.is_length[1, 0]
+    with pytest.raises(ValueError, match="dh, mdh, hayati"):
+        Structure(("dh", "screw"))
+    bent = np.eye(4)
+    bent[0, 0] = 2.0
+    with pytest.raises(ValueError, match="not a rigid transform"):
+        Structure(("dh",), base=bent)

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.cable import Measurements
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.measurements import UnitWarning, load_measurements, write_measurements
 from twin.robot import RobotModel

@@ -8,7 +8,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.kinematics import flange_transform
 from twin.robot import load_robot
 from twin.sim import load_scenario
 from twin.synthetic import random_poses
@@ -58,7 +57,7 @@ def test_irb120_mjcf_is_the_builders_model() -> None:
     data = mujoco.MjData(model)
     q = random_poses(robot, 200, np.random.default_rng(0))
     site = model.site("flange").id
-    core = flange_transform(robot.dh, q)
+    core = robot.flange_transforms(q)
     for pose, expected in zip(q, core, strict=True):
         data.qpos[:] = pose
         mujoco.mj_kinematics(model, data)

@@ -6,7 +6,6 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from twin.kinematics import flange_transform
 from twin.pinocchio_bridge import FLANGE_FRAME, build_model, robot_to_urdf
 from twin.robot import RobotModel, default_robot
 
@@ -47,7 +46,7 @@ def test_build_model_flange_matches_core(seed: int) -> None:
     """Pinocchio's flange frame equals flange_transform to 1e-9 m and 1e-9 on 1000 poses."""
     robot = default_robot() if seed == 0 else _perturbed_robot(seed)
     q = _random_poses(robot, seed)
-    _assert_same_poses(flange_transform(robot.dh, q), _pinocchio_flange(build_model(robot), q))
+    _assert_same_poses(robot.flange_transforms(q), _pinocchio_flange(build_model(robot), q))
 
 
 def test_build_model_carries_limits() -> None:
@@ -65,5 +64,5 @@ def test_urdf_loads_in_pinocchio_and_matches_core() -> None:
     model = pin.buildModelFromXML(robot_to_urdf(robot))
     assert model.nq == robot.n_joints
     q = _random_poses(robot, 7)
-    _assert_same_poses(flange_transform(robot.dh, q), _pinocchio_flange(model, q))
+    _assert_same_poses(robot.flange_transforms(q), _pinocchio_flange(model, q))
     np.testing.assert_allclose(model.lowerPositionLimit, robot.lower_rad, rtol=0, atol=1e-15)

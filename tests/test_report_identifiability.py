@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.cable import Measurements
 from twin.calibration import calibrate_many
+from twin.dataset import Measurements
 from twin.report import format_comparison, format_result
 from twin.robot import RobotModel
 

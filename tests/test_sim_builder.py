@@ -6,11 +6,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.cable import DH_BOUND_M, DH_BOUND_RAD, cable_length
-from twin.kinematics import flange_transform
+from twin.kinds.length import cable_length
 from twin.robot import RobotModel, default_robot
 from twin.sim import Physics, build_spec
 from twin.synthetic import random_poses
+from twin.unknowns.dh import BOUND_M as DH_BOUND_M
+from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
 PORT_M = np.array([0.6, -0.4, 0.1])
 
@@ -55,10 +56,10 @@ def test_flange_site_and_cable_equal_core_model(make) -> None:
     robot = make(rng)
     q = random_poses(robot, 1000, rng)
     poses, lengths = _mujoco_flange(robot, q)
-    core = flange_transform(robot.dh, q)
+    core = robot.flange_transforms(q)
     assert np.max(np.abs(poses[:, :3, 3] - core[:, :3, 3])) < 1e-9
     assert np.max(np.abs(poses[:, :3, :3] - core[:, :3, :3])) < 1e-9
-    assert np.max(np.abs(lengths - cable_length(robot.dh, q, PORT_M))) < 1e-9
+    assert np.max(np.abs(lengths - cable_length(robot.structure, robot.dh, q, PORT_M))) < 1e-9
 
 
 def test_links_sized_and_weighted_from_model_file() -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.kinematics import flange_position
 from twin.robot import default_robot
 from twin.sim import NoiseModel
 from twin.synthetic import random_poses
@@ -48,9 +47,9 @@ def test_repeatability_is_the_rms_flange_jitter() -> None:
     rng = np.random.default_rng(4)
     q = random_poses(robot, 400, rng)
     noise = NoiseModel(repeatability_m=1e-5)
-    sigma = noise.joint_sigma_rad(robot.dh, q)
+    sigma = noise.joint_sigma_rad(robot, q)
     q = np.tile(q, (50, 1))
     jitter = rng.normal(0.0, sigma, q.shape)
-    shift = flange_position(robot.dh, q + jitter) - flange_position(robot.dh, q)
+    shift = robot.flange_positions(q + jitter) - robot.flange_positions(q)
     assert np.sqrt(np.mean(np.sum(shift**2, axis=-1))) == pytest.approx(1e-5, rel=0.03)
-    assert NoiseModel().joint_sigma_rad(robot.dh, q) == 0.0
+    assert NoiseModel().joint_sigma_rad(robot, q) == 0.0

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.cable import DH_BOUND_M, DH_BOUND_RAD
 from twin.sim import Perturbation
+from twin.unknowns.dh import BOUND_M as DH_BOUND_M
+from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
 
 def test_uniform_draws_stay_within_their_scale() -> None:

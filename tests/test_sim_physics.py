@@ -6,8 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.cable import cable_length
-from twin.kinematics import flange_position
+from twin.kinds.length import cable_length
 from twin.robot import default_robot
 from twin.sim import Physics, Twin, static_equilibrium
 from twin.synthetic import random_poses
@@ -60,12 +59,12 @@ def test_deflection_is_tens_of_micrometres() -> None:
     """With the paper scenario's stiffness the flange sags by tens of µm RMS (10–200 µm)."""
     robot = default_robot()
     q = _poses(200)
-    shift = Twin.build(robot, PORT_M, PAPER).flange_positions(q) - flange_position(robot.dh, q)
+    shift = Twin.build(robot, PORT_M, PAPER).flange_positions(q) - robot.flange_positions(q)
     rms_um = np.sqrt(np.mean(np.sum(shift**2, axis=1))) * 1e6
     assert 10.0 < rms_um < 200.0
     # Half the stiffness, twice the sag (linear statics).
     soft = Twin.build(robot, PORT_M, Physics(STIFFNESS / 2, True, 5.0)).flange_positions(q)
-    soft_um = np.sqrt(np.mean(np.sum((soft - flange_position(robot.dh, q))**2, axis=1))) * 1e6
+    soft_um = np.sqrt(np.mean(np.sum((soft - robot.flange_positions(q))**2, axis=1))) * 1e6
     assert soft_um == pytest.approx(2 * rms_um, rel=0.01)
 
 
@@ -74,7 +73,7 @@ def test_tension_alone_shortens_the_cable() -> None:
     robot = default_robot()
     q = _poses(50)
     pulled = Twin.build(robot, PORT_M, Physics(STIFFNESS, False, 5.0)).lengths(q)
-    rigid = cable_length(robot.dh, q, PORT_M)
+    rigid = cable_length(robot.structure, robot.dh, q, PORT_M)
     assert np.all(pulled < rigid)
     assert np.all(rigid - pulled < 1e-4)
 
@@ -84,7 +83,7 @@ def test_rigid_twin_equals_core_model() -> None:
     robot = default_robot()
     q = _poses(300)
     assert np.max(np.abs(Twin.build(robot, PORT_M).lengths(q)
-                         - cable_length(robot.dh, q, PORT_M))) < 1e-9
+                         - cable_length(robot.structure, robot.dh, q, PORT_M))) < 1e-9
 
 
 def test_physics_rejects_loads_without_stiffness() -> None:

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError, TwinError
-from twin.kinematics import flange_position
 from twin.robot import default_robot
 from twin.sim import PoseConstraints, Twin, read_pose_plan, sample_poses
 from twin.synthetic import random_poses
@@ -26,7 +25,7 @@ def test_sampled_poses_satisfy_every_constraint() -> None:
     q = sample_poses(twin, 60, CONSTRAINTS, np.random.default_rng(5))
     assert q.shape == (60, 6)
     assert np.all((robot.lower_rad <= q) & (q <= robot.upper_rad))
-    flange = flange_position(robot.dh, q)
+    flange = robot.flange_positions(q)
     length = np.linalg.norm(flange - PORT_M, axis=1)
     assert np.all(flange[:, 2] >= 0.05)
     assert np.all((length >= 0.1) & (length <= 1.2))
@@ -38,7 +37,7 @@ def test_flange_below_the_floor_is_a_collision() -> None:
     """Every random pose whose flange centre is below the floor is reported in collision."""
     robot = default_robot()
     q = random_poses(robot, 3000, np.random.default_rng(6))
-    below = q[flange_position(robot.dh, q)[:, 2] < -0.01]
+    below = q[robot.flange_positions(q)[:, 2] < -0.01]
     assert len(below) > 0
     assert np.all(Twin.build(robot, PORT_M).in_collision(below))
 

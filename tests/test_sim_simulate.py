@@ -9,18 +9,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.cable import CableModel, cable_length
-from twin.calibration import calibrate, split_rows
+from twin.calibration import calibrate, make_model, split_rows
 from twin.cli import main
 from twin.errors import InputError
 from twin.io.capture import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
+from twin.kinds.length import cable_length
+from twin.rig import Rig
 from twin.robot import load_robot
 from twin.sim import load_scenario, parse_scenario, simulate, write_simulation
 from twin.stopping import Budget
 from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
+from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 ROOT = Path(__file__).parents[1]
 GEOMETRIC = ROOT / "scenarios" / "geometric_irb120.toml"
@@ -39,7 +40,8 @@ def test_rigid_noise_free_lengths_equal_the_core_model_under_the_truth() -> None
     port to 1e-9 m, and the truth is the nominal table plus delta."""
     scenario = _scenario(GEOMETRIC, encoder={"sigma_mm": 0.0, "resolution_mm": 0.0})
     sim = simulate(scenario)
-    expected = cable_length(sim.true_robot.dh, sim.measurements.q_rad, sim.port_m)
+    expected = cable_length(sim.true_robot.structure, sim.true_robot.dh, sim.measurements.q_rad,
+                            sim.port_m)
     assert np.max(np.abs(sim.measurements.length_m - expected)) < 1e-9
     assert np.allclose(sim.true_robot.dh, sim.robot.dh + sim.delta)
     assert np.any(sim.delta != 0)
@@ -121,9 +123,10 @@ def test_geometric_scenario_lm_recovers_flange_within_cramer_rao() -> None:
     assert result.metrics["validation"].rmse < 1.5 * sigma
     workspace = random_poses(sim.robot, 1000, np.random.default_rng(1))
     train_rows, _ = split_rows(len(sim.measurements), 0)
-    bound = cramer_rao_flange_rms(CableModel(sim.robot.dh, sim.port_m), sim.delta.ravel(),
+    bound = cramer_rao_flange_rms(make_model(sim.robot, Rig.cable(sim.port_m)), sim.delta.ravel(),
                                   sim.measurements.subset(train_rows), sigma, workspace)
-    error = flange_error_rms(result.identified_robot.dh, sim.true_robot.dh, workspace)
+    error = rms_distance(result.identified_robot.flange_positions(workspace),
+                         sim.true_robot.flange_positions(workspace))
     assert error < 2.0 * bound
 
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.cable import CableModel, Measurements
+from twin.calibration import make_model
+from twin.dataset import Measurements
 from twin.problem import Problem
+from twin.rig import Rig
 from twin.robot import default_robot
 from twin.solvers.swarm import (
-    RADIUS_M,
-    RADIUS_RAD,
     best_in_slots,
     chord_parameters,
     initial_swarm,
@@ -83,11 +83,11 @@ def test_initial_swarm_is_within_1mm_1deg_of_the_centre() -> None:
     """Eq. 14 with the text's radius: ±1 mm on lengths, ±1° on angles; slot 0 is the centre."""
     robot = default_robot()
     q = np.zeros((30, 6))
-    problem = Problem(CableModel(robot.dh, np.array([0.6, -0.4, 0.1])),
+    problem = Problem(make_model(robot, Rig.cable(np.array([0.6, -0.4, 0.1]))),
                       Measurements(q[:25], np.ones(25)), Measurements(q[25:], np.ones(5)))
     center = np.full(24, 1e-4)
     x = initial_swarm(problem, center, 100, np.random.default_rng(0))
-    radius = np.where(problem.model.is_length, RADIUS_M, RADIUS_RAD)
+    radius = np.where(problem.model.is_length, 1e-3, np.deg2rad(1.0))
     assert x.shape == (100, 24)
     np.testing.assert_array_equal(x[0], center)
     assert np.all(np.abs(x - center) <= radius)

@@ -5,20 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.cable import CableModel, Measurements
-from twin.calibration import calibrate
+from twin.calibration import calibrate, make_model
+from twin.dataset import Measurements
 from twin.identifiability import measurement_identifiability
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.stopping import Budget
 from twin.synthetic import random_poses
 from twin.uncertainty import (
     base_covariance,
-    flange_error_rms,
     flange_sigma,
     parameter_covariance,
     parameter_sigma,
     predicted_flange_rms,
     residual_sigma,
+    rms_distance,
     workspace_grid,
 )
 
@@ -30,7 +31,7 @@ def setup(irb120: RobotModel, port_m: np.ndarray):
     """Nominal model, 96 poses, their Jacobian and identifiability."""
     q = random_poses(irb120, 96, np.random.default_rng(11))
     data = Measurements(q, np.ones(len(q)))
-    model = CableModel(irb120.dh, port_m)
+    model = make_model(irb120, Rig.cable(port_m))
     _, J = model.jacobian(np.zeros(24), data)
     return model, data, J, measurement_identifiability(model, np.zeros(24), data)
 
@@ -52,15 +53,15 @@ def test_base_and_pseudo_inverse_covariances_predict_the_same_flange_error(
 ) -> None:
     """Both are generalised inverses of JᵀJ and flange motions lie in J's row space, so the
     predicted flange error is the same for either — even though the parameter σ differ."""
-    _, _, J, ident = setup
+    model, _, J, ident = setup
     q = random_poses(irb120, 300, np.random.default_rng(1))
+    flange = model.flange_jacobian(np.zeros(24), model.poses(q))
     full = parameter_covariance(J, SIGMA_M)
     base = base_covariance(J, ident.base, SIGMA_M)
     assert not np.allclose(np.diag(full), np.diag(base), rtol=1e-3, atol=0.0)
-    np.testing.assert_allclose(flange_sigma(irb120.dh, base, q), flange_sigma(irb120.dh, full, q),
-                               rtol=1e-6)
-    assert predicted_flange_rms(irb120.dh, base, q) == pytest.approx(
-        float(np.sqrt(np.mean(flange_sigma(irb120.dh, base, q) ** 2))))
+    np.testing.assert_allclose(flange_sigma(flange, base), flange_sigma(flange, full), rtol=1e-6)
+    assert predicted_flange_rms(flange, base) == pytest.approx(
+        float(np.sqrt(np.mean(flange_sigma(flange, base) ** 2))))
 
 
 def test_parameter_sigma_is_nan_for_dependent_unknowns(setup) -> None:
@@ -101,7 +102,8 @@ def test_calibration_carries_covariance_and_an_honest_accuracy(
     assert uncertainty is not None and result.identifiability is not None
     assert 0.7 * SIGMA_M < uncertainty.noise_sigma_m < 1.4 * SIGMA_M
     q = random_poses(irb120, 500, np.random.default_rng(2))
-    true_error = flange_error_rms(result.identified_robot.dh, true_robot.dh, q)
+    true_error = rms_distance(result.identified_robot.flange_positions(q),
+                              true_robot.flange_positions(q))
     assert uncertainty.flange_rms_m / 3 < true_error < 3 * uncertainty.flange_rms_m
     assert uncertainty.covariance.shape == (24, 24)
     ident = result.identifiability

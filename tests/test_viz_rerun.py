@@ -30,7 +30,7 @@ from twin.io.capture import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.results import MM2_PER_M2
 from twin.io.truth import load_truth_delta
-from twin.kinematics import chain, flange_position
+from twin.kinematics import Structure, frames
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm
 from twin.viz import entities
 from twin.viz.cli import RerunOptions
@@ -112,7 +112,7 @@ def test_simulate_recording_has_the_scene(capture: Path) -> None:
     for label in ("nominal", "true"):
         strips = column(batches, entities.robot(label), "LineStrips3D:strips")
         assert len(strips) == len(measurements)
-    true_flange = flange_position(loaded.robot.dh + truth, measurements.q_rad)
+    true_flange = loaded.robot.perturbed(truth).flange_positions(measurements.q_rad)
     cable = np.array([row[0] for row in column(batches, entities.CABLE, "LineStrips3D:strips")])
     np.testing.assert_allclose(cable[:, 1], true_flange, atol=1e-6)  # float32 positions
     assert "# Measurements of ABB IRB 120" in text(batches, entities.REPORT, "TextDocument:text")
@@ -136,7 +136,8 @@ def test_every_family_round_trips(calibrated: tuple[Path, CalibrationResult],
         strips = np.array([row[0] for row in column(batches, entities.robot(label),
                                                     "LineStrips3D:strips")])
         assert strips.shape == (n_poses, 7, 3)
-        np.testing.assert_array_equal(strips, chain(dh, q).origins.astype(np.float32))
+        np.testing.assert_array_equal(strips, frames(Structure.standard(6), dh, q).origins
+                                      .astype(np.float32))
     # world/port and world/cable: port to the true flange, labelled with the measured length.
     port = np.array(column(batches, entities.PORT, "Points3D:positions")[0])
     np.testing.assert_array_equal(port, [loaded.port_m.astype(np.float32)])

@@ -7,6 +7,7 @@ This is the Python API the CLI mirrors::
     result = twin.calibrate(robot, data, port_m=[0.6, 0.3, 0.0], method="lm", seed=0)
     result.metrics["validation"].rmse      # m
     result.identified_robot.dh             # (4, 6), m and rad
+    result.solver.stop_reason              # which test stopped the method
 """
 
 from __future__ import annotations
@@ -19,16 +20,20 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import CableModel, Measurements
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.identifiability import Identifiability, measurement_identifiability
+from twin.kinds import get_kind
 from twin.metrics import Metrics, metrics
+from twin.model import Model
 from twin.problem import DEFAULT_SIGMA_M, Problem
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.solvers import SolverResult, get_solver
 from twin.stopping import Budget, at_bounds
 from twin.synthetic import random_poses
 from twin.uncertainty import CalibrationUncertainty, calibration_uncertainty
+from twin.unknowns import make_groups
 
 Array = NDArray[np.float64]
 
@@ -53,9 +58,37 @@ def split_rows(
     return np.sort(order[:n_train]), np.sort(order[n_train:])
 
 
-def required_poses(n_params: int, train_fraction: float = TRAIN_FRACTION) -> int:
-    """Fewest poses for which the training split has one pose per unknown and validation one."""
-    return max(ceil(n_params / train_fraction), n_params + 1)
+def required_poses(n_params: int, train_fraction: float = TRAIN_FRACTION,
+                   rows_per_pose: int = 1) -> int:
+    """Fewest poses for which the training split has a residual per unknown and validation one
+    pose."""
+    per_pose = ceil(n_params / rows_per_pose)
+    return max(ceil(per_pose / train_fraction), per_pose + 1)
+
+
+def make_model(
+    robot: RobotModel,
+    rig: Rig,
+    kind: str = "length",
+    *,
+    errors: Sequence[str] = ("dh",),
+    estimate_port: bool = False,
+    estimate_offset: bool = False,
+) -> Model:
+    """The measurement model of a calibration: the robot's error groups and the rig's unknowns.
+
+    Args:
+        robot: The nominal robot.
+        rig: The nominal rig.
+        kind: The measurement kind (:data:`twin.dataset.KINDS`).
+        errors: The robot's error groups (:data:`twin.unknowns.GROUPS`): ``("dh",)`` is the
+            paper's D-H errors alone.
+        estimate_port: Also identify a correction of every port.
+        estimate_offset: Also identify the encoder's length offset.
+    """
+    names = [*errors, *(["port"] if estimate_port else []),
+             *(["offset"] if estimate_offset else [])]
+    return Model(robot, rig, get_kind(kind), make_groups(names, robot, rig))
 
 
 @dataclass(frozen=True)
@@ -64,7 +97,7 @@ class CalibrationResult:
 
     Attributes:
         robot: The nominal robot.
-        model: The cable model (nominal table, nominal port, which extra unknowns).
+        model: The measurement model (nominal robot and rig, measurement kind, unknowns).
         solver: The method's raw result (x, history, evaluations, time).
         seed: Seed of the split and of the method's random draws.
         train_rows: Row indices used for identification, shape (m_train,).
@@ -78,7 +111,7 @@ class CalibrationResult:
     """
 
     robot: RobotModel
-    model: CableModel
+    model: Model
     solver: SolverResult
     seed: int
     train_rows: NDArray[np.intp]
@@ -96,8 +129,9 @@ class CalibrationResult:
 
     @property
     def delta(self) -> Array:
-        """Identified D-H errors, shape (4, n): rows δa [m], δd [m], δα [rad], δθ [rad]."""
-        return self.solver.x[: self.model.n_dh].reshape(self.model.dh.shape)
+        """Identified errors of the kinematic table, shape (4, n): rows δa [m], δd [m], δα [rad],
+        δθ [rad] for a D-H arm; zeros when the table was not identified."""
+        return self.model.table(self.solver.x) - self.robot.dh
 
     @property
     def identified_robot(self) -> RobotModel:
@@ -111,14 +145,23 @@ class CalibrationResult:
         return tuple(np.asarray(self.model.names)[at_bounds(self.solver.x, lower, upper)])
 
     @property
+    def ports_m(self) -> Array:
+        """Ports used or identified, base frame, shape (k, 3), m."""
+        ports = self.model.rig.ports_m
+        if self.model.has("port"):
+            ports = ports + self.model.block(self.solver.x, "port").reshape(ports.shape)
+        return np.asarray(ports, dtype=np.float64)
+
+    @property
     def port_m(self) -> Array:
-        """Port position used or identified, shape (3,), m."""
-        return self.model.split(self.solver.x)[1][0]
+        """The port used or identified when there is one, shape (3,), m."""
+        return self.ports_m[0]
 
     @property
     def offset_m(self) -> float:
         """Identified cable-length offset, m (0 unless estimated)."""
-        return float(self.model.split(self.solver.x)[2][0])
+        return float(self.model.block(self.solver.x, "offset")[0]) if self.model.has("offset") \
+            else 0.0
 
 
 class SplitProblem(NamedTuple):
@@ -131,11 +174,19 @@ class SplitProblem(NamedTuple):
     """Held-out row indices, shape (m_val,)."""
 
 
+def _rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
+    if (port_m is None) == (rig is None):
+        raise ValueError("give either port_m or rig")
+    return rig if rig is not None else Rig.cable(np.asarray(port_m, dtype=np.float64))
+
+
 def make_problem(
     robot: RobotModel,
     measurements: Measurements,
-    port_m: ArrayLike,
+    port_m: ArrayLike | None = None,
     *,
+    rig: Rig | None = None,
+    errors: Sequence[str] = ("dh",),
     seed: int = 0,
     estimate_port: bool = False,
     estimate_offset: bool = False,
@@ -144,12 +195,14 @@ def make_problem(
 ) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
+    Takes the arguments of :func:`calibrate`.
+
     Raises:
         InputError: if there are fewer poses than the unknowns need.
     """
-    model = CableModel(robot.dh, np.asarray(port_m, dtype=np.float64),
+    model = make_model(robot, _rig(port_m, rig), measurements.kind, errors=errors,
                        estimate_port=estimate_port, estimate_offset=estimate_offset)
-    needed = required_poses(model.n_params, train_fraction)
+    needed = required_poses(model.n_params, train_fraction, model.kind.rows_per_pose)
     if len(measurements) < needed:
         percent = round(100 * train_fraction)
         raise InputError(
@@ -166,9 +219,11 @@ def make_problem(
 def calibrate_many(
     robot: RobotModel,
     measurements: Measurements,
-    port_m: ArrayLike,
+    port_m: ArrayLike | None,
     methods: Sequence[str],
     *,
+    rig: Rig | None = None,
+    errors: Sequence[str] = ("dh",),
     seed: int = 0,
     estimate_port: bool = False,
     estimate_offset: bool = False,
@@ -185,7 +240,7 @@ def calibrate_many(
         Results keyed by each method's name, in the order given.
     """
     split = make_problem(
-        robot, measurements, port_m, seed=seed,
+        robot, measurements, port_m, rig=rig, errors=errors, seed=seed,
         estimate_port=estimate_port, estimate_offset=estimate_offset,
         train_fraction=train_fraction,
     )
@@ -237,8 +292,10 @@ def solve_many(
 def calibrate(
     robot: RobotModel,
     measurements: Measurements,
-    port_m: ArrayLike,
+    port_m: ArrayLike | None = None,
     *,
+    rig: Rig | None = None,
+    errors: Sequence[str] = ("dh",),
     method: str = "lm",
     seed: int = 0,
     estimate_port: bool = False,
@@ -246,12 +303,16 @@ def calibrate(
     budget: Budget | None = None,
     train_fraction: float = TRAIN_FRACTION,
 ) -> CalibrationResult:
-    """Identify the D-H errors of ``robot`` from cable measurements.
+    """Identify the errors of ``robot`` (and the rig's unknowns) from measurements.
 
     Args:
         robot: Nominal robot.
-        measurements: Joint angles (rad) and cable lengths (m).
-        port_m: Encoder port in the base frame, shape (3,), m.
+        measurements: Joint angles (rad) and what was read (lengths in m, …).
+        port_m: Encoder port in the base frame, shape (3,), m — shorthand for
+            ``rig=Rig.cable(port_m)``; give one of the two.
+        rig: The nominal rig (ports, attachment point).
+        errors: The robot's error groups (:data:`twin.unknowns.GROUPS`); the paper's D-H
+            errors by default.
         method: A method name or paper alias (``lm``, ``m2``, …).
         seed: Seed of the train/validation split and of any random draw of the method.
         estimate_port: Also identify a correction to the port position.
@@ -261,6 +322,7 @@ def calibrate(
         train_fraction: Share of the poses used for identification (paper: 0.8).
     """
     return calibrate_many(
-        robot, measurements, port_m, [method], seed=seed, estimate_port=estimate_port,
-        estimate_offset=estimate_offset, budget=budget, train_fraction=train_fraction,
+        robot, measurements, port_m, [method], rig=rig, errors=errors, seed=seed,
+        estimate_port=estimate_port, estimate_offset=estimate_offset, budget=budget,
+        train_fraction=train_fraction,
     )[get_solver(method).name]

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import Measurements
+from twin.dataset import Measurements
 from twin.encoders.base import Encoder, EncoderDisconnectedError
 from twin.encoders.settle import Settled, SettleRule, settle
 from twin.errors import InputError, TwinError

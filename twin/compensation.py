@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from twin.kinematics import flange_jacobian, flange_position, flange_transform
+from twin.kinematics import flange_jacobian
 from twin.metrics import Metrics, metrics
 from twin.robot import RobotModel
 
@@ -102,7 +102,7 @@ def _errors(
     robot: RobotModel, q_rad: Array, base_p_target: Array, base_R_target: Array | None
 ) -> tuple[Array, Array]:
     """Stacked error e (m, k) and Jacobian J (m, k, n), k = 3 or 6."""
-    base_T_flange, jacobian = flange_jacobian(robot.dh, q_rad)
+    base_T_flange, jacobian = flange_jacobian(robot.structure, robot.dh, q_rad)
     error = base_p_target - base_T_flange[:, :3, 3]
     if base_R_target is None:
         return error, jacobian[:, :3, :]
@@ -272,7 +272,7 @@ def compensate_program(
         flange pose of the program.
     """
     q = np.asarray(q_program_rad, dtype=np.float64)
-    base_T_target = flange_transform(nominal.dh, q)
+    base_T_target = nominal.flange_transforms(q)
     return solve_ik(identified, base_T_target[:, :3, 3], q, base_T_target[:, :3, :3])
 
 
@@ -331,7 +331,7 @@ def dexterity(robot: RobotModel, q_rad: ArrayLike) -> Array:
     Returns:
         σ_min, shape (m,), m/rad.
     """
-    _, jacobian = flange_jacobian(robot.dh, np.asarray(q_rad, dtype=np.float64))
+    _, jacobian = flange_jacobian(robot.structure, robot.dh, np.asarray(q_rad, dtype=np.float64))
     jacobian[:, 3:] *= DEXTERITY_LENGTH_M
     return np.asarray(np.linalg.svd(jacobian, compute_uv=False)[:, -1])
 
@@ -355,7 +355,7 @@ def reachable_targets(
         q = rng.uniform(low, high, (2 * n_targets, robot.n_joints))
         kept.append(q[dexterity(robot, q) >= min_dexterity])
     q = np.concatenate(kept)[:n_targets]
-    return q, flange_position(robot.dh, q)
+    return q, robot.flange_positions(q)
 
 
 def check_compensation(

@@ -17,13 +17,14 @@ of the D-optimal plan made for each port.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import CableModel, Measurements
 from twin.identifiability import Observability, identifiability, observability
+from twin.model import Model
 from twin.uncertainty import cramer_rao_flange_rms
 
 Array = NDArray[np.float64]
@@ -89,7 +90,7 @@ def d_optimal_rows(candidates: ArrayLike, n_rows: int, max_exchanges: int = 1000
 
 
 def base_rows(
-    model: CableModel, x: ArrayLike, q_rad: ArrayLike
+    model: Model, x: ArrayLike, q_rad: ArrayLike
 ) -> tuple[Array, NDArray[np.bool_]]:
     """Cable-length Jacobian rows of the base parameters, chosen on the same poses.
 
@@ -101,7 +102,7 @@ def base_rows(
     Returns:
         ``(rows, base_mask)``: shape (m, L) in m/m and m/rad, and the mask (p,) of base unknowns.
     """
-    jacobian = model.jacobian(np.asarray(x, dtype=np.float64), _poses(model, x, q_rad))[1]
+    jacobian = model.jacobian(np.asarray(x, dtype=np.float64), model.poses(q_rad))[1]
     mask = identifiability(jacobian, model.names).base_mask
     return jacobian[:, mask], mask
 
@@ -116,7 +117,7 @@ class DesignScore(NamedTuple):
 
 
 def score_poses(
-    model: CableModel,
+    model: Model,
     x: ArrayLike,
     q_rad: ArrayLike,
     base_mask: NDArray[np.bool_],
@@ -133,7 +134,7 @@ def score_poses(
         sigma_m: Length noise 1σ, m.
         q_workspace_rad: Poses where the flange error is predicted, shape (k, n), rad.
     """
-    data = _poses(model, x, q_rad)
+    data = model.poses(q_rad)
     jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)[1]
     return DesignScore(
         observability=observability(jacobian[:, base_mask]),
@@ -153,7 +154,7 @@ class PosePlan(NamedTuple):
 
 
 def plan_poses(
-    model: CableModel, x: ArrayLike, candidates_rad: ArrayLike, n_poses: int
+    model: Model, x: ArrayLike, candidates_rad: ArrayLike, n_poses: int
 ) -> PosePlan:
     """The D-optimal ``n_poses`` among candidate poses for fitting ``model`` near ``x``.
 
@@ -181,7 +182,7 @@ class PortChoice(NamedTuple):
 
 
 def choose_port(
-    model: CableModel,
+    model: Model,
     ports_m: ArrayLike,
     candidates_rad: ArrayLike,
     n_poses: int,
@@ -206,7 +207,7 @@ def choose_port(
         candidates = np.broadcast_to(candidates, (len(ports), *candidates.shape))
     plans, scores = [], []
     for port, port_candidates in zip(ports, candidates, strict=True):
-        at_port = CableModel(model.dh, port, model.estimate_port, model.estimate_offset)
+        at_port = replace(model, rig=replace(model.rig, ports_m=port[None]))
         plan = plan_poses(at_port, x, port_candidates, n_poses)
         plans.append(plan)
         scores.append(
@@ -216,8 +217,3 @@ def choose_port(
     rms = np.asarray(scores)
     return PortChoice(best=int(np.argmin(rms)), flange_rms_m=rms, plans=tuple(plans))
 
-
-def _poses(model: CableModel, x: ArrayLike, q_rad: ArrayLike) -> Measurements:
-    """Poses as measurements with the model's own lengths (only q matters to a Jacobian)."""
-    q = np.asarray(q_rad, dtype=np.float64)
-    return Measurements(q, model.lengths(np.asarray(x, dtype=np.float64), q))

@@ -38,9 +38,11 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import CableModel, Measurements
+from twin.dataset import Measurements
+from twin.model import Model
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
+from twin.unknowns import Stage
 
 Array = NDArray[np.float64]
 
@@ -211,19 +213,21 @@ def identifiability(
 
 
 def measurement_identifiability(
-    model: CableModel, x: ArrayLike, data: Measurements, rtol: float = RANK_RTOL
+    model: Model, x: ArrayLike, data: Measurements, rtol: float = RANK_RTOL
 ) -> Identifiability:
-    """:func:`identifiability` of the cable model's Jacobian at unknowns ``x`` (p,) and poses.
+    """:func:`identifiability` of the model's Jacobian at unknowns ``x`` (p,) and poses.
 
-    The port correction and the length offset are preferred as base parameters: where they
-    trade against a D-H error (d1 + port_z), the unknown with the wide bound carries the
-    combination and the D-H error, bounded to ±5 mm, is the one held.
+    The rig's unknowns (port correction, length offset…) are preferred as base parameters:
+    where they trade against a D-H error (d1 + port_z), the unknown with the wide bound
+    carries the combination and the D-H error, bounded to ±5 mm, is the one held.
     """
     _, jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)
-    return identifiability(jacobian, model.names, rtol, prefer=range(model.n_dh, model.n_params))
+    prefer = [index for group in model.groups if group.stage == Stage.MEASUREMENT
+              for index in range(model.n_params)[model.slice(group.name)]]
+    return identifiability(jacobian, model.names, rtol, prefer=prefer)
 
 
-def spread_rank(model: CableModel, robot: RobotModel, rng: np.random.Generator,
+def spread_rank(model: Model, robot: RobotModel, rng: np.random.Generator,
                 n_poses: int = SPREAD_POSES) -> int:
     """The rank the model's unknowns reach on well-spread poses: ``n_poses`` drawn uniformly
     within the robot's joint limits, at the nominal geometry.
@@ -232,9 +236,8 @@ def spread_rank(model: CableModel, robot: RobotModel, rng: np.random.Generator,
     IRB 120 it is 19 of 24 (five directions no cable length sees), and a set of poses that
     reaches less misses directions it could have seen.
     """
-    q_rad = random_poses(robot, n_poses, rng)
     x0 = np.zeros(model.n_params)
-    spread = Measurements(q_rad, model.lengths(x0, q_rad))
+    spread = model.measure(x0, random_poses(robot, n_poses, rng))
     return measurement_identifiability(model, x0, spread).rank
 
 

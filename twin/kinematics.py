@@ -1,57 +1,166 @@
-"""Forward kinematics of standard D-H chains, vectorised over poses and over tables.
+"""Forward kinematics of serial revolute chains, vectorised over poses and over parameter tables.
 
-Every function takes a D-H table ``dh`` of shape (..., 4, n) — rows a [m], d [m], alpha [rad],
-theta offset [rad]; any leading dimensions are a batch of K candidate tables — and joint angles
-``q_rad`` of shape (m, n) or (..., m, n). Results carry the batch dimensions in front, then the
-pose dimension m. Joint i contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)``.
+A chain is a :class:`Structure` — one parametrisation per joint, a fixed base transform and a
+fixed tool transform — and a parameter table ``dh`` of shape (..., 4, n) whose four rows are the
+joints' *slots*; any leading dimensions are a batch of K candidate tables. Joint i contributes,
+with slots (s0, s1, s2, s3) and joint angle q_i:
 
-The chain is walked joint by joint (n steps, each a handful of elementwise array operations on
-all tables and poses at once), carrying the frame's origin and its x, y, z axes; no 4×4 matrix
-products and no loop over poses or tables.
+- ``"dh"`` (standard, distal D-H), slots (a, d, α, θ): ``Rz(q + θ) · Tz(d) · Tx(a) · Rx(α)``;
+- ``"mdh"`` (modified D-H, Craig), slots (a, d, α, θ) with a, α those of the link before the
+  joint: ``Rx(α) · Tx(a) · Rz(q + θ) · Tz(d)``;
+- ``"hayati"`` (Hayati–Mirmirani, for a joint whose axis is nearly parallel to the next one),
+  slots (a, β, α, θ): ``Rz(q + θ) · Tx(a) · Rx(α) · Ry(β)`` — a small tilt of the next axis is a
+  small β, where standard D-H needs a huge change of d.
+
+``base_T_flange(q) = base · A_1(q_1) ⋯ A_n(q_n) · tool``. Lengths in m, angles in rad. The error
+vector of a calibration keeps the table's layout, slot by slot: (s0 of joints 1..n, s1 of joints
+1..n, s2 …, s3 …) — for an all-D-H arm the paper's (δa1..n, δd1..n, δα1..n, δθ1..n).
+
+Positions are computed by carrying one point from the flange to the base through the elementary
+motions (three components per step, no 4×4 products); Jacobians by carrying frames from the base
+to the flange and turning each elementary motion into its column (a translation along u gives u,
+a rotation about u through o gives u × (p − o)). No loop over poses or tables.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import frozen_array
+
 Array = NDArray[np.float64]
 
+PARAMETRISATIONS = ("dh", "mdh", "hayati")
+"""Per-joint parametrisations, see the module docstring."""
+SLOT_NAMES = {"dh": ("a", "d", "alpha", "theta"), "mdh": ("a", "d", "alpha", "theta"),
+              "hayati": ("a", "beta", "alpha", "theta")}
+"""Name of each of the four slots, per parametrisation."""
+SLOT_IS_LENGTH = {"dh": (True, True, False, False), "mdh": (True, True, False, False),
+                  "hayati": (True, False, False, False)}
+"""Whether each slot is a length (m) rather than an angle (rad), per parametrisation."""
+JOINT_SLOT = 3
+"""The slot the joint angle adds to (θ)."""
 
-class Chain(NamedTuple):
-    """Frames 0..n of a chain for a batch of tables and poses.
+_ROT, _TRANS = 0, 1
+_X, _Y, _Z = 0, 1, 2
+_MOTIONS = {
+    "dh": ((_ROT, _Z, 3), (_TRANS, _Z, 1), (_TRANS, _X, 0), (_ROT, _X, 2)),
+    "mdh": ((_ROT, _X, 2), (_TRANS, _X, 0), (_ROT, _Z, 3), (_TRANS, _Z, 1)),
+    "hayati": ((_ROT, _Z, 3), (_TRANS, _X, 0), (_ROT, _X, 2), (_ROT, _Y, 1)),
+}
+"""Elementary motions of each parametrisation, base side first: (kind, local axis, slot)."""
+
+
+def _identity() -> Array:
+    return np.eye(4)
+
+
+@dataclass(frozen=True)
+class Structure:
+    """What a parameter table means: the parametrisation of each joint and the fixed ends.
 
     Attributes:
-        origins: Frame origins o_0..o_n in the base frame, shape (..., m, n+1, 3), m.
+        parametrisation: One of :data:`PARAMETRISATIONS` per joint, base to flange.
+        base: Fixed transform from the robot's base frame to the chain's frame 0, (4, 4), m.
+        tool: Fixed transform from the last joint's frame to the flange frame, (4, 4), m.
+    """
+
+    parametrisation: tuple[str, ...]
+    base: Array = field(default_factory=_identity)
+    tool: Array = field(default_factory=_identity)
+
+    def __post_init__(self) -> None:
+        kinds = tuple(self.parametrisation)
+        unknown = [kind for kind in kinds if kind not in PARAMETRISATIONS]
+        if not kinds or unknown:
+            raise ValueError(f"parametrisation {kinds!r}: expected one or more of "
+                             + ", ".join(PARAMETRISATIONS))
+        object.__setattr__(self, "parametrisation", kinds)
+        for name in ("base", "tool"):
+            transform = frozen_array(getattr(self, name), (4, 4), name)
+            rotation = transform[:3, :3]
+            if not (np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
+                    and np.linalg.det(rotation) > 0 and np.allclose(transform[3], [0, 0, 0, 1])):
+                raise ValueError(f"{name}: not a rigid transform")
+            object.__setattr__(self, name, transform)
+
+    @classmethod
+    def standard(cls, n_joints: int) -> Structure:
+        """n standard D-H joints, base and tool frames at the chain's ends."""
+        return cls(("dh",) * n_joints)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return len(self.parametrisation)
+
+    @property
+    def is_standard(self) -> bool:
+        """All joints standard D-H, base and tool the identity (the paper's form)."""
+        return all(kind == "dh" for kind in self.parametrisation) \
+            and bool(np.allclose(self.base, np.eye(4), atol=0.0)) \
+            and bool(np.allclose(self.tool, np.eye(4), atol=0.0))
+
+    @property
+    def slot_names(self) -> tuple[tuple[str, ...], ...]:
+        """Names of the slots per joint, shape (n, 4) as nested tuples."""
+        return tuple(SLOT_NAMES[kind] for kind in self.parametrisation)
+
+    @property
+    def is_length(self) -> NDArray[np.bool_]:
+        """Whether each table entry is a length (m) rather than an angle (rad), shape (4, n)."""
+        return np.array([SLOT_IS_LENGTH[kind] for kind in self.parametrisation]).T
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the table entries in the error vector's order: slot by slot, joints 1..n
+        (``a1``…``a6``, ``d1``… or ``beta2`` for a Hayati joint, …)."""
+        return tuple(f"{self.slot_names[joint][slot]}{joint + 1}"
+                     for slot in range(4) for joint in range(self.n_joints))
+
+
+class Frames(NamedTuple):
+    """Frames 0..n of a chain (frame 0 = base · nothing, frame i after joint i's transform)
+    and the flange frame, for a batch of tables and poses.
+
+    Attributes:
+        origins: Frame origins in the base frame, shape (..., m, n+1, 3), m.
         x_axes: Frame x axes, shape (..., m, n+1, 3), unit vectors.
-        y_axes: Frame y axes, shape (..., m, n+1, 3), unit vectors.
-        z_axes: Frame z axes, shape (..., m, n+1, 3), unit vectors.
+        y_axes: Frame y axes, shape (..., m, n+1, 3).
+        z_axes: Frame z axes, shape (..., m, n+1, 3).
+        flange: base_T_flange, shape (..., m, 4, 4).
     """
 
     origins: Array
     x_axes: Array
     y_axes: Array
     z_axes: Array
+    flange: Array
 
 
-def _angles(dh: Array, q_rad: Array) -> tuple[Array, ...]:
-    """Broadcast the table against the poses: six arrays of shape (..., m, n)."""
-    a, d, alpha, theta = (dh[..., k, None, :] for k in range(4))
-    joint = q_rad + theta
-    shape = np.broadcast_shapes(joint.shape, a.shape)
-    return tuple(
-        np.broadcast_to(v, shape)
-        for v in (a, d, np.cos(alpha), np.sin(alpha), np.cos(joint), np.sin(joint))
-    )
+class PointJacobian(NamedTuple):
+    """A point on the flange, and how it moves with the table, the joints and the point."""
+
+    position: Array
+    """The point in the base frame, shape (..., m, 3), m."""
+    table: Array
+    """∂p/∂table in the error vector's order, shape (..., m, 3, 4n), m/m or m/rad."""
+    joints: Array
+    """∂p/∂q, shape (..., m, 3, n), m/rad."""
+    rotation: Array
+    """The flange's rotation, base_R_flange = ∂p/∂(point in the flange frame), (..., m, 3, 3)."""
 
 
-def _check_shapes(dh: Array, q_rad: Array) -> None:
-    if dh.ndim < 2 or dh.shape[-2] != 4:
-        raise ValueError(f"dh: shape {dh.shape}, expected (..., 4, n)")
-    if q_rad.ndim < 2 or q_rad.shape[-1] != dh.shape[-1]:
-        raise ValueError(f"q_rad: shape {q_rad.shape}, expected (..., m, {dh.shape[-1]})")
+def _check_shapes(structure: Structure, dh: Array, q_rad: Array) -> None:
+    n = structure.n_joints
+    if dh.ndim < 2 or dh.shape[-2:] != (4, n):
+        raise ValueError(f"dh: shape {dh.shape}, expected (..., 4, {n})")
+    if q_rad.ndim < 2 or q_rad.shape[-1] != n:
+        raise ValueError(f"q_rad: shape {q_rad.shape}, expected (..., m, {n})")
 
 
 def _joint_major(array: Array, ndim: int) -> Array:
@@ -60,133 +169,218 @@ def _joint_major(array: Array, ndim: int) -> Array:
     return moved.reshape(moved.shape[0], *(1,) * (ndim - moved.ndim), *moved.shape[1:])
 
 
-def _walk(dh: ArrayLike, q_rad: ArrayLike, keep: bool) -> list[tuple[Array, ...]]:
-    """Frames (origin, x, y, z) after each joint; only the last one unless ``keep``."""
-    dh = np.asarray(dh, dtype=np.float64)
-    q_rad = np.asarray(q_rad, dtype=np.float64)
-    _check_shapes(dh, q_rad)
-    a, d, ca, sa, ct, st = _angles(dh, q_rad)
-    batch = a.shape[:-1]
-    origin = np.zeros((*batch, 3))
-    x = np.broadcast_to(np.array([1.0, 0.0, 0.0]), (*batch, 3))
-    y = np.broadcast_to(np.array([0.0, 1.0, 0.0]), (*batch, 3))
-    z = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (*batch, 3))
-    frames: list[tuple[Array, ...]] = [(origin, x, y, z)]
-    for i in range(dh.shape[-1]):
-        cti, sti, cai, sai = ct[..., i, None], st[..., i, None], ca[..., i, None], sa[..., i, None]
-        x_rot = cti * x + sti * y
-        y_rot = cti * y - sti * x
-        origin = origin + d[..., i, None] * z + a[..., i, None] * x_rot
-        y, z = cai * y_rot + sai * z, cai * z - sai * y_rot
-        x = x_rot
-        if keep:
-            frames.append((origin, x, y, z))
-        else:
-            frames[0] = (origin, x, y, z)
-    return frames
-
-
-def flange_position(dh: ArrayLike, q_rad: ArrayLike) -> Array:
-    """Flange centre in the base frame.
-
-    Args:
-        dh: D-H tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+def _cos_sin(structure: Structure, dh: Array, q_rad: Array
+             ) -> tuple[int, list[tuple[Array, ...]], Array]:
+    """Per joint and slot the values the motions need, joint-major and broadcastable.
 
     Returns:
-        base_p_flange, shape (..., m, 3), m.
+        ``(ndim, per_joint, slots)``: per joint a tuple (cos, sin) for each slot, where the joint
+        slot's angle is q + θ (by the angle-sum identity, so that the transcendentals run on
+        the poses and on the tables apart, not on every table-pose pair) and other angle slots
+        are table-only; ``slots`` the table joint-major, shape (4, n, 1..., batch..., 1).
     """
-    # The hot path of the swarms: instead of carrying whole frames (12 components) base to
-    # flange, carry one point flange to base, p ← Rz(θ_i)·Rx(α_i)·p + (a_i cos θ_i,
-    # a_i sin θ_i, d_i), on joint-major contiguous arrays. About 3× less memory traffic.
-    dh = np.asarray(dh, dtype=np.float64)
-    q_rad = np.asarray(q_rad, dtype=np.float64)
-    _check_shapes(dh, q_rad)
     ndim = max(dh.ndim, q_rad.ndim)  # of (n, batch..., m) once joint-major
-    a, d, alpha, theta = (_joint_major(dh[..., k, None, :], ndim) for k in range(4))
-    q_joint_major = _joint_major(q_rad, ndim)
-    # cos/sin of q + θ by the angle-sum identities: the transcendentals then run on the poses
-    # (n, m) and the tables (n, ...) separately instead of on every (table, pose) pair, which
-    # made them most of a swarm evaluation's time.
-    cq, sq = np.cos(q_joint_major), np.sin(q_joint_major)
-    cth, sth = np.cos(theta), np.sin(theta)
-    ct, st = cq * cth - sq * sth, sq * cth + cq * sth  # (n, ..., m)
-    ca, sa = np.cos(alpha), np.sin(alpha)
-    px, py = a[-1] * ct[-1], a[-1] * st[-1]
-    pz = np.broadcast_to(d[-1], px.shape)
-    for i in range(ct.shape[0] - 2, -1, -1):
-        wy = ca[i] * py - sa[i] * pz
-        wz = sa[i] * py + ca[i] * pz
-        u = px + a[i]
-        px, py, pz = ct[i] * u - st[i] * wy, st[i] * u + ct[i] * wy, wz + d[i]
-    return np.stack([px, py, pz], axis=-1)
+    slots = np.stack([_joint_major(dh[..., k, None, :], ndim) for k in range(4)])
+    q = _joint_major(q_rad, ndim)
+    cq, sq = np.cos(q), np.sin(q)
+    cos_slots, sin_slots = np.cos(slots), np.sin(slots)
+    ct = cq * cos_slots[JOINT_SLOT] - sq * sin_slots[JOINT_SLOT]
+    st = sq * cos_slots[JOINT_SLOT] + cq * sin_slots[JOINT_SLOT]
+    per_joint = []
+    for i in range(structure.n_joints):
+        values = [(cos_slots[k, i], sin_slots[k, i]) for k in range(4)]
+        values[JOINT_SLOT] = (ct[i], st[i])
+        per_joint.append(tuple(v for pair in values for v in pair))
+    return ndim, per_joint, slots
 
 
-def _homogeneous(origin: Array, x: Array, y: Array, z: Array) -> Array:
-    """4×4 transforms, shape (..., 4, 4), from origins and axes of shape (..., 3)."""
-    transform = np.zeros((*origin.shape[:-1], 4, 4))
-    transform[..., :3, 0], transform[..., :3, 1], transform[..., :3, 2] = x, y, z
-    transform[..., :3, 3] = origin
-    transform[..., 3, 3] = 1.0
-    return transform
-
-
-def flange_transform(dh: ArrayLike, q_rad: ArrayLike) -> Array:
-    """Homogeneous flange pose in the base frame, base_T_flange, shape (..., m, 4, 4), m."""
-    return _homogeneous(*_walk(dh, q_rad, keep=False)[-1])
-
-
-def chain(dh: ArrayLike, q_rad: ArrayLike) -> Chain:
-    """All frames 0..n (base to flange) for drawing a robot or differentiating its chain."""
-    frames = _walk(dh, q_rad, keep=True)
-    return Chain(*(np.stack(parts, axis=-2) for parts in zip(*frames, strict=True)))
-
-
-def flange_position_jacobian(dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
-    """Flange position and its analytic Jacobian w.r.t. the D-H table.
-
-    For revolute z axes: ∂P/∂θ_i = z_{i−1} × (P − o_{i−1}), ∂P/∂d_i = z_{i−1}, ∂P/∂a_i = x_i,
-    ∂P/∂α_i = x_i × (P − o_i). The θ block is also the joint Jacobian ∂P/∂q.
+def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
+                   point_m: ArrayLike | None = None) -> Array:
+    """A point fixed to the flange, in the base frame.
 
     Args:
-        dh: D-H tables, shape (..., 4, n), m and rad.
+        structure: What the table means.
+        dh: Parameter tables, shape (..., 4, n), m and rad.
         q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
+            tables), m; the flange centre (origin) if None.
 
     Returns:
-        ``(base_p_flange, jacobian)``: shapes (..., m, 3) in m and (..., m, 3, 4n) with columns
-        ordered (a1..an, d1..dn, α1..αn, θ1..θn), in m/m and m/rad.
+        base_p_point, shape (..., m, 3), m.
     """
-    frames = chain(dh, q_rad)
-    p = frames.origins[..., -1:, :]
-    o_prev, z_prev = frames.origins[..., :-1, :], frames.z_axes[..., :-1, :]
-    o_next, x_next = frames.origins[..., 1:, :], frames.x_axes[..., 1:, :]
-    blocks = (
-        x_next,
-        z_prev,
-        np.cross(x_next, p - o_next),
-        np.cross(z_prev, p - o_prev),
-    )
-    jacobian = np.concatenate(blocks, axis=-2)  # (..., m, 4n, 3)
-    return p[..., 0, :], np.swapaxes(jacobian, -1, -2)
+    # The hot path of the swarms: one point carried from the flange to the base,
+    # p ← motion(p), on joint-major arrays.
+    dh = np.asarray(dh, dtype=np.float64)
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    _check_shapes(structure, dh, q_rad)
+    _, per_joint, slots = _cos_sin(structure, dh, q_rad)
+    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
+    start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
+    p = [start[..., k, None] for k in range(3)]  # (..., 1): broadcast over the poses
+    for i in range(structure.n_joints - 1, -1, -1):
+        cs = per_joint[i]
+        for kind, axis, slot in reversed(_MOTIONS[structure.parametrisation[i]]):
+            if kind == _TRANS:
+                p[axis] = p[axis] + slots[slot, i]
+                continue
+            c, s = cs[2 * slot], cs[2 * slot + 1]
+            j, k = (axis + 1) % 3, (axis + 2) % 3
+            p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
+    position = np.stack(np.broadcast_arrays(*p), axis=-1)
+    rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
+    return np.asarray(position @ rotation.T + translation, dtype=np.float64)
 
 
-def flange_jacobian(dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
+def _walk(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, record: bool
+          ) -> tuple[list[tuple[Array, ...]], list[tuple[int, int, int, Array, Array]], Array]:
+    """Frames after each joint, base to flange, carrying origin and axes.
+
+    Returns:
+        ``(frames, motions, flange)``: frames 0..n as (origin, x, y, z), each (..., m, 3); if
+        ``record``, every parametrised motion as (kind, joint, slot, axis u, origin o) in the
+        base frame at that motion; the flange frame as (..., m, 4, 4).
+    """
+    dh = np.asarray(dh, dtype=np.float64)
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    _check_shapes(structure, dh, q_rad)
+    batch = np.broadcast_shapes((*dh.shape[:-2], 1), q_rad.shape[:-1])
+    table = np.broadcast_to(dh[..., None, :, :], (*batch, 4, structure.n_joints))
+    q = np.broadcast_to(q_rad, (*batch, structure.n_joints))
+    base = structure.base
+    axes = [np.broadcast_to(base[:3, k], (*batch, 3)) for k in range(3)]
+    origin = np.broadcast_to(base[:3, 3], (*batch, 3))
+    frames: list[tuple[Array, ...]] = [(origin, *axes)]
+    motions: list[tuple[int, int, int, Array, Array]] = []
+    for i in range(structure.n_joints):
+        for kind, axis, slot in _MOTIONS[structure.parametrisation[i]]:
+            value = table[..., slot, i, None]
+            if slot == JOINT_SLOT:
+                value = value + q[..., i, None]
+            if record:
+                motions.append((kind, i, slot, axes[axis], origin))
+            if kind == _TRANS:
+                origin = origin + value * axes[axis]
+                continue
+            c, s = np.cos(value), np.sin(value)
+            j, k = (axis + 1) % 3, (axis + 2) % 3
+            axes[j], axes[k] = c * axes[j] + s * axes[k], c * axes[k] - s * axes[j]
+        frames.append((origin, *axes))
+    last = np.stack(axes, axis=-1)  # (..., m, 3, 3), columns x, y, z
+    tool = structure.tool
+    flange = np.zeros((*batch, 4, 4))
+    flange[..., :3, :3] = last @ tool[:3, :3]
+    flange[..., :3, 3] = origin + last @ tool[:3, 3]
+    flange[..., 3, 3] = 1.0
+    return frames, motions, flange
+
+
+def flange_transform(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> Array:
+    """Homogeneous flange pose in the base frame, base_T_flange, shape (..., m, 4, 4), m."""
+    return _walk(structure, dh, q_rad, record=False)[2]
+
+
+def frames(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> Frames:
+    """Frames 0..n and the flange, for drawing a robot or differentiating its chain."""
+    joint_frames, _, flange = _walk(structure, dh, q_rad, record=False)
+    origins, x_axes, y_axes, z_axes = (np.stack(parts, axis=-2)
+                                       for parts in zip(*joint_frames, strict=True))
+    return Frames(origins, x_axes, y_axes, z_axes, flange)
+
+
+def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
+                   point_m: ArrayLike | None = None) -> PointJacobian:
+    """A flange point and its analytic Jacobians w.r.t. the table, the joints and the point.
+
+    Args:
+        structure: What the table means.
+        dh: Parameter tables, shape (..., 4, n), m and rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        point_m: The point in the flange frame, shape (3,) or (..., 3), m; origin if None.
+    """
+    _, motions, flange = _walk(structure, dh, q_rad, record=True)
+    rotation = flange[..., :3, :3]
+    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
+    offset = local[..., None, :] if local.ndim > 1 else local
+    p = flange[..., :3, 3] + np.einsum("...ij,...j->...i", rotation, np.broadcast_to(
+        offset, (*flange.shape[:-2], 3)))
+    n = structure.n_joints
+    columns = _columns(motions, p)
+    table = np.zeros((*p.shape, 4 * n))
+    order = [slot * n + joint for _, joint, slot, _, _ in motions]
+    table[..., order] = columns
+    joints = columns[..., [slot == JOINT_SLOT for _, _, slot, _, _ in motions]]
+    return PointJacobian(p, table, joints, rotation)
+
+
+def flange_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike
+                    ) -> tuple[Array, Array]:
     """Flange pose and its geometric joint Jacobian, for inverse kinematics.
 
-    Column i is ``(z_{i−1} × (P − o_{i−1}), z_{i−1})``: the flange's linear velocity (m/rad) and
-    angular velocity (rad/rad) in the base frame per unit rate of joint i.
-
-    Args:
-        dh: D-H tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+    Column i is the flange's linear velocity (m/rad) and angular velocity (rad/rad) in the base
+    frame per unit rate of joint i.
 
     Returns:
-        ``(base_T_flange, jacobian)``: shapes (..., m, 4, 4) in m and (..., m, 6, n), rows
+        ``(base_T_flange, jacobian)``: shapes (..., m, 4, 4) and (..., m, 6, n), rows
         (vx, vy, vz, wx, wy, wz).
     """
-    frames = chain(dh, q_rad)
-    last = tuple(part[..., -1, :] for part in frames)
-    z_prev = frames.z_axes[..., :-1, :]
-    linear = np.cross(z_prev, frames.origins[..., -1:, :] - frames.origins[..., :-1, :])
-    jacobian = np.concatenate([linear, z_prev], axis=-1)  # (..., m, n, 6)
-    return _homogeneous(*last), np.swapaxes(jacobian, -1, -2)
+    _, motions, flange = _walk(structure, dh, q_rad, record=True)
+    joint_motions = [motion for motion in motions if motion[2] == JOINT_SLOT]
+    linear = _columns(joint_motions, flange[..., :3, 3])
+    angular = np.stack([u for _, _, _, u, _ in joint_motions], axis=-1)
+    return flange, np.concatenate([linear, angular], axis=-2)
+
+
+def _columns(motions: list[tuple[int, int, int, Array, Array]], p: Array) -> Array:
+    """How the point p moves with each motion: u for a translation along u, u × (p − o) for a
+    rotation about u through o; shape (..., m, 3, len(motions)), all in one cross product."""
+    u = np.stack([motion[3] for motion in motions], axis=-1)
+    o = np.stack([np.broadcast_to(motion[4], p.shape) for motion in motions], axis=-1)
+    rotating = np.array([kind == _ROT for kind, *_ in motions])
+    arm = p[..., None] - o
+    crossed = np.cross(u, arm, axisa=-2, axisb=-2, axisc=-2)
+    return np.where(rotating, crossed, u)
+
+
+def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
+    """The chain as fixed transforms between joints: base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯
+    Rz(q_n) · T_n, each joint turning about the z axis of its own frame.
+
+    The form a URDF, Pinocchio or MuJoCo model needs: T_0 places joint 1 in the base frame,
+    T_i joint i + 1 in joint i's frame, T_n the flange in joint n's frame.
+
+    Args:
+        structure: What the table means.
+        dh: One parameter table, shape (4, n).
+
+    Returns:
+        T_0..T_n, shape (n + 1, 4, 4).
+    """
+    table = np.asarray(dh, dtype=np.float64)
+    n = structure.n_joints
+    if table.shape != (4, n):
+        raise ValueError(f"dh: shape {table.shape}, expected (4, {n})")
+    pre, post = [], []
+    for i, kind in enumerate(structure.parametrisation):
+        motions = _MOTIONS[kind]
+        joint_at = next(index for index, motion in enumerate(motions) if motion[2] == JOINT_SLOT)
+        pre.append(_compose(motions[:joint_at], table[:, i]))
+        # The joint's own offset θ turns with q: Rz(q + θ) = Rz(q) · Rz(θ).
+        post.append(_compose(motions[joint_at:], table[:, i]))
+    transforms = [structure.base @ pre[0]]
+    transforms += [post[i] @ pre[i + 1] for i in range(n - 1)]
+    transforms.append(post[-1] @ structure.tool)
+    return np.stack(transforms)
+
+
+def _compose(motions: tuple[tuple[int, int, int], ...], slots: Array) -> Array:
+    transform = np.eye(4)
+    for kind, axis, slot in motions:
+        step = np.eye(4)
+        if kind == _TRANS:
+            step[axis, 3] = slots[slot]
+        else:
+            c, s = np.cos(slots[slot]), np.sin(slots[slot])
+            j, k = (axis + 1) % 3, (axis + 2) % 3
+            step[j, j], step[j, k], step[k, j], step[k, k] = c, -s, s, c
+        transform = transform @ step
+    return transform

@@ -51,6 +51,8 @@ def build_model(robot: RobotModel) -> pin.Model:
         A ``pinocchio.Model`` with ``nq = robot.n_joints`` whose configuration is q in rad, the
         same q as :func:`twin.kinematics.flange_transform` takes.
     """
+    if not robot.structure.is_standard:
+        raise ValueError(f"{robot.name}: the bridge builds standard D-H chains only")
     model = pin.Model()
     model.name = robot.name
     parent = 0
@@ -94,6 +96,8 @@ def robot_to_urdf(robot: RobotModel) -> str:
     Returns:
         The URDF document as a string.
     """
+    if not robot.structure.is_standard:
+        raise ValueError(f"{robot.name}: only standard D-H chains are written as URDF")
     lines = ['<?xml version="1.0"?>', f"<robot name={quoteattr(robot.name)}>",
              '  <link name="base_link"/>']
     parent = "base_link"

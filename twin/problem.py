@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import CableModel, Measurements
+from twin.dataset import Measurements
+from twin.model import Model
 from twin.stopping import scale
 from twin.units import mm_to_m
 
@@ -25,14 +26,14 @@ class Problem:
     """What a solver gets: minimise f(x) = mean r(x)² over the training poses inside the box.
 
     Attributes:
-        model: Maps unknowns x (p,) to cable lengths.
+        model: Maps unknowns x (p,) to residuals.
         train: Poses the objective is computed on.
         validation: Held-out poses, for the history only; solvers never fit to them.
         sigma_m: Expected length noise (1σ), m: the measurement noise of the filters.
         x0: Start (and centre of the initial swarms), shape (p,); empty means zeros (nominal).
     """
 
-    model: CableModel
+    model: Model
     train: Measurements
     validation: Measurements
     sigma_m: float = DEFAULT_SIGMA_M

@@ -97,10 +97,10 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         "  " + MAE_NOTE,
         *format_identifiability(result),
     ]
-    if result.model.estimate_port:
+    if result.model.has("port"):
         port = ", ".join(f"{v:.3f}" for v in m_to_mm(result.port_m))
         lines.append(f"  identified port: ({port}) mm")
-    if result.model.estimate_offset:
+    if result.model.has("offset"):
         lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
     identified = dh_rows_to_display(result.delta)
     truth = None if truth_delta is None else dh_rows_to_display(truth_delta)

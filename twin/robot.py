@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import frozen_array
 from twin.errors import InputError
 from twin.io.paths import read_toml
+from twin.kinematics import Structure, flange_transform, point_position
 from twin.units import (
     ANGLE_FACTORS,
     DH_KEYS,
@@ -56,15 +57,19 @@ MAX_MASS_KG = 1e4
 
 @dataclass(frozen=True)
 class RobotModel:
-    """A serial arm in standard D-H form, SI inside.
+    """A serial arm: a kinematic table with its structure, joint limits, and what the twin
+    needs to build it, SI inside.
 
     Attributes:
         name: Human-readable name.
-        dh: D-H table, shape (4, n): rows a [m], d [m], alpha [rad], theta offset [rad].
+        dh: Kinematic table, shape (4, n): slots a [m], d [m] (β [rad] on a Hayati joint),
+            alpha [rad], theta offset [rad] (:mod:`twin.kinematics`).
         lower_rad: Lower joint limits, shape (n,), rad.
         upper_rad: Upper joint limits, shape (n,), rad.
         mass_kg: Link masses, shape (n,), kg, or None when the file gives none.
         radius_m: Link capsule radii, shape (n,), m, or None when the file gives none.
+        structure: What the table means (parametrisation per joint, base and tool
+            transforms); standard D-H with bare ends by default.
     """
 
     name: str
@@ -73,6 +78,7 @@ class RobotModel:
     upper_rad: NDArray[np.float64]
     mass_kg: NDArray[np.float64] | None = field(default=None)
     radius_m: NDArray[np.float64] | None = field(default=None)
+    structure: Structure = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         dh = np.asarray(self.dh, dtype=np.float64)
@@ -80,6 +86,10 @@ class RobotModel:
             raise ValueError(f"dh: shape {dh.shape}, expected (4, n)")
         n = dh.shape[1]
         object.__setattr__(self, "dh", frozen_array(dh, (4, n), "dh"))
+        if self.structure is None:
+            object.__setattr__(self, "structure", Structure.standard(n))
+        if self.structure.n_joints != n:
+            raise ValueError(f"structure: {self.structure.n_joints} joints for a table of {n}")
         object.__setattr__(self, "lower_rad", frozen_array(self.lower_rad, (n,), "lower_rad"))
         object.__setattr__(self, "upper_rad", frozen_array(self.upper_rad, (n,), "upper_rad"))
         if np.any(self.lower_rad >= self.upper_rad):
@@ -98,16 +108,22 @@ class RobotModel:
         return int(self.dh.shape[1])
 
     def perturbed(self, delta: ArrayLike) -> RobotModel:
-        """This robot with D-H errors added.
+        """This robot with errors of its table added.
 
         Args:
-            delta: Errors X = (δa1..n, δd1..n, δα1..n, δθ1..n), shape (4n,), m and rad.
+            delta: Errors in the table's slot order (δa1..n, δd1..n, δα1..n, δθ1..n for a D-H
+                arm), shape (4n,) or (4, n), m and rad.
         """
         delta_rows = np.asarray(delta, dtype=np.float64).reshape(4, self.n_joints)
-        return RobotModel(
-            self.name, self.dh + delta_rows, self.lower_rad, self.upper_rad,
-            self.mass_kg, self.radius_m,
-        )
+        return replace(self, dh=self.dh + delta_rows)
+
+    def flange_positions(self, q_rad: ArrayLike) -> NDArray[np.float64]:
+        """The flange centre at joint angles q (m, n) rad: shape (m, 3), m, base frame."""
+        return point_position(self.structure, self.dh, q_rad)
+
+    def flange_transforms(self, q_rad: ArrayLike) -> NDArray[np.float64]:
+        """base_T_flange at joint angles q (m, n) rad: shape (m, 4, 4), m."""
+        return flange_transform(self.structure, self.dh, q_rad)
 
 
 def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
@@ -232,7 +248,15 @@ def default_robot() -> RobotModel:
 def robot_to_toml(robot: RobotModel) -> str:
     """The model-file text (mm, degrees) of a robot, lengths rounded to 1 µm and angles to
     1e-6 degree (masses to 1 g): numbers a person can read and type. The file reads back to
-    exactly the numbers written, and writing it again gives the same bytes."""
+    exactly the numbers written, and writing it again gives the same bytes.
+
+    Raises:
+        ValueError: for a structure the D-H file format cannot hold (another parametrisation,
+            a base or tool transform).
+    """
+    if not robot.structure.is_standard:
+        raise ValueError(f"{robot.name}: only a standard D-H chain without base or tool "
+                         "transform can be written as a D-H model file")
     lines = [
         f"name = {json.dumps(robot.name)}",
         'convention = "dh"',

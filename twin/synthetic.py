@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import Measurements, cable_length
+from twin.dataset import Measurements
+from twin.kinds.length import cable_length
 from twin.robot import RobotModel
 
 
@@ -27,5 +28,5 @@ def synthesize(
 ) -> Measurements:
     """Cable lengths of ``robot`` at the poses, with Gaussian noise of σ = ``sigma_m`` (m)."""
     q_rad = np.asarray(q_rad, dtype=np.float64)
-    length_m = cable_length(robot.dh, q_rad, port_m)
+    length_m = cable_length(robot.structure, robot.dh, q_rad, port_m)
     return Measurements(q_rad, length_m + rng.normal(0.0, sigma_m, size=length_m.shape))

@@ -20,9 +20,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import CableModel, Measurements
+from twin.dataset import Measurements
 from twin.identifiability import RANK_RTOL
-from twin.kinematics import flange_position, flange_position_jacobian
+from twin.model import Model
 from twin.robot import RobotModel
 
 Array = NDArray[np.float64]
@@ -42,40 +42,32 @@ def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK
     return np.asarray(sigma_m**2 * (v @ v.T), dtype=np.float64)
 
 
-def flange_error_rms(dh_a: ArrayLike, dh_b: ArrayLike, q_rad: ArrayLike) -> float:
-    """RMS over poses of the distance between the flange centres of two tables, m."""
-    difference = flange_position(dh_a, q_rad) - flange_position(dh_b, q_rad)
+def rms_distance(a_m: ArrayLike, b_m: ArrayLike) -> float:
+    """RMS over poses of the distance between two sets of points, shapes (k, 3), m."""
+    difference = np.asarray(a_m, dtype=np.float64) - np.asarray(b_m, dtype=np.float64)
     return float(np.sqrt(np.mean(np.sum(difference**2, axis=-1))))
 
 
-def flange_sigma(dh: ArrayLike, covariance_dh: ArrayLike, q_rad: ArrayLike) -> Array:
-    """Predicted RMS flange-position error at each pose implied by a D-H covariance.
+def flange_sigma(flange_jacobian: ArrayLike, covariance: ArrayLike) -> Array:
+    """Predicted RMS flange-position error at each pose implied by a covariance of x.
 
     Args:
-        dh: D-H table at which to linearise, shape (4, n), m and rad.
-        covariance_dh: Covariance of the D-H errors, shape (4n, 4n).
-        q_rad: Poses, shape (k, n), rad.
+        flange_jacobian: ∂(flange)/∂x at each pose, shape (k, 3, p)
+            (:meth:`twin.model.Model.flange_jacobian`).
+        covariance: Covariance of x, shape (p, p).
 
     Returns:
         sqrt(trace(J_i C J_iᵀ)) per pose, shape (k,), m: the 3-D position error's RMS.
     """
-    _, jacobian = flange_position_jacobian(dh, q_rad)
-    per_pose = np.einsum("mij,jk,mik->m", jacobian, np.asarray(covariance_dh), jacobian)
+    jacobian = np.asarray(flange_jacobian, dtype=np.float64)
+    per_pose = np.einsum("mij,jk,mik->m", jacobian, np.asarray(covariance), jacobian)
     return np.asarray(np.sqrt(np.maximum(per_pose, 0.0)), dtype=np.float64)
 
 
-def predicted_flange_rms(dh: ArrayLike, covariance_dh: ArrayLike, q_rad: ArrayLike) -> float:
-    """RMS flange-position error over poses implied by a D-H covariance, m.
-
-    Args:
-        dh: D-H table at which to linearise, shape (4, n).
-        covariance_dh: Covariance of the D-H errors, shape (4n, 4n).
-        q_rad: Poses, shape (m, n).
-
-    Returns:
-        sqrt(mean_i trace(J_i C J_iᵀ)) with J_i the flange-position Jacobian at pose i.
-    """
-    return float(np.sqrt(np.mean(flange_sigma(dh, covariance_dh, q_rad) ** 2)))
+def predicted_flange_rms(flange_jacobian: ArrayLike, covariance: ArrayLike) -> float:
+    """RMS flange-position error over poses implied by a covariance of x, m:
+    sqrt(mean_i trace(J_i C J_iᵀ)), arguments as :func:`flange_sigma`."""
+    return float(np.sqrt(np.mean(flange_sigma(flange_jacobian, covariance) ** 2)))
 
 
 def residual_sigma(residuals_m: ArrayLike, rank: int) -> float:
@@ -140,21 +132,20 @@ def workspace_grid(robot: RobotModel, n_per_axis: int) -> tuple[Array, Array, Ar
 
 
 def cramer_rao_flange_rms(
-    model: CableModel, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike
+    model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike
 ) -> float:
     """Cramér–Rao bound on the RMS flange-position error over the poses ``q_rad``, m.
 
     Args:
-        model: The cable model that is fitted.
+        model: The measurement model that is fitted.
         x_true: The true unknowns, shape (p,).
-        data: The poses that are measured (their lengths are not used).
-        sigma_m: Length noise 1σ, m.
+        data: The poses that are measured (their readings are not used).
+        sigma_m: Measurement noise 1σ, m.
         q_rad: Workspace poses where the flange error is evaluated, shape (k, n).
     """
     _, jacobian = model.jacobian(x_true, data)
-    covariance = parameter_covariance(jacobian, sigma_m)[: model.n_dh, : model.n_dh]
-    dh = model.split(np.asarray(x_true, dtype=np.float64))[0]
-    return predicted_flange_rms(dh, covariance, q_rad)
+    covariance = parameter_covariance(jacobian, sigma_m)
+    return predicted_flange_rms(model.flange_jacobian(x_true, model.poses(q_rad)), covariance)
 
 
 class CalibrationUncertainty(NamedTuple):
@@ -171,7 +162,7 @@ class CalibrationUncertainty(NamedTuple):
 
 
 def calibration_uncertainty(
-    model: CableModel,
+    model: Model,
     x: ArrayLike,
     train: Measurements,
     base: ArrayLike,
@@ -180,7 +171,7 @@ def calibration_uncertainty(
     """Covariance and predicted accuracy of an identified x from its training data.
 
     Args:
-        model: The fitted cable model.
+        model: The fitted measurement model.
         x: Identified unknowns, shape (p,).
         train: The poses and lengths it was fitted to.
         base: Indices of the base parameters, shape (L,).
@@ -191,11 +182,10 @@ def calibration_uncertainty(
     base = np.asarray(base, dtype=np.intp)
     noise = residual_sigma(residuals, base.size)
     covariance = base_covariance(jacobian, base, noise)
-    dh = model.split(x)[0]
-    n = model.n_dh
+    flange = model.flange_jacobian(x, model.poses(q_workspace_rad))
     return CalibrationUncertainty(
         noise_sigma_m=noise,
         covariance=covariance,
         sigma=parameter_sigma(covariance, base),
-        flange_rms_m=predicted_flange_rms(dh, covariance[:n, :n], q_workspace_rad),
+        flange_rms_m=predicted_flange_rms(flange, covariance),
     )

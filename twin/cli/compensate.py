@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import MAX_POSES
 from twin.cli.arguments import integer, seed
 from twin.compensation import (
     STATUS_OK,
@@ -29,6 +28,7 @@ from twin.compensation import (
     nominal_ik,
     reachable_targets,
 )
+from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result_delta

@@ -10,8 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import CableModel
-from twin.calibration import WORKSPACE_POSES, calibrate
+from twin.calibration import WORKSPACE_POSES, calibrate, make_model
 from twin.cli.arguments import seed, sigma_mm
 from twin.cli.calibrate import resolve_inputs
 from twin.design import score_poses
@@ -22,9 +21,10 @@ from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
-from twin.robot import RobotModel
+from twin.model import Model
+from twin.rig import Rig
 from twin.synthetic import random_poses
-from twin.uncertainty import flange_error_rms, flange_sigma, workspace_grid
+from twin.uncertainty import flange_sigma, rms_distance, workspace_grid
 from twin.units import (
     DH_KEYS,
     RESULT_MM_DECIMALS,
@@ -83,12 +83,13 @@ def _identifiability_lines(ident: Identifiability) -> list[str]:
     return lines
 
 
-def _sigma_table(model: CableModel, sigma: NDArray[np.float64]) -> list[str]:
+def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     """Per-parameter 1σ in mm and degrees; '—' for the dependent (not identifiable) ones."""
-    display = dh_rows_to_display(sigma[: model.n_dh].reshape(model.dh.shape))
+    shape = model.robot.dh.shape
+    display = dh_rows_to_display(model.block(sigma, "dh").reshape(shape))
     header = "  joint" + "".join(f"{f'σ {key} [{display_unit(key)}]':>16}" for key in DH_KEYS)
     lines = [header]
-    for i in range(model.dh.shape[1]):
+    for i in range(shape[1]):
         row = "".join(
             f"{'—':>16}" if np.isnan(display[key][i]) else f"{display[key][i]:>16.5f}"
             for key in DH_KEYS
@@ -97,16 +98,17 @@ def _sigma_table(model: CableModel, sigma: NDArray[np.float64]) -> list[str]:
     return lines
 
 
-def _write_map(path: Path, robot: RobotModel, dh: NDArray[np.float64],
-               covariance_dh: NDArray[np.float64], title: str) -> None:
+def _write_map(path: Path, model: Model, x: NDArray[np.float64],
+               covariance: NDArray[np.float64], title: str) -> None:
     """PNG of the predicted flange error over the (q2, q3) grid, the other joints at 0."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    q2, q3, q = workspace_grid(robot, MAP_GRID)
-    error_mm = m_to_mm(flange_sigma(dh, covariance_dh, q)).reshape(q2.size, q3.size)
+    q2, q3, q = workspace_grid(model.robot, MAP_GRID)
+    jacobian = model.flange_jacobian(x, model.poses(q))
+    error_mm = m_to_mm(flange_sigma(jacobian, covariance)).reshape(q2.size, q3.size)
     figure, axes = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
     image = axes.pcolormesh(np.rad2deg(q3), np.rad2deg(q2), error_mm, shading="auto",
                             cmap="viridis")
@@ -124,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
     data = load_measurements(measurements_path, robot, stdin=True)
-    model = CableModel(robot.dh, port_m, estimate_port=settings.estimate_port,
+    model = make_model(robot, Rig.cable(port_m), data.kind,
+                       estimate_port=settings.estimate_port,
                        estimate_offset=settings.estimate_offset)
     x0 = np.zeros(model.n_params)
     sigma_m = float(mm_to_m(args.sigma))
@@ -136,7 +139,8 @@ def run(args: argparse.Namespace) -> int:
     lines = [
         f"{robot.name} — {len(data)} poses from {measurements_path}, port ({port}) mm, "
         f"{model.n_params} unknowns ("
-        + ", ".join([f"{model.n_dh} D-H errors", *model.names[model.n_dh:]]) + ")",
+        + ", ".join([f"{model.group('dh').size} D-H errors",
+                     *model.names[model.slice("dh").stop:]]) + ")",
         "At the nominal geometry (all poses):",
         *_identifiability_lines(nominal),
         "    (coefficients in column-scaled units: each unknown in units of its column norm)",
@@ -165,8 +169,9 @@ def run(args: argparse.Namespace) -> int:
         f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
     ]
     if truth_path is not None and truth_path.exists():
-        true_dh = robot.perturbed(load_truth_delta(truth_path, robot.n_joints)).dh
-        true_error = flange_error_rms(result.identified_robot.dh, true_dh, q_workspace)
+        true_robot = robot.perturbed(load_truth_delta(truth_path, robot.n_joints))
+        true_error = rms_distance(result.identified_robot.flange_positions(q_workspace),
+                                  true_robot.flange_positions(q_workspace))
         lines.append(f"  true flange RMS error over the workspace {float(m_to_mm(true_error)):.4f}"
                      f" mm (against the D-H table of {truth_path.name})")
     lines += [
@@ -175,8 +180,7 @@ def run(args: argparse.Namespace) -> int:
     ]
     print("\n".join(lines))
     if args.map:
-        n = model.n_dh
-        _write_map(args.map, robot, result.identified_robot.dh, uncertainty.covariance[:n, :n],
+        _write_map(args.map, result.model, result.solver.x, uncertainty.covariance,
                    f"{robot.name}: predicted flange error after lm-base, {len(data)} poses "
                    "(q1 = q4 = q5 = q6 = 0)")
         print(f"map: {args.map}")

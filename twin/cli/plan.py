@@ -13,15 +13,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import MAX_POSES, CableModel
-from twin.calibration import WORKSPACE_POSES
+from twin.calibration import WORKSPACE_POSES, make_model
 from twin.cli.arguments import integer, seed, sigma_mm
+from twin.dataset import MAX_POSES
 from twin.design import DesignScore, choose_port, score_poses
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture import parse_port_mm
 from twin.io.measurements import JOINT_COLUMNS
 from twin.io.paths import InputPath, OutputFile
+from twin.rig import Rig
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.synthetic import random_poses
 from twin.units import FILE_DEG_DECIMALS, m_to_mm, mm_to_m, rad_to_deg, rounded
@@ -97,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot = load_robot(args.robot) if args.robot else default_robot()
     ports_m = np.stack([parse_port_mm(value, "--port", "") for value in args.port])
-    model = CableModel(robot.dh, ports_m[0], estimate_port=args.estimate_port,
+    model = make_model(robot, Rig.cable(ports_m[0]), estimate_port=args.estimate_port,
                        estimate_offset=args.estimate_offset)
     if not model.n_params <= args.poses <= args.candidates:
         raise InputError(f"{args.poses} poses from {args.candidates} candidates",
@@ -113,7 +114,8 @@ def run(args: argparse.Namespace) -> int:
     port_m = ports_m[choice.best]
     plan = choice.plans[choice.best]
     q_random = draw(port_m, args.poses)
-    at_port = CableModel(robot.dh, port_m, args.estimate_port, args.estimate_offset)
+    at_port = make_model(robot, Rig.cable(port_m), estimate_port=args.estimate_port,
+                         estimate_offset=args.estimate_offset)
     x0 = np.zeros(model.n_params)
     planned = score_poses(at_port, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace)
     drawn = score_poses(at_port, x0, q_random, plan.base_mask, sigma_m, q_workspace)

@@ -6,8 +6,8 @@ A result is applied (exported, compensated) only where it can be right:
   be the robot it is applied to, the table within :data:`ROBOT_TOLERANCE_MM` and
   :data:`ROBOT_TOLERANCE_DEG` (a model file stores 1 µm and 1e-6 degree); a result written
   before ``robot`` was recorded is applied with a warning;
-- within the search bounds every method keeps to (±5 mm, ±8°, :data:`twin.cable.DH_BOUND_M`
-  and :data:`twin.cable.DH_BOUND_RAD`), give or take :data:`BOUND_TOLERANCE_MM` and
+- within the search bounds every method keeps to (±5 mm, ±8°, :data:`twin.unknowns.dh.BOUND_M`
+  and :data:`twin.unknowns.dh.BOUND_RAD`), give or take :data:`BOUND_TOLERANCE_MM` and
   :data:`BOUND_TOLERANCE_DEG` for the rounding of the file.
 """
 
@@ -20,7 +20,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import DH_BOUND_M, DH_BOUND_RAD
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
@@ -35,6 +34,8 @@ from twin.units import (
     mm_to_m,
     rad_to_deg,
 )
+from twin.unknowns.dh import BOUND_M as DH_BOUND_M
+from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
 RESULT_FILE = "a calibration result JSON file (twin calibrate --json)"
 ROBOT_TOLERANCE_MM = 1e-3

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import Measurements
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
@@ -182,7 +182,7 @@ def check_joint_limits(
 
 def format_measurements(measurements: Measurements) -> str:
     """The CSV text (header, degrees, mm) of measurements, exactly round-tripping floats."""
-    q_deg, length_mm = rad_to_deg(measurements.q_rad), m_to_mm(measurements.length_m)
+    q_deg, length_mm = rad_to_deg(measurements.q_rad), m_to_mm(measurements.lengths)
     lines = [",".join(COLUMNS)]
     lines += [
         ",".join(repr(float(v)) for v in (*q, length))

@@ -78,15 +78,16 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         )
     uncertainty = result.uncertainty
     if uncertainty is not None:
-        n_dh = result.model.n_dh
-        sigma_dh = uncertainty.sigma[:n_dh].reshape(result.model.dh.shape)
+        model = result.model
+        sigma_dh = model.block(uncertainty.sigma, "dh").reshape(result.robot.dh.shape)
         fields["sigma"] = {
             key: _finite_or_none(values) for key, values in _sigma_display(sigma_dh).items()
         }
-        if result.model.estimate_port:
-            fields["sigma"]["port"] = _finite_or_none(_mm(uncertainty.sigma[n_dh : n_dh + 3]))
-        if result.model.estimate_offset:
-            fields["sigma"]["offset"] = _finite_or_none(_mm(uncertainty.sigma[-1]))[0]
+        if model.has("port"):
+            fields["sigma"]["port"] = _finite_or_none(_mm(model.block(uncertainty.sigma, "port")))
+        if model.has("offset"):
+            fields["sigma"]["offset"] = _finite_or_none(
+                _mm(model.block(uncertainty.sigma, "offset")))[0]
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
     return fields
@@ -101,9 +102,9 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
         "robot": robot_to_dict(result.robot),
         "delta": dh_rows_rounded(result.delta, RESULT_MM_DECIMALS),
     }
-    if result.model.estimate_port:
+    if result.model.has("port"):
         document["port"] = _mm(result.port_m)
-    if result.model.estimate_offset:
+    if result.model.has("offset"):
         document["offset"] = _mm(result.offset_m)[0]
     document.update(_uncertainty_fields(result))
     document.update(

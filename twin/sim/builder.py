@@ -97,6 +97,8 @@ def build_spec(
     Returns:
         An uncompiled spec; ``spec.compile()`` gives the model, ``spec.to_xml()`` its MJCF.
     """
+    if not robot.structure.is_standard:
+        raise ValueError(f"{robot.name}: the twin builds standard D-H chains only")
     n = robot.n_joints
     spec = mujoco.MjSpec()
     spec.modelname = robot.name.lower().replace(" ", "_")

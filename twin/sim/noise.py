@@ -16,7 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.kinematics import flange_position_jacobian
+from twin.kinematics import point_jacobian
+from twin.robot import RobotModel
 from twin.units import m_to_mm
 
 Array = NDArray[np.float64]
@@ -61,18 +62,16 @@ class NoiseModel:
         if not np.isfinite(self.offset_m):
             raise ValueError("offset_m: expected a finite value")
 
-    def joint_sigma_rad(self, dh: ArrayLike, q_rad: ArrayLike) -> float:
+    def joint_sigma_rad(self, robot: RobotModel, q_rad: ArrayLike) -> float:
         """σ_q that gives an RMS flange displacement of ``repeatability_m`` at these poses, rad.
 
         Args:
-            dh: D-H table of the arm, shape (4, n).
+            robot: The arm.
             q_rad: Poses, shape (m, n), rad.
         """
         if self.repeatability_m == 0.0:
             return 0.0
-        n = np.asarray(q_rad).shape[1]
-        _, jacobian = flange_position_jacobian(dh, q_rad)
-        joint_jacobian = jacobian[..., 3 * n:]  # the θ block is ∂P/∂q
+        joint_jacobian = point_jacobian(robot.structure, robot.dh, q_rad).joints
         mean_square_gain = float(np.mean(np.sum(joint_jacobian**2, axis=(1, 2))))
         return self.repeatability_m / float(np.sqrt(mean_square_gain))
 

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import DH_BOUND_M, DH_BOUND_RAD
 from twin.units import DH_IS_LENGTH
+from twin.unknowns.dh import BOUND_M as DH_BOUND_M
+from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
 Array = NDArray[np.float64]
 

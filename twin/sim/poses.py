@@ -16,7 +16,6 @@ from numpy.typing import NDArray
 
 from twin.errors import InputError
 from twin.io.measurements import load_plan
-from twin.kinematics import flange_position
 from twin.sim.twin import Twin
 from twin.units import m_to_mm
 
@@ -48,7 +47,7 @@ class PoseConstraints:
 
     def violations(self, twin: Twin, q_rad: Array) -> list[tuple[str, NDArray[np.bool_]]]:
         """Each constraint's name and where it fails, each mask of shape (m,)."""
-        flange = flange_position(twin.robot.dh, q_rad)
+        flange = twin.robot.flange_positions(q_rad)
         length = np.linalg.norm(flange - twin.port_m, axis=-1)
         inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
         return [

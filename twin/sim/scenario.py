@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import MAX_POSES
+from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.robot import RobotModel, default_robot, load_robot

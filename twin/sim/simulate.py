@@ -13,14 +13,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import Measurements, cable_length
 from twin.calibration import TRAIN_FRACTION
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
 from twin.io.results import write_json
-from twin.kinematics import flange_position
+from twin.kinds.length import cable_length
 from twin.metrics import metrics
 from twin.robot import RobotModel, robot_to_toml
 from twin.sim.joint_errors import JointErrors, approach_directions
@@ -94,12 +94,12 @@ class Simulation:
         ``flange_shift_mm``: flange displacement by joint errors, jitter and sag.
         """
         q = self.measurements.q_rad
-        nominal = cable_length(self.robot.dh, q, self.port_nominal_m)
-        rigid = cable_length(self.true_robot.dh, q, self.port_m)
-        shift = flange_position(self.true_robot.dh, self.q_actual_rad) \
-            - flange_position(self.true_robot.dh, q)
+        nominal = cable_length(self.robot.structure, self.robot.dh, q, self.port_nominal_m)
+        rigid = cable_length(self.true_robot.structure, self.true_robot.dh, q, self.port_m)
+        shift = self.true_robot.flange_positions(self.q_actual_rad) \
+            - self.true_robot.flange_positions(q)
         return {
-            "nominal_rmse_mm": float(m_to_mm(metrics(nominal - self.measurements.length_m).rmse)),
+            "nominal_rmse_mm": float(m_to_mm(metrics(nominal - self.measurements.lengths).rmse)),
             "non_geometric_mm": float(m_to_mm(metrics(self.true_length_m - rigid).rmse)),
             "flange_shift_mm": float(m_to_mm(np.sqrt(np.mean(np.sum(shift**2, axis=1))))),
         }
@@ -165,7 +165,7 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
         except InputError as exc:
             raise InputError(exc.found, exc.expected, source=scenario.source,
                              where="[port], [poses], [encoder] range_mm") from None
-    joint_sigma = scenario.noise.joint_sigma_rad(true_robot.dh, q)
+    joint_sigma = scenario.noise.joint_sigma_rad(true_robot, q)
     jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
     rest = twin.at_rest(q + jitter, approach_directions(q))
     readings = scenario.noise.read(rest.length_m, rng)

@@ -36,7 +36,6 @@ from numpy.typing import NDArray
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Tracker
 from twin.stopping import Budget, StopReason, stalled
-from twin.units import deg_to_rad, mm_to_m
 
 if TYPE_CHECKING:
     from scipy.interpolate import BSpline
@@ -53,18 +52,14 @@ C_PERSONAL = C_SOCIAL = 1.49618
 """Learning factors c1, c2 (Clerc's constriction-equivalent values)."""
 VELOCITY_FRACTION = 0.2
 """Velocity clamp as a fraction of the search range."""
-RADIUS_M = float(mm_to_m(1.0))
-"""Initial swarm radius for length unknowns (paper: ±1 mm)."""
-RADIUS_RAD = float(deg_to_rad(1.0))
-"""Initial swarm radius for angle unknowns (paper: ±1°)."""
 SPLINE_DEGREE = 3
 CHORD_RTOL = 1e-12
 """Chords shorter than this fraction of the total length count as zero (duplicate particles)."""
 
 
 def initial_radius(problem: Problem) -> Array:
-    """r per unknown: 1 mm for lengths, 1° for angles, shape (p,)."""
-    return np.where(problem.model.is_length, RADIUS_M, RADIUS_RAD)
+    """r per unknown: each group's typical error (1 mm for lengths, 1° for angles), (p,)."""
+    return problem.model.radius
 
 
 def initial_swarm(

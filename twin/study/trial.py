@@ -28,14 +28,14 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import CableModel
 from twin.calibration import TRAIN_FRACTION, calibrate_many
 from twin.identifiability import measurement_identifiability
+from twin.model import Model
 from twin.sim.scenario import Scenario
 from twin.sim.simulate import Simulation, simulate
 from twin.study.store import METRIC_KEYS, STAGES, TrialOutcome
 from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, flange_error_rms
+from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 from twin.units import m_to_mm, rad_to_deg
 
 Array = NDArray[np.float64]
@@ -63,14 +63,15 @@ def workspace(spec: TrialSpec) -> Array:
     return random_poses(spec.scenario.robot, spec.workspace_poses, rng)
 
 
-def true_unknowns(sim: Simulation, model: CableModel) -> Array:
+def true_unknowns(sim: Simulation, model: Model) -> Array:
     """The unknowns x a perfect calibration returns, shape (p,), m and rad."""
-    parts = [sim.delta.ravel()]
-    if model.estimate_port:
-        parts.append(sim.port_m - sim.port_nominal_m)
-    if model.estimate_offset:
-        parts.append(np.array([sim.scenario.noise.offset_m]))
-    return np.concatenate(parts)
+    x = np.zeros(model.n_params)
+    x[model.slice("dh")] = sim.delta.ravel()
+    if model.has("port"):
+        x[model.slice("port")] = sim.port_m - sim.port_nominal_m
+    if model.has("offset"):
+        x[model.slice("offset")] = sim.scenario.noise.offset_m
+    return x
 
 
 def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
@@ -83,12 +84,12 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     """
     noise = sim.scenario.noise
     n = sim.robot.n_joints
-    dl_dq = jacobian[:, 3 * n : 4 * n]
+    dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, first in x
     jitter = sim.joint_sigma_rad**2 * float(np.mean(np.sum(dl_dq**2, axis=1)))
     return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
 
 
-def _display(values: Array, model: CableModel) -> list[float]:
+def _display(values: Array, model: Model) -> list[float]:
     return np.where(model.is_length, m_to_mm(values), rad_to_deg(values)).tolist()
 
 
@@ -113,8 +114,11 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[dict[str, Any]] = []
     methods: dict[str, Any] = {}
+    true_flange = sim.true_robot.flange_positions(q_workspace)
+    at_workspace = model.poses(q_workspace)
     for name, result in results.items():
-        flange_m = flange_error_rms(sim.true_robot.dh, result.identified_robot.dh, q_workspace)
+        flange_m = rms_distance(model.flange_positions(result.solver.x, at_workspace),
+                                true_flange)
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]

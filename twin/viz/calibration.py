@@ -15,10 +15,11 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import CableModel, Measurements
-from twin.calibration import CalibrationResult
+from twin.calibration import CalibrationResult, make_model
+from twin.dataset import Measurements
 from twin.io.results import MM2_PER_M2
-from twin.kinematics import flange_position
+from twin.model import Model
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm
 from twin.viz import entities
@@ -72,7 +73,7 @@ def log_parameters(
     )
 
 
-def log_residuals_before(writer: Writer, model: CableModel, measurements: Measurements) -> None:
+def log_residuals_before(writer: Writer, model: Model, measurements: Measurements) -> None:
     """Per-pose residuals of the nominal model over all poses (``residuals/before``), mm."""
     before = model.residuals(np.zeros(model.n_params), measurements)
     writer.once(entities.RESIDUALS_BEFORE, rr.SeriesPoints(colors=NOMINAL_COLOR, names="before"))
@@ -145,7 +146,7 @@ class CalibrationLog:
         self.truth_delta = truth_delta
         self.port_m = np.asarray(port_m, dtype=np.float64)
         self.sources = len(self.methods) + (truth_delta is not None)
-        nominal = CableModel(robot.dh, self.port_m)
+        nominal = make_model(robot, Rig.cable(self.port_m), measurements.kind)
         writer.stream.send_blueprint(calibration_blueprint(self.methods, truth_delta is not None))
         writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         robots = {"nominal": robot}
@@ -161,8 +162,8 @@ class CalibrationLog:
         log_residuals_before(writer, nominal, measurements)
 
     def _log_cable(self, robot: RobotModel) -> None:
-        flange_m = flange_position(robot.dh, self.measurements.q_rad)
-        log_port_and_cable(self.writer, self.port_m, flange_m, self.measurements.length_m)
+        flange_m = robot.flange_positions(self.measurements.q_rad)
+        log_port_and_cable(self.writer, self.port_m, flange_m, self.measurements.lengths)
 
     def add(self, result: CalibrationResult) -> None:
         """Log one method's identified robot, residuals, convergence and parameters."""
@@ -204,7 +205,7 @@ def log_calibration(
     if not results:
         raise ValueError("results: empty, expected at least one method")
     first = next(iter(results.values()))
-    log = CalibrationLog(writer, list(results), first.robot, first.model.port_m, measurements,
+    log = CalibrationLog(writer, list(results), first.robot, first.model.rig.port_m, measurements,
                          truth_delta)
     for result in results.values():
         log.add(result)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import Measurements
+from twin.dataset import Measurements
 from twin.io.paths import OutputFile
 
 if TYPE_CHECKING:

@@ -27,8 +27,8 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import Measurements
 from twin.calibration import CalibrationResult
+from twin.dataset import Measurements
 from twin.io.atomic import fsync_directory
 from twin.robot import RobotModel
 from twin.viz import entities

@@ -11,11 +11,11 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cable import Measurements
 from twin.calibration import CalibrationResult
+from twin.dataset import Measurements
 from twin.report import format_comparison, format_result
 from twin.robot import RobotModel
-from twin.uncertainty import flange_error_rms
+from twin.uncertainty import rms_distance
 from twin.units import m_to_mm
 
 NO_IDENTIFIABILITY = "Not computed for this run: the results carry no identifiability summary."
@@ -35,13 +35,14 @@ def flange_error_markdown(
     combinations the cable cannot see, which move the flange no more than they move the cable.
     """
     first = next(iter(results.values()))
-    true_dh = first.robot.dh + truth_delta
-    rows = [("nominal", first.robot.dh)]
-    rows += [(name, result.identified_robot.dh) for name, result in results.items()]
+    true = first.robot.perturbed(truth_delta).flange_positions(measurements.q_rad)
+    rows = [("nominal", first.robot)]
+    rows += [(name, result.identified_robot) for name, result in results.items()]
     lines = ["| model | flange error vs truth, RMS [mm] |", "|---|---:|"]
     lines += [
-        f"| {label} | {float(m_to_mm(flange_error_rms(dh, true_dh, measurements.q_rad))):.4f} |"
-        for label, dh in rows
+        f"| {label} | "
+        f"{float(m_to_mm(rms_distance(robot.flange_positions(measurements.q_rad), true))):.4f} |"
+        for label, robot in rows
     ]
     return "\n".join(lines)
 
@@ -89,7 +90,7 @@ def calibration_markdown(
     """
     first = next(iter(results.values()))
     table = format_result(first, truth_delta) if len(results) == 1 else format_comparison(results)
-    port = ", ".join(f"{v:.3f}" for v in m_to_mm(first.model.port_m))
+    port = ", ".join(f"{v:.3f}" for v in m_to_mm(first.model.rig.port_m))
     parts = [
         f"# Calibration of {first.robot.name}",
         f"{len(measurements)} poses ({first.train_rows.size} train, "
@@ -115,14 +116,15 @@ def scene_markdown(robot: RobotModel, measurements: Measurements, port_m: NDArra
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
     """
     port = ", ".join(f"{v:.3f}" for v in m_to_mm(port_m))
-    lengths = m_to_mm(measurements.length_m)
+    lengths = m_to_mm(measurements.lengths)
     parts = [
         f"# Measurements of {robot.name}",
         f"{len(measurements)} poses, port ({port}) mm, cable lengths "
         f"{lengths.min():.3f} … {lengths.max():.3f} mm.",
     ]
     if truth_delta is not None:
-        rms = float(m_to_mm(flange_error_rms(robot.dh, robot.dh + truth_delta,
-                                             measurements.q_rad)))
+        rms = float(m_to_mm(rms_distance(
+            robot.flange_positions(measurements.q_rad),
+            robot.perturbed(truth_delta).flange_positions(measurements.q_rad))))
         parts.append(f"RMS flange offset of the true robot from the nominal: {rms:.4f} mm.")
     return "\n\n".join(parts) + "\n"

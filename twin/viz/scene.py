@@ -13,8 +13,8 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.cable import Measurements
-from twin.kinematics import chain, flange_position
+from twin.dataset import Measurements
+from twin.kinematics import frames
 from twin.robot import RobotModel
 from twin.units import m_to_mm
 from twin.viz import entities
@@ -31,6 +31,9 @@ LINK_RADIUS_UI = -4.0
 """Negative radii are in UI points: the links keep their width at any zoom."""
 CABLE_RADIUS_UI = -1.0
 PORT_RADIUS_M = 0.012
+
+TOOL_OFFSET_M = 1e-9
+"""A tool frame farther than this from the last joint frame gets its own polyline point, m."""
 
 
 def robot_color(label: str, order: int = 0) -> tuple[int, int, int]:
@@ -63,7 +66,10 @@ def log_robots(
     poses = np.arange(q_rad.shape[0])
     identified = first_order
     for label, robot in robots.items():
-        origins = chain(robot.dh, q_rad).origins  # (m, n+1, 3): one polyline per pose
+        chain = frames(robot.structure, robot.dh, q_rad)
+        origins = chain.origins  # (m, n+1, 3): one polyline per pose
+        if np.linalg.norm(robot.structure.tool[:3, 3]) > TOOL_OFFSET_M:
+            origins = np.concatenate([origins, chain.flange[..., None, :3, 3]], axis=-2)
         color = robot_color(label, identified)
         identified += label not in ("nominal", "true")
         writer.series(
@@ -123,5 +129,5 @@ def log_scene(
     """
     writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
     log_robots(writer, robots, measurements.q_rad)
-    flange_m = flange_position(robots[cable_to].dh, measurements.q_rad)
-    log_port_and_cable(writer, port_m, flange_m, measurements.length_m)
+    flange_m = robots[cable_to].flange_positions(measurements.q_rad)
+    log_port_and_cable(writer, port_m, flange_m, measurements.lengths)

@@ -1,0 +1,128 @@
+"""The measurement model: residuals of every unknown group and their analytic Jacobian."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.calibration import make_model
+from twin.dataset import Measurements
+from twin.errors import UnknownChoiceError
+from twin.kinds.length import cable_length
+from twin.model import Model
+from twin.rig import Rig
+from twin.robot import RobotModel
+from twin.unknowns import GROUPS, make_groups
+
+ALL_RIG_UNKNOWNS = [(False, False), (True, False), (False, True), (True, True)]
+
+
+def test_length_is_distance_port_to_flange(irb120: RobotModel, port_m: np.ndarray) -> None:
+    """ℓ = ‖P − P_E‖ (paper eq. 1) at the home pose."""
+    q = np.zeros((1, 6))
+    expected = np.linalg.norm(np.array([0.374, 0.0, 0.630]) - port_m)
+    assert cable_length(irb120.structure, irb120.dh, q, port_m)[0] == pytest.approx(
+        expected, abs=1e-12)
+
+
+def _numeric_jacobian(model: Model, x: np.ndarray, data: Measurements) -> np.ndarray:
+    eps = 1e-6
+    steps = np.eye(model.n_params) * eps
+    return (model.residuals(x + steps, data) - model.residuals(x - steps, data)).T / (2 * eps)
+
+
+@pytest.mark.parametrize(("port", "offset"), ALL_RIG_UNKNOWNS)
+def test_jacobian_matches_finite_differences(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray, port: bool, offset: bool
+) -> None:
+    """∂r/∂x equals central differences for every unknown layout."""
+    model = make_model(irb120, Rig.cable(port_m), estimate_port=port, estimate_offset=offset)
+    x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
+    data = measurements.subset(np.arange(15))
+    r, jacobian = model.jacobian(x, data)
+    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
+    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
+
+
+def test_several_ports_and_an_attachment(irb120: RobotModel, measurements: Measurements) -> None:
+    """Rows from three ports, the cable hooked off the flange centre: the lengths are the
+    distances to each row's port, and the Jacobian (ports estimated) matches differences."""
+    rng = np.random.default_rng(8)
+    ports = np.array([[0.6, -0.4, 0.1], [0.5, 0.5, 0.0], [-0.3, 0.6, 0.2]])
+    attachment = np.array([0.025, -0.015, 0.04])
+    rig = Rig(ports, ("front", "left", "back"), attachment)
+    which = rng.integers(0, 3, len(measurements))
+    model = make_model(irb120, rig, estimate_port=True, estimate_offset=True)
+    assert model.names[24:27] == ("front_x", "front_y", "front_z")
+    data = model.measure(np.zeros(model.n_params), measurements.q_rad, port=which)
+    flange = irb120.flange_transforms(measurements.q_rad)
+    point = flange[:, :3, :3] @ attachment + flange[:, :3, 3]
+    np.testing.assert_allclose(data.lengths, np.linalg.norm(point - ports[which], axis=1),
+                               atol=1e-15)
+    x = rng.normal(scale=1e-3, size=model.n_params)
+    subset = data.subset(np.arange(20))
+    _, jacobian = model.jacobian(x, subset)
+    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, subset), atol=1e-8)
+
+
+def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
+    """Names and bounds follow eq. 7's order, then port, then offset; units per unknown."""
+    model = make_model(irb120, Rig.cable(port_m), estimate_port=True, estimate_offset=True)
+    assert model.n_params == 28
+    assert model.names[:2] == ("a1", "a2") and model.names[-4:] == (
+        "port_x", "port_y", "port_z", "offset")
+    assert model.units[:12] == ("m",) * 12 and model.units[12:24] == ("rad",) * 12
+    lower, upper = model.bounds()
+    np.testing.assert_allclose(upper[:12], 5e-3)
+    np.testing.assert_allclose(upper[12:24], np.deg2rad(8.0))
+    np.testing.assert_array_equal(lower, -upper)
+    assert list(GROUPS)[:3] == ["dh", "port", "offset"]
+
+
+def test_batched_residuals(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Residuals of K candidates in one call equal K single calls."""
+    model = make_model(irb120, Rig.cable(port_m), estimate_port=True, estimate_offset=True)
+    x = np.random.default_rng(4).normal(scale=1e-3, size=(5, model.n_params))
+    batched = model.residuals(x, measurements)
+    for k in range(5):
+        np.testing.assert_allclose(batched[k], model.residuals(x[k], measurements), atol=1e-15)
+
+
+def test_offset_adds_to_every_length(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """The offset unknown shifts every model length by its value."""
+    model = make_model(irb120, Rig.cable(port_m), estimate_offset=True)
+    x = np.zeros(25)
+    x[-1] = 0.002
+    plain = np.linalg.norm(irb120.flange_positions(measurements.q_rad) - port_m, axis=-1)
+    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.lengths,
+                               plain + 0.002, atol=1e-15)
+
+
+def test_flange_jacobian_sees_the_table_not_the_rig(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """The flange moves with the D-H errors as differences say, and not with the port."""
+    model = make_model(irb120, Rig.cable(port_m), estimate_port=True)
+    x = np.random.default_rng(9).normal(scale=1e-3, size=model.n_params)
+    data = measurements.subset(np.arange(6))
+    jacobian = model.flange_jacobian(x, data)
+    eps = 1e-6
+    steps = np.eye(model.n_params) * eps
+    numeric = (model.flange_positions(x + steps, data)
+               - model.flange_positions(x - steps, data)) / (2 * eps)
+    np.testing.assert_allclose(jacobian, np.moveaxis(numeric, 0, -1), atol=1e-8)
+    np.testing.assert_array_equal(jacobian[..., model.slice("port")], 0.0)
+
+
+def test_groups_must_fit_the_kind(irb120: RobotModel, port_m: np.ndarray) -> None:
+    """Naming a group twice or one the measurement kind cannot read is refused."""
+    rig = Rig.cable(port_m)
+    with pytest.raises(UnknownChoiceError, match="error group 'nonsense', expected one of dh"):
+        make_groups(["dh", "nonsense"], irb120, rig)
+    model = make_model(irb120, rig)
+    with pytest.raises(ValueError, match="twice"):
+        Model(irb120, rig, model.kind, (*model.groups, *model.groups))

@@ -1,0 +1,58 @@
+"""The one interface of a measurement kind: residuals from the measured point's positions.
+
+The model (:class:`twin.model.Model`) computes where the measured point is at every pose; the
+kind turns those positions, the rig and the values of the measurement-stage unknowns it reads
+into residuals, and gives their derivatives. Residual rows: ``rows_per_pose`` per pose, pose by
+pose, then any rows that belong to no pose (a known distance between two fixed points, say).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.dataset import Measurements
+from twin.rig import Rig
+
+Array = NDArray[np.float64]
+
+
+class KindJacobian(NamedTuple):
+    """Residuals at one x and their derivatives."""
+
+    residuals: Array
+    """r, shape (M,), in the measurement's unit (m)."""
+    by_position: Array
+    """∂r/∂p of each pose's rows w.r.t. that pose's point, shape (m, rows_per_pose, 3)."""
+    by_group: dict[str, Array]
+    """∂r/∂x_g of each measurement-stage group the kind reads, shape (M, p_g)."""
+
+
+class Kind(Protocol):
+    """A measurement kind."""
+
+    name: str
+    """``length``, ``position`` or ``point`` (:data:`twin.dataset.KINDS`)."""
+    rows_per_pose: int
+    """Residual rows per pose: 1 for a length, 3 for a position."""
+    groups: tuple[str, ...]
+    """The measurement-stage unknown groups it reads."""
+
+    def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
+                  rig: Rig) -> Array:
+        """Residuals for positions (..., m, 3) and group values (..., p_g): shape (..., M)."""
+        ...
+
+    def jacobian(self, positions: Array, values: Mapping[str, Array], data: Measurements,
+                 rig: Rig) -> KindJacobian:
+        """Residuals and derivatives at one x: positions (m, 3), values (p_g,)."""
+        ...
+
+    def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
+                port: NDArray[np.intp] | None = None) -> Measurements:
+        """Noise-free readings of this kind at positions (m, 3) and values (p_g,): the data
+        the model fits exactly (for identifiability on synthetic poses, and for tests)."""
+        ...

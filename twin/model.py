@@ -1,0 +1,258 @@
+"""The measurement model a calibration fits: unknowns x to residuals, with the analytic Jacobian.
+
+For unknowns x (the blocks of its groups, :mod:`twin.unknowns`) and a pose q:
+
+1. the kinematic table is the nominal plus every ``table`` group's correction;
+2. the joints stand at q plus every ``joints`` group's correction (transmission error,
+   backlash, compliance);
+3. the measured point sits at the rig's attachment plus every ``point`` group's correction, in
+   the flange frame;
+4. the forward kinematics (:mod:`twin.kinematics`) carry it to the base frame, and the
+   measurement kind (:mod:`twin.kinds`) turns it into residuals, reading the ``measurement``
+   groups (ports, offset…).
+
+Every step is vectorised over a batch of x (the swarms evaluate hundreds at once) and over the
+poses. The Jacobian is assembled by the chain rule from the kinematic Jacobians (table, joints,
+point) and the kind's derivatives; ``tests/test_model.py`` checks it against finite
+differences for every group.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.dataset import Measurements
+from twin.kinds import Kind
+from twin.kinematics import point_jacobian, point_position
+from twin.rig import Rig
+from twin.robot import RobotModel
+from twin.unknowns import Group, Stage
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Model:
+    """Maps unknowns x to residuals for a nominal robot, a rig and a measurement kind.
+
+    Attributes:
+        robot: The nominal robot (its structure and table).
+        rig: The nominal rig (ports, attachment).
+        kind: How a measured point becomes residuals.
+        groups: The unknown groups, in the order of x.
+    """
+
+    robot: RobotModel
+    rig: Rig
+    kind: Kind
+    groups: tuple[Group, ...]
+    _slices: dict[str, slice] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        slices, start = {}, 0
+        for group in self.groups:
+            if group.name in slices:
+                raise ValueError(f"unknown group {group.name!r} twice")
+            if group.stage == Stage.MEASUREMENT and group.name not in self.kind.groups:
+                raise ValueError(f"unknown group {group.name!r}: {self.kind.name} measurements "
+                                 f"read only {', '.join(self.kind.groups) or 'no groups'}")
+            slices[group.name] = slice(start, start + group.size)
+            start += group.size
+        object.__setattr__(self, "_slices", slices)
+
+    # --- the unknowns ---------------------------------------------------------------------
+
+    @property
+    def n_params(self) -> int:
+        """Length p of the unknown vector x."""
+        return sum(group.size for group in self.groups)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of the unknowns, in the order of x."""
+        return tuple(name for group in self.groups for name in group.names)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """SI unit of each unknown (``m``, ``rad``…), in the order of x."""
+        return tuple(unit for group in self.groups for unit in group.units)
+
+    @property
+    def is_length(self) -> NDArray[np.bool_]:
+        """Whether each unknown is a length (m), shape (p,)."""
+        return np.array([unit == "m" for unit in self.units], dtype=bool)
+
+    @property
+    def radius(self) -> Array:
+        """A typical error of each unknown, shape (p,): the spread of a swarm's first particles."""
+        return np.concatenate([group.radius for group in self.groups]) if self.groups \
+            else np.zeros(0)
+
+    def bounds(self) -> tuple[Array, Array]:
+        """Search box (lower, upper), each shape (p,)."""
+        return (np.concatenate([group.lower for group in self.groups]),
+                np.concatenate([group.upper for group in self.groups]))
+
+    def has(self, name: str) -> bool:
+        """Whether the group ``name`` is among the unknowns."""
+        return name in self._slices
+
+    def slice(self, name: str) -> slice:
+        """Where group ``name`` sits in x.
+
+        Raises:
+            KeyError: if the model has no such group.
+        """
+        return self._slices[name]
+
+    def block(self, x: ArrayLike, name: str) -> Array:
+        """Group ``name``'s block of x (..., p), shape (..., p_g)."""
+        return np.asarray(x, dtype=np.float64)[..., self.slice(name)]
+
+    def group(self, name: str) -> Group:
+        """The group called ``name``."""
+        return self.groups[list(self._slices).index(name)]
+
+    def _check(self, x: ArrayLike) -> Array:
+        x = np.asarray(x, dtype=np.float64)
+        if x.shape[-1:] != (self.n_params,):
+            raise ValueError(f"x: shape {x.shape}, expected (..., {self.n_params})")
+        return x
+
+    # --- the chain ------------------------------------------------------------------------
+
+    def table(self, x: ArrayLike) -> Array:
+        """The kinematic tables of unknowns x (..., p): shape (..., 4, n), m and rad."""
+        x = self._check(x)
+        table = np.broadcast_to(self.robot.dh, (*x.shape[:-1], *self.robot.dh.shape))
+        for group in self.groups:
+            if group.stage == Stage.TABLE:
+                assert group.linear is not None
+                correction = self.block(x, group.name) @ group.linear.T
+                table = table + correction.reshape(*x.shape[:-1], *self.robot.dh.shape)
+        return np.asarray(table, dtype=np.float64)
+
+    def point(self, x: ArrayLike) -> Array:
+        """The measured point in the flange frame for unknowns x (..., p): shape (..., 3), m."""
+        x = self._check(x)
+        point = np.broadcast_to(self.rig.attachment_m, (*x.shape[:-1], 3))
+        for group in self.groups:
+            if group.stage == Stage.POINT:
+                assert group.linear is not None
+                point = point + self.block(x, group.name) @ group.linear.T
+        return np.asarray(point, dtype=np.float64)
+
+    def joints(self, x: ArrayLike, data: Measurements) -> Array:
+        """Where the joints stand: recorded angles plus the joint-level corrections of x (..., p),
+        shape (m, n) without joint groups, else (..., m, n), rad."""
+        x = self._check(x)
+        q = data.q_rad
+        for group in self.groups:
+            if group.stage == Stage.JOINTS:
+                assert group.basis is not None
+                q = q + np.einsum("mnp,...p->...mn", group.basis(data), self.block(x, group.name))
+        return np.asarray(q, dtype=np.float64)
+
+    def positions(self, x: ArrayLike, data: Measurements) -> Array:
+        """The measured point in the base frame at every pose, shape (..., m, 3), m."""
+        x = self._check(x)
+        return point_position(self.robot.structure, self.table(x), self.joints(x, data),
+                              self.point(x))
+
+    def _measurement_values(self, x: Array) -> dict[str, Array]:
+        return {group.name: self.block(x, group.name) for group in self.groups
+                if group.stage == Stage.MEASUREMENT}
+
+    def poses(self, q_rad: ArrayLike, port: ArrayLike | None = None,
+              approach: ArrayLike | None = None) -> Measurements:
+        """Poses where nothing was read, as measurements of this model's kind with zero
+        readings: for the positions, flanges and Jacobians at poses of one's choosing.
+
+        Args:
+            q_rad: Joint angles, shape (m, n), rad.
+            port: The port of each row, shape (m,), for cable lengths; port 0 if None.
+            approach: Direction each joint last moved in, shape (m, n), ±1, if known.
+        """
+        q = np.asarray(q_rad, dtype=np.float64)
+        ports = None if port is None else np.asarray(port, dtype=np.intp)
+        labels = None if approach is None else np.asarray(approach)
+        if self.kind.name == "length":
+            return Measurements(q, length_m=np.zeros(len(q)), port=ports, approach=labels)
+        return Measurements(q, position_m=np.zeros((len(q), 3)), approach=labels)
+
+    def measure(self, x: ArrayLike, q_rad: ArrayLike, port: ArrayLike | None = None,
+                approach: ArrayLike | None = None) -> Measurements:
+        """Noise-free measurements of this model's kind at unknowns x (p,) and poses q (m, n):
+        what the model fits exactly (arguments as :meth:`poses`)."""
+        x = self._check(x)
+        template = self.poses(q_rad, port, approach)
+        measured = self.kind.measure(self.positions(x, template), self._measurement_values(x),
+                                     template.q_rad, self.rig, template.port)
+        return replace(measured, approach=template.approach)
+
+    def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
+        """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
+        shape (..., m, 3), m, base frame — where the identified model puts the flange."""
+        x = self._check(x)
+        return point_position(self.robot.structure, self.table(x), self.joints(x, data))
+
+    def flange_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
+        """∂(flange centre)/∂x at every pose, shape (m, 3, p), for unknowns x (p,): the table and
+        joint groups move the flange; the rig's unknowns and the measured point do not."""
+        x = self._check(x)
+        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data))
+        jacobian = np.zeros((len(data), 3, self.n_params))
+        for group in self.groups:
+            if group.stage == Stage.TABLE:
+                assert group.linear is not None
+                jacobian[..., self.slice(group.name)] = chain.table @ group.linear
+            elif group.stage == Stage.JOINTS:
+                assert group.basis is not None
+                jacobian[..., self.slice(group.name)] = chain.joints @ group.basis(data)
+        return jacobian
+
+    # --- residuals ------------------------------------------------------------------------
+
+    def residuals(self, x: ArrayLike, data: Measurements) -> Array:
+        """Residuals r(x), shape (..., M), m, for unknowns of shape (..., p)."""
+        x = self._check(x)
+        return self.kind.residuals(self.positions(x, data), self._measurement_values(x), data,
+                                   self.rig)
+
+    def jacobian(self, x: ArrayLike, data: Measurements) -> tuple[Array, Array]:
+        """Residuals and their analytic Jacobian at one x.
+
+        Args:
+            x: Unknowns, shape (p,).
+            data: The poses and readings.
+
+        Returns:
+            ``(r, J)``: residuals (M,) in m, Jacobian ∂r/∂x (M, p).
+        """
+        x = self._check(x)
+        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
+                               self.point(x))
+        kind = self.kind.jacobian(chain.position, self._measurement_values(x), data, self.rig)
+        m, rows = len(data), self.kind.rows_per_pose
+        by_position = kind.by_position  # (m, rows, 3)
+        jacobian = np.zeros((kind.residuals.size, self.n_params))
+        for group in self.groups:
+            where = self.slice(group.name)
+            if group.stage == Stage.MEASUREMENT:
+                jacobian[:, where] = kind.by_group[group.name]
+                continue
+            if group.stage == Stage.TABLE:
+                assert group.linear is not None
+                moves = chain.table @ group.linear  # (m, 3, p_g)
+            elif group.stage == Stage.JOINTS:
+                assert group.basis is not None
+                moves = chain.joints @ group.basis(data)
+            else:
+                assert group.linear is not None
+                moves = chain.rotation @ group.linear
+            jacobian[: m * rows, where] = np.einsum("mrc,mcp->mrp", by_position,
+                                                    moves).reshape(m * rows, -1)
+        return kind.residuals, jacobian

@@ -1,0 +1,92 @@
+"""The one interface of an unknown group: named parameters, their units and bounds, and the
+stage of the measurement model they act at.
+
+A calibration's unknown vector x is the concatenation of its groups' blocks, D-H first. Each
+group acts at one stage of :class:`twin.model.Model`:
+
+- ``table``: adds to the kinematic parameter table, ``Δtable = linear @ x_g`` (D-H errors);
+- ``joints``: adds to the joint angles, ``Δq = basis(data) @ x_g`` — linear in its
+  coefficients, as transmission error, backlash and compliance are;
+- ``point``: moves the measured point in the flange frame, ``Δt = linear @ x_g``;
+- ``measurement``: enters the measurement kind's own equation (a port, a length offset, a
+  tracker frame, a fixed point); the kind reads its block by the group's name.
+
+A group module exports ``make(robot, rig) -> Group`` and the registry
+(:mod:`twin.unknowns`) lists it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.arrays import frozen_array
+from twin.dataset import Measurements
+
+Array = NDArray[np.float64]
+
+
+class Stage(StrEnum):
+    """Where in the measurement model a group acts."""
+
+    TABLE = "table"
+    JOINTS = "joints"
+    POINT = "point"
+    MEASUREMENT = "measurement"
+
+
+@dataclass(frozen=True)
+class Group:
+    """One named block of unknowns.
+
+    Attributes:
+        name: The registry name (``dh``, ``port``…).
+        stage: Where it acts.
+        names: One name per parameter (``a1``, ``port_x``…), length p_g.
+        units: The SI unit of each parameter (``m``, ``rad``…; :mod:`twin.units` converts them
+            for people).
+        lower: Lower bounds, shape (p_g,).
+        upper: Upper bounds, shape (p_g,).
+        radius: A typical size of each parameter's error, shape (p_g,): the spread of a
+            swarm's first particles.
+        linear: ``table``: (4n, p_g), ``point``: (3, p_g); None at other stages.
+        basis: ``joints``: ``basis(data) -> (m, n, p_g)``, rad per unit; None at other stages.
+    """
+
+    name: str
+    stage: Stage
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    lower: Array
+    upper: Array
+    radius: Array
+    linear: Array | None = None
+    basis: Callable[[Measurements], Array] | None = None
+
+    def __post_init__(self) -> None:
+        p = len(self.names)
+        if len(self.units) != p:
+            raise ValueError(f"group {self.name}: {len(self.units)} units for {p} parameters")
+        for attribute in ("lower", "upper", "radius"):
+            object.__setattr__(self, attribute,
+                               frozen_array(getattr(self, attribute), (p,), attribute))
+        if np.any(self.lower >= self.upper):
+            raise ValueError(f"group {self.name}: lower bounds must be below upper bounds")
+        needs_linear = self.stage in (Stage.TABLE, Stage.POINT)
+        if needs_linear != (self.linear is not None):
+            raise ValueError(f"group {self.name}: a linear map goes with the table and point "
+                             "stages only")
+        if (self.stage == Stage.JOINTS) != (self.basis is not None):
+            raise ValueError(f"group {self.name}: a basis goes with the joints stage only")
+        if self.linear is not None:
+            linear = np.asarray(self.linear, dtype=np.float64)
+            object.__setattr__(self, "linear", frozen_array(linear, linear.shape, "linear"))
+
+    @property
+    def size(self) -> int:
+        """Number of parameters p_g."""
+        return len(self.names)
