@@ -141,7 +141,8 @@ def test_a_full_disk(csv_path: Path, tmp_path: Path, refusals: Refusals) -> None
          + "\n", "line 2: found a line of"),
         ("comment.csv", "#" + "x" * 2**20 + "\nq1,q2,q3,q4,q5,q6,length\n",
          f"line 1: found a line of {2**20 + 1} characters, expected a measurement CSV (q1..q6 "
-         f"in deg, length in mm) with lines of at most {MAX_LINE_CHARS}"),
+         f"in deg and length (mm), x,y,z (mm) or point) with lines of at most "
+         f"{MAX_LINE_CHARS}"),
     ],
     ids=["1 MB field", "1 MB comment"],
 )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -75,4 +76,61 @@ def test_radians_in_degree_columns_warn(tmp_path: Path) -> None:
     path = tmp_path / "m.csv"
     path.write_text(HEADER + "0.1,0.5,-1.2,0.3,1.5,-2.0,800\n" * 4)
     with pytest.warns(UnitWarning, match="radians"):
+        load_measurements(path)
+
+
+@pytest.mark.parametrize("kind", ["length", "length+ports", "position", "point"])
+def test_every_kind_round_trips_with_approach_columns(tmp_path: Path, kind: str) -> None:
+    """Lengths (with named ports), tracker positions and fixed-point names, with approach
+    directions, are written and read back to the same values and labels."""
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1.0, 1.0, (5, 6))
+    approach = rng.choice([-1, 1], (5, 6))
+    if kind.startswith("length"):
+        ports = dict(port=np.array([0, 1, 1, 0, 1]), port_names=("front", "back")) \
+            if kind.endswith("ports") else {}
+        data = Measurements(q, length_m=rng.uniform(0.5, 1.0, 5), approach=approach, **ports)
+    elif kind == "position":
+        data = Measurements(q, position_m=rng.normal(size=(5, 3)), approach=approach)
+    else:
+        data = Measurements(q, point=np.array([0, 0, 1, 2, 1]), approach=approach,
+                            point_names=("A", "B", "C"))
+    path = tmp_path / "m.csv"
+    write_measurements(path, data)
+    loaded = load_measurements(path)
+    assert loaded.kind == data.kind
+    np.testing.assert_allclose(loaded.q_rad, data.q_rad, rtol=1e-15)
+    np.testing.assert_array_equal(loaded.approach, approach)
+    for name in ("length_m", "position_m"):
+        if getattr(data, name) is not None:
+            np.testing.assert_allclose(getattr(loaded, name), getattr(data, name), rtol=1e-15)
+    if data.port is not None:
+        assert [loaded.port_names[j] for j in loaded.port] == [data.port_names[j]
+                                                              for j in data.port]
+    if data.point is not None:
+        assert [loaded.point_names[j] for j in loaded.point] == ["A", "A", "B", "C", "B"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("q1,q2,q3,q4,q5,q6,length,x,y,z\n" + "0,0,0,0,0,0,700,1,2,3\n",
+         "line 1: found columns q1,q2,q3,q4,q5,q6,length,x,y,z, expected exactly one of"),
+        ("q1,q2,q3,q4,q5,q6,x,y\n0,0,0,0,0,0,1,2\n", "expected exactly one of length"),
+        ("q1,q2,q3,q4,q5,q6,length,approach1\n0,0,0,0,0,0,700,1\n",
+         "found no approach2,approach3,approach4,approach5,approach6, expected all of"),
+        ("q1,q2,q3,q4,q5,q6,length,approach1,approach2,approach3,approach4,approach5,approach6\n"
+         "0,0,0,0,0,0,700,1,1,1,0,1,1\n", "line 2, column approach4: found 0, expected +1 or -1"),
+        ("q1,q2,q3,q4,q5,q6,x,y,z,port\n0,0,0,0,0,0,1,2,3,a\n",
+         "found a port column, expected port only beside length"),
+        ("q1,q2,q3,q4,q5,q6,point\n0,0,0,0,0,0, \n",
+         "line 2, column point: found '', expected a name of 1 to 64 characters"),
+    ],
+)
+def test_kind_and_option_columns_are_checked(tmp_path: Path, text: str, message: str) -> None:
+    """A file with no or two kinds, half the approach columns, a bad direction, a port on a
+    tracker row or an empty name is one clear error."""
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(InputError, match=re.escape(message)):
         load_measurements(path)

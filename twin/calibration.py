@@ -13,7 +13,7 @@ This is the Python API the CLI mirrors::
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from math import ceil
 from typing import NamedTuple
 
@@ -174,6 +174,31 @@ class SplitProblem(NamedTuple):
     """Held-out row indices, shape (m_val,)."""
 
 
+def match_ports(measurements: Measurements, rig: Rig) -> Measurements:
+    """The measurements with each row's port as an index into the rig's ports.
+
+    Data that name their ports (a ``port`` column) are matched to the rig's ports by name;
+    unnamed data use the rig's ports in order.
+
+    Raises:
+        InputError: for a port the rig does not have, or data from several unnamed ports.
+    """
+    if measurements.kind != "length":
+        return measurements
+    if measurements.port_names:
+        unknown = [name for name in measurements.port_names if name not in rig.port_names]
+        if unknown:
+            raise InputError(f"port {unknown[0]!r} in the measurements",
+                             "one of the rig's ports: " + ", ".join(rig.port_names))
+        index = np.array([rig.port_names.index(name) for name in measurements.port_names])
+        return replace(measurements, port=index[measurements.port_index],
+                       port_names=rig.port_names)
+    if int(measurements.port_index.max()) >= len(rig.ports_m):
+        raise InputError(f"{int(measurements.port_index.max()) + 1} ports in the measurements",
+                         f"at most the rig's {len(rig.ports_m)}")
+    return measurements
+
+
 def _rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
     if (port_m is None) == (rig is None):
         raise ValueError("give either port_m or rig")
@@ -200,7 +225,9 @@ def make_problem(
     Raises:
         InputError: if there are fewer poses than the unknowns need.
     """
-    model = make_model(robot, _rig(port_m, rig), measurements.kind, errors=errors,
+    setup = _rig(port_m, rig)
+    measurements = match_ports(measurements, setup)
+    model = make_model(robot, setup, measurements.kind, errors=errors,
                        estimate_port=estimate_port, estimate_offset=estimate_offset)
     needed = required_poses(model.n_params, train_fraction, model.kind.rows_per_pose)
     if len(measurements) < needed:

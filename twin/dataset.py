@@ -52,6 +52,9 @@ class Measurements:
         position_m: Measured point positions in the instrument's frame, shape (m, 3), m.
         point: Index of the fixed place each row's measured point was at, shape (m,).
         port: Index of the port each row's cable ran from, shape (m,); None: one port.
+        port_names: The name of each port index, when the data name their ports (a ``port``
+            column); the calibration matches them to the rig's ports by name.
+        point_names: The name of each fixed place index (a ``point`` column).
         approach: Direction each joint last moved in before the reading, shape (m, n), +1 or
             −1 (int8 labels); None when not recorded.
     """
@@ -62,6 +65,8 @@ class Measurements:
     point: NDArray[np.intp] | None = None
     port: NDArray[np.intp] | None = None
     approach: NDArray[np.int8] | None = None
+    port_names: tuple[str, ...] = ()
+    point_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         q = np.asarray(self.q_rad, dtype=np.float64)
@@ -83,6 +88,11 @@ class Measurements:
         object.__setattr__(self, "port", _index(self.port, m, "port"))
         if self.port is not None and self.length_m is None:
             raise ValueError("port: only cable lengths have ports")
+        for index, names, what in ((self.port, self.port_names, "port"),
+                                   (self.point, self.point_names, "point")):
+            object.__setattr__(self, f"{what}_names", tuple(names))
+            if names and (index is None or (index.size and index.max() >= len(names))):
+                raise ValueError(f"{what}_names: {len(names)} names for the {what} indices")
         if self.approach is not None:
             labels = np.asarray(self.approach)
             # Labels, not measured values: each must be one of the two directions exactly.
@@ -126,4 +136,5 @@ class Measurements:
             return None if values is None else values[index]
 
         return Measurements(self.q_rad[index], pick(self.length_m), pick(self.position_m),
-                            pick(self.point), pick(self.port), pick(self.approach))
+                            pick(self.point), pick(self.port), pick(self.approach),
+                            self.port_names, self.point_names)

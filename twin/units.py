@@ -100,6 +100,47 @@ def significant(value: float, digits: int = RESULT_SIGNIFICANT) -> float:
     return float(f"{value:.{digits}g}") + 0.0
 
 
+DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
+    "m": ("mm", 1.0 / M_PER_MM, RESULT_MM_DECIMALS),
+    "rad": ("deg", 180.0 / np.pi, FILE_DEG_DECIMALS),
+}
+"""For each SI unit an unknown may have: the unit people read, the factor to it, and the
+decimals a result keeps. An unknown group with a unit of its own adds it here."""
+
+
+def to_display(values_si: ArrayLike, units: tuple[str, ...] | list[str]
+               ) -> tuple[list[float], list[str]]:
+    """Values in SI units to the units people read (mm, degrees…), rounded as results keep
+    them; NaN stays NaN.
+
+    Args:
+        values_si: One value per unit, shape (p,).
+        units: The SI unit of each value (keys of :data:`DISPLAY_UNITS`).
+
+    Returns:
+        ``(values, labels)``: the converted values and their units.
+    """
+    values, labels = [], []
+    for value, unit in zip(np.ravel(np.asarray(values_si, dtype=np.float64)), units,
+                           strict=True):
+        label, factor, decimals = DISPLAY_UNITS[unit]
+        converted = float(value) * factor
+        values.append(converted if not np.isfinite(converted) else
+                      rounded([converted], decimals)[0])
+        labels.append(label)
+    return values, labels
+
+
+def from_display(values: ArrayLike, labels: tuple[str, ...] | list[str]) -> NDArray[np.float64]:
+    """Inverse of :func:`to_display`: values in the units people read to SI, shape (p,).
+
+    Raises:
+        KeyError: for a unit that is not one of :data:`DISPLAY_UNITS`' display units.
+    """
+    factors = {label: factor for label, factor, _ in DISPLAY_UNITS.values()}
+    return np.asarray(values, dtype=np.float64) / np.array([factors[label] for label in labels])
+
+
 def display_unit(key: str) -> str:
     """``"mm"`` for a, d; ``"deg"`` for alpha, theta."""
     return "mm" if DH_IS_LENGTH[DH_KEYS.index(key)] else "deg"

@@ -1,4 +1,8 @@
-"""Identified D-H errors read back from a calibration result (`twin calibrate --json`).
+"""Identified models read back from a calibration result (`twin calibrate --json`).
+
+:func:`load_result` rebuilds the whole identified measurement model from the result's
+``unknowns`` (kind, groups, rig, every unknown's value); :func:`load_result_delta` reads the
+D-H errors alone.
 
 A result is applied (exported, compensated) only where it can be right:
 
@@ -13,16 +17,21 @@ A result is applied (exported, compensated) only where it can be right:
 
 from __future__ import annotations
 
+import math
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError, UnknownChoiceError
+from twin.io.capture import parse_port_mm
 from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
+from twin.kinds import get_kind
+from twin.model import Model
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,
@@ -30,10 +39,13 @@ from twin.units import (
     deg_to_rad,
     dh_rows_to_display,
     display_unit,
+    from_display,
     m_to_mm,
     mm_to_m,
     rad_to_deg,
+    to_display,
 )
+from twin.unknowns import make_groups
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
@@ -46,6 +58,9 @@ BOUND_TOLERANCE_MM = 1e-3
 """How far beyond ±5 mm an identified length error may lie (rounding), mm."""
 BOUND_TOLERANCE_DEG = 1e-3
 """How far beyond ±8° an identified angle error may lie (rounding), degrees."""
+BOUND_SLACK = 1e-6
+"""How far beyond its search bound an unknown of :func:`load_result` may lie (rounding), as a
+fraction of its range."""
 
 
 class ResultWarning(UserWarning):
@@ -155,3 +170,91 @@ def load_result_delta(
     check_result_robot(entry, robot, path, where)
     check_bounds(delta, path, where)
     return delta
+
+
+class IdentifiedModel(NamedTuple):
+    """A calibration result as a model and its unknowns, ready to predict or compensate with."""
+
+    model: Model
+    """The measurement model the calibration fitted (robot, rig, kind, groups)."""
+    x: NDArray[np.float64]
+    """The identified unknowns, shape (p,), SI."""
+    method: str
+    """The method that identified them."""
+
+
+def _rig(document: Any, path: Path, where: str) -> Rig:
+    if not isinstance(document, dict) or not isinstance(document.get("ports"), dict):
+        raise InputError("no rig", '"rig": {"ports": {name: [x, y, z]}, "attachment": [...]}',
+                         source=path, where=f"{where}unknowns.rig")
+    ports, names = [], []
+    for name, value in document["ports"].items():
+        ports.append(parse_port_mm(value, path, f"{where}unknowns.rig.ports.{name}"))
+        names.append(str(name))
+    attachment = parse_port_mm(document.get("attachment", [0.0, 0.0, 0.0]), path,
+                               f"{where}unknowns.rig.attachment")
+    return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment)
+
+
+def load_result(path: str | Path, robot: RobotModel, method: str | None = None
+                ) -> IdentifiedModel:
+    """The identified model of a result file for ``robot`` (its nominal robot must be it).
+
+    Args:
+        path: The result JSON file.
+        robot: The nominal robot the result is to be applied to.
+        method: Name of the result to take from a multi-method file.
+
+    Raises:
+        InputError: if the file is not a result, was identified for another robot, names
+            unknowns this version does not know, or holds values beyond their search bounds.
+    """
+    path = Path(path)
+    entry, where = _pick(read_json(path, RESULT_FILE), path, method)
+    check_result_robot(entry, robot, path, where)
+    unknowns = entry.get("unknowns")
+    if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
+        raise InputError("no 'unknowns'", "a result written by this version of twin calibrate",
+                         source=path, where=f"{where}unknowns")
+    rig = _rig(unknowns.get("rig"), path, where)
+    groups = unknowns.get("groups")
+    if not isinstance(groups, list) or not all(isinstance(g, str) for g in groups):
+        raise InputError(f"{groups!r}", "a list of unknown group names", source=path,
+                         where=f"{where}unknowns.groups")
+    try:
+        model = Model(robot, rig, get_kind(str(unknowns.get("kind"))),
+                      make_groups(groups, robot, rig))
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=path,
+                         where=f"{where}unknowns") from None
+    parameters = unknowns["parameters"]
+    names = [p.get("name") if isinstance(p, dict) else None for p in parameters]
+    if names != list(model.names):
+        raise InputError(f"{len(parameters)} unknowns ({', '.join(map(str, names[:4]))}…)",
+                         f"the {model.n_params} unknowns of groups {', '.join(groups)} "
+                         f"({', '.join(model.names[:4])}…)", source=path,
+                         where=f"{where}unknowns.parameters")
+    values, labels = [], []
+    for k, parameter in enumerate(parameters):
+        value, label = parameter.get("value"), parameter.get("unit")
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value) or not isinstance(label, str):
+            raise InputError(f"{parameter!r}", "a finite value with its unit", source=path,
+                             where=f"{where}unknowns.parameters[{k}]")
+        values.append(float(value))
+        labels.append(label)
+    try:
+        x = from_display(values, labels)
+    except KeyError as exc:
+        raise InputError(f"the unit {exc.args[0]!r}", "a unit twin writes", source=path,
+                         where=f"{where}unknowns.parameters") from None
+    expected = to_display(np.zeros(model.n_params), model.units)[1]
+    lower, upper = model.bounds()
+    slack = BOUND_SLACK * (upper - lower)
+    beyond = (x < lower - slack) | (x > upper + slack) | (np.array(labels) != np.array(expected))
+    if np.any(beyond):
+        k = int(np.argmax(beyond))
+        raise InputError(f"{model.names[k]} = {values[k]:g} {labels[k]}",
+                         "a value within its search bounds, in the unit twin writes",
+                         source=path, where=f"{where}unknowns.parameters[{k}]")
+    return IdentifiedModel(model, x, str(entry.get("method")))

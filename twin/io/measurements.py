@@ -1,7 +1,18 @@
-"""Measurement files: CSV with header ``q1,…,q6,length``, degrees and mm, one row per pose.
+"""Measurement files: CSV, one row per pose, degrees and mm.
 
-Other columns are ignored. Every problem is reported as one :class:`~twin.errors.InputError`
-naming the file, the line and column, what was found and what was expected.
+Columns ``q1..qN`` (the robot's joints, degrees) and exactly one of:
+
+- ``length`` — a cable length (mm) from a drawstring encoder; with an optional ``port`` column
+  naming the port each row's cable ran from, when the encoder was moved between ports;
+- ``x,y,z`` — the measured point's position in the instrument's frame (mm), from a laser
+  tracker;
+- ``point`` — the name of the unknown fixed place the measured point was brought to (a ball in a
+  socket, a pointer on a mark).
+
+Optional ``approach1..approachN`` (+1 / −1): the direction each joint last moved in before the
+reading, which backlash depends on. Other columns are ignored; ``#`` lines are comments. Every
+problem is reported as one :class:`~twin.errors.InputError` naming the file, the line and
+column, what was found and what was expected.
 """
 
 from __future__ import annotations
@@ -11,6 +22,7 @@ import io
 import math
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,33 +34,69 @@ from twin.io.paths import MAX_LINE_CHARS, read_text
 from twin.robot import RobotModel
 from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 
-JOINT_COLUMNS = tuple(f"q{i}" for i in range(1, 7))
+
+def joint_columns(n_joints: int) -> tuple[str, ...]:
+    """``q1``…``qN``."""
+    return tuple(f"q{i}" for i in range(1, n_joints + 1))
+
+
+def approach_columns(n_joints: int) -> tuple[str, ...]:
+    """``approach1``…``approachN``."""
+    return tuple(f"approach{i}" for i in range(1, n_joints + 1))
+
+
+JOINT_COLUMNS = joint_columns(6)
+"""The joint columns of a 6-joint arm."""
 LENGTH_COLUMN = "length"
 COLUMNS = (*JOINT_COLUMNS, LENGTH_COLUMN)
+"""The columns of a 6-joint arm's cable measurements."""
+POSITION_COLUMNS = ("x", "y", "z")
+PORT_COLUMN = "port"
+POINT_COLUMN = "point"
+MAX_LABEL_CHARS = 64
+"""Longest port or point name."""
 
 
 class UnitWarning(UserWarning):
     """Values that look like they are in the wrong unit."""
 
 
-def read_table(
-    path: str | Path, columns: tuple[str, ...], what: str, *, stdin: bool = False,
+class Columns(NamedTuple):
+    """What :func:`read_columns` read."""
+
+    values: NDArray[np.float64]
+    """The required numeric columns, as written, shape (rows, len(columns))."""
+    optional: dict[str, NDArray[np.float64]]
+    """Each optional numeric column the file has, shape (rows,)."""
+    labels: dict[str, list[str]]
+    """Each label (text) column the file has, one string per row."""
+    lines: list[int]
+    """Each row's line number in the file."""
+    header: tuple[str, ...]
+    """The file's columns, as named in its header."""
+    header_line: int
+    """The header's line number."""
+
+
+def read_columns(
+    path: str | Path, columns: tuple[str, ...], what: str, *,
+    optional: tuple[str, ...] = (), labels: tuple[str, ...] = (), stdin: bool = False,
     journal: bool = False,
-) -> tuple[NDArray[np.float64], list[int]]:
-    """Read the named numeric columns of a CSV file.
+) -> Columns:
+    """Read named columns of a CSV file: numbers required, numbers optional, text labels.
 
     Blank lines and lines starting with ``#`` are skipped; other columns are ignored. Lines are
     at most :data:`~twin.io.paths.MAX_LINE_CHARS` long.
 
     Args:
         path: The file (``-``: standard input, if ``stdin``).
-        columns: The columns to read.
+        columns: Numeric columns every row must have.
         what: What the file should be, for messages.
+        optional: Numeric columns read when the header has them.
+        labels: Text columns read when the header has them (non-empty, at most
+            :data:`MAX_LABEL_CHARS`).
         stdin: Whether ``-`` means standard input.
         journal: The command's own resumable file (see :func:`twin.io.paths.read_bytes`).
-
-    Returns:
-        ``(values, lines)``: values (rows, len(columns)) as written, and each row's line number.
     """
     text = read_text(path, what, stdin=stdin, journal=journal)
     for number, line in enumerate(io.StringIO(text), start=1):
@@ -73,14 +121,17 @@ def read_table(
             f"columns {','.join(header)} (no {','.join(missing)})", expected_header,
             source=path, where=f"line {header_line}",
         )
-    duplicated = sorted({name for name in columns if header.count(name) > 1})
+    duplicated = sorted({name for name in (*columns, *optional, *labels)
+                         if header.count(name) > 1})
     if duplicated:
         raise InputError(f"column {duplicated[0]!r} twice", "each column once",
                          source=path, where=f"line {header_line}")
     if len(rows) == 1:
         raise InputError("a header and no data rows", "one row per pose", source=path)
-    index = [header.index(name) for name in columns]
-    values = np.empty((len(rows) - 1, len(columns)))
+    numeric = (*columns, *(name for name in optional if name in header))
+    named = tuple(name for name in labels if name in header)
+    values = np.empty((len(rows) - 1, len(numeric)))
+    texts: dict[str, list[str]] = {name: [] for name in named}
     lines = []
     for row, (number, fields) in enumerate(rows[1:]):
         if len(fields) != len(header):
@@ -88,8 +139,8 @@ def read_table(
                 f"{len(fields)} fields", f"{len(header)}, one per header column",
                 source=path, where=f"line {number}",
             )
-        for col, (name, k) in enumerate(zip(columns, index, strict=True)):
-            text_value = fields[k].strip()
+        for col, name in enumerate(numeric):
+            text_value = fields[header.index(name)].strip()
             try:
                 value = float(text_value)
             except ValueError:
@@ -99,40 +150,124 @@ def read_table(
                 raise InputError(f"{text_value!r}", "a finite number", source=path,
                                  where=f"line {number}, column {name}")
             values[row, col] = value
+        for name in named:
+            label = fields[header.index(name)].strip()
+            if not label or len(label) > MAX_LABEL_CHARS:
+                raise InputError(f"{label!r}", f"a name of 1 to {MAX_LABEL_CHARS} characters",
+                                 source=path, where=f"line {number}, column {name}")
+            texts[name].append(label)
         lines.append(number)
-    return values, lines
+    count = len(columns)
+    extra = {name: values[:, count + k] for k, name in enumerate(numeric[count:])}
+    return Columns(values[:, :count], extra, texts, lines, tuple(header), header_line)
+
+
+def read_table(
+    path: str | Path, columns: tuple[str, ...], what: str, *, stdin: bool = False,
+    journal: bool = False,
+) -> tuple[NDArray[np.float64], list[int]]:
+    """The named numeric columns of a CSV file (:func:`read_columns` without options).
+
+    Returns:
+        ``(values, lines)``: values (rows, len(columns)) as written, and each row's line number.
+    """
+    table = read_columns(path, columns, what, stdin=stdin, journal=journal)
+    return table.values, table.lines
+
+
+def _names(labels: list[str]) -> tuple[tuple[str, ...], NDArray[np.intp]]:
+    """Distinct names in order of first appearance, and each row's index into them."""
+    names = tuple(dict.fromkeys(labels))
+    return names, np.array([names.index(label) for label in labels], dtype=np.intp)
 
 
 def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                       stdin: bool = False) -> Measurements:
-    """Read a measurement CSV (degrees, mm) into SI measurements.
+    """Read a measurement CSV (degrees, mm) into SI measurements; see the module docstring.
 
     Args:
         path: The CSV file.
-        robot: If given, every joint angle is checked against its limits.
+        robot: The robot measured: its joint count sets the ``q`` columns (6 without it) and
+            every joint angle is checked against its limits.
         stdin: Whether the path ``-`` means standard input.
 
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
-    values, lines = read_table(path, COLUMNS, "a measurement CSV (q1..q6 in deg, length in mm)",
-                               stdin=stdin)
-    q_deg, length_mm = values[:, :6], values[:, 6]
-    longest_mm = float(m_to_mm(MAX_LENGTH_M))
-    bad = np.flatnonzero((length_mm <= 0) | (length_mm > longest_mm))
-    if bad.size:
-        raise InputError(f"{length_mm[bad[0]]:g} mm",
-                         f"a positive cable length in mm, at most {longest_mm:g}",
-                         source=path, where=f"line {lines[bad[0]]}, column length")
+    n = robot.n_joints if robot is not None else 6
+    joints = joint_columns(n)
+    kinds = f"{LENGTH_COLUMN} (mm), {','.join(POSITION_COLUMNS)} (mm) or {POINT_COLUMN}"
+    what = f"a measurement CSV ({joints[0]}..{joints[-1]} in deg and {kinds})"
+    table = read_columns(path, joints, what, optional=(LENGTH_COLUMN, *POSITION_COLUMNS,
+                                                       *approach_columns(n)),
+                         labels=(PORT_COLUMN, POINT_COLUMN), stdin=stdin)
+    given = [name for name, present in (
+        (LENGTH_COLUMN, LENGTH_COLUMN in table.optional),
+        (",".join(POSITION_COLUMNS), all(c in table.optional for c in POSITION_COLUMNS)),
+        (POINT_COLUMN, POINT_COLUMN in table.labels)) if present]
+    partial = [c for c in POSITION_COLUMNS if c in table.optional] and \
+        not all(c in table.optional for c in POSITION_COLUMNS)
+    header_line = f"line {table.header_line}"
+    if len(given) != 1 or partial:
+        raise InputError(f"columns {','.join(table.header)}",
+                         f"exactly one of {kinds} beside {joints[0]}..{joints[-1]}",
+                         source=path, where=header_line)
+    q_deg = table.values
     if robot is not None:
-        check_joint_limits(q_deg, lines, robot, path)
-    if len(lines) >= 3 and np.all(np.abs(q_deg) <= 2 * math.pi) and np.any(q_deg != 0):
+        check_joint_limits(q_deg, table.lines, robot, path)
+    if len(table.lines) >= 3 and np.all(np.abs(q_deg) <= 2 * math.pi) and np.any(q_deg != 0):
         warnings.warn(
-            f"{path}: every joint angle is within ±2π; the columns q1..q6 are read as degrees "
-            "— convert them if they are radians",
+            f"{path}: every joint angle is within ±2π; the columns {joints[0]}..{joints[-1]} are "
+            "read as degrees — convert them if they are radians",
             UnitWarning, stacklevel=2,
         )
-    return Measurements(deg_to_rad(q_deg), mm_to_m(length_mm))
+    approach = _approach(table, n, path)
+    longest_mm = float(m_to_mm(MAX_LENGTH_M))
+    if given[0] == LENGTH_COLUMN:
+        length_mm = table.optional[LENGTH_COLUMN]
+        bad = np.flatnonzero((length_mm <= 0) | (length_mm > longest_mm))
+        if bad.size:
+            raise InputError(f"{length_mm[bad[0]]:g} mm",
+                             f"a positive cable length in mm, at most {longest_mm:g}",
+                             source=path, where=f"line {table.lines[bad[0]]}, column length")
+        port_names, port = _names(table.labels[PORT_COLUMN]) if PORT_COLUMN in table.labels \
+            else ((), None)
+        return Measurements(deg_to_rad(q_deg), mm_to_m(length_mm), port=port,
+                            approach=approach, port_names=port_names)
+    if PORT_COLUMN in table.labels:
+        raise InputError(f"a {PORT_COLUMN} column", f"{PORT_COLUMN} only beside {LENGTH_COLUMN}",
+                         source=path, where=header_line)
+    if given[0] == POINT_COLUMN:
+        point_names, point = _names(table.labels[POINT_COLUMN])
+        return Measurements(deg_to_rad(q_deg), point=point, approach=approach,
+                            point_names=point_names)
+    xyz_mm = np.stack([table.optional[c] for c in POSITION_COLUMNS], axis=1)
+    bad = np.flatnonzero(np.any(np.abs(xyz_mm) > longest_mm, axis=1))
+    if bad.size:
+        raise InputError(f"{np.max(np.abs(xyz_mm[bad[0]])):g} mm",
+                         f"coordinates within ±{longest_mm:g} mm", source=path,
+                         where=f"line {table.lines[bad[0]]}")
+    return Measurements(deg_to_rad(q_deg), position_m=mm_to_m(xyz_mm), approach=approach)
+
+
+def _approach(table: Columns, n: int, path: str | Path) -> NDArray[np.int8] | None:
+    """The approach columns as ±1 labels, all or none of them."""
+    names = approach_columns(n)
+    present = [name for name in names if name in table.optional]
+    if not present:
+        return None
+    if len(present) != n:
+        missing = [name for name in names if name not in table.optional]
+        raise InputError(f"no {','.join(missing)}", f"all of {names[0]}..{names[-1]} or none",
+                         source=path)
+    values = np.stack([table.optional[name] for name in names], axis=1)
+    bad = np.argwhere(~np.isin(values, (-1.0, 1.0)))
+    if bad.size:
+        row, joint = bad[0]
+        raise InputError(f"{values[row, joint]:g}", "+1 or -1 (the direction the joint last "
+                         "moved in)", source=path,
+                         where=f"line {table.lines[row]}, column {names[joint]}")
+    return values.astype(np.int8)
 
 
 def load_plan(
@@ -159,7 +294,8 @@ def load_plan(
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
-    q_deg, lines = read_table(path, JOINT_COLUMNS, what, stdin=stdin, journal=journal)
+    columns = joint_columns(robot.n_joints) if robot is not None else JOINT_COLUMNS
+    q_deg, lines = read_table(path, columns, what, stdin=stdin, journal=journal)
     if robot is not None:
         check_joint_limits(q_deg, lines, robot, path)
     return deg_to_rad(q_deg), lines
@@ -182,12 +318,37 @@ def check_joint_limits(
 
 def format_measurements(measurements: Measurements) -> str:
     """The CSV text (header, degrees, mm) of measurements, exactly round-tripping floats."""
-    q_deg, length_mm = rad_to_deg(measurements.q_rad), m_to_mm(measurements.lengths)
-    lines = [",".join(COLUMNS)]
-    lines += [
-        ",".join(repr(float(v)) for v in (*q, length))
-        for q, length in zip(q_deg, length_mm, strict=True)
-    ]
+    n = measurements.q_rad.shape[1]
+    header = list(joint_columns(n))
+    columns: list[list[str]] = [[repr(float(v)) for v in row]
+                                for row in rad_to_deg(measurements.q_rad)]
+    kind = measurements.kind
+    extra: list[list[str]] = []
+    if kind == "length":
+        header.append(LENGTH_COLUMN)
+        extra.append([repr(float(v)) for v in m_to_mm(measurements.lengths)])
+        if measurements.port is not None:
+            names = measurements.port_names or tuple(
+                f"port{j + 1}" for j in range(int(measurements.port.max()) + 1))
+            header.append(PORT_COLUMN)
+            extra.append([names[j] for j in measurements.port])
+    elif kind == "position":
+        assert measurements.position_m is not None
+        header += list(POSITION_COLUMNS)
+        xyz = m_to_mm(measurements.position_m)
+        extra += [[repr(float(v)) for v in xyz[:, k]] for k in range(3)]
+    else:
+        assert measurements.point is not None
+        names = measurements.point_names or tuple(
+            f"point{j + 1}" for j in range(int(measurements.point.max()) + 1))
+        header.append(POINT_COLUMN)
+        extra.append([names[j] for j in measurements.point])
+    if measurements.approach is not None:
+        header += list(approach_columns(n))
+        extra += [[f"{int(v):+d}" for v in measurements.approach[:, k]] for k in range(n)]
+    lines = [",".join(header)]
+    lines += [",".join([*row, *(column[i] for column in extra)])
+              for i, row in enumerate(columns)]
     return "\n".join(lines) + "\n"
 
 

@@ -25,6 +25,7 @@ from twin.units import (
     m_to_mm,
     rounded,
     significant,
+    to_display,
 )
 
 MM2_PER_M2 = float(m_to_mm(1.0)) ** 2
@@ -93,6 +94,35 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
     return fields
 
 
+def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
+    """The ``unknowns`` JSON object: everything needed to rebuild the identified model
+    (:func:`twin.io.identified.load_result`) — the measurement kind, the unknown groups, the rig
+    the calibration was told, and every unknown's value, unit, σ (null: not identifiable) and
+    whether it ended on a bound of the search box."""
+    model = result.model
+    values, labels = to_display(result.solver.x, model.units)
+    sigma = to_display(result.uncertainty.sigma, model.units)[0] \
+        if result.uncertainty is not None else [math.nan] * model.n_params
+    held = set(result.at_bounds)
+    rig = model.rig
+    return {
+        "kind": model.kind.name,
+        "groups": [group.name for group in model.groups],
+        "rig": {"ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
+                                                                 strict=True)},
+                "attachment": _mm(rig.attachment_m)},
+        "parameters": [
+            {"name": name, "group": group.name, "value": value, "unit": label,
+             "sigma": deviation if math.isfinite(deviation) else None,
+             "at_bound": name in held}
+            for group in model.groups
+            for name, value, label, deviation in zip(
+                group.names, values[model.slice(group.name)], labels[model.slice(group.name)],
+                sigma[model.slice(group.name)], strict=True)
+        ],
+    }
+
+
 def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
     """The JSON document of one result: lengths in mm, angles in degrees, f in mm²."""
     solver = result.solver
@@ -106,6 +136,7 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
         document["port"] = _mm(result.port_m)
     if result.model.has("offset"):
         document["offset"] = _mm(result.offset_m)[0]
+    document["unknowns"] = unknowns_to_dict(result)
     document.update(_uncertainty_fields(result))
     document.update(
         {

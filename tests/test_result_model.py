@@ -1,0 +1,62 @@
+"""A result file rebuilds the model it was identified with: kind, groups, rig and unknowns."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.calibration import calibrate
+from twin.dataset import Measurements
+from twin.errors import InputError
+from twin.io.identified import load_result
+from twin.io.results import result_to_dict, write_json
+from twin.robot import RobotModel
+
+
+def test_result_rebuilds_the_identified_model(
+    tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Every unknown comes back to the rounding of the file (1e-6 mm, 1e-6 deg), with the
+    groups, the rig and σ; the rebuilt model predicts the same residuals."""
+    result = calibrate(irb120, measurements, port_m, estimate_port=True, estimate_offset=True)
+    path = tmp_path / "result.json"
+    write_json(path, result_to_dict(result))
+    loaded = load_result(path, irb120)
+    assert loaded.model.names == result.model.names and loaded.method == "lm"
+    scale = np.where(result.model.is_length, 1e-9, np.deg2rad(1e-6))
+    assert np.all(np.abs(loaded.x - result.solver.x) <= scale)
+    np.testing.assert_allclose(loaded.model.rig.ports_m, result.model.rig.ports_m, atol=1e-9)
+    # Twelve angles rounded to 1e-6 degree (1.7e-8 rad) at a lever of under a metre.
+    np.testing.assert_allclose(loaded.model.residuals(loaded.x, measurements),
+                               result.model.residuals(result.solver.x, measurements), atol=5e-8)
+    parameters = json.loads(path.read_text())["unknowns"]["parameters"]
+    assert parameters[0] == {**parameters[0], "name": "a1", "group": "dh", "unit": "mm"}
+    assert parameters[-1]["name"] == "offset" and parameters[-1]["sigma"] > 0
+    assert parameters[-5]["name"] == "theta6" and parameters[-5]["sigma"] is None
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d["unknowns"]["groups"].append("tilt"), "found unknown error group 'tilt'"),
+        (lambda d: d["unknowns"]["parameters"].pop(), "found 27 unknowns"),
+        (lambda d: d["unknowns"]["parameters"][0].update(value=7.0), "found a1 = 7 mm"),
+        (lambda d: d["unknowns"]["parameters"][0].update(unit="inch"), "found the unit 'inch'"),
+        (lambda d: d.pop("unknowns"), "found no 'unknowns'"),
+    ],
+)
+def test_a_result_that_cannot_be_right_is_refused(
+    tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray,
+    change, message: str,
+) -> None:
+    """Unknown groups, a missing unknown, a value beyond its bound, a foreign unit: one line."""
+    result = calibrate(irb120, measurements, port_m, estimate_port=True, estimate_offset=True)
+    document = result_to_dict(result)
+    change(document)
+    path = tmp_path / "result.json"
+    write_json(path, document)
+    with pytest.raises(InputError, match=message):
+        load_result(path, irb120)
