@@ -16,6 +16,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
+from twin import distribution
 from twin.cli import (
     calibrate,
     capture,
@@ -46,6 +47,8 @@ def build_parser() -> ArgumentParser:
         description="Kinematic calibration of serial robots with a drawstring encoder, "
         "and its digital twin.",
     )
+    parser.add_argument("--version", action="version",
+                        version=f"{distribution.NAME} {distribution.version()}")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in SUBCOMMANDS:
         module.add_parser(subparsers)
