@@ -13,7 +13,7 @@ import pytest
 
 from twin.cli import main
 from twin.errors import InputError
-from twin.study import load_study
+from twin.study.plan import load_study
 from twin.study.progress import Progress, format_duration
 from twin.study.runner import open_store
 from twin.study.store import COLUMNS, StudyStore, TrialOutcome

@@ -92,7 +92,9 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.study import TrialOutcome, load_study, run_study
+    from twin.study.plan import load_study
+    from twin.study.runner import run_study
+    from twin.study.store import TrialOutcome
     from twin.study.summary import summary_markdown, trial_markdown
 
     executor = executor_from_args(args)

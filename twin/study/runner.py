@@ -2,7 +2,8 @@
 
 ::
 
-    from twin.study import load_study, run_study
+    from twin.study.plan import load_study
+    from twin.study.runner import run_study
     from twin.study.executors.local import LocalProcesses
 
     plan = load_study("scenarios/paper_irb120.toml")
