@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.cable import cable_length
-from twin.capture import HEADER, append_line, format_row
+from twin.capture import HEADER, format_row, journal
 from twin.encoders import open_encoder, parse_url
 from twin.encoders.settle import SettleRule, settle
 from twin.robot import default_robot
@@ -69,12 +69,13 @@ def append_s(folder: Path, durable: bool) -> float:
     """Seconds per row appended."""
     path = folder / f"rows_{durable}.csv"
     path.write_text(HEADER)
+    record = journal(path)
     q = np.zeros(6)
     started = time.perf_counter()
     for pose in range(1, ROWS + 1):
         line = format_row(pose, q, 0.5)
         if durable:
-            append_line(path, line)
+            record.append(line)
         else:
             with open(path, "a", encoding="utf-8") as handle:
                 handle.write(line)

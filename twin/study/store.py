@@ -2,10 +2,11 @@
 
 Every finished trial is appended as one write of its JSON detail line (histories, residuals,
 parameter errors) to `trials.jsonl`, then one write of its rows (one per method) to
-`results.csv`, each followed by an fsync. `results.csv` is the record of what is finished: on
-reopening, a torn last line (the run was killed mid-write) and any trial with fewer rows than
-methods are dropped, and detail lines of trials not in the CSV are dropped, so every trial is
-counted exactly once whatever point a run was killed at.
+`results.csv`, each followed by an fsync (both are journals, :mod:`twin.io.journal`).
+`results.csv` is the record of what is finished: on reopening, a torn last line (the run was
+killed mid-write) and any trial with fewer rows than methods are dropped, and detail lines of
+trials not in the CSV are dropped, so every trial is counted exactly once whatever point a run
+was killed at.
 
 `study.json` holds the study's fingerprint: the parsed scenario document (less the number of
 trials, which may grow between runs) and the methods. A run whose fingerprint differs is refused
@@ -18,14 +19,14 @@ import csv
 import hashlib
 import io
 import json
-import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from twin.errors import InputError
-from twin.io.atomic import WRITE_EXPECTED, write_atomic
-from twin.io.paths import os_error, read_json, read_text
+from twin.io.atomic import write_atomic
+from twin.io.journal import Journal
+from twin.io.paths import os_error, read_json
 
 RESULTS = "results.csv"
 DETAILS = "trials.jsonl"
@@ -112,18 +113,14 @@ def _parse(column: str, text: str) -> Any:
     return float(text)
 
 
-def parse_results(text: str, source: str | Path) -> tuple[dict[TrialKey, list[dict[str, Any]]],
-                                                         bool]:
-    """The rows of a `results.csv` text, grouped by trial, and whether its last line was torn
-    (and left out).
+def parse_results(text: str, source: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
+    """The rows of a `results.csv` text of whole lines (a torn last line split off by
+    :meth:`~twin.io.journal.Journal.read`), grouped by trial.
 
     Raises:
         InputError: for another header or a line with the wrong number of fields.
     """
     lines = text.splitlines(keepends=True)
-    torn = bool(lines) and not lines[-1].endswith("\n")
-    if torn:
-        lines = lines[:-1]
     if not lines or lines[0].strip() != ",".join(COLUMNS):
         raise InputError(f"{RESULTS} with another header", f"the header {','.join(COLUMNS)}",
                          source=source)
@@ -143,7 +140,7 @@ def parse_results(text: str, source: str | Path) -> tuple[dict[TrialKey, list[di
             raise InputError(f"a value that is not a number ({exc})", "the rows `twin study` "
                              "writes", source=source, where=f"line {number}") from None
         rows.setdefault((row["case"], row["trial"]), []).append(row)
-    return rows, torn
+    return rows
 
 
 def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
@@ -154,23 +151,20 @@ def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
         InputError: if the folder has no readable `results.csv`.
     """
     path = Path(folder) / RESULTS
-    text = read_text(path, f"the {RESULTS} of an earlier `twin study` or `twin check` run")
-    return parse_results(text, path)[0]
+    results = Journal(path, f"the {RESULTS} of an earlier `twin study` or `twin check` run")
+    return parse_results(results.read(as_input=True).whole, path)
 
 
-def _append_durably(path: Path, text: str) -> None:
-    try:
-        with path.open("a", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-    except OSError as exc:
-        raise os_error(path, "appending to it", exc, WRITE_EXPECTED) from None
+def _journal(path: Path, what: str, header: str = "") -> Journal:
+    return Journal(path, f"{what} of an earlier `twin study` run, or a new --out folder",
+                   header)
 
 
-def _read(path: Path, what: str) -> str:
-    return read_text(path, f"{what} of an earlier `twin study` run, or a new --out folder",
-                     journal=True)
+def _csv_lines(rows: Iterable[Mapping[str, Any]]) -> str:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
+    writer.writerows({c: _format(row[c]) for c in COLUMNS} for row in rows)
+    return text.getvalue()
 
 
 class StudyStore:
@@ -197,8 +191,10 @@ class StudyStore:
         else:
             write_atomic(manifest_path, json.dumps(
                 {"fingerprint": self.fingerprint, **manifest}, indent=2, sort_keys=True) + "\n")
+        self._results = _journal(self.results_path, f"the {RESULTS}", ",".join(COLUMNS) + "\n")
+        self._details = _journal(self.details_path, f"the {DETAILS}")
         self._rows: dict[TrialKey, list[dict[str, Any]]] = {}
-        self._details: dict[TrialKey, dict[str, Any]] = {}
+        self._details_by_key: dict[TrialKey, dict[str, Any]] = {}
         self._repair()
 
     @property
@@ -235,31 +231,28 @@ class StudyStore:
                     if sorted(r["method"] for r in group) == sorted(self.methods)}
         details, details_dirty = self._read_details(set(complete))
         if csv_dirty or len(complete) != len(rows):
-            text = io.StringIO()
-            writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
-            writer.writeheader()
-            for group in complete.values():
-                writer.writerows({c: _format(r[c]) for c in COLUMNS} for r in group)
-            write_atomic(self.results_path, text.getvalue())
+            self._results.rewrite(_csv_lines(r for group in complete.values() for r in group))
         if details_dirty:
-            write_atomic(self.details_path, "".join(
-                json.dumps(d, sort_keys=True) + "\n" for d in details.values()))
-        self._rows, self._details = complete, details
+            self._details.rewrite("".join(json.dumps(d, sort_keys=True) + "\n"
+                                          for d in details.values()))
+        self._rows, self._details_by_key = complete, details
 
     def _read_rows(self) -> tuple[dict[TrialKey, list[dict[str, Any]]], bool]:
         if not self.results_path.exists():
-            write_atomic(self.results_path, ",".join(COLUMNS) + "\n")
+            self._results.rewrite("")
             return {}, False
-        return parse_results(_read(self.results_path, f"the {RESULTS}"), self.results_path)
+        text = self._results.read()
+        return parse_results(text.whole, self.results_path), bool(text.torn)
 
     def _read_details(self, finished: set[TrialKey]) -> tuple[dict[TrialKey, dict[str, Any]], bool]:
         if not self.details_path.exists():
             return {}, False
+        text = self._details.read()
         details: dict[TrialKey, dict[str, Any]] = {}
-        dirty = False
-        for line in _read(self.details_path, f"the {DETAILS}").splitlines(keepends=True):
+        dirty = bool(text.torn)
+        for line in text.whole.splitlines():
             try:
-                detail: Any = json.loads(line) if line.endswith("\n") else None
+                detail: Any = json.loads(line)
             except (json.JSONDecodeError, RecursionError):
                 detail = None
             key = (detail.get("case"), detail.get("trial")) if isinstance(detail, dict) \
@@ -284,13 +277,10 @@ class StudyStore:
             return False
         detail = {"case": outcome.case, "trial": outcome.trial, "seed": outcome.seed,
                   **outcome.detail}
-        _append_durably(self.details_path, json.dumps(detail, sort_keys=True) + "\n")
-        text = io.StringIO()
-        writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
-        writer.writerows({c: _format(row[c]) for c in COLUMNS} for row in outcome.rows)
-        _append_durably(self.results_path, text.getvalue())
+        self._details.append(json.dumps(detail, sort_keys=True) + "\n")
+        self._results.append(_csv_lines(outcome.rows))
         self._rows[outcome.key] = [dict(row) for row in outcome.rows]
-        self._details[outcome.key] = detail
+        self._details_by_key[outcome.key] = detail
         return True
 
     def rows(self, keys: Iterable[TrialKey] | None = None) -> list[dict[str, Any]]:
@@ -300,5 +290,6 @@ class StudyStore:
 
     def details(self, keys: Iterable[TrialKey] | None = None) -> list[dict[str, Any]]:
         """Recorded detail documents, in (case, trial) order, restricted to ``keys`` if given."""
-        chosen = sorted(self._details if keys is None else set(keys) & set(self._details))
-        return [self._details[key] for key in chosen]
+        chosen = sorted(self._details_by_key if keys is None
+                        else set(keys) & set(self._details_by_key))
+        return [self._details_by_key[key] for key in chosen]
