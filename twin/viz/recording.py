@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.cable import Measurements
 from twin.calibration import CalibrationResult
-from twin.io.atomic import fsync_directory
+from twin.io.atomic import commit, temporary_beside
 from twin.robot import RobotModel
 from twin.viz import entities
 from twin.viz.blueprint import scene_blueprint
@@ -310,8 +310,8 @@ def open_recording(
         say(f"saving the recording to {path} instead; open it with `rerun {path}`")
     temporary = None
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        # Written beside its name and renamed into place on closing: complete or absent.
+        temporary = temporary_beside(path)
         sinks.append(rr.FileSink(temporary))
     stream.set_sinks(*sinks)
     stream.send_recording_name(name)
@@ -325,8 +325,5 @@ def open_recording(
         if server is not None:
             stop_process(server)
         if path is not None and temporary is not None:
-            with temporary.open("rb+") as handle:
-                os.fsync(handle.fileno())
-            os.replace(temporary, path)
-            fsync_directory(path.parent)
+            commit(temporary, path)
             say(f"saved {path}")
