@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import io
 from pathlib import Path
 from typing import Any
 
@@ -17,11 +16,11 @@ from twin.cli.calibrate import resolve_inputs
 from twin.design import score_poses
 from twin.errors import InputError
 from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identifiability
-from twin.io.atomic import write_atomic
 from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
+from twin.plots import pyplot, save_png
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 from twin.uncertainty import flange_error_rms, flange_sigma, workspace_grid
@@ -100,11 +99,7 @@ def _sigma_table(model: CableModel, sigma: NDArray[np.float64]) -> list[str]:
 def _write_map(path: Path, robot: RobotModel, dh: NDArray[np.float64],
                covariance_dh: NDArray[np.float64], title: str) -> None:
     """PNG of the predicted flange error over the (q2, q3) grid, the other joints at 0."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     q2, q3, q = workspace_grid(robot, MAP_GRID)
     error_mm = m_to_mm(flange_sigma(dh, covariance_dh, q)).reshape(q2.size, q3.size)
     figure, axes = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
@@ -114,10 +109,7 @@ def _write_map(path: Path, robot: RobotModel, dh: NDArray[np.float64],
     axes.set_xlabel("q3 [deg]")
     axes.set_ylabel("q2 [deg]")
     axes.set_title(title, fontsize=9)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=120)
-    plt.close(figure)
-    write_atomic(path, buffer.getvalue())
+    save_png(figure, path)
 
 
 def run(args: argparse.Namespace) -> int:
