@@ -1,7 +1,7 @@
 """Capture throughput: readings/s over a real pty (ASCII vs Modbus RTU), and the cost of
 making each pose durable (append + fsync vs a plain append).
 
-Run by hand: ``python bench/bench_capture.py``. The devices are :mod:`twin.virtual_encoder`
+Run by hand: ``python bench/bench_capture.py``. The devices are :mod:`twin.hardware.virtual_encoder`
 served in threads of this process on pseudo-terminals, with the core's closed-form lengths and
 exact readings, so the figures are the drivers' and the line's, not MuJoCo's. A pty ignores the
 baud rate, but minimalmodbus waits the Modbus 3.5-character silence of the configured rate.
@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from twin.cable import cable_length
-from twin.capture import HEADER, format_row, journal
-from twin.encoders import open_encoder, parse_url
-from twin.encoders.settle import SettleRule, settle
+from twin.hardware.capture_session import HEADER, format_row, journal
+from twin.hardware.encoders import open_encoder, parse_url
+from twin.hardware.encoders.settle import SettleRule, settle
+from twin.hardware.robot_sources.sim import publish_pose
+from twin.hardware.virtual_encoder import Instrument, serve
 from twin.robot import default_robot
-from twin.robots.sim import publish_pose
 from twin.units import deg_to_rad, mm_to_m
-from twin.virtual_encoder import Instrument, serve
 
 READINGS = 400
 ROWS = 200

@@ -13,7 +13,7 @@ from twin.cable import CableModel, cable_length
 from twin.calibration import calibrate, split_rows
 from twin.cli import main
 from twin.errors import InputError
-from twin.io.capture import load_capture
+from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
 from twin.robot import load_robot

@@ -26,7 +26,7 @@ from rerun.chunk import RrdReader
 
 from twin.calibration import CalibrationResult, calibrate_many
 from twin.cli import main
-from twin.io.capture import load_capture
+from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.results import MM2_PER_M2
 from twin.io.truth import load_truth_delta

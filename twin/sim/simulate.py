@@ -17,7 +17,7 @@ from twin.cable import Measurements, cable_length
 from twin.calibration import TRAIN_FRACTION
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.capture import CalibrationSettings, write_capture
+from twin.io.capture_file import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
 from twin.io.results import write_json
 from twin.kinematics import flange_position

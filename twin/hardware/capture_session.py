@@ -32,15 +32,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.cable import Measurements
-from twin.encoders.base import Encoder, EncoderDisconnectedError
-from twin.encoders.settle import Settled, SettleRule, settle
 from twin.errors import InputError, TwinError
+from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
+from twin.hardware.encoders.settle import Settled, SettleRule, settle
+from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
 from twin.io.journal import Journal
 from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
 from twin.io.paths import os_error, read_bytes, read_text
 from twin.robot import load_robot, robot_to_toml
-from twin.robots.base import RobotSource
 from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
