@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import io
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -27,25 +26,11 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.journal import Journal
 from twin.io.paths import os_error, read_json
+from twin.study.rows import COLUMNS, HEADER, TrialRow, format_rows, parse_row
 
 RESULTS = "results.csv"
 DETAILS = "trials.jsonl"
 MANIFEST = "study.json"
-
-STAGES = ("before", "train", "validation")
-METRIC_KEYS = ("rmse", "mae", "std", "max")
-COLUMNS = (
-    "trial", "case", "seed", "method",
-    *(f"{stage}_{key}_mm" for stage in STAGES for key in METRIC_KEYS),
-    "flange_error_mm", "crlb_mm", "crlb_ratio",
-    "iterations", "evaluations", "seconds", "converged", "stop_reason",
-)
-"""Columns of `results.csv`, one row per trial × method. Lengths in mm; ``mae`` is the paper's
-"STD"; ``flange_error_mm`` is the RMS flange-position error over the workspace against the truth,
-``crlb_mm`` its Cramér–Rao bound and ``crlb_ratio`` their ratio; ``converged`` is true when a
-convergence test (ftol, xtol, gtol) fired at the point returned; ``stop_reason`` names the test
-that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``)."""
-_INTEGER_COLUMNS = ("trial", "seed", "iterations", "evaluations")
 
 TrialKey = tuple[str, int]
 """(case label, trial index): a trial's identity in a study."""
@@ -60,8 +45,8 @@ class TrialOutcome(NamedTuple):
     """Trial index within the case, 0-based."""
     seed: int
     """Seed of the trial's draws (perturbation, poses, noise, split, methods)."""
-    rows: tuple[dict[str, Any], ...]
-    """One row per method, keyed by :data:`COLUMNS`."""
+    rows: tuple[TrialRow, ...]
+    """One row per method."""
     detail: dict[str, Any]
     """JSON-ready per-method detail: histories, residuals, parameter errors."""
 
@@ -95,25 +80,7 @@ def first_difference(old: Any, new: Any, path: str = "") -> str | None:
     return None
 
 
-def _format(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
-
-
-def _parse(column: str, text: str) -> Any:
-    if column in ("case", "method", "stop_reason"):
-        return text
-    if column == "converged":
-        return text == "true"
-    if column in _INTEGER_COLUMNS:
-        return int(text)
-    return float(text)
-
-
-def parse_results(text: str, source: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
+def parse_results(text: str, source: str | Path) -> dict[TrialKey, list[TrialRow]]:
     """The rows of a `results.csv` text of whole lines (a torn last line split off by
     :meth:`~twin.io.journal.Journal.read`), grouped by trial.
 
@@ -121,10 +88,10 @@ def parse_results(text: str, source: str | Path) -> dict[TrialKey, list[dict[str
         InputError: for another header or a line with the wrong number of fields.
     """
     lines = text.splitlines(keepends=True)
-    if not lines or lines[0].strip() != ",".join(COLUMNS):
-        raise InputError(f"{RESULTS} with another header", f"the header {','.join(COLUMNS)}",
+    if not lines or lines[0].strip() != HEADER.strip():
+        raise InputError(f"{RESULTS} with another header", f"the header {HEADER.strip()}",
                          source=source)
-    rows: dict[TrialKey, list[dict[str, Any]]] = {}
+    rows: dict[TrialKey, list[TrialRow]] = {}
     try:
         records = list(csv.reader(lines[1:]))
     except csv.Error as exc:
@@ -135,15 +102,15 @@ def parse_results(text: str, source: str | Path) -> dict[TrialKey, list[dict[str
             raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}", source=source,
                              where=f"line {number}")
         try:
-            row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
+            row = parse_row(values)
         except ValueError as exc:
             raise InputError(f"a value that is not a number ({exc})", "the rows `twin study` "
                              "writes", source=source, where=f"line {number}") from None
-        rows.setdefault((row["case"], row["trial"]), []).append(row)
+        rows.setdefault((row.case, row.trial), []).append(row)
     return rows
 
 
-def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
+def read_results(folder: str | Path) -> dict[TrialKey, list[TrialRow]]:
     """The finished rows of another study's folder, grouped by trial, read only: a torn last
     line is left out and nothing is repaired or written.
 
@@ -158,13 +125,6 @@ def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
 def _journal(path: Path, what: str, header: str = "") -> Journal:
     return Journal(path, f"{what} of an earlier `twin study` run, or a new --out folder",
                    header)
-
-
-def _csv_lines(rows: Iterable[Mapping[str, Any]]) -> str:
-    text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
-    writer.writerows({c: _format(row[c]) for c in COLUMNS} for row in rows)
-    return text.getvalue()
 
 
 class StudyStore:
@@ -191,9 +151,9 @@ class StudyStore:
         else:
             write_atomic(manifest_path, json.dumps(
                 {"fingerprint": self.fingerprint, **manifest}, indent=2, sort_keys=True) + "\n")
-        self._results = _journal(self.results_path, f"the {RESULTS}", ",".join(COLUMNS) + "\n")
+        self._results = _journal(self.results_path, f"the {RESULTS}", HEADER)
         self._details = _journal(self.details_path, f"the {DETAILS}")
-        self._rows: dict[TrialKey, list[dict[str, Any]]] = {}
+        self._rows: dict[TrialKey, list[TrialRow]] = {}
         self._details_by_key: dict[TrialKey, dict[str, Any]] = {}
         self._repair()
 
@@ -228,16 +188,16 @@ class StudyStore:
         """Load what is finished; drop a torn tail and incomplete trials from both files."""
         rows, csv_dirty = self._read_rows()
         complete = {key: group for key, group in rows.items()
-                    if sorted(r["method"] for r in group) == sorted(self.methods)}
+                    if sorted(r.method for r in group) == sorted(self.methods)}
         details, details_dirty = self._read_details(set(complete))
         if csv_dirty or len(complete) != len(rows):
-            self._results.rewrite(_csv_lines(r for group in complete.values() for r in group))
+            self._results.rewrite(format_rows(r for group in complete.values() for r in group))
         if details_dirty:
             self._details.rewrite("".join(json.dumps(d, sort_keys=True) + "\n"
                                           for d in details.values()))
         self._rows, self._details_by_key = complete, details
 
-    def _read_rows(self) -> tuple[dict[TrialKey, list[dict[str, Any]]], bool]:
+    def _read_rows(self) -> tuple[dict[TrialKey, list[TrialRow]], bool]:
         if not self.results_path.exists():
             self._results.rewrite("")
             return {}, False
@@ -278,12 +238,12 @@ class StudyStore:
         detail = {"case": outcome.case, "trial": outcome.trial, "seed": outcome.seed,
                   **outcome.detail}
         self._details.append(json.dumps(detail, sort_keys=True) + "\n")
-        self._results.append(_csv_lines(outcome.rows))
-        self._rows[outcome.key] = [dict(row) for row in outcome.rows]
+        self._results.append(format_rows(outcome.rows))
+        self._rows[outcome.key] = list(outcome.rows)
         self._details_by_key[outcome.key] = detail
         return True
 
-    def rows(self, keys: Iterable[TrialKey] | None = None) -> list[dict[str, Any]]:
+    def rows(self, keys: Iterable[TrialKey] | None = None) -> list[TrialRow]:
         """Recorded rows, in (case, trial) order, restricted to ``keys`` if given."""
         chosen = sorted(self._rows if keys is None else set(keys) & set(self._rows))
         return [row for key in chosen for row in self._rows[key]]
