@@ -6,8 +6,10 @@ any other tool: the temporary file's private 0600 is not carried over.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 from twin.io.paths import check_output, os_error
@@ -25,15 +27,8 @@ def write_atomic(path: str | Path, data: str | bytes) -> None:
     path = Path(path)
     payload = data.encode("utf-8") if isinstance(data, str) else data
     temporary = temporary_beside(path)
-    try:
-        with open(temporary, "wb") as handle:
-            handle.write(payload)
-    except OSError as exc:
-        temporary.unlink(missing_ok=True)
-        raise os_error(path, "writing it", exc, WRITE_EXPECTED) from None
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
+    with _removed_on_failure(temporary, path), open(temporary, "wb") as handle:
+        handle.write(payload)
     commit(temporary, path)
 
 
@@ -64,7 +59,7 @@ def commit(temporary: str | Path, path: str | Path) -> None:
         InputError: if that fails; the temporary file is removed.
     """
     temporary, path = Path(temporary), Path(path)
-    try:
+    with _removed_on_failure(temporary, path):
         fd = os.open(temporary, os.O_RDONLY | os.O_CLOEXEC)
         try:
             os.fchmod(fd, file_mode())
@@ -73,6 +68,14 @@ def commit(temporary: str | Path, path: str | Path) -> None:
             os.close(fd)
         os.replace(temporary, path)
         fsync_directory(path.parent)
+
+
+@contextlib.contextmanager
+def _removed_on_failure(temporary: Path, path: Path) -> Iterator[None]:
+    """Remove ``temporary`` if the block fails (Ctrl-C too); an ``OSError`` becomes the
+    one-line error of ``path``."""
+    try:
+        yield
     except OSError as exc:
         temporary.unlink(missing_ok=True)
         raise os_error(path, "writing it", exc, WRITE_EXPECTED) from None
