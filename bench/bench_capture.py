@@ -1,7 +1,7 @@
 """Capture throughput: readings/s over a real pty (ASCII vs Modbus RTU), and the cost of
 making each pose durable (append + fsync vs a plain append).
 
-Run by hand: ``python bench/bench_capture.py``. The devices are :mod:`twin.virtual_encoder`
+Run by hand: ``python bench/bench_capture.py``. The devices are :mod:`twin.hardware.virtual_encoder`
 served in threads of this process on pseudo-terminals, with the core's closed-form lengths and
 exact readings, so the figures are the drivers' and the line's, not MuJoCo's. A pty ignores the
 baud rate, but minimalmodbus waits the Modbus 3.5-character silence of the configured rate.
@@ -19,14 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.capture import HEADER, append_line, format_row
-from twin.encoders import open_encoder, parse_url
-from twin.encoders.settle import SettleRule, settle
+from twin.hardware.capture_session import HEADER, format_row, journal
+from twin.hardware.encoders import open_encoder, parse_url
+from twin.hardware.encoders.settle import SettleRule, settle
+from twin.hardware.robot_sources.sim import publish_pose
+from twin.hardware.virtual_encoder import Instrument, serve
 from twin.kinds.length import cable_length
 from twin.robot import default_robot
-from twin.robots.sim import publish_pose
 from twin.units import deg_to_rad, mm_to_m
-from twin.virtual_encoder import Instrument, serve
 
 READINGS = 400
 ROWS = 200
@@ -69,12 +69,13 @@ def append_s(folder: Path, durable: bool) -> float:
     """Seconds per row appended."""
     path = folder / f"rows_{durable}.csv"
     path.write_text(HEADER)
+    record = journal(path)
     q = np.zeros(6)
     started = time.perf_counter()
     for pose in range(1, ROWS + 1):
         line = format_row(pose, q, 0.5)
         if durable:
-            append_line(path, line)
+            record.append(line)
         else:
             with open(path, "a", encoding="utf-8") as handle:
                 handle.write(line)

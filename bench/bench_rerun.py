@@ -20,7 +20,7 @@ from twin.calibration import calibrate_many
 from twin.robot import default_robot
 from twin.synthetic import random_poses, synthesize
 from twin.units import dh_rows_from_display, mm_to_m
-from twin.viz.cli import RerunOptions
+from twin.viz.options import RerunOptions
 from twin.viz.recording import open_recording
 
 REPEATS = 5

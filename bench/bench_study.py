@@ -22,9 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from twin.sim.simulate import simulate
-from twin.study import load_study, run_study, run_trials
 from twin.study.executors.cluster import DaskCluster
 from twin.study.executors.local import LocalProcesses
+from twin.study.plan import load_study
+from twin.study.runner import run_study, run_trials
 from twin.study.trial import trial_seed
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -19,13 +19,13 @@ import numpy as np
 import pytest
 
 from twin.calibration import calibrate
-from twin.capture import CAPTURE_COLUMNS, HEADER, check_folder, locked, recover
 from twin.cli import main
 from twin.errors import InputError, TwinError
-from twin.io.capture import load_capture
+from twin.hardware.capture_session import CAPTURE_COLUMNS, HEADER, check_folder, locked, recover
+from twin.hardware.robot_sources.file import FileRobot
+from twin.hardware.robot_sources.manual import ManualRobot
+from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements, read_table
-from twin.robots.file import FileRobot
-from twin.robots.manual import ManualRobot
 from twin.units import deg_to_rad, m_to_mm
 
 SCENARIO = """

@@ -110,7 +110,7 @@ def test_capture_calibration_table_sets_unknowns_and_split(
     csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A capture's [calibration] table chooses the unknowns and the split; flags win."""
-    from twin.io.capture import CalibrationSettings, write_capture
+    from twin.io.capture_file import CalibrationSettings, write_capture
     from twin.robot import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
@@ -157,7 +157,7 @@ def test_stop_protocol_from_capture_and_flag(
 ) -> None:
     """The capture's stop protocol is used and reported; --stop and --max-iterations win; the
     JSON says which test stopped each stage."""
-    from twin.io.capture import CalibrationSettings, write_capture
+    from twin.io.capture_file import CalibrationSettings, write_capture
     from twin.robot import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))

@@ -11,7 +11,7 @@ import pytest
 from matplotlib.image import imread
 
 from twin.cli import main
-from twin.io.capture import write_capture
+from twin.io.capture_file import write_capture
 from twin.io.measurements import read_table
 from twin.robot import RobotModel, robot_to_toml
 from twin.units import dh_rows_to_display

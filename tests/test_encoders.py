@@ -1,7 +1,8 @@
 """Encoder drivers over a real pseudo-terminal, their settings, and the settling rule.
 
-The device is :mod:`twin.virtual_encoder` served in a thread of the test process on a real pty:
-the drivers open ``/dev/pts/N`` with pyserial (and minimalmodbus) as they would a USB adapter.
+The device is :mod:`twin.hardware.virtual_encoder` served in a thread of the test process on a
+real pty: the drivers open ``/dev/pts/N`` with pyserial (and minimalmodbus) as they would a USB
+adapter.
 Its length source here is the core's closed form and its reading is exact, so every value a
 driver returns can be checked to the device's resolution.
 """
@@ -18,8 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.capture import measure
-from twin.encoders import (
+from twin.errors import InputError
+from twin.hardware.capture_session import measure
+from twin.hardware.encoders import (
     EncoderConfig,
     EncoderDisconnectedError,
     EncoderReadError,
@@ -27,13 +29,12 @@ from twin.encoders import (
     open_encoder,
     parse_url,
 )
-from twin.encoders.settle import SettleRule, SettleTimeoutError, settle
-from twin.errors import InputError
+from twin.hardware.encoders.settle import SettleRule, SettleTimeoutError, settle
+from twin.hardware.robot_sources.sim import publish_pose
+from twin.hardware.virtual_encoder import TRANSIENT_M, Instrument, serve
 from twin.kinds.length import cable_length
 from twin.robot import default_robot
-from twin.robots.sim import publish_pose
 from twin.units import deg_to_rad, m_to_mm, mm_to_m
-from twin.virtual_encoder import TRANSIENT_M, Instrument, serve
 
 PORT_M = mm_to_m([600.0, -400.0, 100.0])
 Q_RAD = deg_to_rad([20.0, 30.0, -40.0, 10.0, 50.0, 0.0])

@@ -17,7 +17,7 @@ from conftest import PORT_M, Refusals
 
 from twin.calibration import calibrate
 from twin.dataset import Measurements
-from twin.io.capture import write_capture
+from twin.io.capture_file import write_capture
 from twin.io.results import result_to_dict, write_json
 from twin.robot import RobotModel, robot_to_toml
 from twin.sim import simulate, write_simulation

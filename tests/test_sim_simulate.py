@@ -12,7 +12,7 @@ import pytest
 from twin.calibration import calibrate, make_model, split_rows
 from twin.cli import main
 from twin.errors import InputError
-from twin.io.capture import load_capture
+from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
 from twin.kinds.length import cable_length

@@ -5,19 +5,22 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 from collections import Counter
 from pathlib import Path
+from typing import get_type_hints
 
 import numpy as np
 import pytest
 
 from twin.cli import main
 from twin.errors import InputError
-from twin.study import load_study
+from twin.study.plan import load_study
 from twin.study.progress import Progress, format_duration
+from twin.study.rows import COLUMNS, TrialRow
 from twin.study.runner import open_store
-from twin.study.store import COLUMNS, StudyStore, TrialOutcome
-from twin.study.summary import table7
+from twin.study.statistics import table7
+from twin.study.store import StudyStore, TrialOutcome
 from twin.study.trial import TrialSpec, run_batch, trial_seed
 
 SCENARIO = """
@@ -111,7 +114,7 @@ def test_sweep_points_share_trial_seeds(tmp_path: Path) -> None:
                                                     (plan.cases[1].label, 1)])
     assert results[0].seed == results[1].seed == trial_seed(11, 1)
     # Same poses and truth, more noise: the nominal model's error barely moves, the fit's does.
-    before = [r.rows[0]["before_rmse_mm"] for r in results]
+    before = [r.rows[0].before_rmse_mm for r in results]
     assert before[0] == pytest.approx(before[1], rel=0.05)
 
 
@@ -121,13 +124,13 @@ def test_trial_is_reproducible_and_near_the_bound(tmp_path: Path) -> None:
     small while its raw parameter error need not be."""
     path = write_scenario(tmp_path)
     first, again = outcomes(path, [("", 2)]), outcomes(path, [("", 2)])
-    timeless = [{k: v for k, v in row.items() if k != "seconds"} for row in first[0].rows]
-    assert timeless == [{k: v for k, v in row.items() if k != "seconds"}
-                        for row in again[0].rows]
+    timeless = [row._replace(seconds=0.0) for row in first[0].rows]
+    assert timeless == [row._replace(seconds=0.0) for row in again[0].rows]
     row = first[0].rows[0]
-    assert set(row) == set(COLUMNS)
-    assert row["validation_rmse_mm"] < 0.1 * row["before_rmse_mm"]
-    assert 0.5 < row["crlb_ratio"] < 3.0
+    types = get_type_hints(TrialRow)
+    assert all(type(getattr(row, column)) is types[column] for column in COLUMNS)
+    assert row.validation_rmse_mm < 0.1 * row.before_rmse_mm
+    assert 0.5 < row.crlb_ratio < 3.0
     error = np.array(first[0].detail["methods"]["lm"]["parameter_error"])
     units = np.array(first[0].detail["parameter_units"])
     assert np.max(np.abs(error[units == "mm"])) < 0.5
@@ -169,8 +172,10 @@ def test_changed_scenario_is_refused(tmp_path: Path, capsys: pytest.CaptureFixtu
     open_store(load_study(path, trials=12, methods=["m3", "m2"]), tmp_path / "out2")
 
 
-def _rows(rmse: dict[str, list[float]]) -> list[dict[str, float | int | str]]:
-    return [{"trial": t, "case": "", "method": m, "validation_rmse_mm": v}
+def _rows(rmse: dict[str, list[float]]) -> list[TrialRow]:
+    """Rows with the validation RMSE of each method per trial (other columns NaN)."""
+    blank = dict.fromkeys(COLUMNS, math.nan)
+    return [TrialRow(**{**blank, "trial": t, "case": "", "method": m, "validation_rmse_mm": v})
             for m, values in rmse.items() for t, v in enumerate(values)]
 
 

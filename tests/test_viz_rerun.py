@@ -26,15 +26,16 @@ from rerun.chunk import RrdReader
 
 from twin.calibration import CalibrationResult, calibrate_many
 from twin.cli import main
-from twin.io.capture import load_capture
+from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.results import MM2_PER_M2
 from twin.io.truth import load_truth_delta
 from twin.kinematics import Structure, frames
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm
 from twin.viz import entities
-from twin.viz.cli import RerunOptions
-from twin.viz.recording import open_recording, rerun_executable
+from twin.viz.options import RerunOptions
+from twin.viz.recording import open_recording
+from twin.viz.sinks import rerun_executable
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "geometric_irb120.toml"

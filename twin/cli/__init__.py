@@ -1,7 +1,8 @@
 """The `twin` command line. Each subcommand is a module with ``add_parser(subparsers)``.
 
-User mistakes (:class:`~twin.errors.InputError`, a bad flag, an ``OSError`` on a named file)
-print one line on stderr and exit with code 2; no traceback. Faults that are not the user's
+User mistakes (:class:`~twin.errors.InputError`, a bad flag, an ``OSError`` on a named file,
+an adapter library whose extra is not installed) print one line on stderr and exit with code 2;
+no traceback. Faults that are not the user's
 (a device that stops answering mid-capture) exit with code 1, a crash with a traceback.
 
 Before a command runs, every output path it names is checked against the rules of
@@ -16,6 +17,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
+from twin import distribution
 from twin.cli import (
     calibrate,
     capture,
@@ -29,6 +31,7 @@ from twin.cli import (
     virtual_encoder,
 )
 from twin.cli.arguments import ArgumentParser, UsageError
+from twin.distribution import missing_extra
 from twin.errors import InputError, TwinError
 from twin.io.paths import check_command_paths, command_scope
 
@@ -46,6 +49,8 @@ def build_parser() -> ArgumentParser:
         description="Kinematic calibration of serial robots with a drawstring encoder, "
         "and its digital twin.",
     )
+    parser.add_argument("--version", action="version",
+                        version=f"{distribution.NAME} {distribution.version()}")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in SUBCOMMANDS:
         module.add_parser(subparsers)
@@ -73,6 +78,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(args.func(args) or 0)
     except InputError as exc:
         print(f"twin: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except ImportError as exc:
+        # The one place where an adapter's library that is not installed becomes the extra
+        # to install: adapters import their libraries lazily and let the error rise.
+        missing = missing_extra(exc, source=args.command)
+        if missing is None:
+            raise
+        print(f"twin: error: {missing}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenPipeError:
         # The reader of stdout went away (`| head`): stop quietly, as a killed pipe writer.

@@ -14,7 +14,7 @@ from twin.calibration import TRAIN_FRACTION, SplitProblem, make_problem, solve_m
 from twin.cli.arguments import integer, seed, share
 from twin.errors import InputError
 from twin.identifiability import RankWarning, measurement_identifiability, spread_rank
-from twin.io.capture import CalibrationSettings, load_capture, parse_port_mm
+from twin.io.capture_file import CalibrationSettings, load_capture, parse_port_mm
 from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
 from twin.io.results import result_to_dict, write_json

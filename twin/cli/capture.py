@@ -69,7 +69,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.capture import (
+    from twin.errors import InputError
+    from twin.hardware.capture_session import (
         CAPTURE_NAME,
         MEASUREMENTS_NAME,
         ROBOT_NAME,
@@ -78,14 +79,13 @@ def run(args: argparse.Namespace) -> int:
         locked,
         prepare,
     )
-    from twin.encoders import open_encoder, resolve
-    from twin.encoders.settle import SettleRule
-    from twin.errors import InputError
-    from twin.io.capture import parse_port_mm, write_capture
+    from twin.hardware.encoders import open_encoder, resolve
+    from twin.hardware.encoders.settle import SettleRule
+    from twin.hardware.robot_sources.base import RobotSource
+    from twin.io.capture_file import parse_port_mm, write_capture
     from twin.io.measurements import load_plan
     from twin.io.results import write_json
     from twin.robot import default_robot, load_robot, robot_to_toml
-    from twin.robots.base import RobotSource
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
@@ -118,15 +118,15 @@ def run(args: argparse.Namespace) -> int:
 
     source: RobotSource
     if args.robot_source == "sim":
-        from twin.robots.sim import DEFAULT_POSE_FILE, SimRobot
+        from twin.hardware.robot_sources.sim import DEFAULT_POSE_FILE, SimRobot
 
         source = SimRobot(plan_q_rad, args.pose_file or DEFAULT_POSE_FILE)
     elif args.robot_source == "manual":
-        from twin.robots.manual import ManualRobot
+        from twin.hardware.robot_sources.manual import ManualRobot
 
         source = ManualRobot(sys.stdout, sys.stdin)
     else:
-        from twin.robots.file import FileRobot
+        from twin.hardware.robot_sources.file import FileRobot
 
         if args.joint_log is None:
             raise InputError("no --joint-log", "the controller's log CSV (--robot-source file)",

@@ -9,7 +9,6 @@ flange error.
 from __future__ import annotations
 
 import argparse
-import io
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +34,7 @@ from twin.io.identified import load_result_delta
 from twin.io.measurements import JOINT_COLUMNS, load_plan, read_table
 from twin.io.paths import InputPath, OutputFile
 from twin.metrics import Metrics
+from twin.plots import pyplot, save_png
 from twin.robot import default_robot, load_robot
 from twin.units import FILE_DEG_DECIMALS, MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg, rounded
 
@@ -196,11 +196,7 @@ def format_checks(checks: dict[str, CompensationCheck]) -> str:
 
 def _write_histogram(path: Path, checks: dict[str, CompensationCheck], title: str) -> None:
     """PNG: histograms of the true flange error without and with compensation (log x)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     first = next(iter(checks.values()))
     series = [("nominal joints", first.nominal_error_m)] + [
         (f"compensated, {label}", check.compensated_error_m) for label, check in checks.items()
@@ -218,7 +214,4 @@ def _write_histogram(path: Path, checks: dict[str, CompensationCheck], title: st
     axes.set_ylabel("targets")
     axes.legend(fontsize=8)
     axes.set_title(title, fontsize=9)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=120)
-    plt.close(figure)
-    write_atomic(path, buffer.getvalue())
+    save_png(figure, path)

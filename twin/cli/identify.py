@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import io
 from pathlib import Path
 from typing import Any
 
@@ -16,12 +15,12 @@ from twin.cli.calibrate import resolve_inputs
 from twin.design import score_poses
 from twin.errors import InputError
 from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identifiability
-from twin.io.atomic import write_atomic
 from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.model import Model
+from twin.plots import pyplot, save_png
 from twin.rig import Rig
 from twin.synthetic import random_poses
 from twin.uncertainty import flange_sigma, rms_distance, workspace_grid
@@ -101,11 +100,7 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
 def _write_map(path: Path, model: Model, x: NDArray[np.float64],
                covariance: NDArray[np.float64], title: str) -> None:
     """PNG of the predicted flange error over the (q2, q3) grid, the other joints at 0."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     q2, q3, q = workspace_grid(model.robot, MAP_GRID)
     jacobian = model.flange_jacobian(x, model.poses(q))
     error_mm = m_to_mm(flange_sigma(jacobian, covariance)).reshape(q2.size, q3.size)
@@ -116,10 +111,7 @@ def _write_map(path: Path, model: Model, x: NDArray[np.float64],
     axes.set_xlabel("q3 [deg]")
     axes.set_ylabel("q2 [deg]")
     axes.set_title(title, fontsize=9)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=120)
-    plt.close(figure)
-    write_atomic(path, buffer.getvalue())
+    save_png(figure, path)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -19,7 +19,7 @@ from twin.dataset import MAX_POSES
 from twin.design import DesignScore, choose_port, score_poses
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.capture import parse_port_mm
+from twin.io.capture_file import parse_port_mm
 from twin.io.measurements import JOINT_COLUMNS
 from twin.io.paths import InputPath, OutputFile
 from twin.rig import Rig

@@ -92,8 +92,10 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.study import TrialOutcome, load_study, run_study
-    from twin.study.summary import summary_markdown, trial_markdown
+    from twin.study.markdown import summary_markdown, trial_markdown
+    from twin.study.plan import load_study
+    from twin.study.runner import run_study
+    from twin.study.store import TrialOutcome
 
     executor = executor_from_args(args)
     plan = load_study(args.scenario, trials=args.trials, methods=methods_from_args(args),

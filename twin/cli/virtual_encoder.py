@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.cli.arguments import integer, seed
-from twin.encoders.url import PROTOCOLS
+from twin.hardware.encoders.url import PROTOCOLS
 from twin.io.paths import InputPath
 
 URL_QUERY = {"ascii": "protocol=ascii", "modbus": "protocol=modbus&scale=0.001"}
@@ -42,8 +42,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.robots.sim import DEFAULT_POSE_FILE
-    from twin.virtual_encoder import scenario_instrument, serve
+    from twin.hardware.robot_sources.sim import DEFAULT_POSE_FILE
+    from twin.hardware.virtual_encoder import scenario_instrument, serve
 
     instrument = scenario_instrument(args.scenario, args.pose_file or DEFAULT_POSE_FILE,
                                      args.seed)

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError, UnknownChoiceError
-from twin.io.capture import parse_port_mm
+from twin.io.capture_file import parse_port_mm
 from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
 from twin.kinds import get_kind

@@ -163,7 +163,15 @@ def _limited(raw: bytes, limit: int | None, path: str | Path, what: str) -> byte
 def read_text(path: str | Path, what: str, *, stdin: bool = False,
               journal: bool = False) -> str:
     """The UTF-8 text of an input file (see :func:`read_bytes`); binary data is refused."""
-    raw = read_bytes(path, what, stdin=stdin, journal=journal)
+    return decode_text(read_bytes(path, what, stdin=stdin, journal=journal), path, what)
+
+
+def decode_text(raw: bytes, path: str | Path, what: str) -> str:
+    """The UTF-8 text of a file's bytes (a BOM is dropped).
+
+    Raises:
+        InputError: for binary data (a NUL byte) or bytes that are not UTF-8.
+    """
     if b"\x00" in raw:
         raise InputError("binary data", what, source=path)
     try:

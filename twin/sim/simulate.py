@@ -17,7 +17,7 @@ from twin.calibration import TRAIN_FRACTION
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.capture import CalibrationSettings, write_capture
+from twin.io.capture_file import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
 from twin.io.results import write_json
 from twin.kinds.length import cable_length

@@ -27,15 +27,16 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from scipy.stats import wilcoxon
 
 from twin.errors import InputError
-from twin.study.expect import BOOLEAN_COLUMNS, Expectation
+from twin.study.expect import Expectation
+from twin.study.rows import BOOLEAN_COLUMNS, TrialRow
+from twin.study.statistics import SIGNIFICANCE
 from twin.study.store import TrialKey
-from twin.study.summary import SIGNIFICANCE
 
 MIN_CHANGED = math.ceil(-math.log2(SIGNIFICANCE))
 """Fewest changed trials with which a one-sided signed-rank test can give p < 0.05 (2⁻⁵)."""
@@ -144,7 +145,7 @@ def _label(key: TrialKey) -> str:
     return f"trial {key[1]}" + (f" of {key[0]}" if key[0] else "")
 
 
-def paired_keys(seeds: Mapping[TrialKey, int], baseline: Mapping[TrialKey, list[dict[str, Any]]],
+def paired_keys(seeds: Mapping[TrialKey, int], baseline: Mapping[TrialKey, list[TrialRow]],
                 folder: str | Path) -> list[TrialKey]:
     """The trials of this study that the baseline holds, after checking that their seeds agree.
 
@@ -164,7 +165,7 @@ def paired_keys(seeds: Mapping[TrialKey, int], baseline: Mapping[TrialKey, list[
             + ", ".join(repr(c) for c in cases) + ")",
             "a baseline study of the same scenario and sweep", source="--baseline")
     for key in common:
-        theirs = baseline[key][0]["seed"]
+        theirs = baseline[key][0].seed
         if theirs != seeds[key]:
             raise InputError(f"{_label(key)} with seed {theirs} in {folder}, {seeds[key]} here",
                              "a baseline study with the same seeds (the same scenario seed), "
@@ -172,14 +173,14 @@ def paired_keys(seeds: Mapping[TrialKey, int], baseline: Mapping[TrialKey, list[
     return common
 
 
-def require_methods(metrics: Sequence[Metric], baseline: Mapping[TrialKey, list[dict[str, Any]]],
+def require_methods(metrics: Sequence[Metric], baseline: Mapping[TrialKey, list[TrialRow]],
                     folder: str | Path) -> None:
     """Refuse a baseline without rows of a method compared.
 
     Raises:
         InputError: naming the method and listing the baseline's methods.
     """
-    theirs = list(dict.fromkeys(row["method"] for group in baseline.values() for row in group))
+    theirs = list(dict.fromkeys(row.method for group in baseline.values() for row in group))
     for metric in metrics:
         if metric.method not in theirs:
             raise InputError(f"no {metric.method} in {folder}", "a baseline with every method "
@@ -189,21 +190,21 @@ def require_methods(metrics: Sequence[Metric], baseline: Mapping[TrialKey, list[
 
 def compare_studies(
     metrics: Sequence[Metric], keys: Sequence[TrialKey],
-    rows: Mapping[TrialKey, list[dict[str, Any]]],
-    baseline: Mapping[TrialKey, list[dict[str, Any]]], tolerance: float,
+    rows: Mapping[TrialKey, list[TrialRow]],
+    baseline: Mapping[TrialKey, list[TrialRow]], tolerance: float,
 ) -> tuple[Comparison, ...]:
     """Every sweep point × metric compared with the baseline over the paired trials ``keys``
     (see :func:`paired_keys`), sweep points in the order of ``keys``."""
-    def by_method(group: Mapping[TrialKey, list[dict[str, Any]]]
-                  ) -> dict[tuple[str, int, str], dict[str, Any]]:
-        return {(case, trial, row["method"]): row for (case, trial) in keys
+    def by_method(group: Mapping[TrialKey, list[TrialRow]]
+                  ) -> dict[tuple[str, int, str], TrialRow]:
+        return {(case, trial, row.method): row for (case, trial) in keys
                 for row in group.get((case, trial), [])}
 
     now, before = by_method(rows), by_method(baseline)
     comparisons = []
     for case in dict.fromkeys(case for case, _ in keys):
         for metric in metrics:
-            found = [(trial, float(now[key][metric.column]), float(before[key][metric.column]))
+            found = [(trial, now[key].number(metric.column), before[key].number(metric.column))
                      for c, trial in keys if c == case
                      for key in [(case, trial, metric.method)] if key in now and key in before]
             comparisons.append(compare(case, metric, [t for t, _, _ in found],

@@ -34,9 +34,10 @@ from twin.study.baseline import (
 from twin.study.executors import Executor
 from twin.study.expect import Expectation, measure, parse_expect_table, read_expect_file
 from twin.study.plan import StudyPlan, load_study
+from twin.study.rows import TrialRow
 from twin.study.runner import run_trials, write_report
+from twin.study.statistics import SIGNIFICANCE
 from twin.study.store import TrialKey, read_results
-from twin.study.summary import SIGNIFICANCE
 from twin.study.trial import trial_seed
 
 DEFAULT_TOLERANCE = 0.05
@@ -205,7 +206,7 @@ def load_expectations(plan: StudyPlan, expect: ExpectSource | None
     return parse_expect_table(table, plan.methods, source)
 
 
-def evaluate(pairs: Sequence[tuple[str, Expectation]], rows: Sequence[Mapping[str, Any]],
+def evaluate(pairs: Sequence[tuple[str, Expectation]], rows: Sequence[TrialRow],
              cases: Sequence[str], methods: Sequence[str]) -> tuple[ExpectationResult, ...]:
     """Every expectation measured over each sweep point's trials; by sweep point, then method
     in the study's order, then expectation in the table's order."""
@@ -213,8 +214,8 @@ def evaluate(pairs: Sequence[tuple[str, Expectation]], rows: Sequence[Mapping[st
     results = []
     for case in cases:
         for method, expectation in ordered:
-            values = [float(r[expectation.column]) for r in rows
-                      if r["case"] == case and r["method"] == method]
+            values = [r.number(expectation.column) for r in rows
+                      if r.case == case and r.method == method]
             value, trials, nonfinite, note = measure(expectation, values)
             results.append(ExpectationResult(case, method, expectation, value, trials,
                                              nonfinite, note, expectation.holds(value)))
@@ -264,7 +265,7 @@ def check(
     names = [methods] if isinstance(methods, str) else None if methods is None else list(methods)
     plan = load_study(scenario, trials=trials, methods=names)
     pairs = load_expectations(plan, expect)
-    base_rows: dict[TrialKey, list[dict[str, Any]]] = {}
+    base_rows: dict[TrialKey, list[TrialRow]] = {}
     paired: list[TrialKey] = []
     if baseline is not None:
         base_rows = read_results(baseline)
@@ -278,9 +279,9 @@ def check(
     store = run_trials(plan, out, executor, stream=stream)
     write_report(plan, store, figures=figures)
     rows = store.rows(plan.keys)
-    grouped: dict[TrialKey, list[dict[str, Any]]] = {}
+    grouped: dict[TrialKey, list[TrialRow]] = {}
     for row in rows:
-        grouped.setdefault((row["case"], row["trial"]), []).append(row)
+        grouped.setdefault((row.case, row.trial), []).append(row)
     comparisons = compare_studies(metrics_of(pairs), paired, grouped, base_rows, tolerance) \
         if baseline is not None else ()
     return CheckReport(

@@ -37,14 +37,10 @@ import numpy as np
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.measurements import read_text
 from twin.solvers import get_solver
-from twin.study.store import COLUMNS
+from twin.study.rows import BOOLEAN_COLUMNS, NUMERIC_COLUMNS
 
 ALL_METHODS = "*"
 """The ``[expect]`` key whose expectations apply to every method of the study."""
-BOOLEAN_COLUMNS = ("converged",)
-NUMERIC_COLUMNS = tuple(c for c in COLUMNS if c not in
-                        ("trial", "case", "seed", "method", "stop_reason", *BOOLEAN_COLUMNS))
-"""Columns of `results.csv` an expectation may name with a numeric STAT."""
 PERCENTILES = {f"p{q}": q for q in (5, 10, 25, 75, 90, 95, 99)}
 STATS = ("mean", "median", "min", "max", "std", *PERCENTILES, "share")
 OPERATORS = ("<=", "<", ">=", ">")

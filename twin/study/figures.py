@@ -1,4 +1,4 @@
-"""A study's figures as PNG (matplotlib, Agg): the paper's Figs. 3–5 and the truth.
+"""A study's figures as PNG (:mod:`twin.plots`): the paper's Figs. 3–5 and the truth.
 
 - ``fig3_metrics.png``: validation RMSE, MAE (the paper's "STD"), MAX and time per method,
   mean ± std over trials (paper Fig. 3).
@@ -22,39 +22,20 @@ from typing import Any
 
 import numpy as np
 
-from twin.io.atomic import write_atomic
+from twin.plots import pyplot, save_png
 
-DPI = 120
 FLOOR = 1e-4
 """Parameter-error plots stop this fraction below their largest value."""
 
 
-def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _save(figure: Any, path: Path) -> None:
-    import io
-
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=DPI, bbox_inches="tight")
-    _pyplot().close(figure)
-    write_atomic(path, buffer.getvalue())
-
-
 def _colors(methods: Sequence[str]) -> dict[str, Any]:
-    cmap = _pyplot().get_cmap("tab10")
+    cmap = pyplot().get_cmap("tab10")
     return {m: cmap(i % 10) for i, m in enumerate(methods)}
 
 
 def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
     """Paper Fig. 3: bars of mean ± std per method for RMSE, "STD", MAX and time."""
-    plt = _pyplot()
+    plt = pyplot()
     methods = [m for m in table6 if m != "before"]
     colors = _colors(methods)
     figure, axes = plt.subplots(2, 2, figsize=(11, 7))
@@ -72,13 +53,13 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
         axis.grid(axis="y", alpha=0.3)
     figure.suptitle(title)
     figure.tight_layout()
-    _save(figure, path)
+    save_png(figure, path, tight=True)
 
 
 def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str], path: Path,
                     title: str) -> None:
     """Paper Fig. 4: validation RMSE against iteration, median and quartiles over trials."""
-    plt = _pyplot()
+    plt = pyplot()
     colors = _colors(methods)
     figure, axis = plt.subplots(figsize=(9, 5.5))
     for method in methods:
@@ -99,13 +80,13 @@ def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str]
     axis.grid(alpha=0.3, which="both")
     axis.legend(ncol=3, fontsize=8)
     axis.set_title(title)
-    _save(figure, path)
+    save_png(figure, path, tight=True)
 
 
 def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], path: Path,
                   title: str) -> None:
     """Paper Fig. 5: residuals before and after, one trial per pose and all trials' spread."""
-    plt = _pyplot()
+    plt = pyplot()
     colors = _colors(methods)
     figure, (left, right) = plt.subplots(1, 2, figsize=(13, 5),
                                          gridspec_kw={"width_ratios": [3, 2]})
@@ -132,13 +113,13 @@ def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], 
     right.grid(alpha=0.3, axis="y", which="both")
     figure.suptitle(title)
     figure.tight_layout()
-    _save(figure, path)
+    save_png(figure, path, tight=True)
 
 
 def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[str],
                         path: Path, title: str) -> None:
     """RMS over trials of the identifiable part of the parameter error, per unknown."""
-    plt = _pyplot()
+    plt = pyplot()
     colors = _colors(methods)
     names = details[0]["parameter_names"]
     units = details[0]["parameter_units"]
@@ -166,12 +147,12 @@ def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[
     axes[0].legend(ncol=5, fontsize=7)
     axes[0].set_title(f"{title}: error off the null space (bottom row: not identifiable)")
     figure.tight_layout()
-    _save(figure, path)
+    save_png(figure, path, tight=True)
 
 
 def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) -> None:
     """Validation RMSE and flange error against the truth per method across sweep points."""
-    plt = _pyplot()
+    plt = pyplot()
     colors = _colors(methods)
     cases = summary["cases"]
     labels = [c["case"] for c in cases]
@@ -194,7 +175,7 @@ def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) ->
         axis.grid(alpha=0.3, which="both")
     right.legend(ncol=2, fontsize=7)
     figure.tight_layout()
-    _save(figure, path)
+    save_png(figure, path, tight=True)
 
 
 def write_figures(folder: str | Path, summary: Mapping[str, Any],

@@ -2,7 +2,8 @@
 
 ::
 
-    from twin.study import load_study, run_study
+    from twin.study.plan import load_study
+    from twin.study.runner import run_study
     from twin.study.executors.local import LocalProcesses
 
     plan = load_study("scenarios/paper_irb120.toml")
@@ -11,17 +12,20 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import json
+from collections.abc import Callable, Mapping
 from functools import partial
 from pathlib import Path
 from typing import Any, TextIO
 
+from twin.io.atomic import write_atomic
 from twin.study.executors import Executor, make_batches
 from twin.study.figures import write_figures
+from twin.study.markdown import summary_markdown
 from twin.study.plan import StudyPlan
 from twin.study.progress import Progress
+from twin.study.statistics import summarize
 from twin.study.store import StudyStore, TrialOutcome
-from twin.study.summary import summarize, write_summary
 from twin.study.trial import TrialSpec, run_batch
 
 
@@ -97,3 +101,10 @@ def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True) ->
         if figures else []
     write_summary(store.folder, document)
     return document
+
+
+def write_summary(folder: str | Path, document: Mapping[str, Any]) -> None:
+    """Write the summary document as `summary.json` and, rendered, as `summary.md`."""
+    folder = Path(folder)
+    write_atomic(folder / "summary.json", json.dumps(document, indent=2) + "\n")
+    write_atomic(folder / "summary.md", summary_markdown(document))

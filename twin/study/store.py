@@ -2,10 +2,11 @@
 
 Every finished trial is appended as one write of its JSON detail line (histories, residuals,
 parameter errors) to `trials.jsonl`, then one write of its rows (one per method) to
-`results.csv`, each followed by an fsync. `results.csv` is the record of what is finished: on
-reopening, a torn last line (the run was killed mid-write) and any trial with fewer rows than
-methods are dropped, and detail lines of trials not in the CSV are dropped, so every trial is
-counted exactly once whatever point a run was killed at.
+`results.csv`, each followed by an fsync (both are journals, :mod:`twin.io.journal`).
+`results.csv` is the record of what is finished: on reopening, a torn last line (the run was
+killed mid-write) and any trial with fewer rows than methods are dropped, and detail lines of
+trials not in the CSV are dropped, so every trial is counted exactly once whatever point a run
+was killed at.
 
 `study.json` holds the study's fingerprint: the parsed scenario document (less the number of
 trials, which may grow between runs) and the methods. A run whose fingerprint differs is refused
@@ -16,35 +17,20 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import io
 import json
-import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from twin.errors import InputError
-from twin.io.atomic import WRITE_EXPECTED, write_atomic
-from twin.io.paths import os_error, read_json, read_text
+from twin.io.atomic import write_atomic
+from twin.io.journal import Journal
+from twin.io.paths import os_error, read_json
+from twin.study.rows import COLUMNS, HEADER, TrialRow, format_rows, parse_row
 
 RESULTS = "results.csv"
 DETAILS = "trials.jsonl"
 MANIFEST = "study.json"
-
-STAGES = ("before", "train", "validation")
-METRIC_KEYS = ("rmse", "mae", "std", "max")
-COLUMNS = (
-    "trial", "case", "seed", "method",
-    *(f"{stage}_{key}_mm" for stage in STAGES for key in METRIC_KEYS),
-    "flange_error_mm", "crlb_mm", "crlb_ratio",
-    "iterations", "evaluations", "seconds", "converged", "stop_reason",
-)
-"""Columns of `results.csv`, one row per trial × method. Lengths in mm; ``mae`` is the paper's
-"STD"; ``flange_error_mm`` is the RMS flange-position error over the workspace against the truth,
-``crlb_mm`` its Cramér–Rao bound and ``crlb_ratio`` their ratio; ``converged`` is true when a
-convergence test (ftol, xtol, gtol) fired at the point returned; ``stop_reason`` names the test
-that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``)."""
-_INTEGER_COLUMNS = ("trial", "seed", "iterations", "evaluations")
 
 TrialKey = tuple[str, int]
 """(case label, trial index): a trial's identity in a study."""
@@ -59,8 +45,8 @@ class TrialOutcome(NamedTuple):
     """Trial index within the case, 0-based."""
     seed: int
     """Seed of the trial's draws (perturbation, poses, noise, split, methods)."""
-    rows: tuple[dict[str, Any], ...]
-    """One row per method, keyed by :data:`COLUMNS`."""
+    rows: tuple[TrialRow, ...]
+    """One row per method."""
     detail: dict[str, Any]
     """JSON-ready per-method detail: histories, residuals, parameter errors."""
 
@@ -94,40 +80,18 @@ def first_difference(old: Any, new: Any, path: str = "") -> str | None:
     return None
 
 
-def _format(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
-
-
-def _parse(column: str, text: str) -> Any:
-    if column in ("case", "method", "stop_reason"):
-        return text
-    if column == "converged":
-        return text == "true"
-    if column in _INTEGER_COLUMNS:
-        return int(text)
-    return float(text)
-
-
-def parse_results(text: str, source: str | Path) -> tuple[dict[TrialKey, list[dict[str, Any]]],
-                                                         bool]:
-    """The rows of a `results.csv` text, grouped by trial, and whether its last line was torn
-    (and left out).
+def parse_results(text: str, source: str | Path) -> dict[TrialKey, list[TrialRow]]:
+    """The rows of a `results.csv` text of whole lines (a torn last line split off by
+    :meth:`~twin.io.journal.Journal.read`), grouped by trial.
 
     Raises:
         InputError: for another header or a line with the wrong number of fields.
     """
     lines = text.splitlines(keepends=True)
-    torn = bool(lines) and not lines[-1].endswith("\n")
-    if torn:
-        lines = lines[:-1]
-    if not lines or lines[0].strip() != ",".join(COLUMNS):
-        raise InputError(f"{RESULTS} with another header", f"the header {','.join(COLUMNS)}",
+    if not lines or lines[0].strip() != HEADER.strip():
+        raise InputError(f"{RESULTS} with another header", f"the header {HEADER.strip()}",
                          source=source)
-    rows: dict[TrialKey, list[dict[str, Any]]] = {}
+    rows: dict[TrialKey, list[TrialRow]] = {}
     try:
         records = list(csv.reader(lines[1:]))
     except csv.Error as exc:
@@ -138,15 +102,15 @@ def parse_results(text: str, source: str | Path) -> tuple[dict[TrialKey, list[di
             raise InputError(f"{len(values)} fields", f"{len(COLUMNS)}", source=source,
                              where=f"line {number}")
         try:
-            row = {c: _parse(c, v) for c, v in zip(COLUMNS, values, strict=True)}
+            row = parse_row(values)
         except ValueError as exc:
             raise InputError(f"a value that is not a number ({exc})", "the rows `twin study` "
                              "writes", source=source, where=f"line {number}") from None
-        rows.setdefault((row["case"], row["trial"]), []).append(row)
-    return rows, torn
+        rows.setdefault((row.case, row.trial), []).append(row)
+    return rows
 
 
-def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
+def read_results(folder: str | Path) -> dict[TrialKey, list[TrialRow]]:
     """The finished rows of another study's folder, grouped by trial, read only: a torn last
     line is left out and nothing is repaired or written.
 
@@ -154,23 +118,13 @@ def read_results(folder: str | Path) -> dict[TrialKey, list[dict[str, Any]]]:
         InputError: if the folder has no readable `results.csv`.
     """
     path = Path(folder) / RESULTS
-    text = read_text(path, f"the {RESULTS} of an earlier `twin study` or `twin check` run")
-    return parse_results(text, path)[0]
+    results = Journal(path, f"the {RESULTS} of an earlier `twin study` or `twin check` run")
+    return parse_results(results.read(as_input=True).whole, path)
 
 
-def _append_durably(path: Path, text: str) -> None:
-    try:
-        with path.open("a", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-    except OSError as exc:
-        raise os_error(path, "appending to it", exc, WRITE_EXPECTED) from None
-
-
-def _read(path: Path, what: str) -> str:
-    return read_text(path, f"{what} of an earlier `twin study` run, or a new --out folder",
-                     journal=True)
+def _journal(path: Path, what: str, header: str = "") -> Journal:
+    return Journal(path, f"{what} of an earlier `twin study` run, or a new --out folder",
+                   header)
 
 
 class StudyStore:
@@ -197,8 +151,10 @@ class StudyStore:
         else:
             write_atomic(manifest_path, json.dumps(
                 {"fingerprint": self.fingerprint, **manifest}, indent=2, sort_keys=True) + "\n")
-        self._rows: dict[TrialKey, list[dict[str, Any]]] = {}
-        self._details: dict[TrialKey, dict[str, Any]] = {}
+        self._results = _journal(self.results_path, f"the {RESULTS}", HEADER)
+        self._details = _journal(self.details_path, f"the {DETAILS}")
+        self._rows: dict[TrialKey, list[TrialRow]] = {}
+        self._details_by_key: dict[TrialKey, dict[str, Any]] = {}
         self._repair()
 
     @property
@@ -232,34 +188,31 @@ class StudyStore:
         """Load what is finished; drop a torn tail and incomplete trials from both files."""
         rows, csv_dirty = self._read_rows()
         complete = {key: group for key, group in rows.items()
-                    if sorted(r["method"] for r in group) == sorted(self.methods)}
+                    if sorted(r.method for r in group) == sorted(self.methods)}
         details, details_dirty = self._read_details(set(complete))
         if csv_dirty or len(complete) != len(rows):
-            text = io.StringIO()
-            writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
-            writer.writeheader()
-            for group in complete.values():
-                writer.writerows({c: _format(r[c]) for c in COLUMNS} for r in group)
-            write_atomic(self.results_path, text.getvalue())
+            self._results.rewrite(format_rows(r for group in complete.values() for r in group))
         if details_dirty:
-            write_atomic(self.details_path, "".join(
-                json.dumps(d, sort_keys=True) + "\n" for d in details.values()))
-        self._rows, self._details = complete, details
+            self._details.rewrite("".join(json.dumps(d, sort_keys=True) + "\n"
+                                          for d in details.values()))
+        self._rows, self._details_by_key = complete, details
 
-    def _read_rows(self) -> tuple[dict[TrialKey, list[dict[str, Any]]], bool]:
+    def _read_rows(self) -> tuple[dict[TrialKey, list[TrialRow]], bool]:
         if not self.results_path.exists():
-            write_atomic(self.results_path, ",".join(COLUMNS) + "\n")
+            self._results.rewrite("")
             return {}, False
-        return parse_results(_read(self.results_path, f"the {RESULTS}"), self.results_path)
+        text = self._results.read()
+        return parse_results(text.whole, self.results_path), bool(text.torn)
 
     def _read_details(self, finished: set[TrialKey]) -> tuple[dict[TrialKey, dict[str, Any]], bool]:
         if not self.details_path.exists():
             return {}, False
+        text = self._details.read()
         details: dict[TrialKey, dict[str, Any]] = {}
-        dirty = False
-        for line in _read(self.details_path, f"the {DETAILS}").splitlines(keepends=True):
+        dirty = bool(text.torn)
+        for line in text.whole.splitlines():
             try:
-                detail: Any = json.loads(line) if line.endswith("\n") else None
+                detail: Any = json.loads(line)
             except (json.JSONDecodeError, RecursionError):
                 detail = None
             key = (detail.get("case"), detail.get("trial")) if isinstance(detail, dict) \
@@ -284,21 +237,19 @@ class StudyStore:
             return False
         detail = {"case": outcome.case, "trial": outcome.trial, "seed": outcome.seed,
                   **outcome.detail}
-        _append_durably(self.details_path, json.dumps(detail, sort_keys=True) + "\n")
-        text = io.StringIO()
-        writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
-        writer.writerows({c: _format(row[c]) for c in COLUMNS} for row in outcome.rows)
-        _append_durably(self.results_path, text.getvalue())
-        self._rows[outcome.key] = [dict(row) for row in outcome.rows]
-        self._details[outcome.key] = detail
+        self._details.append(json.dumps(detail, sort_keys=True) + "\n")
+        self._results.append(format_rows(outcome.rows))
+        self._rows[outcome.key] = list(outcome.rows)
+        self._details_by_key[outcome.key] = detail
         return True
 
-    def rows(self, keys: Iterable[TrialKey] | None = None) -> list[dict[str, Any]]:
+    def rows(self, keys: Iterable[TrialKey] | None = None) -> list[TrialRow]:
         """Recorded rows, in (case, trial) order, restricted to ``keys`` if given."""
         chosen = sorted(self._rows if keys is None else set(keys) & set(self._rows))
         return [row for key in chosen for row in self._rows[key]]
 
     def details(self, keys: Iterable[TrialKey] | None = None) -> list[dict[str, Any]]:
         """Recorded detail documents, in (case, trial) order, restricted to ``keys`` if given."""
-        chosen = sorted(self._details if keys is None else set(keys) & set(self._details))
-        return [self._details[key] for key in chosen]
+        chosen = sorted(self._details_by_key if keys is None
+                        else set(keys) & set(self._details_by_key))
+        return [self._details_by_key[key] for key in chosen]

@@ -33,7 +33,8 @@ from twin.identifiability import measurement_identifiability
 from twin.model import Model
 from twin.sim.scenario import Scenario
 from twin.sim.simulate import Simulation, simulate
-from twin.study.store import METRIC_KEYS, STAGES, TrialOutcome
+from twin.study.rows import TrialRow
+from twin.study.store import TrialOutcome
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 from twin.units import m_to_mm, rad_to_deg
@@ -89,6 +90,10 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
 
 
+def _mm(value_m: float) -> float:
+    return float(m_to_mm(value_m))
+
+
 def _display(values: Array, model: Model) -> list[float]:
     return np.where(model.is_length, m_to_mm(values), rad_to_deg(values)).tolist()
 
@@ -112,7 +117,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     sigma_m = noise_sigma_m(sim, jacobian)
     crlb_m = cramer_rao_flange_rms(model, x_true, train, sigma_m, q_workspace)
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
-    rows: list[dict[str, Any]] = []
+    rows: list[TrialRow] = []
     methods: dict[str, Any] = {}
     true_flange = sim.true_robot.flange_positions(q_workspace)
     at_workspace = model.poses(q_workspace)
@@ -122,18 +127,22 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
-        row: dict[str, Any] = {"trial": trial, "case": case, "seed": seed, "method": name}
-        for stage in STAGES:
-            values = result.metrics[stage]._asdict()
-            row.update({f"{stage}_{key}_mm": float(m_to_mm(values[key])) for key in METRIC_KEYS})
-        row.update(
-            flange_error_mm=float(m_to_mm(flange_m)), crlb_mm=float(m_to_mm(crlb_m)),
+        before_m, train_m, validation_m = (result.metrics[stage]
+                                           for stage in ("before", "train", "validation"))
+        rows.append(TrialRow(
+            trial=trial, case=case, seed=seed, method=name,
+            before_rmse_mm=_mm(before_m.rmse), before_mae_mm=_mm(before_m.mae),
+            before_std_mm=_mm(before_m.std), before_max_mm=_mm(before_m.max),
+            train_rmse_mm=_mm(train_m.rmse), train_mae_mm=_mm(train_m.mae),
+            train_std_mm=_mm(train_m.std), train_max_mm=_mm(train_m.max),
+            validation_rmse_mm=_mm(validation_m.rmse), validation_mae_mm=_mm(validation_m.mae),
+            validation_std_mm=_mm(validation_m.std), validation_max_mm=_mm(validation_m.max),
+            flange_error_mm=_mm(flange_m), crlb_mm=_mm(crlb_m),
             crlb_ratio=flange_m / crlb_m if crlb_m > 0 else float("nan"),
             iterations=result.solver.iterations, evaluations=result.solver.evaluations,
             seconds=result.solver.seconds, converged=result.solver.converged,
             stop_reason=result.solver.stop_label,
-        )
-        rows.append(row)
+        ))
         methods[name] = {
             "history_mm": m_to_mm([r.validation_rmse_m for r in result.solver.history]).tolist(),
             "residuals_mm": m_to_mm(model.residuals(result.solver.x, validation)).tolist(),

@@ -61,19 +61,17 @@ class DaskCluster:
     """
 
     def __init__(self, scheduler: str | None = None, workers: int | None = None) -> None:
+        # Without the extra this raises the ImportError the CLI turns into the extra to
+        # install, before a study writes anything.
+        importlib.import_module("dask.distributed")
         self.scheduler = scheduler
         self._n_local = workers
         self.client: Any = None
         self._cluster: Any = None
 
     def __enter__(self) -> DaskCluster:
-        try:
-            from dask.distributed import Client, LocalCluster
-        except ImportError:
-            raise InputError(
-                "no dask.distributed", "the optional extra: pip install 'twin[cluster]'",
-                source="--scheduler" if self.scheduler else "--workers",
-            ) from None
+        from dask.distributed import Client, LocalCluster
+
         if self.scheduler:
             try:
                 self.client = Client(self.scheduler, timeout=CONNECT_TIMEOUT)

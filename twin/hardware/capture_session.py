@@ -4,7 +4,8 @@ Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
 - ``measurements.csv`` — header ``pose,q1,…,q6,length`` (deg, mm), one row per measured pose,
-  appended with ``O_APPEND`` as one whole line and ``fsync``-ed before the robot moves on.
+  appended as one whole line and ``fsync``-ed before the robot moves on (a journal,
+  :mod:`twin.io.journal`).
   ``pose`` numbers the plan rows from 1; `twin calibrate` ignores it.
 - ``robot.toml``, ``capture.toml`` — so that ``twin calibrate DIR/capture.toml`` needs nothing
   else (written atomically).
@@ -31,14 +32,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
-from twin.encoders.base import Encoder, EncoderDisconnectedError
-from twin.encoders.settle import Settled, SettleRule, settle
 from twin.errors import InputError, TwinError
-from twin.io.atomic import WRITE_EXPECTED, fsync_directory, write_atomic
+from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
+from twin.hardware.encoders.settle import Settled, SettleRule, settle
+from twin.hardware.robot_sources.base import RobotSource
+from twin.io.atomic import fsync_directory, write_atomic
+from twin.io.journal import Journal
 from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
 from twin.io.paths import os_error, read_bytes, read_text
 from twin.robot import load_robot, robot_to_toml
-from twin.robots.base import RobotSource
 from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
@@ -62,24 +64,9 @@ def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float) -> str:
 HEADER = ",".join(CAPTURE_COLUMNS) + "\n"
 
 
-def append_line(path: Path, line: str) -> None:
-    """Append one whole line and make it durable before returning.
-
-    One ``write`` on an ``O_APPEND`` descriptor: a kill leaves the line whole or absent; only a
-    power cut can leave part of it, which :func:`recover` drops.
-    """
-    data = line.encode("utf-8")
-    try:
-        fd = os.open(path, os.O_WRONLY | os.O_APPEND)
-        try:
-            written = os.write(fd, data)
-            if written != len(data):
-                raise TwinError(f"{path}: wrote {written} of {len(data)} bytes (disk full?)")
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-    except OSError as exc:
-        raise os_error(path, "appending to it", exc, WRITE_EXPECTED) from None
+def journal(path: Path) -> Journal:
+    """The measurement file of a capture, as a journal (:mod:`twin.io.journal`)."""
+    return Journal(path, JOURNAL, HEADER)
 
 
 def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
@@ -93,29 +80,8 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
     Raises:
         InputError: if a row's pose number is not an integer in 1..n_poses or is repeated.
     """
-    if not path.exists():
-        write_atomic(path, HEADER)
-        return set(), None
-    raw = read_bytes(path, JOURNAL, journal=True)
-    note = None
-    if not raw.strip():
-        write_atomic(path, HEADER)
-        return set(), None
-    if raw and not raw.endswith(b"\n"):
-        keep = raw.rfind(b"\n") + 1
-        note = f"{path}: dropped a partial last line {raw[keep:]!r} left by an interrupted write"
-        if keep == 0:
-            write_atomic(path, HEADER)
-            return set(), note
-        try:
-            with open(path, "r+b") as handle:
-                handle.truncate(keep)
-                handle.flush()
-                os.fsync(handle.fileno())
-        except OSError as exc:
-            raise os_error(path, "truncating its partial last line", exc,
-                           WRITE_EXPECTED) from None
-    if raw.count(b"\n") <= 1:
+    whole, note = journal(path).recover()
+    if whole.count("\n") <= 1:
         return set(), note
     values, lines = read_table(path, CAPTURE_COLUMNS, JOURNAL, journal=True)
     done: set[int] = set()
@@ -169,15 +135,15 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
     # compares equal when it holds the same robot.
     if stored_robot.exists() and robot_to_toml(load_robot(stored_robot)) != robot_text:
         raise InputError("a capture of another robot model", resume, source=stored_robot)
-    journal = folder / MEASUREMENTS_NAME
-    if journal.exists():
-        first = read_bytes(journal, JOURNAL, journal=True).split(b"\n", 1)
+    measurements = folder / MEASUREMENTS_NAME
+    if measurements.exists():
+        first = read_bytes(measurements, JOURNAL, journal=True).split(b"\n", 1)
         head = first[0] + (b"\n" if len(first) > 1 else b"")
         if not HEADER.encode("utf-8").startswith(head.lstrip()):
             text = head[:60].decode("utf-8", errors="replace").strip()
             raise InputError(f"a measurement file of another kind ({text!r})",
                              f"the header {HEADER.strip()} of a capture, or a new --out folder",
-                             source=journal, where="line 1")
+                             source=measurements, where="line 1")
 
 
 def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
@@ -259,6 +225,7 @@ def capture(
     """
     n_poses = len(plan_q_rad)
     done, note = recover(measurements_path, n_poses)
+    record = journal(measurements_path)
     if note:
         report(note)
     todo = [pose for pose in range(1, n_poses + 1) if pose not in done]
@@ -275,7 +242,7 @@ def capture(
             except TwinError as exc:
                 raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
                     from None
-            append_line(measurements_path, format_row(pose, q_reached, settled.length_m))
+            record.append(format_row(pose, q_reached, settled.length_m))
             done.add(pose)
             report(f"pose {pose}/{n_poses}: {float(m_to_mm(settled.length_m)):.4f} mm "
                    f"({settled.readings} readings, spread "

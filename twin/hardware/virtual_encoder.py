@@ -20,10 +20,10 @@ exactly as they would open ``/dev/ttyUSB0``. Protocols:
 
 The length is the twin's (:class:`twin.sim.Twin`: true robot, joint errors with the backlash side
 of the approach, static equilibrium) at the pose the simulated robot was last sent to, read from
-the pose file (:mod:`twin.robots.sim`) at every query. Reading ``j`` = 1, 2, … after a move is
-the scenario's encoder model (:class:`twin.sim.NoiseModel`: offset, Gaussian noise, outliers,
-resolution) applied to ``L + A·(−½)^(j−1)``, a decaying swing of the cable (A =
-:data:`TRANSIENT_M`). Its random draws come from a generator seeded with (seed, pose) that
+the pose file (:mod:`twin.hardware.robot_sources.sim`) at every query. Reading ``j`` = 1, 2, …
+after a move is the scenario's encoder model (:class:`twin.sim.NoiseModel`: offset, Gaussian
+noise, outliers, resolution) applied to ``L + A·(−½)^(j−1)``, a decaying swing of the cable
+(A = :data:`TRANSIENT_M`). Its random draws come from a generator seeded with (seed, pose) that
 restarts at each move, so an interrupted capture reads the same numbers again. The arm's
 repeatability jitter of the scenario is not applied here (the joints land on the command).
 
@@ -44,9 +44,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.encoders.url import PROTOCOLS
 from twin.errors import UnknownChoiceError
-from twin.robots.sim import read_pose
+from twin.hardware.encoders.url import PROTOCOLS
+from twin.hardware.robot_sources.sim import read_pose
 from twin.units import m_to_mm, mm_to_m
 
 LengthSource = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]

@@ -1,7 +1,7 @@
 """The encoder interface: one reading of the cable length at a time, and its faults.
 
 Drivers talk to the device through pyserial exactly as to ``/dev/ttyUSB0``; the virtual encoder
-(:mod:`twin.virtual_encoder`) serves a pseudo-terminal, so tests run this same code.
+(:mod:`twin.hardware.virtual_encoder`) serves a pseudo-terminal, so tests run this same code.
 """
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from types import TracebackType
 
-from twin.encoders.url import EncoderConfig
 from twin.errors import TwinError
+from twin.hardware.encoders.url import EncoderConfig
 
 
 class EncoderError(TwinError):

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from twin.encoders.base import EncoderError, EncoderReadError
+from twin.hardware.encoders.base import EncoderError, EncoderReadError
 from twin.units import m_to_mm, mm_to_m
 
 

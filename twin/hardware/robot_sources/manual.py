@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import TwinError
-from twin.robots.base import RobotSource
+from twin.hardware.robot_sources.base import RobotSource
 from twin.units import deg_to_rad, rad_to_deg
 
 

@@ -2,7 +2,7 @@
 
 Default: the host sends ``MEAS?`` CR LF; the device answers a signed decimal in mm and CR LF,
 e.g. ``+0123.456``. Query, answer pattern, scale and unit are configurable
-(:class:`~twin.encoders.url.EncoderConfig`).
+(:class:`~twin.hardware.encoders.url.EncoderConfig`).
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import termios
 
 import serial
 
-from twin.encoders.base import Encoder, EncoderDisconnectedError, EncoderReadError
-from twin.encoders.url import EncoderConfig
+from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError, EncoderReadError
+from twin.hardware.encoders.url import EncoderConfig
 
 LINE_ERRORS = (serial.SerialException, OSError, termios.error)
 """What pyserial raises when the port fails (termios.error: flushing a hung-up tty)."""

@@ -15,9 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError
+from twin.hardware.robot_sources.base import RobotSource
 from twin.io.measurements import JOINT_COLUMNS, read_table
 from twin.io.paths import read_bytes
-from twin.robots.base import RobotSource
 from twin.units import deg_to_rad
 
 POSE_COLUMN = "pose"

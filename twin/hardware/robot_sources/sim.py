@@ -27,9 +27,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError
+from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_text
-from twin.robots.base import RobotSource
 from twin.units import deg_to_rad, rad_to_deg
 
 DEFAULT_POSE_FILE = Path(tempfile.gettempdir()) / f"twin-sim-pose-{os.getuid()}.json"

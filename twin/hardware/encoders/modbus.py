@@ -1,8 +1,8 @@
 """Modbus RTU: read the length from one or two registers with minimalmodbus.
 
-Configurable (:class:`~twin.encoders.url.EncoderConfig`): slave id, register address, function
-3 (holding) or 4 (input registers), value type (int32, int16, float32), 32-bit word order and
-scale (device counts to ``unit``): a signed 32-bit count of µm, high word first, is
+Configurable (:class:`~twin.hardware.encoders.url.EncoderConfig`): slave id, register address,
+function 3 (holding) or 4 (input registers), value type (int32, int16, float32), 32-bit word
+order and scale (device counts to ``unit``): a signed 32-bit count of µm, high word first, is
 ``protocol=modbus&type=int32&scale=0.001``.
 """
 
@@ -10,8 +10,13 @@ from __future__ import annotations
 
 import minimalmodbus
 
-from twin.encoders.ascii import LINE_ERRORS, open_serial
-from twin.encoders.base import Encoder, EncoderDisconnectedError, EncoderError, EncoderReadError
+from twin.hardware.encoders.ascii import LINE_ERRORS, open_serial
+from twin.hardware.encoders.base import (
+    Encoder,
+    EncoderDisconnectedError,
+    EncoderError,
+    EncoderReadError,
+)
 
 _BYTE_ORDERS = {"big": minimalmodbus.BYTEORDER_BIG, "little": minimalmodbus.BYTEORDER_LITTLE_SWAP}
 """Word order to minimalmodbus byte order: ABCD (high word first) or CDAB (low word first)."""

@@ -1,12 +1,18 @@
-"""Drawstring-encoder drivers behind one interface (:class:`~twin.encoders.base.Encoder`).
+"""Drawstring-encoder drivers behind one interface (:class:`~twin.hardware.encoders.base.Encoder`).
 
-An adapter: it imports pyserial and minimalmodbus. The CLI imports it inside ``run()`` only.
+An adapter: pyserial and minimalmodbus are imported by the drivers, when :func:`open_encoder`
+opens one.
 """
 
 from __future__ import annotations
 
-from twin.encoders.base import Encoder, EncoderDisconnectedError, EncoderError, EncoderReadError
-from twin.encoders.url import EncoderConfig, load_device, parse_url, resolve
+from twin.hardware.encoders.base import (
+    Encoder,
+    EncoderDisconnectedError,
+    EncoderError,
+    EncoderReadError,
+)
+from twin.hardware.encoders.url import EncoderConfig, load_device, parse_url, resolve
 
 __all__ = [
     "Encoder",
@@ -28,9 +34,9 @@ def open_encoder(config: EncoderConfig) -> Encoder:
         EncoderDisconnectedError: if the device is absent.
     """
     if config.protocol == "modbus":
-        from twin.encoders.modbus import ModbusEncoder
+        from twin.hardware.encoders.modbus import ModbusEncoder
 
         return ModbusEncoder(config)
-    from twin.encoders.ascii import AsciiEncoder
+    from twin.hardware.encoders.ascii import AsciiEncoder
 
     return AsciiEncoder(config)
