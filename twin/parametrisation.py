@@ -160,10 +160,20 @@ def resolve(request: str | Sequence[str], fixed: ArrayLike) -> tuple[str, ...]:
         if len(kinds) != n or any(kind not in PARAMETRISATIONS for kind in kinds):
             raise ValueError(f"parametrisation {list(kinds)!r}: expected {n} of "
                              + ", ".join(PARAMETRISATIONS))
+    check_mix(kinds)
+    return kinds
+
+
+def check_mix(kinds: Sequence[str]) -> None:
+    """Refuse modified D-H joints mixed with standard D-H or Hayati joints (see the module
+    docstring).
+
+    Raises:
+        ValueError: saying why.
+    """
     if "mdh" in kinds and set(kinds) != {"mdh"}:
         raise ValueError("parametrisation: modified D-H describes a whole chain; mixed with "
                          "standard D-H or Hayati joints a link would be described twice")
-    return kinds
 
 
 def _common_normal(origin: Array, z: Array, point: Array, z_next: Array, x_previous: Array
