@@ -68,7 +68,7 @@ from twin.kinematics import (
     rigid_transform,
     xyz_rpy,
 )
-from twin.parametrisation import AUTO, REQUESTS, check_mix, convert
+from twin.parametrisation import AUTO, REQUESTS, check_mix, convert, joint_frames
 from twin.units import (
     ANGLE_FACTORS,
     FILE_DEG_DECIMALS,
@@ -216,9 +216,23 @@ class RobotModel:
 
     def reparametrised(self, request: str | Sequence[str]) -> RobotModel:
         """The same arm (same forward kinematics, to 1e-9 m) in another parametrisation:
-        ``auto``, one of :data:`twin.kinematics.PARAMETRISATIONS`, or one per joint."""
+        ``auto``, one of :data:`twin.kinematics.PARAMETRISATIONS`, or one per joint; a URDF's
+        joint frames keep their place (:attr:`UrdfSource.frame_offsets` follow the table)."""
         structure, table = convert(fixed_transforms(self.structure, self.dh), request)
-        return replace(self, dh=table, structure=structure)
+        urdf = self.urdf
+        if urdf is not None:
+            old = joint_frames(fixed_transforms(self.structure, self.dh))[0]
+            new = joint_frames(fixed_transforms(structure, table))[0]
+            shift, turn = urdf.frame_offsets.T
+            screws = np.zeros((len(shift), 4, 4))
+            screws[:, 0, 0] = screws[:, 1, 1] = np.cos(turn)
+            screws[:, 1, 0], screws[:, 0, 1] = np.sin(turn), -np.sin(turn)
+            screws[:, 2, 2] = screws[:, 3, 3] = 1.0
+            screws[:, 2, 3] = shift
+            offsets = np.linalg.inv(new) @ old @ screws
+            urdf = replace(urdf, frame_offsets=np.column_stack(
+                [offsets[:, 2, 3], np.arctan2(offsets[:, 1, 0], offsets[:, 0, 0])]))
+        return replace(self, dh=table, structure=structure, urdf=urdf)
 
 
 class _Document:
