@@ -142,7 +142,10 @@ def run(args: argparse.Namespace) -> int:
     lines = [
         f"{robot.name} — {len(data)} poses from {measurements_path}, port ({port}) mm, "
         f"{model.n_params} unknowns ("
-        + ", ".join([f"{model.group('dh').size} D-H errors",
+        + ", ".join([f"{model.group('dh').size} "
+                     + ("D-H" if set(robot.structure.parametrisation) == {"dh"}
+                        else "/".join(sorted(set(robot.structure.parametrisation))))
+                     + " errors",
                      *model.names[model.slice("dh").stop:]]) + ")",
         "At the nominal geometry (all poses):",
         *_identifiability_lines(nominal),
