@@ -10,6 +10,8 @@ from numpy.typing import NDArray
 from twin.calibration import CalibrationResult
 from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.metrics import Metrics
+from twin.parametrisation import PARALLEL_THRESHOLD_DEG
+from twin.robot import RobotModel
 from twin.solvers import get_solver
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, slot_label
 
@@ -76,6 +78,19 @@ def format_stop(result: CalibrationResult) -> list[str]:
     return lines
 
 
+def format_parametrisation(robot: RobotModel) -> list[str]:
+    """One line saying which joints are not standard D-H (none for a standard D-H arm): what
+    the table's rows mean, and why a joint is Hayati."""
+    kinds = robot.structure.parametrisation
+    if set(kinds) == {"dh"}:
+        return []
+    hayati = [str(i + 1) for i, kind in enumerate(kinds) if kind == "hayati"]
+    why = (f"; Hayati joint(s) {', '.join(hayati)}: the next axis within "
+           f"{PARALLEL_THRESHOLD_DEG:g}° of parallel, beta (deg) in the d column") if hayati \
+        else ""
+    return [f"  joints 1..{len(kinds)}: " + ", ".join(kinds) + why]
+
+
 def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
     """Before/after metrics, run statistics and the identified D-H errors as a table.
 
@@ -111,7 +126,8 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         header += f"{label:>{max(14, len(label) + 1)}}" + (f"{'true':>10}" if truth else "")
     kinds = set(result.robot.structure.parametrisation)
     errors = "D-H" if kinds == {"dh"} else "/".join(sorted(kinds))
-    lines += ["", f"Identified {errors} errors" + (" (and the truth)" if truth else ""), header]
+    lines += ["", f"Identified {errors} errors" + (" (and the truth)" if truth else ""),
+              *format_parametrisation(result.robot), header]
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
         for key, lengths in zip(DH_KEYS, is_length, strict=True):
