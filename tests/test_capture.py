@@ -178,7 +178,7 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
     columns = ", ".join(f"{key} = {value!r}" for key, value in (
         ("a", 0.0), ("d", 290.0), ("alpha", -90.00000000000001), ("theta", 0.0),
         ("lower", -165.00000000000003), ("upper", 165.00000000000003), ("mass", 3.067),
-        ("radius", 60.0)))
+        ("radius", 60.0), ("velocity", 250.00000000000003)))
     rows = robot_to_toml(robot).splitlines()
     rows[5] = "  { " + columns + " },"
     (tmp_path / "robot.toml").write_text("\n".join(rows) + "\n")
@@ -348,3 +348,19 @@ def test_manual_robot_source_prompts_and_reads_reached_angles() -> None:
     assert prompts.getvalue().count("try again") == 2
     with pytest.raises(TwinError, match="terminal closed"):
         robot.move_to(3, 3, target)
+
+
+def test_capture_refuses_an_arm_it_cannot_record(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """The capture journal's columns are q1..q6: a 4-axis arm is refused in one line before
+    anything is opened or written."""
+    robot = Path(__file__).parents[1] / "models" / "scara4" / "scara4.toml"
+    plan = tmp_path / "plan.csv"
+    plan.write_text("q1,q2,q3,q4\n10,20,-30,40\n")
+    code = main(["capture", "--plan", str(plan), "--encoder", "serial:///dev/null",
+                 "--robot-source", "manual", "--robot", str(robot), "--port", "600,-400,100",
+                 "--out", str(tmp_path / "out")])
+    error = capsys.readouterr().err
+    assert code == 2 and error.count("\n") == 1
+    assert "found a 4-joint robot, expected a 6-joint robot model TOML" in error
+    assert not (tmp_path / "out").exists()

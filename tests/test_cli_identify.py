@@ -13,6 +13,7 @@ from matplotlib.image import imread
 from twin.cli import main
 from twin.io.capture_file import write_capture
 from twin.io.measurements import read_table
+from twin.io.robot_file import load_robot
 from twin.robot import RobotModel, robot_to_toml
 from twin.units import dh_rows_to_display
 
@@ -162,3 +163,18 @@ def test_feasible_plan_passes_the_twins_own_pose_check(
     assert "feasible candidates" in capsys.readouterr().out
     q = read_pose_plan(out, Twin.build(irb120, port_m), PoseConstraints())
     assert q.shape == (30, 6)
+
+
+def test_plan_a_seven_axis_urdf(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`twin plan --robot fr3.urdf` plans for the 28 unknowns of a 7-axis arm: q1..q7 within
+    the FR3's limits (its joints 4 and 6 exclude 0), among poses the twin can measure."""
+    robot_path = Path(__file__).parents[1] / "models" / "fr3" / "fr3.urdf"
+    out = tmp_path / "plan.csv"
+    assert main(["plan", "--robot", str(robot_path), "--port", PORT, "--poses", "40",
+                 "--candidates", "300", "--out", str(out)]) == 0
+    assert "28 unknowns" in capsys.readouterr().out
+    q_deg, _ = read_table(out, tuple(f"q{i}" for i in range(1, 8)), "plan")
+    robot = load_robot(robot_path)
+    q_rad = np.deg2rad(q_deg)
+    assert q_rad.shape == (40, 7)
+    assert np.all((robot.lower_rad <= q_rad) & (q_rad <= robot.upper_rad))

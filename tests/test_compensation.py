@@ -226,3 +226,46 @@ def test_cli_verify_geometric_scenario(capsys: pytest.CaptureFixture[str]) -> No
     compensated_rms = table["compensated, identified table"][1]
     assert nominal_rms > 1.0
     assert compensated_rms < 0.05
+
+
+def test_home_pose_is_the_irb120s_and_within_any_arms_limits() -> None:
+    """The reference posture of nominal IK: the IRB 120's (q5 = 30°, the rest 0); for the FR3,
+    whose joints 4 and 6 exclude 0, within the limits."""
+    from twin.compensation import home_pose
+    from twin.io.robot_file import load_robot
+    from twin.robot import default_robot
+
+    np.testing.assert_allclose(home_pose(default_robot()), np.deg2rad([0, 0, 0, 0, 30, 0]))
+    fr3 = load_robot(Path(__file__).parents[1] / "models" / "fr3" / "fr3.urdf")
+    home = home_pose(fr3)
+    assert np.all((fr3.lower_rad <= home) & (home <= fr3.upper_rad))
+
+
+def test_cli_compensates_a_four_axis_program_for_position(tmp_path: Path) -> None:
+    """`twin compensate --joints` on a 4-axis arm: columns q1..q4, every row ok, the identified
+    flange at the program's nominal flange position (the orientation is not solved: four joints
+    cannot take any pose)."""
+    from twin.io.robot_file import load_robot
+    from twin.synthetic import random_poses, synthesize
+
+    model_file = Path(__file__).parents[1] / "models" / "scara4" / "scara4.toml"
+    robot = load_robot(model_file)
+    port = np.array([0.6, -0.4, 0.1])
+    rng = np.random.default_rng(0)
+    true = robot.perturbed(rng.uniform(-1, 1, (4, 4)) * np.where(robot.is_length, 1e-3, 3e-3))
+    q = random_poses(robot, 60, rng)
+    result = calibrate(robot, synthesize(true, q, port, 1e-5, rng), port, method="lm", seed=0)
+    write_json(tmp_path / "result.json", result_to_dict(result))
+    program = tmp_path / "program.csv"
+    program.write_text("q1,q2,q3,q4\n10,45,-30,20\n-60,-90,40,0\n")
+    out = tmp_path / "corrected.csv"
+    assert main(["compensate", "--robot", str(model_file), "--identified",
+                 str(tmp_path / "result.json"), "--joints", str(program), "--out",
+                 str(out)]) == 0
+    lines = out.read_text().splitlines()
+    assert lines[0] == "q1,q2,q3,q4,status,error_mm"
+    assert [line.split(",")[4] for line in lines[1:]] == [STATUS_OK, STATUS_OK]
+    corrected = np.deg2rad([[float(v) for v in line.split(",")[:4]] for line in lines[1:]])
+    wanted = robot.flange_positions(np.deg2rad([[10, 45, -30, 20], [-60, -90, 40, 0]]))
+    np.testing.assert_allclose(result.identified_robot.flange_positions(corrected), wanted,
+                               atol=5e-8)

@@ -13,6 +13,7 @@ BLOCK = re.compile(r"<!-- BEGIN GENERATED (?P<name>[\w-]+) -->\n(?P<body>.*?)"
 EXPECTED = {
     "methods.md": {"protocols", "m9-bipso-stage", "bench-solvers", "bench-calibration"},
     "studies.md": {"paper-replica", "regimes", "bench-study"},
+    "robots.md": {"parametrisation"},
 }
 
 

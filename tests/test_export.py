@@ -15,8 +15,9 @@ from twin.cli import main
 from twin.dataset import Measurements
 from twin.export import FORMATS, export_text
 from twin.io.results import result_to_dict, write_json
+from twin.io.robot_file import load_robot
 from twin.kinematics import flange_transform
-from twin.robot import RobotModel, load_robot, parse_robot
+from twin.robot import RobotModel, parse_robot
 
 N_POSES = 1000
 
@@ -61,10 +62,10 @@ def test_dh_export_reads_back(identified: RobotModel, poses: np.ndarray) -> None
 
 
 def test_urdf_export_loads_in_pinocchio(identified: RobotModel, poses: np.ndarray) -> None:
-    """Pinocchio loads the URDF; its `flange` frame equals the identified FK to 1e-9 m."""
+    """Pinocchio loads the URDF; its `tool0` frame equals the identified FK to 1e-9 m."""
     model = pin.buildModelFromXML(export_text(identified, "urdf"))
     data = model.createData()
-    frame = model.getFrameId("flange")
+    frame = model.getFrameId("tool0")
     assert frame < model.nframes
     found = []
     for q in poses:
@@ -109,7 +110,9 @@ def test_export_cli_writes_each_format(
                                    atol=np.deg2rad(1.1e-6))
         assert exported.name == f"{irb120.name} (identified)"
     elif format_name == "urdf":
-        assert pin.buildModelFromUrdf(str(out)).existFrame("flange")
+        assert pin.buildModelFromUrdf(str(out)).existFrame("tool0")
+    elif format_name == "yaml":
+        assert "kinematics:" in out.read_text() and "joint_6:" in out.read_text()
     else:
         assert mujoco.MjModel.from_xml_path(str(out)).site("flange").id >= 0
 
@@ -124,5 +127,5 @@ def test_export_cli_rejects_unknown_format(
     out = tmp_path / "out.sdf"
     assert main(["export", str(result), "--format", "sdf", "--out", str(out)]) == 2
     error = capsys.readouterr().err.strip()
-    assert error.count("\n") == 0 and "one of dh, urdf, mjcf" in error
+    assert error.count("\n") == 0 and "one of dh, urdf, yaml, mjcf" in error
     assert not out.exists()

@@ -26,7 +26,8 @@ from twin.dataset import Measurements
 from twin.io.atomic import write_atomic
 from twin.io.measurements import load_plan
 from twin.io.results import result_to_dict
-from twin.robot import RobotModel, load_robot, robot_to_toml
+from twin.io.robot_file import load_robot
+from twin.robot import RobotModel, robot_to_toml
 
 PORT = "600,-400,100"
 

@@ -17,6 +17,8 @@ from twin.kinematics import (
     frames,
     point_jacobian,
     point_position,
+    rigid_transform,
+    xyz_rpy,
 )
 from twin.robot import RobotModel, default_robot
 from twin.synthetic import random_poses
@@ -202,3 +204,19 @@ def test_structure_names_and_units() -> None:
     bent[0, 0] = 2.0
     with pytest.raises(ValueError, match="not a rigid transform"):
         Structure(("dh",), base=bent)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-np.pi, np.pi), min_size=3, max_size=3),
+       st.sampled_from([None, np.pi / 2, -np.pi / 2, np.pi / 2 - 1e-7]))
+def test_rpy_round_trip_matches_scipy(rpy: list[float], pitch: float | None) -> None:
+    """rigid_transform is URDF's fixed-axis roll-pitch-yaw (scipy's extrinsic "xyz"), and
+    xyz_rpy gives angles that rebuild the same transform, at and next to gimbal lock."""
+    if pitch is not None:
+        rpy[1] = pitch
+    transform = rigid_transform([0.1, -0.2, 0.3], rpy)
+    np.testing.assert_allclose(transform[:3, :3], Rotation.from_euler("xyz", rpy).as_matrix(),
+                               rtol=0.0, atol=1e-15)
+    xyz, back = xyz_rpy(transform)
+    assert abs(back[1]) <= np.pi / 2
+    np.testing.assert_allclose(rigid_transform(xyz, back), transform, rtol=0.0, atol=1e-11)

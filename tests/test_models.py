@@ -1,4 +1,5 @@
-"""Every file in models/ loads; every MJCF steps without a MuJoCo warning."""
+"""Every model in models/ loads and steps in MuJoCo without a warning, and every shipped MJCF is
+what the twin's builder makes of its robot."""
 
 from __future__ import annotations
 
@@ -8,32 +9,57 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.robot import load_robot
+from twin.io.robot_file import load_robot
+from twin.robot import MAX_JOINTS, MIN_JOINTS
 from twin.sim import load_scenario
+from twin.sim.builder import build_spec
 from twin.synthetic import random_poses
 
 MODELS = Path(__file__).parents[1] / "models"
-ROBOT_FILES = sorted(MODELS.rglob("*.toml"))
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+ROBOT_FILES = sorted([*MODELS.rglob("*.toml"), *MODELS.rglob("*.urdf")])
 MJCF_FILES = sorted(MODELS.rglob("*.xml"))
-PAPER = Path(__file__).parents[1] / "scenarios" / "paper_irb120.toml"
+BUILT = {"irb120": "paper_irb120", "ur5e": "geometric_ur5e", "fr3": "geometric_fr3",
+         "scara4": "geometric_scara4"}
+"""Each models/<robot>/<robot>.xml and the scenario whose port (and servos) it was made with."""
 
 
 def test_every_file_in_models_is_checked() -> None:
-    """models/ holds only robot TOML, MJCF and READMEs, and the IRB 120 is among them."""
+    """models/ holds only robot TOML, URDF, MJCF and READMEs; the IRB 120, a UR5e, a 7-axis
+    arm and a 4-axis chain are among them, each in its folder with a README."""
     others = [p for p in MODELS.rglob("*") if p.is_file()
-              and p.suffix not in (".toml", ".xml") and p.name != "README.md"]
+              and p.suffix not in (".toml", ".urdf", ".xml") and p.name != "README.md"]
     assert others == []
     assert MODELS / "irb120.toml" in ROBOT_FILES
     assert {MODELS / "irb120" / "irb120.xml", MODELS / "irb120" / "scene.xml"} <= set(MJCF_FILES)
+    assert {len(load_robot(path).joint_names) for path in ROBOT_FILES} >= {4, 6, 7}
+    for name in BUILT:
+        assert (MODELS / name / "README.md").is_file()
+        assert (MODELS / name / "scene.xml") in MJCF_FILES
 
 
-@pytest.mark.parametrize("path", ROBOT_FILES, ids=lambda p: p.name)
-def test_robot_files_load(path: Path) -> None:
-    """Each robot model file validates."""
-    assert load_robot(path).n_joints == 6
+def _assert_no_warnings(data: mujoco.MjData) -> None:
+    warnings = {mujoco.mjtWarning(i).name: w.number for i, w in enumerate(data.warning)
+                if w.number}
+    assert warnings == {}
+    assert np.all(np.isfinite(data.qpos))
 
 
-@pytest.mark.parametrize("path", MJCF_FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", ROBOT_FILES, ids=lambda p: p.relative_to(MODELS).as_posix())
+def test_robot_files_load_and_step(path: Path) -> None:
+    """Each robot file (model TOML or URDF) validates with 4 to 7 joints, and the twin built
+    from it (floor, port, cable) compiles and steps 1 s from its home pose without a MuJoCo
+    warning."""
+    robot = load_robot(path)
+    assert MIN_JOINTS <= robot.n_joints <= MAX_JOINTS
+    model = build_spec(robot, [0.6, -0.4, 0.1], floor=True).compile()
+    data = mujoco.MjData(model)
+    data.qpos[:] = np.clip(0.0, robot.lower_rad, robot.upper_rad)
+    mujoco.mj_step(model, data, nstep=round(1.0 / model.opt.timestep))
+    _assert_no_warnings(data)
+
+
+@pytest.mark.parametrize("path", MJCF_FILES, ids=lambda p: p.relative_to(MODELS).as_posix())
 def test_mjcf_steps_without_warnings(path: Path) -> None:
     """Each MJCF compiles and steps 1 s from its home pose with no simulator warning."""
     model = mujoco.MjModel.from_xml_path(str(path))
@@ -41,19 +67,17 @@ def test_mjcf_steps_without_warnings(path: Path) -> None:
     if model.nu:
         data.ctrl[:] = 0.0
     mujoco.mj_step(model, data, nstep=round(1.0 / model.opt.timestep))
-    warnings = {mujoco.mjtWarning(i).name: w.number for i, w in enumerate(data.warning)
-                if w.number}
-    assert warnings == {}
-    assert np.all(np.isfinite(data.qpos))
+    _assert_no_warnings(data)
 
 
-def test_irb120_mjcf_is_the_builders_model() -> None:
-    """irb120.xml is what the builder makes of models/irb120.toml with the paper scenario's
-    port and servos: its flange equals the core's FK to 1e-9 m and its port,
-    stiffness and masses are the scenario's and the model file's."""
-    scenario = load_scenario(PAPER)
+@pytest.mark.parametrize("name", list(BUILT))
+def test_mjcf_is_the_builders_model(name: str) -> None:
+    """models/<robot>/<robot>.xml is what the builder makes of the robot with its scenario's
+    port (and, for the IRB 120, the paper scenario's servos): its flange equals the core's FK to
+    1e-9 m, its port is the scenario's, its link masses the model's."""
+    scenario = load_scenario(SCENARIOS / f"{BUILT[name]}.toml")
     robot = scenario.robot
-    model = mujoco.MjModel.from_xml_path(str(MODELS / "irb120" / "irb120.xml"))
+    model = mujoco.MjModel.from_xml_path(str(MODELS / name / f"{name}.xml"))
     data = mujoco.MjData(model)
     q = random_poses(robot, 200, np.random.default_rng(0))
     site = model.site("flange").id
@@ -65,8 +89,9 @@ def test_irb120_mjcf_is_the_builders_model() -> None:
         assert np.allclose(data.site_xmat[site].reshape(3, 3), expected[:3, :3], rtol=0,
                            atol=1e-9)
     assert np.allclose(model.site_pos[model.site("port").id], scenario.port_m)
-    assert scenario.physics.stiffness_nm_per_rad is not None
-    assert np.allclose(model.actuator_gainprm[:6, 0], scenario.physics.stiffness_nm_per_rad)
+    stiffness = scenario.physics.stiffness_nm_per_rad
+    if stiffness is not None:
+        assert np.allclose(model.actuator_gainprm[:robot.n_joints, 0], stiffness)
     assert robot.mass_kg is not None
-    assert np.allclose(model.body_mass[1:], robot.mass_kg, rtol=1e-5)
+    np.testing.assert_allclose(model.body_mass[1:], robot.mass_kg, rtol=1e-5)
     assert model.tendon("cable").id == 0

@@ -1,23 +1,26 @@
-"""The Pinocchio bridge agrees with the core's forward kinematics."""
+"""The Pinocchio bridge agrees with the core's forward kinematics, for every parametrisation."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from twin.pinocchio_bridge import FLANGE_FRAME, build_model, robot_to_urdf
+from twin.io.robot_file import load_robot
+from twin.pinocchio_bridge import FLANGE_FRAME, build_model, urdf_flange
 from twin.robot import RobotModel, default_robot
 
 N_POSES = 1000
+MODELS = Path(__file__).resolve().parents[1] / "models"
 
 
-def _perturbed_robot(seed: int) -> RobotModel:
-    """The IRB 120 with D-H errors of a few mm / degrees, so no entry is special."""
+def _perturbed(robot: RobotModel, seed: int) -> RobotModel:
+    """A robot with table errors of a few mm / degrees, so no entry is special."""
     rng = np.random.default_rng(seed)
-    robot = default_robot()
-    scale = np.repeat([3e-3, 3e-3, np.deg2rad(3.0), np.deg2rad(3.0)], robot.n_joints)
-    return robot.perturbed(rng.uniform(-1.0, 1.0, 4 * robot.n_joints) * scale)
+    scale = np.where(robot.is_length, 3e-3, np.deg2rad(3.0))
+    return robot.perturbed(rng.uniform(-1.0, 1.0, scale.shape) * scale)
 
 
 def _random_poses(robot: RobotModel, seed: int) -> np.ndarray:
@@ -41,28 +44,40 @@ def _assert_same_poses(ours: np.ndarray, theirs: np.ndarray) -> None:
     np.testing.assert_allclose(theirs[:, :3, :3], ours[:, :3, :3], rtol=0.0, atol=1e-9)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_build_model_flange_matches_core(seed: int) -> None:
-    """Pinocchio's flange frame equals flange_transform to 1e-9 m and 1e-9 on 1000 poses."""
-    robot = default_robot() if seed == 0 else _perturbed_robot(seed)
-    q = _random_poses(robot, seed)
+ROBOTS = {
+    "irb120": default_robot,
+    "irb120 perturbed": lambda: _perturbed(default_robot(), 1),
+    "irb120 mdh perturbed": lambda: _perturbed(default_robot().reparametrised("mdh"), 2),
+    "ur5e auto perturbed": lambda: _perturbed(load_robot(MODELS / "ur5e" / "ur5e.urdf"), 3),
+    "fr3 auto perturbed": lambda: _perturbed(load_robot(MODELS / "fr3" / "fr3.urdf"), 4),
+}
+
+
+@pytest.mark.parametrize("name", list(ROBOTS))
+def test_build_model_flange_matches_core(name: str) -> None:
+    """Pinocchio's flange frame equals flange_transform to 1e-9 m and 1e-9 on 1000 poses, for
+    standard and modified D-H, Hayati joints and base and tool transforms."""
+    robot = ROBOTS[name]()
+    q = _random_poses(robot, 0)
     _assert_same_poses(robot.flange_transforms(q), _pinocchio_flange(build_model(robot), q))
 
 
-def test_build_model_carries_limits() -> None:
-    """The Pinocchio model has one revolute joint per D-H row and the robot's limits."""
-    robot = default_robot()
+def test_build_model_carries_limits_and_names() -> None:
+    """The Pinocchio model has one revolute joint per table column, the robot's limits and
+    joint names."""
+    robot = load_robot(MODELS / "ur5e" / "ur5e.urdf")
     model = build_model(robot)
     assert model.nq == robot.n_joints
+    assert tuple(model.names)[1:] == robot.joint_names
     np.testing.assert_array_equal(model.lowerPositionLimit, robot.lower_rad)
     np.testing.assert_array_equal(model.upperPositionLimit, robot.upper_rad)
 
 
-def test_urdf_loads_in_pinocchio_and_matches_core() -> None:
-    """The URDF text loads in Pinocchio and its `flange` frame equals the core's FK."""
-    robot = _perturbed_robot(7)
-    model = pin.buildModelFromXML(robot_to_urdf(robot))
-    assert model.nq == robot.n_joints
-    q = _random_poses(robot, 7)
-    _assert_same_poses(robot.flange_transforms(q), _pinocchio_flange(model, q))
-    np.testing.assert_allclose(model.lowerPositionLimit, robot.lower_rad, rtol=0, atol=1e-15)
+def test_urdf_flange_is_pinocchio_of_the_document() -> None:
+    """urdf_flange of a URDF equals the bridge's model of the robot read from it."""
+    robot = load_robot(MODELS / "ur5e" / "ur5e.urdf")
+    assert robot.urdf is not None
+    q = _random_poses(robot, 5)[:200]
+    found = urdf_flange(robot.urdf.text, robot.joint_names, q, robot.urdf.tip_link,
+                        robot.urdf.base_link)
+    _assert_same_poses(_pinocchio_flange(build_model(robot), q), found)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.robot import RobotModel, load_robot, parse_robot, robot_to_toml
+from twin.io.robot_file import load_robot
+from twin.robot import RobotModel, parse_robot, robot_files, robot_to_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -61,7 +62,8 @@ JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper
         (BASE.replace('"mm"', '"inch"') + f"joints = [{', '.join([JOINT] * 6)}]", "length_unit"),
         (BASE.replace('length_unit = "mm"\n', "") + f"joints = [{', '.join([JOINT] * 6)}]",
          "no 'length_unit'"),
-        (BASE + f"joints = [{', '.join([JOINT] * 5)}]", "5 joints"),
+        (BASE + f"joints = [{', '.join([JOINT] * 3)}]", "3 joints"),
+        (BASE + f"joints = [{', '.join([JOINT] * 8)}]", "8 joints"),
         (BASE + f"joints = [{', '.join([JOINT.replace('290.0', 'nan')] + [JOINT] * 5)}]",
          "joint 1: found d = nan"),
         (BASE + f"joints = [{', '.join([JOINT.replace('a = 0.0', 'b = 0.0')] + [JOINT] * 5)}]",
@@ -70,6 +72,17 @@ JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper
         (BASE + f"joints = [{', '.join([JOINT.replace('-165.0', '170.0')] + [JOINT] * 5)}]",
          "lower < upper"),
         (BASE.replace('"dh"', '"mdh"') + f"joints = [{', '.join([JOINT] * 6)}]", "convention"),
+        (BASE.replace('convention = "dh"', 'parametrisation = ["mdh", "dh", "dh", "dh", "dh", '
+                      '"dh"]') + f"joints = [{', '.join([JOINT] * 6)}]", "whole chain"),
+        (BASE.replace('convention = "dh"', 'parametrisation = "craig"')
+         + f"joints = [{', '.join([JOINT] * 6)}]", "parametrisation = 'craig'"),
+        (BASE.replace('convention = "dh"', 'parametrisation = ["hayati", "dh", "dh", "dh", '
+                      '"dh", "dh"]') + f"joints = [{', '.join([JOINT] * 6)}]",
+         "joint 1: found unknown key 'd', expected only a, beta"),
+        (BASE + f"joints = [{', '.join([JOINT] * 6)}]\nbase = {{ xyz = [1.0, 2.0] }}",
+         "base: found"),
+        (BASE + f"joints = [{', '.join([JOINT.replace(' }', ', velocity = -1.0 }')] * 6)}]",
+         "velocity = -1.0"),
         ("joints = [", "invalid TOML"),
     ],
 )
@@ -86,3 +99,90 @@ def test_missing_model_file(tmp_path: Path) -> None:
     """A missing file is named."""
     with pytest.raises(InputError, match="no such file"):
         load_robot(tmp_path / "nope.toml")
+
+
+SIX = "\n".join([
+    "  { a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper = 165.0 },",
+    "  { a = 270.0, d = 0.0, alpha = 0.0, theta = -90.0, lower = -110.0, upper = 110.0 },",
+    "  { a = 70.0, d = 0.0, alpha = -90.0, theta = 0.0, lower = -110.0, upper = 70.0 },",
+    "  { a = 0.0, d = 302.0, alpha = 90.0, theta = 0.0, lower = -160.0, upper = 160.0 },",
+    "  { a = 0.0, d = 0.0, alpha = -90.0, theta = 0.0, lower = -120.0, upper = 120.0 },",
+    "  { a = 0.0, d = 72.0, alpha = 0.0, theta = 0.0, lower = -400.0, upper = 400.0 },",
+])
+
+
+def _model(tmp_path: Path, header: str, rows: str = SIX, tail: str = "") -> RobotModel:
+    path = tmp_path / "robot.toml"
+    path.write_text('name = "x"\nlength_unit = "mm"\nangle_unit = "deg"\n' + header
+                    + f"\njoints = [\n{rows}\n]\n" + tail)
+    return load_robot(path)
+
+
+def test_auto_makes_parallel_axes_hayati_with_the_same_flange(tmp_path: Path) -> None:
+    """parametrisation = "auto" reads standard D-H rows and turns joint 2 of the IRB 120 (axes
+    2 and 3 parallel) into a Hayati joint; the flange stays where the D-H rows put it."""
+    dh = _model(tmp_path, 'parametrisation = "dh"')
+    auto = _model(tmp_path, 'parametrisation = "auto"')
+    assert dh.structure.parametrisation == ("dh",) * 6
+    assert auto.structure.parametrisation == ("dh", "hayati", "dh", "dh", "dh", "dh")
+    assert not auto.is_length[1, 1] and auto.structure.parameter_names[7] == "beta2"
+    q = np.random.default_rng(0).uniform(dh.lower_rad, dh.upper_rad, (200, 6))
+    np.testing.assert_allclose(auto.flange_transforms(q), dh.flange_transforms(q), atol=1e-12)
+
+
+def test_rows_in_their_own_parametrisation_with_ends_round_trip(tmp_path: Path) -> None:
+    """A list of parametrisations takes each row in its own slots (a Hayati row's beta is an
+    angle); base and tool are xyz (mm) and rpy (deg) transforms; velocity and effort are read.
+    robot_to_toml writes it all back and reads back to the same bytes."""
+    lines = SIX.replace("{ a = 270.0, d = 0.0,", "{ a = 270.0, beta = 0.5,").splitlines()
+    limits = [", velocity = 250.0, effort = 40.0 },"] * 5 + [", velocity = 420.0, effort = 2.5 },"]
+    rows = "\n".join(line[:-3] + extra for line, extra in zip(lines, limits, strict=True))
+    robot = _model(tmp_path, 'parametrisation = ["dh", "hayati", "dh", "dh", "dh", "dh"]', rows,
+                   "base = { xyz = [10.0, 0.0, 5.0], rpy = [0.0, 0.0, 90.0] }\n"
+                   "tool = { xyz = [0.0, 0.0, 25.0], rpy = [180.0, 0.0, 0.0] }\n")
+    assert robot.dh[1, 1] == pytest.approx(np.deg2rad(0.5), abs=1e-15)
+    np.testing.assert_allclose(robot.structure.base[:3, 3], [0.01, 0.0, 0.005])
+    np.testing.assert_allclose(robot.structure.tool[:3, :3], np.diag([1.0, -1.0, -1.0]),
+                               atol=1e-15)
+    assert robot.velocity_rad_s is not None and robot.effort_nm is not None
+    np.testing.assert_allclose(robot.effort_nm, [40.0] * 5 + [2.5])
+    text = robot_to_toml(robot)
+    path = tmp_path / "again.toml"
+    path.write_text(text)
+    back = load_robot(path)
+    assert robot_to_toml(back) == text
+    q = np.random.default_rng(1).uniform(-1.0, 1.0, (50, 6))
+    np.testing.assert_allclose(back.flange_transforms(q), robot.flange_transforms(q), atol=1e-9)
+
+
+@pytest.mark.parametrize("n", [4, 7])
+def test_four_to_seven_joints(tmp_path: Path, n: int) -> None:
+    """Chains of 4 and 7 joints are robots like any other."""
+    rows = "\n".join(SIX.splitlines()[:n] if n <= 6 else SIX.splitlines() + SIX.splitlines()[-1:])
+    robot = _model(tmp_path, 'parametrisation = "mdh"', rows)
+    assert robot.n_joints == n and robot.structure.parametrisation == ("mdh",) * n
+    assert robot.joint_names == tuple(f"joint_{i}" for i in range(1, n + 1))
+
+
+def test_a_model_file_may_name_a_urdf(tmp_path: Path) -> None:
+    """urdf = "…" reads the URDF (relative to the file) with the links and parametrisation
+    given; robot_files writes such a robot as the URDF and a file naming it, which reads back to
+    the same robot."""
+    source = ROOT / "models" / "ur5e" / "ur5e.urdf"
+    (tmp_path / "arm.urdf").write_text(source.read_text())
+    (tmp_path / "arm.toml").write_text('urdf = "arm.urdf"\nname = "my UR5e"\n'
+                                       'tip_link = "flange"\nparametrisation = "dh"\n')
+    robot = load_robot(tmp_path / "arm.toml")
+    assert robot.name == "my UR5e" and robot.urdf is not None
+    assert robot.urdf.tip_link == "flange" and robot.structure.parametrisation == ("dh",) * 6
+    files = robot_files(robot, "copy")
+    assert set(files) == {"copy.toml", "copy.urdf"}
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    back = load_robot(tmp_path / "copy.toml")
+    np.testing.assert_array_equal(back.dh, robot.dh)
+    assert back.name == robot.name and back.urdf is not None
+    assert (back.urdf.text, back.urdf.tip_link, back.urdf.joint_names) == (
+        robot.urdf.text, robot.urdf.tip_link, robot.urdf.joint_names)
+    with pytest.raises(ValueError, match="reference"):
+        robot_to_toml(robot)

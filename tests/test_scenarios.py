@@ -107,3 +107,24 @@ def test_units_are_converted_once() -> None:
     assert scenario.joint_errors.harmonic.tolist() == [1, 1, 1, 2, 2, 2]
     assert scenario.physics.stiffness_nm_per_rad is not None
     assert scenario.train_fraction == 0.8
+
+
+def test_perturbation_draws_each_slot_in_its_unit() -> None:
+    """On a robot with Hayati joints (the UR5e from its URDF: joints 2 and 3) the second slot
+    is β there, an angle: it draws from beta_deg (by default alpha_deg), never from d_mm, and is
+    clipped to ±8°, the lengths to ±5 mm."""
+    path = Path(__file__).parents[1] / "scenarios" / "geometric_ur5e.toml"
+    document = tomllib.loads(path.read_text())
+    scenario = parse_scenario(document, path)
+    hayati = ~scenario.robot.is_length[1]
+    assert list(np.flatnonzero(hayati)) == [1, 2]
+    scale = scenario.perturbation.scale
+    np.testing.assert_allclose(scale[1, hayati], np.deg2rad(0.2))  # alpha_deg's
+    np.testing.assert_allclose(scale[1, ~hayati], 1.5e-3)
+    document["perturbation"].update(beta_deg=20.0, d_mm=20.0)
+    wide = parse_scenario(document, path)
+    np.testing.assert_allclose(wide.perturbation.scale[1, hayati], np.deg2rad(20.0))
+    delta = wide.perturbation.draw(np.random.default_rng(0))
+    assert np.all(np.abs(delta[1, ~hayati]) <= 5e-3 + 1e-15)
+    assert np.all(np.abs(delta[1, hayati]) <= np.deg2rad(8.0) + 1e-15)
+    assert np.any(np.abs(delta[1, hayati]) > 5e-3)  # an angle, not clipped as a length

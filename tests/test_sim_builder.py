@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
 
+from twin.io.robot_file import load_robot
 from twin.kinds.length import cable_length
 from twin.robot import RobotModel, default_robot
 from twin.sim import Physics, build_spec
@@ -14,6 +18,7 @@ from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
 PORT_M = np.array([0.6, -0.4, 0.1])
+MODELS = Path(__file__).resolve().parents[1] / "models"
 
 
 def _general_arm(rng: np.random.Generator) -> RobotModel:
@@ -47,11 +52,29 @@ def _mujoco_flange(robot: RobotModel, q_rad: np.ndarray) -> tuple[np.ndarray, np
     return poses, lengths
 
 
-@pytest.mark.parametrize("make", [lambda rng: default_robot(), _perturbed_irb120, _general_arm])
+def _other_arm(path: str, request: str | None = None) -> Callable[[np.random.Generator],
+                                                                  RobotModel]:
+    """A shipped model (URDF or TOML), optionally re-expressed, perturbed in its own units."""
+    def make(rng: np.random.Generator) -> RobotModel:
+        robot = load_robot(MODELS / path)
+        if request is not None:
+            robot = robot.reparametrised(request)
+        scale = np.where(robot.is_length, 2e-3, 0.02)
+        return robot.perturbed(rng.uniform(-1.0, 1.0, scale.shape) * scale)
+    return make
+
+
+@pytest.mark.parametrize("make", [
+    lambda rng: default_robot(), _perturbed_irb120, _general_arm,
+    _other_arm("irb120.toml", "mdh"), _other_arm("ur5e/ur5e.urdf"), _other_arm("fr3/fr3.urdf"),
+    _other_arm("scara4/scara4.toml"),
+], ids=["irb120", "irb120 perturbed", "general", "irb120 mdh", "ur5e auto", "fr3 7 axes",
+        "scara 4 axes"])
 def test_flange_site_and_cable_equal_core_model(make) -> None:
     """Over 1000 random poses the flange site's position (1e-9 m) and orientation, and the
     tendon length (1e-9 m), equal the core's FK and cable model, for the nominal IRB 120, an
-    IRB 120 perturbed up to the search bounds and a general arm."""
+    IRB 120 perturbed up to the search bounds, a general arm, and perturbed arms of 4 to 7
+    joints in modified D-H, Hayati and standard D-H with base and tool transforms."""
     rng = np.random.default_rng(11)
     robot = make(rng)
     q = random_poses(robot, 1000, rng)

@@ -14,10 +14,10 @@ from twin.cli import main
 from twin.errors import InputError
 from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements
+from twin.io.robot_file import load_robot
 from twin.io.truth import load_truth_delta
 from twin.kinds.length import cable_length
 from twin.rig import Rig
-from twin.robot import load_robot
 from twin.sim import load_scenario, parse_scenario, simulate, write_simulation
 from twin.stopping import Budget
 from twin.synthetic import random_poses

@@ -301,3 +301,34 @@ def test_serve_prints_the_url_and_serves_until_interrupted(capture: Path, tmp_pa
     for port in (web_port, grpc_port):
         with socket.socket() as probe:  # the server we started is gone: nothing listens
             assert probe.connect_ex(("127.0.0.1", port)) != 0
+
+
+def test_an_arm_from_a_urdf_with_hayati_joints_records(tmp_path: Path) -> None:
+    """Any arm records: a UR5e read from its URDF (Hayati joints 2 and 3) simulated and
+    calibrated with --rerun-save shows each robot as its frame origins 0..6 (and the flange
+    when the tool transform moves it), and its table errors as bars in their own units — d in
+    mm, the Hayati β apart in degrees — true and identified alike."""
+    out = tmp_path / "ur5e"
+    assert main(["simulate", str(ROOT / "scenarios" / "geometric_ur5e.toml"), "--out",
+                 str(out)]) == 0
+    rrd = tmp_path / "ur5e.rrd"
+    assert main(["calibrate", str(out / "capture.toml"), "--rerun-save", str(rrd)]) == 0
+    loaded = load_capture(out / "capture.toml")
+    robot = loaded.robot
+    assert loaded.truth is not None
+    truth = load_truth_delta(loaded.truth, 6, robot.is_length)
+    batches = read_rrd(rrd)
+    measurements = load_measurements(loaded.measurements, robot)
+    strips = np.array([row[0] for row in column(batches, entities.robot("true"),
+                                                "LineStrips3D:strips")])
+    chain = frames(robot.structure, robot.dh + truth, measurements.q_rad)
+    expected = np.concatenate([chain.origins, chain.flange[..., None, :3, 3]], axis=-2) \
+        if np.linalg.norm(robot.structure.tool[:3, 3]) > 1e-9 else chain.origins
+    np.testing.assert_allclose(strips, expected.astype(np.float32), atol=1e-6)
+    hayati = ~robot.is_length[1]
+    (beta,) = column(batches, entities.parameter_bars(None, "beta"), "BarChart:values")[0]
+    (d,) = column(batches, entities.parameter_bars(None, "d"), "BarChart:values")[0]
+    np.testing.assert_allclose(np.asarray(beta["buffer"])[hayati], np.rad2deg(truth[1, hayati]))
+    np.testing.assert_allclose(np.asarray(d["buffer"])[~hayati], truth[1, ~hayati] * 1e3)
+    assert not np.any(np.asarray(d["buffer"])[hayati])
+    assert column(batches, entities.parameter_bars("lm", "beta"), "BarChart:values")

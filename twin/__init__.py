@@ -9,12 +9,13 @@ from twin.calibration import CalibrationResult, calibrate, calibrate_many
 from twin.dataset import Measurements
 from twin.errors import InputError, TwinError, UnknownChoiceError
 from twin.io.measurements import load_measurements, write_measurements
+from twin.io.robot_file import load_robot
 from twin.kinds.length import cable_length
 from twin.kinematics import Structure, flange_transform, point_jacobian, point_position
 from twin.metrics import Metrics
 from twin.model import Model
 from twin.rig import Rig
-from twin.robot import RobotModel, default_robot, load_robot
+from twin.robot import RobotModel, default_robot
 from twin.stopping import Budget, StopReason
 
 __all__ = [

@@ -5,11 +5,16 @@ once (no loop over rows):
 
 - a **program** (joint angles written against the nominal model): the target is the full
   nominal flange pose ``base_T_flange = FK_nominal(q)``; solve position and orientation on the
-  identified model (6 equations, 6 joints), seeded from q itself;
+  identified model (6 equations; 6 joints, or 7 with the minimum-norm step), seeded from q
+  itself. An arm of 4 or 5 joints cannot give its flange an arbitrary pose: its program is
+  compensated for the flange **position** alone (3 equations, the remaining freedom taken by the
+  minimum-norm step, so the orientation stays next to the program's), and the rotation left
+  between the identified flange and the program's nominal one is reported
+  (``rotation_error_rad``) rather than solved;
 - **Cartesian targets** (flange positions only): first a nominal solution (position-only IK on
   the nominal model from a few joint-space starts, see :func:`nominal_ik`), then position-only
-  IK on the identified model seeded from it. With 3 equations and 6 joints the Newton step is
-  the minimum-norm one, so the corrected joints stay next to the nominal ones and the flange
+  IK on the identified model seeded from it. With 3 equations and 4 to 7 joints the Newton step
+  is the minimum-norm one, so the corrected joints stay next to the nominal ones and the flange
   orientation stays close to the nominal solution's.
 
 Each step is ``Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e`` with e the position error (m) and, for full poses, the
@@ -53,8 +58,11 @@ STATUS_JOINT_LIMIT = "joint_limit"
 
 NOMINAL_STARTS = (16, 256)
 """Joint-space starts per target in each round of :func:`nominal_ik`."""
-HOME_RAD = np.deg2rad([0.0, 0.0, 0.0, 0.0, 30.0, 0.0])
-"""Reference posture of :func:`nominal_ik` (q5 off zero, away from the wrist singularity)."""
+HOME_WRIST_RAD = np.deg2rad(30.0)
+"""The second-to-last joint's angle in the reference posture (:func:`home_pose`)."""
+FULL_POSE_JOINTS = 6
+"""Joints an arm needs to take any flange pose: fewer, and a program is compensated for the
+flange position alone."""
 
 
 DEXTERITY_LENGTH_M = 0.3
@@ -96,6 +104,15 @@ class IKResult(NamedTuple):
     def ok(self) -> NDArray[np.bool_]:
         """Converged and within limits, shape (m,)."""
         return self.converged & self.within_limits
+
+
+def home_pose(robot: RobotModel) -> Array:
+    """Reference posture of :func:`nominal_ik`, shape (n,), rad: every joint at 0 but the
+    second-to-last at 30° (off the aligned-wrist singularity of a 6-axis arm: q5 of the IRB
+    120), each brought within its limits."""
+    home = np.zeros(robot.n_joints)
+    home[-2] = HOME_WRIST_RAD
+    return np.asarray(np.clip(home, robot.lower_rad, robot.upper_rad), dtype=np.float64)
 
 
 def _errors(
@@ -199,12 +216,13 @@ def _best_of_starts(
     """Position-only IK from the home posture and n_starts − 1 random ones; per target the ok
     solution closest to home (the home-start result when none is ok)."""
     m = len(base_p_target)
+    home = home_pose(robot)
     starts = rng.uniform(robot.lower_rad, robot.upper_rad, (n_starts, m, robot.n_joints))
-    starts[0] = HOME_RAD
+    starts[0] = home
     solved = solve_ik(robot, np.tile(base_p_target, (n_starts, 1)),
                       starts.reshape(-1, robot.n_joints))
     ok = solved.ok.reshape(n_starts, m)
-    distance = np.linalg.norm(solved.q_rad.reshape(n_starts, m, -1) - HOME_RAD, axis=-1)
+    distance = np.linalg.norm(solved.q_rad.reshape(n_starts, m, -1) - home, axis=-1)
     pick = np.argmin(np.where(ok, distance, np.inf), axis=0)
     rows = pick * m + np.arange(m)
     return IKResult(
@@ -269,11 +287,18 @@ def compensate_program(
 
     Returns:
         Angles whose identified flange pose (position and orientation) equals the nominal
-        flange pose of the program.
+        flange pose of the program; for an arm of fewer than :data:`FULL_POSE_JOINTS` joints,
+        whose flange position does, with the rotation left reported in
+        ``rotation_error_rad``.
     """
     q = np.asarray(q_program_rad, dtype=np.float64)
     base_T_target = nominal.flange_transforms(q)
-    return solve_ik(identified, base_T_target[:, :3, 3], q, base_T_target[:, :3, :3])
+    if identified.n_joints >= FULL_POSE_JOINTS:
+        return solve_ik(identified, base_T_target[:, :3, 3], q, base_T_target[:, :3, :3])
+    solved = solve_ik(identified, base_T_target[:, :3, 3], q)
+    reached = identified.flange_transforms(solved.q_rad)[:, :3, :3]
+    left = Rotation.from_matrix(base_T_target[:, :3, :3] @ np.swapaxes(reached, -1, -2))
+    return solved._replace(rotation_error_rad=np.asarray(left.magnitude(), dtype=np.float64))
 
 
 def compensate_targets(
@@ -322,7 +347,10 @@ def dexterity(robot: RobotModel, q_rad: ArrayLike) -> Array:
     """Smallest singular value of the joint Jacobian, rotation rows scaled by 0.3 m.
 
     Zero at a singularity (stretched or folded elbow, aligned wrist axes); 0.3 m is the IRB 120's
-    scale, so linear and angular rows weigh alike.
+    scale, so linear and angular rows weigh alike. An arm of fewer than
+    :data:`FULL_POSE_JOINTS` joints is only ever asked for positions (see the module
+    docstring): its dexterity is that of the position rows alone (a SCARA's stretched elbow
+    loses a direction of the flange's position, not of its 6D motion).
 
     Args:
         robot: The robot, SI.
@@ -332,7 +360,10 @@ def dexterity(robot: RobotModel, q_rad: ArrayLike) -> Array:
         σ_min, shape (m,), m/rad.
     """
     _, jacobian = flange_jacobian(robot.structure, robot.dh, np.asarray(q_rad, dtype=np.float64))
-    jacobian[:, 3:] *= DEXTERITY_LENGTH_M
+    if robot.n_joints < FULL_POSE_JOINTS:
+        jacobian = jacobian[:, :3]
+    else:
+        jacobian[:, 3:] *= DEXTERITY_LENGTH_M
     return np.asarray(np.linalg.svd(jacobian, compute_uv=False)[:, -1])
 
 

@@ -384,3 +384,34 @@ def _compose(motions: tuple[tuple[int, int, int], ...], slots: Array) -> Array:
             step[j, j], step[j, k], step[k, j], step[k, k] = c, -s, s, c
         transform = transform @ step
     return transform
+
+
+def rigid_transform(xyz_m: ArrayLike, rpy_rad: ArrayLike) -> Array:
+    """The 4×4 transform of a URDF-style origin: translation xyz (m), then the fixed-axis
+    roll–pitch–yaw rotation R = Rz(yaw) · Ry(pitch) · Rx(roll) (rad)."""
+    roll, pitch, yaw = (float(v) for v in np.asarray(rpy_rad, dtype=np.float64))
+    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
+                              np.cos(yaw), np.sin(yaw))
+    transform = np.eye(4)
+    transform[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                         [-sp, cp * sr, cp * cr]]
+    transform[:3, 3] = np.asarray(xyz_m, dtype=np.float64)
+    return transform
+
+
+def xyz_rpy(transform: ArrayLike) -> tuple[Array, Array]:
+    """Inverse of :func:`rigid_transform`: ``(xyz (3,) m, rpy (3,) rad)``, pitch in
+    [−π/2, π/2]. At pitch ±π/2 (gimbal lock) only roll ∓ yaw is defined: yaw is set to 0, so
+    the rotation is still reproduced exactly."""
+    matrix = np.asarray(transform, dtype=np.float64)
+    rotation = matrix[:3, :3]
+    pitch = np.arctan2(-rotation[2, 0], np.hypot(rotation[0, 0], rotation[1, 0]))
+    if np.hypot(rotation[0, 0], rotation[1, 0]) > 1e-9:
+        roll = np.arctan2(rotation[2, 1], rotation[2, 2])
+        yaw = np.arctan2(rotation[1, 0], rotation[0, 0])
+    else:  # cos(pitch) ≈ 0: R = Rz(yaw) · Ry(±π/2) · Rx(roll) depends on roll ∓ yaw alone
+        yaw = 0.0
+        roll = np.arctan2(rotation[0, 1], rotation[1, 1]) if pitch > 0 \
+            else np.arctan2(-rotation[0, 1], rotation[1, 1])
+    return np.array(matrix[:3, 3], dtype=np.float64), np.array([roll, pitch, yaw])

@@ -10,8 +10,10 @@ from numpy.typing import NDArray
 from twin.calibration import CalibrationResult
 from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.metrics import Metrics
+from twin.parametrisation import PARALLEL_THRESHOLD_DEG
+from twin.robot import RobotModel
 from twin.solvers import get_solver
-from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm
+from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, slot_label
 
 MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the standard deviation.'
 
@@ -76,6 +78,19 @@ def format_stop(result: CalibrationResult) -> list[str]:
     return lines
 
 
+def format_parametrisation(robot: RobotModel) -> list[str]:
+    """One line saying which joints are not standard D-H (none for a standard D-H arm): what
+    the table's rows mean, and why a joint is Hayati."""
+    kinds = robot.structure.parametrisation
+    if set(kinds) == {"dh"}:
+        return []
+    hayati = [str(i + 1) for i, kind in enumerate(kinds) if kind == "hayati"]
+    why = (f"; Hayati joint(s) {', '.join(hayati)}: the next axis within "
+           f"{PARALLEL_THRESHOLD_DEG:g}° of parallel, beta (deg) in the d column") if hayati \
+        else ""
+    return [f"  joints 1..{len(kinds)}: " + ", ".join(kinds) + why]
+
+
 def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
     """Before/after metrics, run statistics and the identified D-H errors as a table.
 
@@ -102,17 +117,21 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         lines.append(f"  identified port: ({port}) mm")
     if result.model.has("offset"):
         lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
-    identified = dh_rows_to_display(result.delta)
-    truth = None if truth_delta is None else dh_rows_to_display(truth_delta)
+    is_length = result.robot.is_length
+    identified = dh_rows_to_display(result.delta, is_length)
+    truth = None if truth_delta is None else dh_rows_to_display(truth_delta, is_length)
     header = "  joint"
-    for key in DH_KEYS:
-        label = f"δ{key} [{display_unit(key)}]"
-        header += f"{label:>14}" + (f"{'true':>10}" if truth else "")
-    lines += ["", "Identified D-H errors" + (" (and the truth)" if truth else ""), header]
+    for key, lengths in zip(DH_KEYS, is_length, strict=True):
+        label = f"δ{slot_label(key, lengths)}"
+        header += f"{label:>{max(14, len(label) + 1)}}" + (f"{'true':>10}" if truth else "")
+    kinds = set(result.robot.structure.parametrisation)
+    errors = "D-H" if kinds == {"dh"} else "/".join(sorted(kinds))
+    lines += ["", f"Identified {errors} errors" + (" (and the truth)" if truth else ""),
+              *format_parametrisation(result.robot), header]
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
-        for key in DH_KEYS:
-            row += f"{identified[key][i]:>14.4f}"
+        for key, lengths in zip(DH_KEYS, is_length, strict=True):
+            row += f"{identified[key][i]:>{max(14, len(slot_label(key, lengths)) + 2)}.4f}"
             if truth:
                 row += f"{truth[key][i]:>10.4f}"
         lines.append(row)

@@ -1,19 +1,43 @@
-"""Robot description: a standard (distal) Denavit–Hartenberg table with joint limits.
+"""Robot description: a kinematic table with its parametrisation, joint limits and fixed ends.
 
 A model file is TOML, in mm and degrees (or m and rad, as declared)::
 
     name = "ABB IRB 120"
-    convention = "dh"
+    parametrisation = "dh"          # "dh" (default), "mdh", "auto", or one per joint
     length_unit = "mm"
     angle_unit = "deg"
     joints = [
       { a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper = 165.0 },
       ...
     ]
+    base = { xyz = [0.0, 0.0, 0.0], rpy = [0.0, 0.0, 0.0] }   # optional
+    tool = { xyz = [0.0, 0.0, 0.0], rpy = [0.0, 0.0, 0.0] }   # optional
 
-Joint ``i`` contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)``. Optional per-joint
-keys for the digital twin: ``mass`` (kg, of the link after the joint) and ``radius`` (length unit,
-of that link's capsule).
+From 4 to 7 joints. ``parametrisation`` says what a joint row means (:mod:`twin.kinematics`):
+
+- ``"dh"``: standard (distal) D-H, joint i contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) ·
+  Rx(alpha_i)`` — the paper's form;
+- ``"mdh"``: modified D-H (Craig), ``Rx(alpha) · Tx(a) · Rz(q + theta) · Tz(d)``;
+- a list of one of ``"dh"``, ``"mdh"``, ``"hayati"`` per joint: each row in its own
+  parametrisation; a Hayati row has ``beta`` (an angle) instead of ``d``;
+- ``"auto"``: the rows are standard D-H and give the geometry; the model converts them exactly
+  (same forward kinematics) to Hayati joints where consecutive axes are nearly parallel and
+  standard D-H elsewhere (:mod:`twin.parametrisation`).
+
+``base`` and ``tool`` are fixed transforms (xyz in the length unit, fixed-axis roll–pitch–yaw in
+the angle unit, as a URDF origin) before joint 1 and after the last joint's row. Optional
+per-joint keys: ``mass`` (kg, of the link after the joint) and ``radius`` (length unit, of
+that link's capsule) for the digital twin; ``velocity`` (angle unit per second) and ``effort``
+(N·m), the joint's rated limits, for exported URDFs.
+
+A model file may instead name a URDF (:mod:`twin.urdf`, through Pinocchio)::
+
+    urdf = "ur5e.urdf"               # relative to this file
+    base_link = "base_link"          # optional: the URDF's root link
+    tip_link = "tool0"               # optional: tool0, else flange, else the one leaf link
+    parametrisation = "auto"         # optional: "auto" (default), "dh", "mdh" or one per joint
+
+and a robot file given as ``--robot arm.urdf`` is read with those defaults.
 """
 
 from __future__ import annotations
@@ -21,6 +45,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
@@ -31,34 +56,76 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import frozen_array
 from twin.errors import InputError
-from twin.io.paths import read_toml
-from twin.kinematics import Structure, flange_transform, point_position
+from twin.kinematics import (
+    PARAMETRISATIONS,
+    SLOT_IS_LENGTH,
+    SLOT_NAMES,
+    Structure,
+    fixed_transforms,
+    flange_transform,
+    point_position,
+    rigid_transform,
+    xyz_rpy,
+)
+from twin.parametrisation import AUTO, REQUESTS, check_mix, convert, joint_frames
 from twin.units import (
     ANGLE_FACTORS,
-    DH_KEYS,
     FILE_DEG_DECIMALS,
     FILE_MM_DECIMALS,
     LENGTH_FACTORS,
     MAX_LENGTH_M,
-    dh_rows_rounded,
     m_to_mm,
     rad_to_deg,
     rounded,
 )
 
-N_JOINTS = 6
-_TOP_KEYS = ("name", "convention", "length_unit", "angle_unit", "joints")
-_REQUIRED_JOINT_KEYS = ("a", "d", "alpha", "theta", "lower", "upper")
-_OPTIONAL_JOINT_KEYS = ("mass", "radius")
+MIN_JOINTS, MAX_JOINTS = 4, 7
+"""Joints a model may have: the serial arms twin calibrates (a SCARA-like 4-axis arm to a
+7-axis arm)."""
+_TOP_KEYS = ("name", "parametrisation", "convention", "length_unit", "angle_unit", "joints",
+             "base", "tool")
+_LIMIT_KEYS = ("lower", "upper")
+_OPTIONAL_JOINT_KEYS = ("mass", "radius", "velocity", "effort")
 MAX_ANGLE_RAD = 4 * math.pi
 """Largest |alpha|, |theta| and |joint limit| accepted from a model file: two turns."""
 MAX_MASS_KG = 1e4
+MAX_VELOCITY_RAD_S = 100.0
+"""Largest joint velocity limit accepted from a model file, rad/s (some 950 rpm)."""
+MAX_EFFORT_NM = 1e6
+"""Largest joint effort limit accepted from a model file, N·m."""
+
+
+@dataclass(frozen=True)
+class UrdfSource:
+    """The URDF a robot was read from, kept whole so that a calibration can be written back
+    into it (:mod:`twin.export.urdf`) with every name, mesh, inertial and limit.
+
+    Attributes:
+        text: The URDF document.
+        base_link: The link the chain starts from (the robot's base frame).
+        tip_link: The link whose frame is the flange.
+        joint_names: The revolute joints of the chain, base to tip, length n.
+        frame_offsets: Where each URDF joint's frame (turned so that its axis is z) sits in the
+            table's frame of that joint, whose z is the same axis: a shift along it (m) and a
+            turn about it (rad), shape (n, 2). Kept so that writing a calibration back moves
+            the URDF's link frames (and their meshes and inertials) by the calibration only.
+    """
+
+    text: str
+    base_link: str
+    tip_link: str
+    joint_names: tuple[str, ...]
+    frame_offsets: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        offsets = frozen_array(self.frame_offsets, (len(self.joint_names), 2), "frame_offsets")
+        object.__setattr__(self, "frame_offsets", offsets)
 
 
 @dataclass(frozen=True)
 class RobotModel:
     """A serial arm: a kinematic table with its structure, joint limits, and what the twin
-    needs to build it, SI inside.
+    and the exports need, SI inside.
 
     Attributes:
         name: Human-readable name.
@@ -70,6 +137,9 @@ class RobotModel:
         radius_m: Link capsule radii, shape (n,), m, or None when the file gives none.
         structure: What the table means (parametrisation per joint, base and tool
             transforms); standard D-H with bare ends by default.
+        velocity_rad_s: Rated joint speeds, shape (n,), rad/s, or None when unknown.
+        effort_nm: Rated joint torques, shape (n,), N·m, or None when unknown.
+        urdf: The URDF the robot was read from, or None.
     """
 
     name: str
@@ -79,6 +149,9 @@ class RobotModel:
     mass_kg: NDArray[np.float64] | None = field(default=None)
     radius_m: NDArray[np.float64] | None = field(default=None)
     structure: Structure = field(default=None)  # type: ignore[assignment]
+    velocity_rad_s: NDArray[np.float64] | None = field(default=None)
+    effort_nm: NDArray[np.float64] | None = field(default=None)
+    urdf: UrdfSource | None = field(default=None)
 
     def __post_init__(self) -> None:
         dh = np.asarray(self.dh, dtype=np.float64)
@@ -94,18 +167,32 @@ class RobotModel:
         object.__setattr__(self, "upper_rad", frozen_array(self.upper_rad, (n,), "upper_rad"))
         if np.any(self.lower_rad >= self.upper_rad):
             raise ValueError("joint limits: lower must be below upper")
-        for name in ("mass_kg", "radius_m"):
+        for name in ("mass_kg", "radius_m", "velocity_rad_s", "effort_nm"):
             value = getattr(self, name)
             if value is not None:
                 array = frozen_array(value, (n,), name)
                 if np.any(array < 0):
                     raise ValueError(f"{name}: negative values")
                 object.__setattr__(self, name, array)
+        if self.urdf is not None and len(self.urdf.joint_names) != n:
+            raise ValueError(f"urdf: {len(self.urdf.joint_names)} joint names for {n} joints")
 
     @property
     def n_joints(self) -> int:
         """Number of joints n."""
         return int(self.dh.shape[1])
+
+    @property
+    def is_length(self) -> NDArray[np.bool_]:
+        """Whether each table entry is a length (m) rather than an angle (rad), shape (4, n)."""
+        return self.structure.is_length
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The joints' names: the URDF's, or ``joint_1``…``joint_n``."""
+        if self.urdf is not None:
+            return self.urdf.joint_names
+        return tuple(f"joint_{i + 1}" for i in range(self.n_joints))
 
     def perturbed(self, delta: ArrayLike) -> RobotModel:
         """This robot with errors of its table added.
@@ -125,6 +212,91 @@ class RobotModel:
         """base_T_flange at joint angles q (m, n) rad: shape (m, 4, 4), m."""
         return flange_transform(self.structure, self.dh, q_rad)
 
+    def reparametrised(self, request: str | Sequence[str]) -> RobotModel:
+        """The same arm (same forward kinematics, to 1e-9 m) in another parametrisation:
+        ``auto``, one of :data:`twin.kinematics.PARAMETRISATIONS`, or one per joint; a URDF's
+        joint frames keep their place (:attr:`UrdfSource.frame_offsets` follow the table)."""
+        structure, table = convert(fixed_transforms(self.structure, self.dh), request)
+        urdf = self.urdf
+        if urdf is not None:
+            old = joint_frames(fixed_transforms(self.structure, self.dh))[0]
+            new = joint_frames(fixed_transforms(structure, table))[0]
+            shift, turn = urdf.frame_offsets.T
+            screws = np.zeros((len(shift), 4, 4))
+            screws[:, 0, 0] = screws[:, 1, 1] = np.cos(turn)
+            screws[:, 1, 0], screws[:, 0, 1] = np.sin(turn), -np.sin(turn)
+            screws[:, 2, 2] = screws[:, 3, 3] = 1.0
+            screws[:, 2, 3] = shift
+            offsets = np.linalg.inv(new) @ old @ screws
+            urdf = replace(urdf, frame_offsets=np.column_stack(
+                [offsets[:, 2, 3], np.arctan2(offsets[:, 1, 0], offsets[:, 0, 0])]))
+        return replace(self, dh=table, structure=structure, urdf=urdf)
+
+
+class ModelDocument:
+    """Typed access to a model file's keys, with errors that name the file and the key."""
+
+    def __init__(self, document: dict[str, Any], source: str | Path) -> None:
+        self.document, self.source = document, source
+
+    def error(self, found: str, expected: str, where: str | None = None) -> InputError:
+        return InputError(found, expected, source=self.source, where=where)
+
+    def text(self, key: str) -> str:
+        value = self.document[key]
+        if not isinstance(value, str):
+            raise self.error(f"{value!r}", "a string", key)
+        return value
+
+    def request(self, default: str) -> str | tuple[str, ...]:
+        """The ``parametrisation`` (or the older ``convention``) key."""
+        if "parametrisation" in self.document and "convention" in self.document:
+            raise self.error("both 'parametrisation' and 'convention'",
+                             "'parametrisation' alone ('convention' is its older name)")
+        key = "convention" if "convention" in self.document else "parametrisation"
+        value = self.document.get(key, default)
+        expected = ("one of " + ", ".join(REQUESTS) + ", or a list of "
+                    + ", ".join(PARAMETRISATIONS) + " per joint")
+        if key == "convention" and value != "dh":
+            raise self.error(f"convention {value!r}", "'dh' (standard D-H; other "
+                             "parametrisations are named by 'parametrisation')", key)
+        if isinstance(value, str) and value in REQUESTS:
+            return value
+        if isinstance(value, list) and value and all(v in PARAMETRISATIONS for v in value):
+            return tuple(value)
+        raise self.error(f"{key} = {value!r}", expected, key)
+
+
+def _number(value: object, key: str, where: str, document: ModelDocument, factor: float,
+            largest: float, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise document.error(f"{key} = {value!r}", "a number", where)
+    if not math.isfinite(value):
+        raise document.error(f"{key} = {value}", "a finite number", where)
+    if abs(value * factor) > largest:
+        raise document.error(f"{key} = {value}", f"a number within ±{largest / factor:g} "
+                             f"{unit}", where)
+    return float(value) * factor
+
+
+def _end_transform(document: ModelDocument, key: str, to_m: float, to_rad: float,
+                   units: tuple[str, str]) -> NDArray[np.float64]:
+    """The optional ``base`` / ``tool`` table: {xyz = [3 lengths], rpy = [3 angles]}."""
+    value = document.document.get(key)
+    if value is None:
+        return np.eye(4)
+    expected = f"{{ xyz = [x, y, z] ({units[0]}), rpy = [roll, pitch, yaw] ({units[1]}) }}"
+    if not isinstance(value, dict) or set(value) - {"xyz", "rpy"}:
+        raise document.error(f"{value!r}", expected, key)
+    parts = []
+    for part, factor, largest, unit in (("xyz", to_m, MAX_LENGTH_M, units[0]),
+                                        ("rpy", to_rad, MAX_ANGLE_RAD, units[1])):
+        items = value.get(part, [0.0, 0.0, 0.0])
+        if not isinstance(items, list) or len(items) != 3:
+            raise document.error(f"{part} = {items!r}", expected, key)
+        parts.append([_number(v, part, key, document, factor, largest, unit) for v in items])
+    return rigid_transform(parts[0], parts[1])
+
 
 def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     """Validate a parsed model document and build the robot from it.
@@ -132,111 +304,93 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     Raises:
         InputError: naming the key or joint that is wrong and what was expected.
     """
+    doc = ModelDocument(document, source)
+    if "urdf" in document:
+        raise doc.error("a 'urdf' reference", "a D-H model file here (twin.io.robot_file."
+                        "load_robot reads the files that name a URDF)")
     unknown = sorted(set(document) - set(_TOP_KEYS))
     if unknown:
-        raise InputError(
-            f"unknown key {unknown[0]!r}", "only " + ", ".join(_TOP_KEYS), source=source
-        )
-    for key in _TOP_KEYS:
+        raise doc.error(f"unknown key {unknown[0]!r}", "only " + ", ".join(_TOP_KEYS)
+                        + " (or a 'urdf' reference)")
+    for key in ("name", "length_unit", "angle_unit", "joints"):
         if key not in document:
-            raise InputError(f"no {key!r}", f"a {key!r} key", source=source)
-    for key in ("name", "convention", "length_unit", "angle_unit"):
-        if not isinstance(document[key], str):
-            raise InputError(f"{document[key]!r}", "a string", source=source, where=key)
-    if document["convention"] != "dh":
-        raise InputError(
-            f"convention {document['convention']!r}", "'dh' (standard D-H)",
-            source=source, where="convention",
-        )
-    length_unit, angle_unit = document["length_unit"], document["angle_unit"]
+            raise doc.error(f"no {key!r}", f"a {key!r} key")
+    name, length_unit, angle_unit = (doc.text(k) for k in ("name", "length_unit", "angle_unit"))
     if length_unit not in LENGTH_FACTORS:
-        raise InputError(
-            f"{length_unit!r}", "one of " + ", ".join(LENGTH_FACTORS),
-            source=source, where="length_unit",
-        )
+        raise doc.error(f"{length_unit!r}", "one of " + ", ".join(LENGTH_FACTORS), "length_unit")
     if angle_unit not in ANGLE_FACTORS:
-        raise InputError(
-            f"{angle_unit!r}", "one of " + ", ".join(ANGLE_FACTORS),
-            source=source, where="angle_unit",
-        )
+        raise doc.error(f"{angle_unit!r}", "one of " + ", ".join(ANGLE_FACTORS), "angle_unit")
+    request = doc.request("dh")
     joints = document["joints"]
-    if not isinstance(joints, list) or len(joints) != N_JOINTS:
+    if not isinstance(joints, list) or not MIN_JOINTS <= len(joints) <= MAX_JOINTS:
         count = len(joints) if isinstance(joints, list) else type(joints).__name__
-        raise InputError(
-            f"{count} joints", f"a list of {N_JOINTS} joint tables", source=source,
-            where="joints",
-        )
+        raise doc.error(f"{count} joints", f"a list of {MIN_JOINTS} to {MAX_JOINTS} joint "
+                        "tables", "joints")
+    n = len(joints)
+    if isinstance(request, tuple) and len(request) != n:
+        raise doc.error(f"{len(request)} parametrisations for {n} joints",
+                        "one per joint", "parametrisation")
+    # "auto" rows are standard D-H: the geometry the conversion starts from.
+    kinds = request if isinstance(request, tuple) else \
+        ("dh",) * n if request == AUTO else (request,) * n
     to_m, to_rad = LENGTH_FACTORS[length_unit], ANGLE_FACTORS[angle_unit]
-    factor = {"a": to_m, "d": to_m, "alpha": to_rad, "theta": to_rad, "lower": to_rad,
-              "upper": to_rad, "mass": 1.0, "radius": to_m}
-    # Plausible magnitudes, in SI: every real arm is far inside, and beyond them the
-    # kinematics overflows or wraps around.
-    largest = {"a": MAX_LENGTH_M, "d": MAX_LENGTH_M, "alpha": MAX_ANGLE_RAD,
-               "theta": MAX_ANGLE_RAD, "lower": MAX_ANGLE_RAD, "upper": MAX_ANGLE_RAD,
-               "mass": MAX_MASS_KG, "radius": MAX_LENGTH_M}
-    columns: dict[str, list[float]] = {key: [] for key in factor}
-    for index, joint in enumerate(joints, start=1):
-        where = f"joint {index}"
+    per_unit = {"mass": (1.0, MAX_MASS_KG, "kg"), "radius": (to_m, MAX_LENGTH_M, length_unit),
+                "velocity": (to_rad, MAX_VELOCITY_RAD_S, f"{angle_unit}/s"),
+                "effort": (1.0, MAX_EFFORT_NM, "N·m"),
+                "lower": (to_rad, MAX_ANGLE_RAD, angle_unit),
+                "upper": (to_rad, MAX_ANGLE_RAD, angle_unit)}
+    table = np.zeros((4, n))
+    columns: dict[str, list[float]] = {key: [] for key in per_unit}
+    for index, (joint, kind) in enumerate(zip(joints, kinds, strict=True)):
+        where = f"joint {index + 1}"
+        slots = SLOT_NAMES[kind]
+        allowed = (*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS)
         if not isinstance(joint, dict):
-            raise InputError(f"{joint!r}", "an inline table", source=source, where=where)
-        extra = sorted(set(joint) - set(_REQUIRED_JOINT_KEYS) - set(_OPTIONAL_JOINT_KEYS))
+            raise doc.error(f"{joint!r}", "an inline table", where)
+        extra = sorted(set(joint) - set(allowed))
         if extra:
-            raise InputError(
-                f"unknown key {extra[0]!r}",
-                "only " + ", ".join(_REQUIRED_JOINT_KEYS + _OPTIONAL_JOINT_KEYS),
-                source=source, where=where,
-            )
-        for key in factor:
+            raise doc.error(f"unknown key {extra[0]!r}", f"only {', '.join(allowed)} (a "
+                            f"{kind} joint)", where)
+        for key in (*slots, *_LIMIT_KEYS):
             if key not in joint:
-                if key in _REQUIRED_JOINT_KEYS:
-                    raise InputError(f"no {key!r}", f"a number for {key!r}",
-                                     source=source, where=where)
-                continue
-            value = joint[key]
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise InputError(f"{key} = {value!r}", "a number", source=source, where=where)
-            if not math.isfinite(value):
-                raise InputError(f"{key} = {value}", "a finite number", source=source,
-                                 where=where)
-            if abs(value * factor[key]) > largest[key]:
-                unit = "kg" if key == "mass" else length_unit if key in ("a", "d", "radius") \
-                    else angle_unit
-                raise InputError(f"{key} = {value}", f"a number within "
-                                 f"±{largest[key] / factor[key]:g} {unit}", source=source,
-                                 where=where)
-            columns[key].append(float(value) * factor[key])
+                raise doc.error(f"no {key!r}", f"a number for {key!r}", where)
+        for slot, (key, is_length) in enumerate(zip(slots, SLOT_IS_LENGTH[kind], strict=True)):
+            factor, largest = (to_m, MAX_LENGTH_M) if is_length else (to_rad, MAX_ANGLE_RAD)
+            table[slot, index] = _number(joint[key], key, where, doc, factor, largest,
+                                         length_unit if is_length else angle_unit)
+        for key, (factor, largest, unit) in per_unit.items():
+            if key in joint:
+                value = _number(joint[key], key, where, doc, factor, largest, unit)
+                if key not in _LIMIT_KEYS and value < 0:
+                    raise doc.error(f"{key} = {joint[key]}", "a value >= 0", where)
+                columns[key].append(value)
         if columns["lower"][-1] >= columns["upper"][-1]:
-            raise InputError(
-                f"lower = {joint['lower']} >= upper = {joint['upper']}", "lower < upper",
-                source=source, where=where,
-            )
+            raise doc.error(f"lower = {joint['lower']} >= upper = {joint['upper']}",
+                            "lower < upper", where)
     optional: dict[str, NDArray[np.float64] | None] = {}
     for key in _OPTIONAL_JOINT_KEYS:
         given = len(columns[key])
-        if given not in (0, N_JOINTS):
-            raise InputError(f"{key!r} on {given} of {N_JOINTS} joints",
-                             f"{key!r} on every joint or on none", source=source)
-        if any(v < 0 for v in columns[key]):
-            raise InputError(f"a negative {key!r}", "values >= 0", source=source)
+        if given not in (0, n):
+            raise doc.error(f"{key!r} on {given} of {n} joints",
+                            f"{key!r} on every joint or on none")
         optional[key] = np.array(columns[key]) if given else None
+    units = (length_unit, angle_unit)
+    try:
+        structure = Structure(kinds, base=_end_transform(doc, "base", to_m, to_rad, units),
+                              tool=_end_transform(doc, "tool", to_m, to_rad, units))
+        if request == AUTO:
+            structure, table = convert(fixed_transforms(structure, table), AUTO)
+        else:
+            check_mix(kinds)
+    except ValueError as exc:
+        raise doc.error(str(exc), "a chain the parametrisation can hold",
+                        "parametrisation") from None
     return RobotModel(
-        name=str(document["name"]),
-        dh=np.array([columns[key] for key in DH_KEYS]),
-        lower_rad=np.array(columns["lower"]),
-        upper_rad=np.array(columns["upper"]),
-        mass_kg=optional["mass"],
-        radius_m=optional["radius"],
+        name=name, dh=table, structure=structure,
+        lower_rad=np.array(columns["lower"]), upper_rad=np.array(columns["upper"]),
+        mass_kg=optional["mass"], radius_m=optional["radius"],
+        velocity_rad_s=optional["velocity"], effort_nm=optional["effort"],
     )
-
-
-def load_robot(path: str | Path) -> RobotModel:
-    """Read and validate a robot model TOML file.
-
-    Raises:
-        InputError: if the file is missing, not TOML, or not a valid model.
-    """
-    path = Path(path)
-    return parse_robot(read_toml(path, "a robot model TOML file"), path)
 
 
 def default_robot() -> RobotModel:
@@ -245,34 +399,74 @@ def default_robot() -> RobotModel:
     return parse_robot(tomllib.loads(resource.read_text(encoding="utf-8")), "irb120.toml")
 
 
+def _end_line(key: str, transform: NDArray[np.float64]) -> str | None:
+    if np.allclose(transform, np.eye(4), rtol=0.0, atol=1e-15):
+        return None
+    xyz, rpy = xyz_rpy(transform)
+    return (f"{key} = {{ xyz = {rounded(m_to_mm(xyz), FILE_MM_DECIMALS)!r}, "
+            f"rpy = {rounded(rad_to_deg(rpy), FILE_DEG_DECIMALS)!r} }}")
+
+
 def robot_to_toml(robot: RobotModel) -> str:
     """The model-file text (mm, degrees) of a robot, lengths rounded to 1 µm and angles to
     1e-6 degree (masses to 1 g): numbers a person can read and type. The file reads back to
     exactly the numbers written, and writing it again gives the same bytes.
 
+    Every joint is written in its own parametrisation (``"dh"`` when all are standard D-H,
+    else one per joint), with the base and tool transforms when they are not the identity.
+
     Raises:
-        ValueError: for a structure the D-H file format cannot hold (another parametrisation,
-            a base or tool transform).
+        ValueError: for a robot read from a URDF: its file is a reference to the URDF
+            (:func:`robot_files`).
     """
-    if not robot.structure.is_standard:
-        raise ValueError(f"{robot.name}: only a standard D-H chain without base or tool "
-                         "transform can be written as a D-H model file")
+    if robot.urdf is not None:
+        raise ValueError(f"{robot.name}: a robot read from a URDF is written as a reference "
+                         "to it (robot_files)")
+    kinds = robot.structure.parametrisation
+    request = json.dumps(kinds[0]) if len(set(kinds)) == 1 else json.dumps(list(kinds))
     lines = [
         f"name = {json.dumps(robot.name)}",
-        'convention = "dh"',
+        f"parametrisation = {request}",
         'length_unit = "mm"',
         'angle_unit = "deg"',
         "joints = [",
     ]
-    columns = dh_rows_rounded(robot.dh, FILE_MM_DECIMALS)
-    columns["lower"] = rounded(rad_to_deg(robot.lower_rad), FILE_DEG_DECIMALS)
-    columns["upper"] = rounded(rad_to_deg(robot.upper_rad), FILE_DEG_DECIMALS)
-    if robot.mass_kg is not None:
-        columns["mass"] = rounded(robot.mass_kg, 3)
-    if robot.radius_m is not None:
-        columns["radius"] = rounded(m_to_mm(robot.radius_m), FILE_MM_DECIMALS)
-    for i in range(robot.n_joints):
-        items = [f"{key} = {values[i]!r}" for key, values in columns.items()]
+    display = np.where(robot.is_length, m_to_mm(robot.dh), rad_to_deg(robot.dh))
+    decimals = np.where(robot.is_length, FILE_MM_DECIMALS, FILE_DEG_DECIMALS)
+    optional = {"lower": rad_to_deg(robot.lower_rad), "upper": rad_to_deg(robot.upper_rad),
+                "mass": robot.mass_kg, "radius": None if robot.radius_m is None
+                else m_to_mm(robot.radius_m), "velocity": None if robot.velocity_rad_s is None
+                else rad_to_deg(robot.velocity_rad_s), "effort": robot.effort_nm}
+    places = {"lower": FILE_DEG_DECIMALS, "upper": FILE_DEG_DECIMALS, "mass": 3,
+              "radius": FILE_MM_DECIMALS, "velocity": FILE_DEG_DECIMALS, "effort": 3}
+    for i, kind in enumerate(kinds):
+        items = [f"{key} = {rounded([display[slot, i]], int(decimals[slot, i]))[0]!r}"
+                 for slot, key in enumerate(SLOT_NAMES[kind])]
+        items += [f"{key} = {rounded([values[i]], places[key])[0]!r}"
+                  for key, values in optional.items() if values is not None]
         lines.append("  { " + ", ".join(items) + " },")
     lines.append("]")
+    lines += [line for key in ("base", "tool")
+              if (line := _end_line(key, getattr(robot.structure, key))) is not None]
     return "\n".join(lines) + "\n"
+
+
+def robot_files(robot: RobotModel, stem: str = "robot") -> dict[str, str]:
+    """The files that hold a robot: ``{stem}.toml`` (a model file), and for a robot read from a
+    URDF ``{stem}.urdf`` (the URDF as read) with ``{stem}.toml`` naming it, its links and
+    its parametrisation, so that reading it back gives the same robot.
+
+    Returns:
+        File name to text.
+    """
+    if robot.urdf is None:
+        return {f"{stem}.toml": robot_to_toml(robot)}
+    source = robot.urdf
+    lines = [
+        f"urdf = {json.dumps(f'{stem}.urdf')}",
+        f"name = {json.dumps(robot.name)}",
+        f"base_link = {json.dumps(source.base_link)}",
+        f"tip_link = {json.dumps(source.tip_link)}",
+        f"parametrisation = {json.dumps(list(robot.structure.parametrisation))}",
+    ]
+    return {f"{stem}.toml": "\n".join(lines) + "\n", f"{stem}.urdf": source.text}

@@ -40,26 +40,35 @@ def rad_to_deg(value_rad: ArrayLike) -> NDArray[np.float64]:
 
 
 DH_KEYS = ("a", "d", "alpha", "theta")
-"""Row order of a D-H table and of the error vector X (paper eq. 7)."""
+"""Row order of a D-H table and of the error vector X (paper eq. 7). In a table of any
+parametrisation the rows are its four slots under these keys: a Hayati joint holds its β (an
+angle) in the ``d`` row, which ``is_length`` says (:attr:`twin.kinematics.Structure.is_length`)."""
 DH_IS_LENGTH = (True, True, False, False)
 
 
-def dh_rows_to_display(rows_si: NDArray[np.float64]) -> dict[str, list[float]]:
-    """A (4, n) table or error block in SI to ``{"a": [mm], "d": [mm], "alpha": [deg], ...}``."""
-    return {
-        key: (m_to_mm(row) if is_length else rad_to_deg(row)).tolist()
-        for key, row, is_length in zip(DH_KEYS, rows_si, DH_IS_LENGTH, strict=True)
-    }
+def _row_lengths(rows_si: NDArray[np.float64], is_length: ArrayLike | None) -> NDArray[np.bool_]:
+    """Which entries of a (4, n) table are lengths: ``is_length`` (4, n), or D-H's rows."""
+    if is_length is None:
+        return np.broadcast_to(np.array(DH_IS_LENGTH)[:, None], np.shape(rows_si))
+    return np.asarray(is_length, dtype=bool)
 
 
-def dh_rows_from_display(rows: Mapping[str, ArrayLike]) -> NDArray[np.float64]:
+def dh_rows_to_display(rows_si: NDArray[np.float64], is_length: ArrayLike | None = None
+                       ) -> dict[str, list[float]]:
+    """A (4, n) table or error block in SI to ``{"a": [mm], "d": [mm], "alpha": [deg], ...}``;
+    with ``is_length`` (4, n) each entry in its own unit (a Hayati β in degrees)."""
+    lengths = _row_lengths(rows_si, is_length)
+    display = np.where(lengths, m_to_mm(rows_si), rad_to_deg(rows_si))
+    return {key: row.tolist() for key, row in zip(DH_KEYS, display, strict=True)}
+
+
+def dh_rows_from_display(rows: Mapping[str, ArrayLike], is_length: ArrayLike | None = None
+                         ) -> NDArray[np.float64]:
     """Inverse of :func:`dh_rows_to_display`: mm/deg dict to a (4, n) block in SI."""
-    return np.stack(
-        [
-            mm_to_m(rows[key]) if is_length else deg_to_rad(rows[key])
-            for key, is_length in zip(DH_KEYS, DH_IS_LENGTH, strict=True)
-        ]
-    )
+    display = np.stack([np.asarray(rows[key], dtype=np.float64) for key in DH_KEYS])
+    lengths = _row_lengths(display, is_length)
+    return np.asarray(np.where(lengths, mm_to_m(display), deg_to_rad(display)),
+                      dtype=np.float64)
 
 
 FILE_MM_DECIMALS = 3
@@ -86,12 +95,15 @@ def rounded(values: ArrayLike, decimals: int) -> list[float]:
 
 
 def dh_rows_rounded(rows_si: NDArray[np.float64], mm_decimals: int,
-                    deg_decimals: int = FILE_DEG_DECIMALS) -> dict[str, list[float]]:
+                    deg_decimals: int = FILE_DEG_DECIMALS, is_length: ArrayLike | None = None
+                    ) -> dict[str, list[float]]:
     """:func:`dh_rows_to_display`, rounded as written to a file (lengths to ``mm_decimals``)."""
+    lengths = _row_lengths(rows_si, is_length)
+    display = dh_rows_to_display(rows_si, lengths)
     return {
-        key: rounded(values, mm_decimals if is_length else deg_decimals)
-        for (key, values), is_length in zip(dh_rows_to_display(rows_si).items(), DH_IS_LENGTH,
-                                            strict=True)
+        key: [rounded([value], mm_decimals if length else deg_decimals)[0]
+              for value, length in zip(values, row, strict=True)]
+        for (key, values), row in zip(display.items(), lengths, strict=True)
     }
 
 
@@ -141,6 +153,20 @@ def from_display(values: ArrayLike, labels: tuple[str, ...] | list[str]) -> NDAr
     return np.asarray(values, dtype=np.float64) / np.array([factors[label] for label in labels])
 
 
-def display_unit(key: str) -> str:
-    """``"mm"`` for a, d; ``"deg"`` for alpha, theta."""
-    return "mm" if DH_IS_LENGTH[DH_KEYS.index(key)] else "deg"
+def display_unit(key: str, is_length: bool | None = None) -> str:
+    """``"mm"`` for a, d; ``"deg"`` for alpha, theta (and for a Hayati β in the ``d`` row:
+    ``is_length`` False)."""
+    length = DH_IS_LENGTH[DH_KEYS.index(key)] if is_length is None else is_length
+    return "mm" if length else "deg"
+
+
+def slot_label(key: str, is_length: ArrayLike) -> str:
+    """The column label of a table row ``key`` whose entries are lengths where ``is_length``
+    (n,): ``d [mm]``, ``alpha [deg]``, or ``d|beta [mm|deg]`` for a ``d`` row holding Hayati
+    β (degrees) beside D-H d (mm)."""
+    lengths = np.asarray(is_length, dtype=bool)
+    if np.all(lengths):
+        return f"{key} [mm]"
+    if not np.any(lengths):
+        return f"{'beta' if key == 'd' else key} [deg]"
+    return f"{key}|beta [mm|deg]"

@@ -17,7 +17,10 @@ import argparse
 import math
 import re
 from collections.abc import Callable
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
+
+if TYPE_CHECKING:
+    from twin.robot import RobotModel
 
 SEED_MAX = 2**63 - 1
 """Largest seed (a TOML integer holds no more)."""
@@ -114,3 +117,34 @@ sigma_mm = number(0.0, 1000.0, above=True)
 """An argparse type: a length noise 1σ in mm."""
 pause = number(0.0, MAX_SECONDS)
 """An argparse type: a pause in s, finite, at most :data:`MAX_SECONDS`."""
+
+
+def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") -> None:
+    """``--robot`` (a model TOML or a URDF) and, for a URDF, ``--base-link`` / ``--tip-link``."""
+    from twin.io.paths import InputPath
+
+    parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file or a "
+                        ".urdf, 4 to 7 revolute joints (default: the ABB IRB 120)")
+    parser.add_argument("--base-link", metavar="LINK", help="with a URDF --robot: the link "
+                        "the chain starts from (default: the URDF's root link)")
+    parser.add_argument("--tip-link", metavar="LINK", help="with a URDF --robot: the flange "
+                        "link (default: tool0, else flange, else the one leaf link)")
+
+
+def robot_from_flags(args: argparse.Namespace) -> RobotModel | None:
+    """The robot ``--robot`` names (with its links), or None without ``--robot``.
+
+    Raises:
+        InputError: for --base-link or --tip-link without a URDF --robot, or a bad file.
+    """
+    from twin.errors import InputError
+    from twin.io.robot_file import load_robot
+
+    links = {"base_link": args.base_link, "tip_link": args.tip_link}
+    if args.robot is None:
+        if any(links.values()):
+            flag = "--base-link" if args.base_link else "--tip-link"
+            raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it",
+                             source=flag)
+        return None
+    return load_robot(args.robot, **links)

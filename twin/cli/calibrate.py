@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import TRAIN_FRACTION, SplitProblem, make_problem, solve_many
-from twin.cli.arguments import integer, seed, share
+from twin.cli.arguments import add_robot_flags, integer, robot_from_flags, seed, share
 from twin.errors import InputError
 from twin.identifiability import RankWarning, measurement_identifiability, spread_rank
 from twin.io.capture_file import CalibrationSettings, load_capture, parse_port_mm
@@ -20,7 +20,7 @@ from twin.io.paths import InputPath, OutputFile
 from twin.io.results import result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.report import format_comparison, format_result
-from twin.robot import RobotModel, default_robot, load_robot
+from twin.robot import RobotModel, default_robot
 from twin.solvers import SOLVERS, get_solver, solver_choices
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.viz import add_rerun_flags, calibration_log
@@ -32,13 +32,12 @@ def add_parser(subparsers: Any) -> None:
         "calibrate",
         help="identify the D-H errors from cable measurements",
         description="Identify the D-H errors of a robot from drawstring-encoder measurements. "
-        "INPUT is a measurement CSV (q1..q6 in degrees, length in mm; needs --port) or a "
+        "INPUT is a measurement CSV (q1..qN in degrees, length in mm; needs --port) or a "
         "capture.toml written by `twin simulate` or `twin capture`.",
     )
     parser.add_argument("input", type=InputPath, metavar="INPUT",
                         help="MEASUREMENTS.csv (- for standard input) or capture.toml")
-    parser.add_argument("--robot", type=InputPath,
-                        help="robot model TOML (default: the ABB IRB 120)")
+    add_robot_flags(parser)
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame")
     parser.add_argument(
         "--method", default="lm",
@@ -84,14 +83,15 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     Raises:
         InputError: if a CSV comes without --port, or a file is wrong.
     """
-    input_path, robot_path, port = args.input, args.robot, args.port
+    input_path, port = args.input, args.port
+    named = robot_from_flags(args)
     fraction = getattr(args, "train_fraction", None)
     stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
         settings = capture.calibration
         return Inputs(
-            robot=load_robot(robot_path) if robot_path else capture.robot,
+            robot=named if named is not None else capture.robot,
             port_m=parse_port_mm(port, "--port", "") if port else capture.port_m,
             measurements_path=capture.measurements,
             truth_path=capture.truth,
@@ -107,7 +107,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or a "
                          "capture.toml as INPUT)", source=input_path)
     return Inputs(
-        robot=load_robot(robot_path) if robot_path else default_robot(),
+        robot=named if named is not None else default_robot(),
         port_m=parse_port_mm(port, "--port", ""),
         measurements_path=input_path,
         truth_path=None,
@@ -155,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     warn_rank_deficient(robot, split, measurements_path, args.seed)
     truth = None
     if truth_path is not None and truth_path.exists():
-        truth = load_truth_delta(truth_path, robot.n_joints)
+        truth = load_truth_delta(truth_path, robot.n_joints, robot.is_length)
     fallback_dir = args.json.parent if args.json else None
     with calibration_log(args, methods, robot, port_m, measurements, truth,
                          fallback_dir=fallback_dir) as live:

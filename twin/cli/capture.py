@@ -11,6 +11,8 @@ from twin.cli.arguments import integer, number, pause, seconds, seed
 from twin.io.paths import InputPath, OutputFile, OutputFolder
 
 ROBOT_SOURCES = ("sim", "manual", "file")
+CAPTURE_JOINTS = 6
+"""Joints of the arms twin capture records (its journal's columns are q1..q6)."""
 MAX_READINGS = 1000
 """Most readings --settle-k and --max-failures may ask for."""
 
@@ -35,8 +37,8 @@ def add_parser(subparsers: Any) -> None:
                         "operator jogs and confirms; file: joint angles logged by the controller")
     parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
                         help="output folder")
-    parser.add_argument("--robot", type=InputPath, help="robot model TOML (default: the ABB IRB "
-                        "120; with sim: the scenario's)")
+    parser.add_argument("--robot", type=InputPath, help="6-joint robot model TOML (default: "
+                        "the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")
     parser.add_argument("--scenario", type=InputPath, metavar="SCENARIO.toml",
@@ -85,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
     from twin.io.capture_file import parse_port_mm, write_capture
     from twin.io.measurements import load_plan
     from twin.io.results import write_json
-    from twin.robot import default_robot, load_robot, robot_to_toml
+    from twin.io.robot_file import load_robot
+    from twin.robot import default_robot, robot_to_toml
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
@@ -106,14 +109,20 @@ def run(args: argparse.Namespace) -> int:
         sim = simulate(load_scenario(args.scenario), args.seed)
         robot, port_m = sim.robot, sim.port_nominal_m
         truth = {"scenario": sim.scenario.name, "seed": sim.seed,
-                 "delta": dh_rows_to_display(sim.delta), "port": m_to_mm(sim.port_m).tolist(),
-                 "port_told": m_to_mm(port_m).tolist()}
+                 "delta": dh_rows_to_display(sim.delta, sim.robot.is_length),
+                 "port": m_to_mm(sim.port_m).tolist(), "port_told": m_to_mm(port_m).tolist()}
     else:
         robot = load_robot(args.robot) if args.robot else default_robot()
         if args.port is None:
             raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
                              source="command line")
         port_m = parse_port_mm(args.port, "--port", "")
+    if robot.urdf is not None or robot.n_joints != CAPTURE_JOINTS:
+        # The capture journal's columns are pose, q1..q6, length (twin.hardware.capture_session).
+        raise InputError(f"a {robot.n_joints}-joint robot"
+                         + (" from a URDF" if robot.urdf is not None else ""),
+                         f"a {CAPTURE_JOINTS}-joint robot model TOML (twin capture records "
+                         "q1..q6)", source=args.scenario or args.robot or "the IRB 120")
     plan_q_rad, _ = load_plan(args.plan, robot)
 
     source: RobotSource

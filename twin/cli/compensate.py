@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cli.arguments import integer, seed
+from twin.cli.arguments import add_robot_flags, integer, robot_from_flags, seed
 from twin.compensation import (
     STATUS_OK,
     STATUS_UNREACHABLE,
@@ -31,15 +31,15 @@ from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result_delta
-from twin.io.measurements import JOINT_COLUMNS, load_plan, read_table
+from twin.io.measurements import joint_columns, load_plan, read_table
 from twin.io.paths import InputPath, OutputFile
 from twin.metrics import Metrics
 from twin.plots import pyplot, save_png
-from twin.robot import default_robot, load_robot
+from twin.robot import default_robot
 from twin.units import FILE_DEG_DECIMALS, MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg, rounded
 
 TARGET_COLUMNS = ("x", "y", "z")
-OUTPUT_COLUMNS = (*JOINT_COLUMNS, "status", "error_mm")
+RESULT_COLUMNS = ("status", "error_mm")
 VERIFY_TARGETS = 1000
 
 
@@ -55,8 +55,7 @@ def add_parser(subparsers: Any) -> None:
         "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
         "calibrate and compare the true flange error with and without compensation.",
     )
-    parser.add_argument("--robot", type=InputPath, help="nominal robot model TOML (default: "
-                        "the ABB IRB 120)")
+    add_robot_flags(parser, "nominal robot model")
     parser.add_argument("--identified", type=InputPath, metavar="RESULT.json",
                         help="calibration result written by `twin calibrate --json`")
     parser.add_argument("--method", help="result to use from a `--method all` result file; "
@@ -93,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
         missing = "--identified" if args.identified is None else "--out"
         raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
                          source=missing)
-    robot = load_robot(args.robot) if args.robot else default_robot()
+    robot = robot_from_flags(args) or default_robot()
     identified = robot.perturbed(load_result_delta(args.identified, robot, args.method))
     if args.joints is not None:
         q_nominal, _ = load_plan(args.joints, robot, "a program CSV (q1..q6 in degrees)",
@@ -118,11 +117,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def format_corrected(solved: IKResult) -> str:
-    """CSV text: q1..q6 (deg to 1e-6, empty when unreachable), status, remaining flange error
+    """CSV text: q1..qN (deg to 1e-6, empty when unreachable), status, remaining flange error
     (mm)."""
     q_deg = rad_to_deg(solved.q_rad)
     error_mm = m_to_mm(solved.position_error_m)
-    lines = [",".join(OUTPUT_COLUMNS)]
+    lines = [",".join((*joint_columns(q_deg.shape[1]), *RESULT_COLUMNS))]
     for q, status, error in zip(q_deg, solved.status, error_mm, strict=True):
         angles = [""] * len(q) if status == STATUS_UNREACHABLE \
             else list(map(repr, rounded(q, FILE_DEG_DECIMALS)))

@@ -6,12 +6,13 @@ import argparse
 from dataclasses import replace
 from typing import Any
 
+from twin.cli.arguments import add_robot_flags, robot_from_flags
 from twin.errors import UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result_delta
 from twin.io.paths import InputPath, OutputFile
-from twin.robot import default_robot, load_robot
+from twin.robot import default_robot
 
 
 def add_parser(subparsers: Any) -> None:
@@ -25,8 +26,7 @@ def add_parser(subparsers: Any) -> None:
     )
     parser.add_argument("result", type=InputPath, metavar="RESULT.json",
                         help="calibration result written by `twin calibrate --json`")
-    parser.add_argument("--robot", type=InputPath, help="nominal robot model TOML (default: "
-                        "the ABB IRB 120), the robot the result was identified for")
+    add_robot_flags(parser, "the nominal robot the result was identified for")
     parser.add_argument("--method", help="result to use from a `--method all` result file")
     parser.add_argument("--format", required=True, dest="format_name",
                         help="one of " + ", ".join(FORMATS))
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
-    robot = load_robot(args.robot) if args.robot else default_robot()
+    robot = robot_from_flags(args) or default_robot()
     delta = load_result_delta(args.result, robot, args.method)
     identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
     write_atomic(args.out, export_text(identified, args.format_name))

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import WORKSPACE_POSES, calibrate, make_model
-from twin.cli.arguments import seed, sigma_mm
+from twin.cli.arguments import add_robot_flags, seed, sigma_mm
 from twin.cli.calibrate import resolve_inputs
 from twin.design import score_poses
 from twin.errors import InputError
@@ -28,10 +28,10 @@ from twin.units import (
     DH_KEYS,
     RESULT_MM_DECIMALS,
     dh_rows_to_display,
-    display_unit,
     m_to_mm,
     mm_to_m,
     rounded,
+    slot_label,
 )
 
 MAP_GRID = 41
@@ -51,8 +51,7 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("input", type=InputPath, metavar="INPUT",
                         help="MEASUREMENTS.csv (needs --port; - for standard input) or "
                         "capture.toml")
-    parser.add_argument("--robot", type=InputPath,
-                        help="robot model TOML (default: the ABB IRB 120)")
+    add_robot_flags(parser)
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame")
     parser.add_argument("--estimate-port", action="store_true",
                         help="treat the port position as unknown too")
@@ -85,12 +84,16 @@ def _identifiability_lines(ident: Identifiability) -> list[str]:
 def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     """Per-parameter 1σ in mm and degrees; '—' for the dependent (not identifiable) ones."""
     shape = model.robot.dh.shape
-    display = dh_rows_to_display(model.block(sigma, "dh").reshape(shape))
-    header = "  joint" + "".join(f"{f'σ {key} [{display_unit(key)}]':>16}" for key in DH_KEYS)
+    is_length = model.robot.is_length
+    display = dh_rows_to_display(model.block(sigma, "dh").reshape(shape), is_length)
+    labels = [f"σ {slot_label(key, lengths)}" for key, lengths in zip(DH_KEYS, is_length,
+                                                                       strict=True)]
+    width = max(16, *(len(label) + 1 for label in labels))
+    header = "  joint" + "".join(f"{label:>{width}}" for label in labels)
     lines = [header]
     for i in range(shape[1]):
         row = "".join(
-            f"{'—':>16}" if np.isnan(display[key][i]) else f"{display[key][i]:>16.5f}"
+            f"{'—':>{width}}" if np.isnan(display[key][i]) else f"{display[key][i]:>{width}.5f}"
             for key in DH_KEYS
         )
         lines.append(f"  {i + 1:>5}{row}")
@@ -131,7 +134,10 @@ def run(args: argparse.Namespace) -> int:
     lines = [
         f"{robot.name} — {len(data)} poses from {measurements_path}, port ({port}) mm, "
         f"{model.n_params} unknowns ("
-        + ", ".join([f"{model.group('dh').size} D-H errors",
+        + ", ".join([f"{model.group('dh').size} "
+                     + ("D-H" if set(robot.structure.parametrisation) == {"dh"}
+                        else "/".join(sorted(set(robot.structure.parametrisation))))
+                     + " errors",
                      *model.names[model.slice("dh").stop:]]) + ")",
         "At the nominal geometry (all poses):",
         *_identifiability_lines(nominal),
@@ -161,7 +167,8 @@ def run(args: argparse.Namespace) -> int:
         f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
     ]
     if truth_path is not None and truth_path.exists():
-        true_robot = robot.perturbed(load_truth_delta(truth_path, robot.n_joints))
+        true_robot = robot.perturbed(load_truth_delta(truth_path, robot.n_joints,
+                                                      robot.is_length))
         true_error = rms_distance(result.identified_robot.flange_positions(q_workspace),
                                   true_robot.flange_positions(q_workspace))
         lines.append(f"  true flange RMS error over the workspace {float(m_to_mm(true_error)):.4f}"

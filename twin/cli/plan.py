@@ -14,16 +14,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import WORKSPACE_POSES, make_model
-from twin.cli.arguments import integer, seed, sigma_mm
+from twin.cli.arguments import add_robot_flags, integer, robot_from_flags, seed, sigma_mm
 from twin.dataset import MAX_POSES
 from twin.design import DesignScore, choose_port, score_poses
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture_file import parse_port_mm
-from twin.io.measurements import JOINT_COLUMNS
-from twin.io.paths import InputPath, OutputFile
+from twin.io.measurements import joint_columns
+from twin.io.paths import OutputFile
 from twin.rig import Rig
-from twin.robot import RobotModel, default_robot, load_robot
+from twin.robot import RobotModel, default_robot
 from twin.synthetic import random_poses
 from twin.units import FILE_DEG_DECIMALS, m_to_mm, mm_to_m, rad_to_deg, rounded
 
@@ -38,12 +38,11 @@ def add_parser(subparsers: Any) -> None:
         help="choose the poses (and the port) that measure the D-H errors best",
         description="Pick N poses among random candidates the rig can measure that "
         "maximise det(JᵀJ) of the base parameters at the nominal geometry (D-optimal: greedy, "
-        "then exchanges), write them as a plan CSV (q1..q6 in degrees) and compare the plan "
+        "then exchanges), write them as a plan CSV (q1..qN in degrees) and compare the plan "
         "with N random poses. Given several --port, plan for each and keep the port whose "
         "plan predicts the smallest flange error over the workspace.",
     )
-    parser.add_argument("--robot", type=InputPath,
-                        help="robot model TOML (default: the ABB IRB 120)")
+    add_robot_flags(parser)
     parser.add_argument("--port", action="append", required=True, metavar="X,Y,Z",
                         help="encoder port in mm, robot base frame; repeat to choose among "
                         "several")
@@ -96,7 +95,7 @@ def _feasible_sampler(
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    robot = load_robot(args.robot) if args.robot else default_robot()
+    robot = robot_from_flags(args) or default_robot()
     ports_m = np.stack([parse_port_mm(value, "--port", "") for value in args.port])
     model = make_model(robot, Rig.cable(ports_m[0]), estimate_port=args.estimate_port,
                        estimate_offset=args.estimate_offset)
@@ -119,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     x0 = np.zeros(model.n_params)
     planned = score_poses(at_port, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace)
     drawn = score_poses(at_port, x0, q_random, plan.base_mask, sigma_m, q_workspace)
-    rows = [",".join(JOINT_COLUMNS)]
+    rows = [",".join(joint_columns(robot.n_joints))]
     rows += [",".join(map(repr, rounded(q, FILE_DEG_DECIMALS))) for q in rad_to_deg(plan.q_rad)]
     write_atomic(args.out, "\n".join(rows) + "\n")
     lines = []

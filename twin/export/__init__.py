@@ -3,8 +3,13 @@
 Each format is a module here with ``export(robot) -> str``; a format's heavy
 dependency (MuJoCo) is imported only when that format is asked for.
 
-- ``dh``: the `models/` TOML format (:func:`twin.robot.robot_to_toml`), mm and degrees;
-- ``urdf``: URDF for ROS / Pinocchio, with a link ``flange``;
+- ``dh``: the `models/` TOML format (:func:`twin.robot.robot_to_toml`), mm and degrees, in the
+  robot's parametrisation;
+- ``urdf``: URDF for ROS / MoveIt / Pinocchio: the robot's own URDF with the calibrated joint
+  origins, or ROS-Industrial names (``base_link``, ``joint_i``, ``link_i``, ``tool0``) for a
+  robot from a model file;
+- ``yaml``: the calibrated joint origins as an overlay in the style of Universal Robots'
+  calibration files;
 - ``mjcf``: MJCF for MuJoCo, with a site ``flange`` (the twin's own builder).
 """
 
@@ -15,7 +20,7 @@ import importlib
 from twin.errors import UnknownChoiceError
 from twin.robot import RobotModel
 
-FORMATS = ("dh", "urdf", "mjcf")
+FORMATS = ("dh", "urdf", "yaml", "mjcf")
 
 
 def export_text(robot: RobotModel, format_name: str) -> str:

@@ -1,10 +1,16 @@
-"""The D-H table in the `models/` TOML format (mm, degrees), loadable with ``--robot``."""
+"""The kinematic table in the `models/` TOML format (mm, degrees), loadable with ``--robot``.
+
+A robot read from a URDF is written as a model file of its own (its table, parametrisation,
+base and tool), without the URDF's names: ``urdf`` keeps those.
+"""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 from twin.robot import RobotModel, robot_to_toml
 
 
 def export(robot: RobotModel) -> str:
-    """Model-file text of the robot; :func:`twin.robot.load_robot` reads it back exactly."""
-    return robot_to_toml(robot)
+    """Model-file text of the robot; :func:`twin.io.robot_file.load_robot` reads it back exactly."""
+    return robot_to_toml(replace(robot, urdf=None))

@@ -40,7 +40,8 @@ from twin.io.atomic import fsync_directory, write_atomic
 from twin.io.journal import Journal
 from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
 from twin.io.paths import os_error, read_bytes, read_text
-from twin.robot import load_robot, robot_to_toml
+from twin.io.robot_file import load_robot
+from twin.robot import robot_files
 from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
@@ -133,7 +134,9 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
                          source=stored_plan)
     # Written again by today's writer, so that a file of an older twin (unrounded numbers)
     # compares equal when it holds the same robot.
-    if stored_robot.exists() and robot_to_toml(load_robot(stored_robot)) != robot_text:
+    # (A robot read from a URDF, as a `twin simulate` folder may hold, is never this one.)
+    if stored_robot.exists() and "".join(robot_files(load_robot(stored_robot)).values()) \
+            != robot_text:
         raise InputError("a capture of another robot model", resume, source=stored_robot)
     measurements = folder / MEASUREMENTS_NAME
     if measurements.exists():

@@ -31,7 +31,8 @@ from twin.calibration import TRAIN_FRACTION
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_toml
-from twin.robot import RobotModel, load_robot
+from twin.io.robot_file import load_robot
+from twin.robot import RobotModel
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
 

@@ -111,8 +111,16 @@ def check_result_robot(entry: dict[str, Any], robot: RobotModel, path: Path,
         raise InputError(f"a result identified for {recorded['name']!r}",
                          f"a result for {robot.name!r}, the robot it is applied to (--robot)",
                          source=path, where=f"{where}robot.name")
-    nominal = parse_dh_rows(recorded.get("dh"), robot.n_joints, path, f"{where}robot.dh", "dh")
-    tolerance = np.where(np.array(DH_IS_LENGTH)[:, None], mm_to_m(ROBOT_TOLERANCE_MM),
+    # A result written before parametrisations were recorded is of a standard D-H arm.
+    kinds = recorded.get("parametrisation", ["dh"] * robot.n_joints)
+    if kinds != list(robot.structure.parametrisation):
+        raise InputError(f"a result identified for the parametrisation {kinds!r}",
+                         f"the robot's, {list(robot.structure.parametrisation)!r} (load it with "
+                         "the same parametrisation)", source=path,
+                         where=f"{where}robot.parametrisation")
+    nominal = parse_dh_rows(recorded.get("dh"), robot.n_joints, path, f"{where}robot.dh", "dh",
+                            robot.is_length)
+    tolerance = np.where(robot.is_length, mm_to_m(ROBOT_TOLERANCE_MM),
                          deg_to_rad(ROBOT_TOLERANCE_DEG))
     apart = np.abs(nominal - robot.dh) > tolerance
     if np.any(apart):
@@ -120,27 +128,32 @@ def check_result_robot(entry: dict[str, Any], robot: RobotModel, path: Path,
         key = DH_KEYS[row]
         raise InputError(
             f"a result identified for another nominal table of {robot.name} ({key}{joint + 1} "
-            f"differs)", f"the nominal D-H table of the robot it is applied to, within "
+            f"differs)", f"the nominal table of the robot it is applied to, within "
             f"{ROBOT_TOLERANCE_MM:g} mm and {ROBOT_TOLERANCE_DEG:g} deg",
             source=path, where=f"{where}robot.dh.{key}")
 
 
-def check_bounds(delta: NDArray[np.float64], path: Path, where: str) -> None:
-    """Refuse D-H errors beyond the search bounds: no method returns them, so the file is not
+def check_bounds(delta: NDArray[np.float64], path: Path, where: str,
+                 is_length: NDArray[np.bool_] | None = None) -> None:
+    """Refuse table errors beyond the search bounds: no method returns them, so the file is not
     what a calibration wrote.
 
     Args:
-        delta: D-H errors, shape (4, n), m and rad.
+        delta: Table errors, shape (4, n), m and rad.
+        is_length: Which entries are lengths, (4, n); D-H's rows if None.
     """
-    bound = np.where(np.array(DH_IS_LENGTH)[:, None], DH_BOUND_M + mm_to_m(BOUND_TOLERANCE_MM),
+    lengths = np.broadcast_to(np.array(DH_IS_LENGTH)[:, None], delta.shape) \
+        if is_length is None else is_length
+    bound = np.where(lengths, DH_BOUND_M + mm_to_m(BOUND_TOLERANCE_MM),
                      DH_BOUND_RAD + deg_to_rad(BOUND_TOLERANCE_DEG))
     beyond = np.abs(delta) > bound
     if np.any(beyond):
         row, joint = np.argwhere(beyond)[0]
         key = DH_KEYS[row]
-        value = dh_rows_to_display(delta)[key][joint]
+        value = dh_rows_to_display(delta, lengths)[key][joint]
         raise InputError(
-            f"δ{key}{joint + 1} = {value:g} {display_unit(key)}", "D-H errors within the "
+            f"δ{key}{joint + 1} = {value:g} {display_unit(key, bool(lengths[row, joint]))}",
+            "D-H errors within the "
             f"search bounds (±{float(m_to_mm(DH_BOUND_M)):g} mm, "
             f"±{float(rad_to_deg(DH_BOUND_RAD)):g} deg)", source=path,
             where=f"{where}delta.{key}")
@@ -166,9 +179,10 @@ def load_result_delta(
     """
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
-    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta")
+    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
+                          robot.is_length)
     check_result_robot(entry, robot, path, where)
-    check_bounds(delta, path, where)
+    check_bounds(delta, path, where, robot.is_length)
     return delta
 
 

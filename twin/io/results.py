@@ -40,9 +40,11 @@ def _metrics_mm(m: Metrics) -> dict[str, float]:
 
 
 def robot_to_dict(robot: RobotModel) -> dict[str, Any]:
-    """The ``robot`` JSON object: the name and nominal D-H table (mm, degrees) a result was
-    identified for, so that it is never applied to another robot."""
-    return {"name": robot.name, "dh": dh_rows_rounded(robot.dh, RESULT_MM_DECIMALS)}
+    """The ``robot`` JSON object: the name, parametrisation and nominal table (mm, degrees; a
+    Hayati β in degrees) a result was identified for, so that it is never applied to another
+    robot."""
+    return {"name": robot.name, "parametrisation": list(robot.structure.parametrisation),
+            "dh": dh_rows_rounded(robot.dh, RESULT_MM_DECIMALS, is_length=robot.is_length)}
 
 
 def identifiability_to_dict(identifiability: Identifiability, at: str) -> dict[str, Any]:
@@ -63,9 +65,9 @@ def _finite_or_none(values: list[float]) -> list[float | None]:
     return [v if math.isfinite(v) else None for v in values]
 
 
-def _sigma_display(sigma_dh: Any) -> dict[str, list[float]]:
+def _sigma_display(sigma_dh: Any, robot: RobotModel) -> dict[str, list[float]]:
     """Per-parameter σ, shape (4, n), as rounded mm and degrees (nan stays nan)."""
-    return dh_rows_rounded(sigma_dh, RESULT_MM_DECIMALS, FILE_DEG_DECIMALS)
+    return dh_rows_rounded(sigma_dh, RESULT_MM_DECIMALS, FILE_DEG_DECIMALS, robot.is_length)
 
 
 def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
@@ -82,7 +84,8 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         model = result.model
         sigma_dh = model.block(uncertainty.sigma, "dh").reshape(result.robot.dh.shape)
         fields["sigma"] = {
-            key: _finite_or_none(values) for key, values in _sigma_display(sigma_dh).items()
+            key: _finite_or_none(values)
+            for key, values in _sigma_display(sigma_dh, result.robot).items()
         }
         if model.has("port"):
             fields["sigma"]["port"] = _finite_or_none(_mm(model.block(uncertainty.sigma, "port")))
@@ -130,7 +133,8 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
         "method": result.method,
         "seed": result.seed,
         "robot": robot_to_dict(result.robot),
-        "delta": dh_rows_rounded(result.delta, RESULT_MM_DECIMALS),
+        "delta": dh_rows_rounded(result.delta, RESULT_MM_DECIMALS,
+                                 is_length=result.robot.is_length),
     }
     if result.model.has("port"):
         document["port"] = _mm(result.port_m)

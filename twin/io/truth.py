@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from twin.errors import InputError
 from twin.io.paths import read_json
@@ -19,28 +19,32 @@ from twin.units import DH_KEYS, dh_rows_from_display
 
 
 def parse_delta(
-    document: Any, n_joints: int, source: str | Path, where: str = "delta"
+    document: Any, n_joints: int, source: str | Path, where: str = "delta",
+    is_length: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
-    """The D-H errors under ``document["delta"]``, shape (4, n), m and rad.
+    """The table errors under ``document["delta"]``, shape (4, n), m and rad.
 
     Args:
         document: A parsed JSON document (truth or result).
         n_joints: Number of joints n the robot has.
         source: The file, for the error message.
         where: Where ``document`` sits in the file, for the error message.
+        is_length: Which entries are lengths, (4, n) (the robot's); D-H's rows if None.
 
     Raises:
         InputError: if there is no ``delta`` with lists a, d (mm), alpha, theta (deg) of n numbers.
     """
     block = document.get("delta") if isinstance(document, dict) else None
-    return parse_dh_rows(block, n_joints, source, where, "delta")
+    return parse_dh_rows(block, n_joints, source, where, "delta", is_length)
 
 
 def parse_dh_rows(
-    block: Any, n_joints: int, source: str | Path, where: str, name: str
+    block: Any, n_joints: int, source: str | Path, where: str, name: str,
+    is_length: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
-    """A D-H block ``{"a": [mm…], "d": [mm…], "alpha": [deg…], "theta": [deg…]}`` of n finite
-    numbers each, as a (4, n) array in m and rad.
+    """A table block ``{"a": [mm…], "d": [mm…], "alpha": [deg…], "theta": [deg…]}`` of n finite
+    numbers each, as a (4, n) array in m and rad (with ``is_length`` (4, n), each entry in its
+    own unit: a Hayati β in the ``d`` row is in degrees).
 
     Raises:
         InputError: naming ``where`` if the block has another shape or a value is not finite.
@@ -59,13 +63,16 @@ def parse_dh_rows(
     if not all(math.isfinite(v) for values in display.values() for v in values):
         raise InputError(f"a non-finite value in {name!r}", "finite numbers", source=source,
                          where=where)
-    return dh_rows_from_display(display)
+    return dh_rows_from_display(display, is_length)
 
 
-def load_truth_delta(path: str | Path, n_joints: int) -> NDArray[np.float64]:
-    """The true D-H errors of a truth file, shape (4, n), m and rad.
+def load_truth_delta(path: str | Path, n_joints: int, is_length: ArrayLike | None = None
+                     ) -> NDArray[np.float64]:
+    """The true table errors of a truth file, shape (4, n), m and rad (``is_length`` as in
+    :func:`parse_dh_rows`).
 
     Raises:
         InputError: if the file is not JSON or has no valid ``delta``.
     """
-    return parse_delta(read_json(path, "a truth JSON file"), n_joints, path)
+    return parse_delta(read_json(path, "a truth JSON file"), n_joints, path,
+                       is_length=is_length)

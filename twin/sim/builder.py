@@ -1,18 +1,21 @@
-"""A MuJoCo model of a 6-joint D-H arm, built with :class:`mujoco.MjSpec` from a RobotModel.
+"""A MuJoCo model of a serial revolute arm, built with :class:`mujoco.MjSpec` from a RobotModel.
 
-Body ``link<i>`` (child of ``link<i−1>``, or of the world for i = 1) carries hinge ``joint<i>``
-about its local z axis at its origin. Its frame is D-H frame i−1 turned by the constant offset
-``Rz(θ_i)``, so that with the joint at q_i the body is at frame i−1 · Rz(q_i + θ_i); the next body
-sits at ``Tz(d_i) · Tx(a_i) · Rx(α_i) · Rz(θ_{i+1})`` in it, and site ``flange`` at
-``Tz(d_6) · Tx(a_6) · Rx(α_6)`` in ``link6``. The flange site's pose is therefore exactly the
-core's ``flange_transform`` (tested over 1000 random poses).
+The chain is the robot's fixed transforms (:func:`twin.kinematics.fixed_transforms`),
+``base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯ Rz(q_n) · T_n``, whatever the parametrisation of its
+joints (standard or modified D-H, Hayati) and its base and tool transforms: body ``link<i>``
+(child of ``link<i−1>``, or of the world for i = 1) sits at ``T_{i−1}`` in its parent and carries
+hinge ``joint<i>`` about its local z axis at its origin; site ``flange`` sits at ``T_n`` in
+``link<n>``. With the joints at q, the flange site's pose is therefore exactly the core's
+``flange_transform`` (tested over 1000 random poses, for every parametrisation).
 
-Each link is drawn and collides as capsules along its D-H skeleton: one along z for d_i, one
-along x for a_i (a sphere when both are zero), of the model file's ``radius`` and sharing its
-``mass``. World site ``port`` is the encoder port; spatial tendon ``cable`` runs from ``port`` to
-``flange``: its ``ten_length`` is the measured cable length. With compliant physics, actuators
-``servo<i>`` are position servos of the joint stiffness, and actuator ``tension`` pulls the cable
-with a force equal to its ``ctrl`` (N).
+Each link is drawn and collides as capsules along its skeleton, from its joint to the next
+joint (or the flange): along the joint axis first, then across to the next origin (for a
+standard D-H link: along z by d_i, then along x by a_i); a sphere when both are zero. They take
+the model file's ``radius`` and share its ``mass``; when joint 1 stands off the base origin, a
+pedestal capsule of the world reaches up to it. World site ``port`` is the encoder port;
+spatial tendon ``cable`` runs from ``port`` to ``flange``: its ``ten_length`` is the measured
+cable length. With compliant physics, actuators ``servo<i>`` are position servos of the joint
+stiffness, and actuator ``tension`` pulls the cable with a force equal to its ``ctrl`` (N).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.kinematics import fixed_transforms
 from twin.robot import RobotModel
 from twin.sim.physics import RIGID, Physics
 from twin.units import rad_to_deg
@@ -41,27 +45,25 @@ CABLE_WIDTH_M = 0.002
 _SEGMENT_EPS_M = 1e-9
 
 
-def _quat_rx(angle: float) -> Array:
-    return np.array([np.cos(angle / 2), np.sin(angle / 2), 0.0, 0.0])
+def _quat(rotation: Array) -> Array:
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=np.float64).ravel())
+    return quat
 
 
-def _quat_rz(angle: float) -> Array:
-    return np.array([np.cos(angle / 2), 0.0, 0.0, np.sin(angle / 2)])
-
-
-def _quat_mul(left: Array, right: Array) -> Array:
-    result = np.empty(4)
-    mujoco.mju_mulQuat(result, left, right)
-    return result
-
-
-def _add_link_geoms(body: mujoco.MjsBody, a_m: float, d_m: float, radius_m: float,
+def _add_link_geoms(body: mujoco.MjsBody, next_m: Array, radius_m: float,
                     mass_kg: float | None) -> None:
-    """Capsules along the link's D-H skeleton (z by d, then x by a), sharing the link mass."""
-    segments = [
-        (np.zeros(3), np.array([0.0, 0.0, d_m])),
-        (np.array([0.0, 0.0, d_m]), np.array([a_m, 0.0, d_m])),
-    ]
+    """Capsules along the link's skeleton (along the joint axis z to the height of the next
+    origin, then across to it), sharing the link mass.
+
+    Args:
+        body: The link's body; its frame is the joint's, z along the axis.
+        next_m: The next joint's origin (or the flange's) in that frame, shape (3,), m.
+        radius_m: Capsule radius, m.
+        mass_kg: The link's mass, or None.
+    """
+    corner = np.array([0.0, 0.0, next_m[2]])
+    segments = [(np.zeros(3), corner), (corner, np.asarray(next_m, dtype=np.float64))]
     segments = [(p, q) for p, q in segments if np.linalg.norm(q - p) > _SEGMENT_EPS_M]
     rgba = [0.85, 0.45, 0.1, 1.0]
     if not segments:
@@ -97,8 +99,6 @@ def build_spec(
     Returns:
         An uncompiled spec; ``spec.compile()`` gives the model, ``spec.to_xml()`` its MJCF.
     """
-    if not robot.structure.is_standard:
-        raise ValueError(f"{robot.name}: the twin builds standard D-H chains only")
     n = robot.n_joints
     spec = mujoco.MjSpec()
     spec.modelname = robot.name.lower().replace(" ", "_")
@@ -107,24 +107,25 @@ def build_spec(
     spec.option.gravity = [0.0, 0.0, -GRAVITY_M_S2]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     radius = robot.radius_m if robot.radius_m is not None else np.full(n, DEFAULT_RADIUS_M)
-    a, d, alpha, theta = robot.dh
+    fixed = fixed_transforms(robot.structure, robot.dh)
+    if np.linalg.norm(fixed[0][:3, 3]) > _SEGMENT_EPS_M:
+        # Joint 1 stands off the base origin (a base transform, a Hayati joint 1): a pedestal.
+        spec.worldbody.add_geom(name="pedestal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                                fromto=[0.0, 0.0, 0.0, *fixed[0][:3, 3]],
+                                size=[radius[0], 0, 0], rgba=[0.85, 0.45, 0.1, 1.0])
     parent = spec.worldbody
-    pos, quat = np.zeros(3), _quat_rz(theta[0])
     for i in range(n):
-        body = parent.add_body(name=f"link{i + 1}", pos=pos, quat=quat)
+        body = parent.add_body(name=f"link{i + 1}", pos=fixed[i][:3, 3],
+                               quat=_quat(fixed[i][:3, :3]))
         joint = body.add_joint(name=f"joint{i + 1}", type=mujoco.mjtJoint.mjJNT_HINGE,
                                axis=[0.0, 0.0, 1.0], armature=ARMATURE_KG_M2)
         joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
         joint.range = [robot.lower_rad[i], robot.upper_rad[i]]
-        _add_link_geoms(body, a[i], d[i], radius[i],
+        _add_link_geoms(body, fixed[i + 1][:3, 3], radius[i],
                         None if robot.mass_kg is None else float(robot.mass_kg[i]))
-        pos = np.array([a[i], 0.0, d[i]])
-        quat = _quat_rx(alpha[i])
-        if i + 1 < n:
-            quat = _quat_mul(quat, _quat_rz(theta[i + 1]))
         parent = body
-    parent.add_site(name="flange", pos=pos, quat=quat, size=[0.008, 0, 0],
-                    rgba=[0.1, 0.6, 0.1, 1.0])
+    parent.add_site(name="flange", pos=fixed[n][:3, 3], quat=_quat(fixed[n][:3, :3]),
+                    size=[0.008, 0, 0], rgba=[0.1, 0.6, 0.1, 1.0])
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
     # offset, links two apart meet at the wrist and elbow centres too.
     for i in range(1, n - 1):
@@ -174,7 +175,7 @@ def model_xml(robot: RobotModel, port_m: ArrayLike | None = None,
     """
     spec = build_spec(robot, port_m, physics)
     spec.comment = (
-        f"{robot.name}: generated by twin.sim.builder.model_xml from the D-H table "
+        f"{robot.name}: generated by twin.sim.builder.model_xml from the kinematic table "
         f"(joint limits {np.round(rad_to_deg(robot.lower_rad), 3).tolist()} .. "
         f"{np.round(rad_to_deg(robot.upper_rad), 3).tolist()} deg)"
     )

@@ -6,23 +6,28 @@ joint errors), paths relative to the scenario file::
     name = "paper_irb120"                  # required
     description = "..."
     seed = 7                               # required: seeds every random draw
-    robot = "../models/irb120.toml"        # nominal model; default: the packaged IRB 120
+    robot = "../models/irb120.toml"        # nominal model (model TOML or URDF, 4 to 7 joints);
+                                           # default: the packaged IRB 120
 
     [port]
     position_mm = [600.0, -400.0, 100.0]   # required: true port, base frame
     told_error_mm = 0.0                    # the calibration is told position + N(0, σ²) per axis
     # told_mm = [601.0, -400.0, 100.0]     # ... or exactly this (not both)
 
-    [perturbation]                         # the true D-H errors, drawn per seed
+    robot_base_link = "base_link"          # for a URDF robot: its chain (default: the root
+    robot_tip_link = "tool0"               #   link to tool0, flange or the one leaf)
+
+    [perturbation]                         # the true table errors, drawn per seed
     distribution = "uniform"               # "uniform": ±scale; "normal": σ = scale
     a_mm = 1.0                             # a number, or a list of one per joint
-    d_mm = 1.0
+    d_mm = 1.0                             # (not used on Hayati joints, which have no d)
+    beta_deg = 0.1                         # Hayati joints' β (default: alpha_deg)
     alpha_deg = 0.1
     theta_deg = 0.1
 
     [poses]
     count = 120                            # required unless plan is given
-    plan = "plan.csv"                      # q1..q6 in degrees; replaces random sampling
+    plan = "plan.csv"                      # q1..qN in degrees; replaces random sampling
     min_flange_height_mm = 50.0
     cable_clearance_mm = 0.0
 
@@ -74,23 +79,24 @@ from numpy.typing import NDArray
 from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_toml
-from twin.robot import RobotModel, default_robot, load_robot
+from twin.io.robot_file import load_robot
+from twin.robot import RobotModel, default_robot
 from twin.sim.joint_errors import JointErrors
 from twin.sim.noise import NoiseModel
 from twin.sim.perturbation import DISTRIBUTIONS, Perturbation
 from twin.sim.physics import Physics
 from twin.sim.poses import PoseConstraints
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
-from twin.units import deg_to_rad, mm_to_m
+from twin.units import deg_to_rad, mm_to_m, rad_to_deg
 
 Array = NDArray[np.float64]
 ARCSEC_PER_DEG = 3600.0
 
-_TOP = ("name", "description", "seed", "robot", "port", "perturbation", "poses", "encoder",
-        "joints", "physics", "calibration", "study", "expect")
+_TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
+        "perturbation", "poses", "encoder", "joints", "physics", "calibration", "study", "expect")
 _TABLES = {
     "port": ("position_mm", "told_error_mm", "told_mm"),
-    "perturbation": ("distribution", "a_mm", "d_mm", "alpha_deg", "theta_deg"),
+    "perturbation": ("distribution", "a_mm", "d_mm", "beta_deg", "alpha_deg", "theta_deg"),
     "poses": ("count", "plan", "min_flange_height_mm", "cable_clearance_mm"),
     "encoder": ("range_mm", "sigma_mm", "resolution_mm", "outlier_rate", "outlier_mm",
                 "offset_mm"),
@@ -279,7 +285,13 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     tables = {name: _Table(document, name, source, keys) for name, keys in _TABLES.items()}
     name = top.text("name") if top.has("name") else top.required("name", "a scenario name")
     folder = source.parent
-    robot = load_robot(folder / top.text("robot")) if top.has("robot") else default_robot()
+    links = {key: top.text(f"robot_{key}") if top.has(f"robot_{key}") else None
+             for key in ("base_link", "tip_link")}
+    if not top.has("robot") and any(links.values()):
+        raise top.error("robot_base_link", "robot_base_link or robot_tip_link without robot",
+                        "robot = \"arm.urdf\" beside them")
+    robot = load_robot(folder / top.text("robot"), **links) if top.has("robot") \
+        else default_robot()
     n = robot.n_joints
     if not top.has("seed"):
         top.required("seed", "an integer seed")
@@ -303,10 +315,17 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     distribution = pert.text("distribution", "uniform")
     if distribution not in DISTRIBUTIONS:
         raise pert.error("distribution", repr(distribution), "one of " + ", ".join(DISTRIBUTIONS))
+    alpha_rad = deg_to_rad(pert.vector("alpha_deg", n, per_joint=True, minimum=0.0,
+                                       default=0.0))
+    # The second slot is d (m) on D-H joints and β (rad) on Hayati joints: each its own scale.
+    beta_rad = deg_to_rad(pert.vector("beta_deg", n, per_joint=True, minimum=0.0,
+                                      default=list(rad_to_deg(alpha_rad))))
     scale = np.stack([
         mm_to_m(pert.vector("a_mm", n, per_joint=True, minimum=0.0, default=0.0)),
-        mm_to_m(pert.vector("d_mm", n, per_joint=True, minimum=0.0, default=0.0)),
-        deg_to_rad(pert.vector("alpha_deg", n, per_joint=True, minimum=0.0, default=0.0)),
+        np.where(robot.is_length[1],
+                 mm_to_m(pert.vector("d_mm", n, per_joint=True, minimum=0.0, default=0.0)),
+                 beta_rad),
+        alpha_rad,
         deg_to_rad(pert.vector("theta_deg", n, per_joint=True, minimum=0.0, default=0.0)),
     ])
 
@@ -386,7 +405,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         port_m=port_m,
         port_told_m=port_told_m,
         port_error_m=port_error_m,
-        perturbation=Perturbation(distribution, scale),
+        perturbation=Perturbation(distribution, scale, robot.is_length),
         pose_count=count,
         pose_plan=plan,
         constraints=PoseConstraints(

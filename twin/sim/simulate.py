@@ -22,7 +22,7 @@ from twin.io.measurements import write_measurements
 from twin.io.results import write_json
 from twin.kinds.length import cable_length
 from twin.metrics import metrics
-from twin.robot import RobotModel, robot_to_toml
+from twin.robot import RobotModel, robot_files
 from twin.sim.joint_errors import JointErrors, approach_directions
 from twin.sim.poses import read_pose_plan, sample_poses
 from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
@@ -112,10 +112,11 @@ class Simulation:
         return {
             "scenario": self.scenario.name,
             "seed": self.seed,
-            "robot": {"name": self.true_robot.name, "dh": dh_rows_to_display(self.true_robot.dh)},
+            "robot": {"name": self.true_robot.name,
+                      "dh": dh_rows_to_display(self.true_robot.dh, self.robot.is_length)},
             "port": m_to_mm(self.port_m).tolist(),
             "port_told": m_to_mm(self.port_nominal_m).tolist(),
-            "delta": dh_rows_to_display(self.delta),
+            "delta": dh_rows_to_display(self.delta, self.robot.is_length),
             "noise": self.noise,
             "joint_errors": {
                 "transmission_arcsec": (errors.transmission_rad * arcsec).tolist(),
@@ -179,14 +180,16 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
 
 
 def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
-    """Write measurements.csv, robot.toml, truth.json and capture.toml (last), each atomically.
+    """Write measurements.csv, robot.toml (and robot.urdf for a robot read from a URDF),
+    truth.json and capture.toml (last), each atomically.
 
     Returns:
         The capture file's path.
     """
     out = Path(out_dir)
     write_measurements(out / MEASUREMENTS_FILE, sim.measurements)
-    write_atomic(out / ROBOT_FILE, robot_to_toml(sim.robot))
+    for name, text in robot_files(sim.robot, Path(ROBOT_FILE).stem).items():
+        write_atomic(out / name, text)
     write_json(out / TRUTH_FILE, sim.truth)
     settings = CalibrationSettings(
         estimate_port=sim.scenario.estimate_port, estimate_offset=sim.scenario.estimate_offset,

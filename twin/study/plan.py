@@ -24,7 +24,7 @@ from typing import Any
 
 from twin.errors import InputError
 from twin.io.paths import read_bytes, read_toml
-from twin.robot import robot_to_toml
+from twin.robot import robot_files
 from twin.sim.scenario import Scenario, parse_scenario
 from twin.solvers import SOLVERS, get_solver
 
@@ -192,7 +192,8 @@ def load_study(path: str | Path, *, trials: int | None = None,
     identity.get("study", {}).pop("trials", None)
     identity.get("study", {}).pop("methods", None)
     # Files the scenario names are part of it: a changed robot model or pose plan is a change.
-    identity["files"] = {"robot": _digest(robot_to_toml(base.robot).encode("utf-8"))}
+    identity["files"] = {"robot": _digest("".join(robot_files(base.robot).values())
+                                          .encode("utf-8"))}
     if base.pose_plan is not None:
         identity["files"]["poses.plan"] = _digest(
             read_bytes(base.pose_plan, "a pose plan CSV")) \

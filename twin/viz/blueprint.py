@@ -41,8 +41,9 @@ def _panels() -> tuple[rrb.BlueprintPart, ...]:
 def _parameter_view(key: str, methods: Sequence[str], has_truth: bool) -> rrb.BarChartView:
     sources: list[str | None] = [None] if has_truth else []
     sources += list(methods)
+    unit = "deg" if key == "beta" else display_unit(key)
     return rrb.BarChartView(
-        name=f"δ{key} [{display_unit(key)}] per joint",
+        name=f"δ{key} [{unit}] per joint",
         origin=entities.PARAMETERS,
         contents=[f"+ /{entities.parameter_bars(source, key)}" for source in sources],
     )
@@ -56,12 +57,14 @@ def _convergence_view(name: str, quantities: Sequence[str], methods: Sequence[st
     )
 
 
-def calibration_blueprint(methods: Sequence[str], has_truth: bool) -> rrb.Blueprint:
+def calibration_blueprint(methods: Sequence[str], has_truth: bool,
+                          keys: Sequence[str] = DH_KEYS) -> rrb.Blueprint:
     """The default layout of a calibration recording.
 
     Args:
         methods: The methods logged, in order.
         has_truth: Whether ``parameters/true`` and ``world/robot/true`` are logged.
+        keys: The parameter rows shown (:func:`twin.viz.calibration.bar_keys`).
     """
     scene = rrb.Vertical(
         _scene_view(),
@@ -75,8 +78,8 @@ def calibration_blueprint(methods: Sequence[str], has_truth: bool) -> rrb.Bluepr
         name="Convergence",
     )
     parameters = rrb.Grid(
-        *(_parameter_view(key, methods, has_truth) for key in DH_KEYS), grid_columns=2,
-        name="D-H errors",
+        *(_parameter_view(key, methods, has_truth) for key in keys), grid_columns=2,
+        name="Table errors",
     )
     report = rrb.TextDocumentView(name="Report", origin=entities.REPORT)
     return rrb.Blueprint(

@@ -21,7 +21,7 @@ from twin.io.results import MM2_PER_M2
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm
+from twin.units import dh_rows_to_display, m_to_mm
 from twin.viz import entities
 from twin.viz.blueprint import calibration_blueprint
 from twin.viz.report import calibration_markdown
@@ -38,17 +38,36 @@ BAR_GROUP_WIDTH = 0.8
 """Width of one joint's group of bars (the truth, then each method), in joint-index units."""
 
 
+def bar_keys(table_is_length: ArrayLike) -> tuple[str, ...]:
+    """The bar-chart rows of a table whose entries are lengths where ``table_is_length`` (4, n):
+    a, d, alpha, theta, and beta when some joint is a Hayati joint."""
+    lengths = np.asarray(table_is_length, dtype=bool)
+    return tuple(key for key in entities.BAR_KEYS
+                 if key != "beta" or not np.all(lengths[1]))
+
+
+def _bar_rows(delta: NDArray[np.float64], table_is_length: ArrayLike
+              ) -> dict[str, list[float]]:
+    """Each bar row in its unit (mm, deg); d and β apart, 0 on joints without them."""
+    lengths = np.asarray(table_is_length, dtype=bool)
+    display = dh_rows_to_display(delta, lengths)
+    second = np.asarray(display["d"])
+    display["d"] = np.where(lengths[1], second, 0.0).tolist()
+    display["beta"] = np.where(lengths[1], 0.0, second).tolist()
+    return {key: display[key] for key in bar_keys(lengths)}
+
+
 def log_parameters(
     writer: Writer, method: str | None, delta: NDArray[np.float64], values: NDArray[np.float64],
     names: tuple[str, ...], is_length: ArrayLike, color: tuple[int, int, int],
-    slot: tuple[int, int] = (0, 1),
+    slot: tuple[int, int] = (0, 1), table_is_length: ArrayLike | None = None,
 ) -> None:
-    """One source's D-H errors as bars per row (mm, deg) and its values exactly (SI).
+    """One source's table errors as bars per row (mm, deg) and its values exactly (SI).
 
     Args:
         writer: Where to log.
         method: The method, or None for the truth.
-        delta: D-H errors, shape (4, n), m and rad.
+        delta: Table errors, shape (4, n), m and rad.
         values: The exact values to keep, shape (p,), m and rad: the unknowns x of a method
             (D-H errors, then port and offset if estimated) or the true D-H errors.
         names: Name of each value, shape (p,).
@@ -56,12 +75,15 @@ def log_parameters(
         color: Bar colour.
         slot: ``(index, count)``: this source's place among the sources drawn side by side in
             one chart, so that the truth and each method get their own bar per joint.
+        table_is_length: Which table entries are lengths, (4, n); D-H's rows if None.
     """
-    display = dh_rows_to_display(delta)
+    lengths = np.broadcast_to(np.array([True, True, False, False])[:, None], delta.shape) \
+        if table_is_length is None else table_is_length
+    display = _bar_rows(delta, lengths)
     index, count = slot
     width = BAR_GROUP_WIDTH / count
     abscissa = np.arange(1, delta.shape[1] + 1) - BAR_GROUP_WIDTH / 2 + (index + 0.5) * width
-    for key in DH_KEYS:
+    for key in display:
         writer.once(entities.parameter_bars(method, key),
                     rr.BarChart(np.asarray(display[key]), abscissa=abscissa, color=color,
                                 widths=np.full(abscissa.shape, width, dtype=np.float32)))
@@ -147,7 +169,8 @@ class CalibrationLog:
         self.port_m = np.asarray(port_m, dtype=np.float64)
         self.sources = len(self.methods) + (truth_delta is not None)
         nominal = make_model(robot, Rig.cable(self.port_m), measurements.kind)
-        writer.stream.send_blueprint(calibration_blueprint(self.methods, truth_delta is not None))
+        writer.stream.send_blueprint(calibration_blueprint(
+            self.methods, truth_delta is not None, bar_keys(robot.is_length)))
         writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         robots = {"nominal": robot}
         if truth_delta is not None:
@@ -157,7 +180,7 @@ class CalibrationLog:
             self._log_cable(robots["true"])
             truth = np.asarray(truth_delta, dtype=np.float64)
             log_parameters(writer, None, truth, truth.ravel(), nominal.names, nominal.is_length,
-                           TRUE_COLOR, (0, self.sources))
+                           TRUE_COLOR, (0, self.sources), robot.is_length)
         log_robots(writer, robots, measurements.q_rad)
         log_residuals_before(writer, nominal, measurements)
 
@@ -177,7 +200,8 @@ class CalibrationLog:
         log_parameters(self.writer, result.method, result.delta, result.solver.x,
                        result.model.names, result.model.is_length,
                        robot_color(result.method, order),
-                       (order + (self.truth_delta is not None), self.sources))
+                       (order + (self.truth_delta is not None), self.sources),
+                       result.robot.is_length)
 
     def finish(self, results: Mapping[str, CalibrationResult]) -> None:
         """Log the report: metrics of every method, flange error against the truth,

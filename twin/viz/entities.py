@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from twin.units import DH_KEYS
 
+BAR_KEYS = (*DH_KEYS[:2], "beta", *DH_KEYS[2:])
+"""Rows of the parameter bar charts: the table's slots, with Hayati joints' β (degrees) apart
+from D-H's d (mm), which share a slot."""
+
 POSE_TIMELINE = "pose"
 """Sequence timeline over the measured poses (row index of the measurement file)."""
 ITERATION_TIMELINE = "iteration"
@@ -60,9 +64,9 @@ def parameter_source(method: str | None) -> str:
 
 
 def parameter_bars(method: str | None, key: str) -> str:
-    """Bar chart of one D-H row (``key`` in a, d, alpha, theta) of a source."""
-    if key not in DH_KEYS:
-        raise ValueError(f"key {key!r}, expected one of {DH_KEYS}")
+    """Bar chart of one table row (``key`` in :data:`BAR_KEYS`) of a source."""
+    if key not in BAR_KEYS:
+        raise ValueError(f"key {key!r}, expected one of {BAR_KEYS}")
     return f"{parameter_source(method)}/{key}"
 
 

@@ -1,0 +1,65 @@
+"""Reading a robot from its file: a D-H model TOML (:func:`twin.robot.parse_robot`), a URDF
+(:mod:`twin.urdf`, through Pinocchio), or a model TOML that names a URDF::
+
+    urdf = "ur5e.urdf"               # relative to this file
+    base_link = "base_link"          # optional
+    tip_link = "tool0"               # optional
+    parametrisation = "auto"         # optional: "dh", "mdh", "auto" or one per joint
+    name = "my UR5e"                 # optional
+
+This is the one place that knows both formats; :mod:`twin.robot` holds the model and its D-H
+file alone, and :mod:`twin.urdf` the URDF adapter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from twin.errors import InputError
+from twin.io.paths import read_toml
+from twin.parametrisation import AUTO
+from twin.robot import ModelDocument, RobotModel, parse_robot
+from twin.urdf import load_urdf
+
+URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
+"""The keys of a model file that names a URDF."""
+
+
+def _urdf_reference(document: dict[str, Any], source: str | Path) -> RobotModel:
+    """A model file that names a URDF: read the URDF with the file's links and parametrisation."""
+    doc = ModelDocument(document, source)
+    unknown = sorted(set(document) - set(URDF_KEYS))
+    if unknown:
+        raise doc.error(f"unknown key {unknown[0]!r} beside 'urdf'", "only " + ", ".join(URDF_KEYS))
+    links = {key: doc.text(key) if key in document else None
+             for key in ("base_link", "tip_link")}
+    robot = load_urdf(Path(source).parent / doc.text("urdf"), base_link=links["base_link"],
+                      tip_link=links["tip_link"], parametrisation=doc.request(AUTO))
+    return replace(robot, name=doc.text("name")) if "name" in document else robot
+
+
+def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None
+               ) -> RobotModel:
+    """Read and validate a robot model: a TOML model file, or a URDF (``.urdf``).
+
+    Args:
+        path: The file.
+        base_link: For a URDF: the link the chain starts from (default: the root).
+        tip_link: For a URDF: the flange link (default: tool0, flange or the one leaf).
+
+    Raises:
+        InputError: if the file is missing, not TOML (or URDF), or not a valid model.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".urdf":
+        return load_urdf(path, base_link=base_link, tip_link=tip_link)
+    if base_link is not None or tip_link is not None:
+        raise InputError("--base-link or --tip-link with a model TOML file",
+                         "them with a URDF (the TOML file names its links itself)",
+                         source=path)
+    document = read_toml(path, "a robot model TOML file")
+    if "urdf" in document:
+        return _urdf_reference(document, path)
+    return parse_robot(document, path)

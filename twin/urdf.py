@@ -1,0 +1,278 @@
+"""URDF in: the serial chain of a URDF as a twin robot, through Pinocchio.
+
+An adapter: it imports Pinocchio (lazily, when a URDF is read); the core never does.
+
+Pinocchio parses the URDF (urdfdom) into its kinematic tree; the chain runs from a base link
+down to a tip link:
+
+- **base link**: ``--base-link`` / ``base_link``, by default the URDF's root link;
+- **tip link**: ``--tip-link`` / ``tip_link``, by default ``tool0`` when the URDF has it, else
+  ``flange``, else the one leaf link (several leaves: the error lists them);
+- every joint on the way must be revolute (or continuous: limits ±180° then) or fixed; off-chain
+  joints (a gripper's fingers) are kept in the URDF and left at zero.
+
+Each revolute joint's frame is turned so that its axis is z, which gives the chain as fixed
+transforms T_0 … T_n (:func:`twin.kinematics.fixed_transforms`' form: fixed joints between two
+revolute joints merge into one transform), and :func:`twin.parametrisation.convert` turns those
+into the chosen parametrisation exactly. Joint limits, rated speeds and torques come from the
+URDF's ``<limit>``; link masses from Pinocchio's inertias (a joint's mass is that of every link
+rigidly attached after it). The URDF text itself is kept (:class:`twin.robot.UrdfSource`) so
+that a calibration can be written back into it with every name, mesh and inertial
+(:mod:`twin.export.urdf`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.errors import InputError
+from twin.io.paths import read_text
+from twin.kinematics import fixed_transforms
+from twin.parametrisation import AUTO, convert, joint_frames
+from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
+
+if TYPE_CHECKING:
+    import pinocchio as pin
+
+Array = NDArray[np.float64]
+
+TIP_NAMES = ("tool0", "flange")
+"""Tip links looked for, in this order, when none is named."""
+CONTINUOUS_LIMIT_RAD = math.pi
+"""Limits given to a continuous joint (the URDF gives none): ±180°."""
+REVOLUTE = ("revolute", "continuous")
+WHAT = "a URDF file"
+
+
+class Chain(NamedTuple):
+    """A URDF's serial chain, as the XML names it."""
+
+    base_link: str
+    tip_link: str
+    joints: tuple[ET.Element, ...]
+    """Every joint element from the base link down to the tip link, in order."""
+
+    @property
+    def revolute(self) -> tuple[ET.Element, ...]:
+        """The chain's revolute (and continuous) joints, base to tip."""
+        return tuple(joint for joint in self.joints if joint.get("type") in REVOLUTE)
+
+
+def _child(joint: ET.Element) -> str:
+    element = joint.find("child")
+    return "" if element is None else str(element.get("link", ""))
+
+
+def _parent(joint: ET.Element) -> str:
+    element = joint.find("parent")
+    return "" if element is None else str(element.get("link", ""))
+
+
+def find_chain(root: ET.Element, base_link: str | None, tip_link: str | None,
+               source: str | Path) -> Chain:
+    """The joints from the base link down to the tip link of a parsed URDF.
+
+    Raises:
+        InputError: for an unknown link, a tip that is not below the base, an ambiguous default
+            tip, or a joint on the chain that is neither revolute nor fixed.
+    """
+    links = [str(link.get("name")) for link in root.findall("link")]
+    joints = root.findall("joint")
+    by_child = {_child(joint): joint for joint in joints}
+    parents = {_parent(joint) for joint in joints}
+    roots = [link for link in links if link not in by_child]
+    leaves = [link for link in links if link not in parents]
+    if base_link is None:
+        base_link = roots[0] if len(roots) == 1 else None
+        if base_link is None:
+            raise InputError(f"{len(roots)} root links", "one (or --base-link NAME)",
+                             source=source)
+    if tip_link is None:
+        named = [name for name in TIP_NAMES if name in links]
+        tip_link = named[0] if named else leaves[0] if len(leaves) == 1 else None
+        if tip_link is None:
+            raise InputError("several leaf links (" + ", ".join(leaves) + ") and no tool0 or "
+                             "flange", "--tip-link NAME to say which is the flange",
+                             source=source)
+    for flag, name in (("--base-link", base_link), ("--tip-link", tip_link)):
+        if name not in links:
+            raise InputError(f"{flag} {name!r}", "one of the URDF's links: " + ", ".join(links),
+                             source=source)
+    path: list[ET.Element] = []
+    link = tip_link
+    while link != base_link:
+        if link not in by_child:
+            raise InputError(f"tip link {tip_link!r} not below base link {base_link!r}",
+                             "a tip link on the chain below the base link", source=source)
+        joint = by_child[link]
+        if joint.get("type") not in (*REVOLUTE, "fixed"):
+            raise InputError(f"joint {joint.get('name')!r} of type {joint.get('type')!r} on "
+                             "the chain", "revolute, continuous or fixed joints only",
+                             source=source)
+        path.append(joint)
+        link = _parent(joint)
+    return Chain(base_link, tip_link, tuple(reversed(path)))
+
+
+def axis_alignment(axis: Sequence[float]) -> Array:
+    """A rotation R with R · e_z = the unit joint axis (so that the joint turns about z of its
+    frame turned by R), shape (3, 3)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    c = float(a[2])
+    v = np.array([-a[1], a[0], 0.0])  # e_z × a
+    s = float(np.linalg.norm(v))
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.asarray(np.eye(3) + k + k @ k * ((1.0 - c) / s**2), dtype=np.float64)
+
+
+@contextlib.contextmanager
+def _captured_stderr() -> Iterator[list[str]]:
+    """Collect what C++ code writes to file descriptor 2 (urdfdom reports its errors there,
+    around Python's back) instead of letting it reach the terminal."""
+    lines: list[str] = []
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield lines
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            lines += sink.read().decode("utf-8", errors="replace").splitlines()
+
+
+def _pinocchio_model(text: str, source: str | Path) -> pin.Model:
+    import pinocchio as pin
+
+    with _captured_stderr() as messages:
+        try:
+            return pin.buildModelFromXML(text)
+        except (RuntimeError, ValueError):
+            pass
+    reasons = [line.split("Error:", 1)[1].strip() for line in messages if "Error:" in line]
+    reason = reasons[0] if reasons else "no reason given"
+    raise InputError(f"a URDF Pinocchio cannot read ({reason})", WHAT, source=source)
+
+
+def _fixed_transforms(model: pin.Model, chain: Chain) -> tuple[Array, list[int]]:
+    """T_0..T_n of the chain from Pinocchio's placements at q = 0, and the chain's joint ids.
+
+    Joint k's frame is Pinocchio's joint frame turned by :func:`axis_alignment` of its axis
+    (read back from the joint's Jacobian, whatever Pinocchio's joint type)."""
+    import pinocchio as pin
+
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    pin.updateFramePlacements(model, data)
+    ids = [model.getJointId(str(joint.get("name"))) for joint in chain.revolute]
+    pin.computeJointJacobians(model, data, pin.neutral(model))
+    frames = []
+    for joint_id in ids:
+        jacobian = pin.getJointJacobian(model, data, joint_id, pin.ReferenceFrame.LOCAL)
+        axis = jacobian[3:, model.joints[joint_id].idx_v]
+        frame = data.oMi[joint_id].homogeneous.copy()
+        frame[:3, :3] = frame[:3, :3] @ axis_alignment(axis)
+        frames.append(frame)
+    base = data.oMf[model.getFrameId(chain.base_link, pin.FrameType.BODY)].homogeneous
+    tip = data.oMf[model.getFrameId(chain.tip_link, pin.FrameType.BODY)].homogeneous
+    inverse = np.linalg.inv
+    fixed = [inverse(base) @ frames[0]]
+    fixed += [inverse(frames[i]) @ frames[i + 1] for i in range(len(frames) - 1)]
+    fixed.append(inverse(frames[-1]) @ tip)
+    return np.stack(fixed), ids
+
+
+def frame_offsets(urdf_frames: Array, table_frames: Array) -> Array:
+    """Each URDF joint frame in the table's frame of the same joint: a shift along and a turn
+    about their common z axis, shape (n, 2), m and rad.
+
+    Args:
+        urdf_frames: base_T_joint of the URDF's joints (axis along z), shape (n, 4, 4).
+        table_frames: base_T_joint of the converted table's joints, shape (n, 4, 4).
+    """
+    offsets = np.linalg.inv(table_frames) @ urdf_frames
+    screw = max(float(np.abs(offsets[:, :2, 3]).max()), float(np.abs(offsets[:, :2, 2]).max()))
+    if screw > 1e-9:  # both frames turn about the same axis, by construction of the table
+        raise AssertionError(f"joint frames off their axis by {screw:.3g}")
+    return np.column_stack([offsets[:, 2, 3], np.arctan2(offsets[:, 1, 0], offsets[:, 0, 0])])
+
+
+def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None,
+              parametrisation: str | Sequence[str] = AUTO) -> RobotModel:
+    """The serial chain of a URDF as a robot, in the parametrisation asked for.
+
+    Args:
+        path: The URDF file.
+        base_link: The link the chain starts from; the root link if None.
+        tip_link: The flange link; ``tool0``, ``flange`` or the one leaf if None.
+        parametrisation: ``auto`` (Hayati where consecutive axes are nearly parallel, standard
+            D-H elsewhere), ``dh``, ``mdh``, or one per joint (:mod:`twin.parametrisation`).
+
+    Returns:
+        The robot, its forward kinematics equal to Pinocchio's to 1e-9 m, with the URDF kept.
+
+    Raises:
+        InputError: for a file that is not a URDF Pinocchio reads, links it does not have, a
+            chain of other joints than revolute and fixed, fewer than 4 or more than 7
+            revolute joints, or a parametrisation the chain cannot take.
+    """
+    text = read_text(path, WHAT)
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise InputError(f"invalid XML ({exc})", WHAT, source=path) from None
+    if root.tag != "robot":
+        raise InputError(f"a <{root.tag}> document", f"{WHAT} (a <robot> document)", source=path)
+    chain = find_chain(root, base_link, tip_link, path)
+    revolute = chain.revolute
+    if not MIN_JOINTS <= len(revolute) <= MAX_JOINTS:
+        raise InputError(f"{len(revolute)} revolute joints from {chain.base_link!r} to "
+                         f"{chain.tip_link!r}", f"{MIN_JOINTS} to {MAX_JOINTS}", source=path)
+    model = _pinocchio_model(text, path)
+    fixed, ids = _fixed_transforms(model, chain)
+    try:
+        structure, table = convert(fixed, parametrisation)
+    except ValueError as exc:
+        raise InputError(str(exc), "a parametrisation the chain can take (auto)",
+                         source=path, where="parametrisation") from None
+    offsets = frame_offsets(joint_frames(fixed)[0],
+                            joint_frames(fixed_transforms(structure, table))[0])
+    lower, upper, velocity, effort = [], [], [], []
+    for joint, joint_id in zip(revolute, ids, strict=True):
+        index = model.joints[joint_id].idx_q
+        if joint.get("type") == "continuous":
+            lower.append(-CONTINUOUS_LIMIT_RAD)
+            upper.append(CONTINUOUS_LIMIT_RAD)
+        else:
+            lower.append(float(model.lowerPositionLimit[index]))
+            upper.append(float(model.upperPositionLimit[index]))
+        velocity.append(float(model.velocityLimit[model.joints[joint_id].idx_v]))
+        effort.append(float(model.effortLimit[model.joints[joint_id].idx_v]))
+    mass = np.array([model.inertias[joint_id].mass for joint_id in ids])
+    names = tuple(str(joint.get("name")) for joint in revolute)
+    try:
+        return RobotModel(
+            name=str(root.get("name") or Path(path).stem), dh=table, structure=structure,
+            lower_rad=np.array(lower), upper_rad=np.array(upper),
+            mass_kg=mass if np.all(mass > 0) else None,
+            velocity_rad_s=np.array(velocity), effort_nm=np.array(effort),
+            urdf=UrdfSource(text, chain.base_link, chain.tip_link, names, offsets),
+        )
+    except ValueError as exc:
+        raise InputError(str(exc), "joint limits with lower < upper", source=path) from None
