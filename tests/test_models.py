@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.kinematics import frames
 from twin.robot import load_robot
 from twin.sim import load_scenario
 from twin.synthetic import random_poses
@@ -49,8 +50,9 @@ def test_mjcf_steps_without_warnings(path: Path) -> None:
 
 def test_irb120_mjcf_is_the_builders_model() -> None:
     """irb120.xml is what the builder makes of models/irb120.toml with the paper scenario's
-    port and servos: its flange equals the core's FK to 1e-9 m and its port,
-    stiffness and masses are the scenario's and the model file's."""
+    port and servos: its flange equals the core's FK to 1e-9 m, its links' centres of mass the
+    model file's (in each link's D-H frame) to 1e-6 m, and its port, stiffness and masses are
+    the scenario's and the model file's."""
     scenario = load_scenario(PAPER)
     robot = scenario.robot
     model = mujoco.MjModel.from_xml_path(str(MODELS / "irb120" / "irb120.xml"))
@@ -58,9 +60,15 @@ def test_irb120_mjcf_is_the_builders_model() -> None:
     q = random_poses(robot, 200, np.random.default_rng(0))
     site = model.site("flange").id
     core = robot.flange_transforms(q)
-    for pose, expected in zip(q, core, strict=True):
+    chain = frames(robot.structure, robot.dh, q)
+    assert robot.com_m is not None
+    rotation = np.stack([chain.x_axes, chain.y_axes, chain.z_axes], axis=-1)[:, 1:]
+    centres = chain.origins[:, 1:] + np.einsum("mnij,nj->mni", rotation, robot.com_m)
+    for pose, expected, com in zip(q, core, centres, strict=True):
         data.qpos[:] = pose
         mujoco.mj_kinematics(model, data)
+        # The file keeps 6 significant digits of the inertial's position.
+        assert np.allclose(data.xipos[1:], com, rtol=0, atol=1e-6)
         assert np.allclose(data.site_xpos[site], expected[:3, 3], rtol=0, atol=1e-9)
         assert np.allclose(data.site_xmat[site].reshape(3, 3), expected[:3, :3], rtol=0,
                            atol=1e-9)

@@ -287,6 +287,27 @@ def frames(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> Frames:
     return Frames(origins, x_axes, y_axes, z_axes, flange)
 
 
+def joint_axes(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
+    """Where each joint turns: a point on its axis and the axis' direction, in the base frame.
+
+    Args:
+        structure: What the table means.
+        dh: Parameter tables, shape (..., 4, n), m and rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+
+    Returns:
+        ``(origins, axes)``: shapes (..., m, n, 3), m and unit vectors; a positive joint rate
+        turns everything beyond joint i about ``axes[..., i, :]`` through ``origins[..., i, :]``
+        (for a D-H joint, frame i−1's z axis through its origin).
+    """
+    _, motions, flange = _walk(structure, dh, q_rad, record=True)
+    turns = [(u, o) for _, _, slot, u, o in motions if slot == JOINT_SLOT]
+    shape = (*flange.shape[:-2], 3)
+    origins = np.stack([np.broadcast_to(o, shape) for _, o in turns], axis=-2)
+    axes = np.stack([np.broadcast_to(u, shape) for u, _ in turns], axis=-2)
+    return origins, axes
+
+
 def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
                    point_m: ArrayLike | None = None) -> PointJacobian:
     """A flange point and its analytic Jacobians w.r.t. the table, the joints and the point.

@@ -12,8 +12,10 @@ A model file is TOML, in mm and degrees (or m and rad, as declared)::
     ]
 
 Joint ``i`` contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)``. Optional per-joint
-keys for the digital twin: ``mass`` (kg, of the link after the joint) and ``radius`` (length unit,
-of that link's capsule).
+keys: ``mass`` (kg, of the link after the joint), ``com = [x, y, z]`` (length unit: that link's
+centre of mass in its own D-H frame i, which turns with joint i) and ``radius`` (length unit, of
+that link's capsule). The twin and the ``compliance`` unknowns (gravity torques) use mass and
+com; com needs mass.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ N_JOINTS = 6
 _TOP_KEYS = ("name", "convention", "length_unit", "angle_unit", "joints")
 _REQUIRED_JOINT_KEYS = ("a", "d", "alpha", "theta", "lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius")
+_COM_KEY = "com"
 MAX_ANGLE_RAD = 4 * math.pi
 """Largest |alpha|, |theta| and |joint limit| accepted from a model file: two turns."""
 MAX_MASS_KG = 1e4
@@ -70,6 +73,9 @@ class RobotModel:
         radius_m: Link capsule radii, shape (n,), m, or None when the file gives none.
         structure: What the table means (parametrisation per joint, base and tool
             transforms); standard D-H with bare ends by default.
+        com_m: Link centres of mass, row i in link i's frame (frame i of the chain, which
+            turns with joint i), shape (n, 3), m, or None when the file gives none; needs
+            ``mass_kg``.
     """
 
     name: str
@@ -79,6 +85,7 @@ class RobotModel:
     mass_kg: NDArray[np.float64] | None = field(default=None)
     radius_m: NDArray[np.float64] | None = field(default=None)
     structure: Structure = field(default=None)  # type: ignore[assignment]
+    com_m: NDArray[np.float64] | None = field(default=None)
 
     def __post_init__(self) -> None:
         dh = np.asarray(self.dh, dtype=np.float64)
@@ -101,6 +108,10 @@ class RobotModel:
                 if np.any(array < 0):
                     raise ValueError(f"{name}: negative values")
                 object.__setattr__(self, name, array)
+        if self.com_m is not None:
+            if self.mass_kg is None:
+                raise ValueError("com_m: centres of mass need link masses (mass_kg)")
+            object.__setattr__(self, "com_m", frozen_array(self.com_m, (n, 3), "com_m"))
 
     @property
     def n_joints(self) -> int:
@@ -175,17 +186,18 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
                "theta": MAX_ANGLE_RAD, "lower": MAX_ANGLE_RAD, "upper": MAX_ANGLE_RAD,
                "mass": MAX_MASS_KG, "radius": MAX_LENGTH_M}
     columns: dict[str, list[float]] = {key: [] for key in factor}
+    coms: list[list[float]] = []
     for index, joint in enumerate(joints, start=1):
         where = f"joint {index}"
         if not isinstance(joint, dict):
             raise InputError(f"{joint!r}", "an inline table", source=source, where=where)
-        extra = sorted(set(joint) - set(_REQUIRED_JOINT_KEYS) - set(_OPTIONAL_JOINT_KEYS))
+        allowed = (*_REQUIRED_JOINT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY)
+        extra = sorted(set(joint) - set(allowed))
         if extra:
-            raise InputError(
-                f"unknown key {extra[0]!r}",
-                "only " + ", ".join(_REQUIRED_JOINT_KEYS + _OPTIONAL_JOINT_KEYS),
-                source=source, where=where,
-            )
+            raise InputError(f"unknown key {extra[0]!r}", "only " + ", ".join(allowed),
+                             source=source, where=where)
+        if _COM_KEY in joint:
+            coms.append(_parse_com(joint[_COM_KEY], to_m, length_unit, source, where))
         for key in factor:
             if key not in joint:
                 if key in _REQUIRED_JOINT_KEYS:
@@ -219,6 +231,12 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
         if any(v < 0 for v in columns[key]):
             raise InputError(f"a negative {key!r}", "values >= 0", source=source)
         optional[key] = np.array(columns[key]) if given else None
+    if len(coms) not in (0, N_JOINTS):
+        raise InputError(f"{_COM_KEY!r} on {len(coms)} of {N_JOINTS} joints",
+                         f"{_COM_KEY!r} on every joint or on none", source=source)
+    if coms and optional["mass"] is None:
+        raise InputError(f"{_COM_KEY!r} without 'mass'", "a 'mass' beside every centre of mass",
+                         source=source)
     return RobotModel(
         name=str(document["name"]),
         dh=np.array([columns[key] for key in DH_KEYS]),
@@ -226,7 +244,20 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
         upper_rad=np.array(columns["upper"]),
         mass_kg=optional["mass"],
         radius_m=optional["radius"],
+        com_m=np.array(coms) if coms else None,
     )
+
+
+def _parse_com(value: Any, to_m: float, length_unit: str, source: str | Path,
+               where: str) -> list[float]:
+    """A centre of mass ``[x, y, z]`` in the file's length unit, in m."""
+    expected = (f"[x, y, z]: three finite numbers in {length_unit}, each within "
+                f"±{MAX_LENGTH_M / to_m:g}")
+    if not isinstance(value, list) or len(value) != 3 or any(
+            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
+            or abs(v * to_m) > MAX_LENGTH_M for v in value):
+        raise InputError(f"{_COM_KEY} = {value!r}", expected, source=source, where=where)
+    return [float(v) * to_m for v in value]
 
 
 def load_robot(path: str | Path) -> RobotModel:
@@ -271,8 +302,12 @@ def robot_to_toml(robot: RobotModel) -> str:
         columns["mass"] = rounded(robot.mass_kg, 3)
     if robot.radius_m is not None:
         columns["radius"] = rounded(m_to_mm(robot.radius_m), FILE_MM_DECIMALS)
+    coms = None if robot.com_m is None else np.reshape(
+        rounded(m_to_mm(robot.com_m), FILE_MM_DECIMALS), (-1, 3)).tolist()
     for i in range(robot.n_joints):
         items = [f"{key} = {values[i]!r}" for key, values in columns.items()]
+        if coms is not None:
+            items.append(f"{_COM_KEY} = [{', '.join(map(repr, coms[i]))}]")
         lines.append("  { " + ", ".join(items) + " },")
     lines.append("]")
     return "\n".join(lines) + "\n"

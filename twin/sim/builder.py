@@ -9,7 +9,10 @@ core's ``flange_transform`` (tested over 1000 random poses).
 
 Each link is drawn and collides as capsules along its D-H skeleton: one along z for d_i, one
 along x for a_i (a sphere when both are zero), of the model file's ``radius`` and sharing its
-``mass``. World site ``port`` is the encoder port; spatial tendon ``cable`` runs from ``port`` to
+``mass``; when the file gives the link's centre of mass (``com``), the body's mass sits there
+instead (an explicit inertial), as the calibration's compliance model assumes.
+
+World site ``port`` is the encoder port; spatial tendon ``cable`` runs from ``port`` to
 ``flange``: its ``ten_length`` is the measured cable length. With compliant physics, actuators
 ``servo<i>`` are position servos of the joint stiffness, and actuator ``tension`` pulls the cable
 with a force equal to its ``ctrl`` (N).
@@ -25,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.robot import RobotModel
 from twin.sim.physics import RIGID, Physics
+from twin.statics import GRAVITY_M_S2
 from twin.units import rad_to_deg
 
 Array = NDArray[np.float64]
@@ -36,7 +40,6 @@ ARMATURE_KG_M2 = 0.05
 SERVO_DAMPING_RATIO = 1.0
 """Servo damping as a ratio of critical: statics ignore it, stepping settles with it."""
 TIMESTEP_S = 5e-4
-GRAVITY_M_S2 = 9.81
 CABLE_WIDTH_M = 0.002
 _SEGMENT_EPS_M = 1e-9
 
@@ -75,6 +78,19 @@ def _add_link_geoms(body: mujoco.MjsBody, a_m: float, d_m: float, radius_m: floa
                              size=[radius_m, 0, 0], rgba=rgba)
         if mass_kg is not None:
             geom.mass = mass_kg * float(np.linalg.norm(end - start)) / total
+
+
+def _set_inertial(body: mujoco.MjsBody, mass_kg: float, com_m: Array, a_m: float, d_m: float,
+                  alpha_rad: float, radius_m: float) -> None:
+    """The link's mass at its centre of mass (given in D-H frame i, which sits at
+    Tz(d)·Tx(a)·Rx(α) in the body), overriding what the capsules would make of it; the inertia
+    of a ball of the capsule's radius (statics do not depend on it)."""
+    c, s = np.cos(alpha_rad), np.sin(alpha_rad)
+    body.explicitinertial = True
+    body.mass = mass_kg
+    body.ipos = np.array([a_m + com_m[0], c * com_m[1] - s * com_m[2], d_m + s * com_m[1]
+                          + c * com_m[2]])
+    body.inertia = np.full(3, 0.4 * mass_kg * radius_m**2)
 
 
 def build_spec(
@@ -118,6 +134,10 @@ def build_spec(
         joint.range = [robot.lower_rad[i], robot.upper_rad[i]]
         _add_link_geoms(body, a[i], d[i], radius[i],
                         None if robot.mass_kg is None else float(robot.mass_kg[i]))
+        if robot.com_m is not None:
+            assert robot.mass_kg is not None  # RobotModel: a centre of mass needs a mass
+            _set_inertial(body, float(robot.mass_kg[i]), robot.com_m[i], a[i], d[i], alpha[i],
+                          radius[i])
         pos = np.array([a[i], 0.0, d[i]])
         quat = _quat_rx(alpha[i])
         if i + 1 < n:
