@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import TRAIN_FRACTION
-from twin.dataset import Measurements
+from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture import CalibrationSettings, write_capture
@@ -23,7 +23,7 @@ from twin.io.results import write_json
 from twin.kinds.length import cable_length
 from twin.metrics import metrics
 from twin.robot import RobotModel, robot_to_toml
-from twin.sim.joint_errors import JointErrors, approach_directions
+from twin.sim.joint_errors import JointErrors
 from twin.sim.poses import read_pose_plan, sample_poses
 from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
 from twin.sim.twin import Twin

@@ -11,17 +11,23 @@ from collections.abc import Callable
 from twin.errors import UnknownChoiceError
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.unknowns import dh, offset, port
+from twin.unknowns import backlash, compliance, dh, offset, port, transmission
 from twin.unknowns.base import Group, Stage
 
 Factory = Callable[[RobotModel, Rig], Group]
 
 GROUPS: dict[str, Factory] = {
     "dh": dh.make,
+    "transmission": transmission.make,
+    "backlash": backlash.make,
+    "compliance": compliance.make,
     "port": port.make,
     "offset": offset.make,
 }
 """Every unknown group, by name, in the order x lays them out."""
+ERRORS = ("dh", "transmission", "backlash", "compliance")
+"""The robot's error groups, which a calibration chooses (``--errors``, ``[calibration] errors``);
+the rig's (port, offset) come with the estimate flags."""
 
 
 def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
@@ -37,4 +43,4 @@ def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
     return tuple(factory(robot, rig) for name, factory in GROUPS.items() if name in names)
 
 
-__all__ = ["GROUPS", "Group", "Stage", "make_groups"]
+__all__ = ["ERRORS", "GROUPS", "Group", "Stage", "make_groups"]

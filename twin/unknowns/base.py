@@ -55,6 +55,8 @@ class Group:
             swarm's first particles.
         linear: ``table``: (4n, p_g), ``point``: (3, p_g); None at other stages.
         basis: ``joints``: ``basis(data) -> (m, n, p_g)``, rad per unit; None at other stages.
+        needs_approach: Whether the basis reads the direction each joint approached its pose
+            from (``data.approach``): measurements without it cannot be fitted.
     """
 
     name: str
@@ -66,6 +68,7 @@ class Group:
     radius: Array
     linear: Array | None = None
     basis: Callable[[Measurements], Array] | None = None
+    needs_approach: bool = False
 
     def __post_init__(self) -> None:
         p = len(self.names)
