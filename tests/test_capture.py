@@ -178,7 +178,7 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
     columns = ", ".join(f"{key} = {value!r}" for key, value in (
         ("a", 0.0), ("d", 290.0), ("alpha", -90.00000000000001), ("theta", 0.0),
         ("lower", -165.00000000000003), ("upper", 165.00000000000003), ("mass", 3.067),
-        ("radius", 60.0)))
+        ("radius", 60.0), ("com", [0.09800000000000001, 51.59, -0.12])))
     rows = robot_to_toml(robot).splitlines()
     rows[5] = "  { " + columns + " },"
     (tmp_path / "robot.toml").write_text("\n".join(rows) + "\n")
