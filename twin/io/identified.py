@@ -31,7 +31,7 @@ from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
 from twin.kinds import get_kind
 from twin.model import Model
-from twin.rig import Rig
+from twin.rig import MAX_TENSION_N, Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,
@@ -58,6 +58,8 @@ BOUND_TOLERANCE_MM = 1e-3
 """How far beyond ±5 mm an identified length error may lie (rounding), mm."""
 BOUND_TOLERANCE_DEG = 1e-3
 """How far beyond ±8° an identified angle error may lie (rounding), degrees."""
+MASS_TOLERANCE_KG = 1e-3
+"""Largest difference of a link mass that still names the same robot (a file keeps 1 g)."""
 BOUND_SLACK = 1e-6
 """How far beyond its search bound an unknown of :func:`load_result` may lie (rounding), as a
 fraction of its range."""
@@ -193,7 +195,38 @@ def _rig(document: Any, path: Path, where: str) -> Rig:
         names.append(str(name))
     attachment = parse_port_mm(document.get("attachment", [0.0, 0.0, 0.0]), path,
                                f"{where}unknowns.rig.attachment")
-    return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment)
+    tension = document.get("tension_n", 0.0)
+    if isinstance(tension, bool) or not isinstance(tension, int | float) \
+            or not 0.0 <= tension <= MAX_TENSION_N:
+        raise InputError(f"{tension!r}", f"a cable tension in N from 0 to {MAX_TENSION_N:g}",
+                         source=path, where=f"{where}unknowns.rig.tension_n")
+    return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment, float(tension))
+
+
+def check_result_inertia(entry: dict[str, Any], robot: RobotModel, path: Path,
+                         where: str) -> None:
+    """Refuse compliances identified with other link masses or centres of mass than
+    ``robot``'s: the torques they multiply would not be the same.
+
+    Raises:
+        InputError: naming the first mass or centre of mass that differs.
+    """
+    recorded = entry.get("robot", {})
+    for key, what, mine, scale, tolerance, unit in (
+            ("mass_kg", "link masses", robot.mass_kg, 1.0, MASS_TOLERANCE_KG, "kg"),
+            ("com_mm", "centres of mass", robot.com_m, float(m_to_mm(1.0)), ROBOT_TOLERANCE_MM,
+             "mm")):
+        given = recorded.get(key) if isinstance(recorded, dict) else None
+        try:
+            theirs = None if given is None else np.asarray(given, dtype=np.float64)
+        except (TypeError, ValueError):
+            theirs = np.full(1, np.nan)
+        if mine is None or theirs is None or theirs.shape != mine.shape \
+                or not np.all(np.abs(theirs - mine * scale) <= tolerance):
+            raise InputError(
+                f"compliances identified with other {what} than the robot's",
+                f"the masses and centres of mass of the robot file it is applied to (within "
+                f"{tolerance:g} {unit})", source=path, where=f"{where}robot.{key}")
 
 
 def load_result(path: str | Path, robot: RobotModel, method: str | None = None
@@ -227,6 +260,8 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=path,
                          where=f"{where}unknowns") from None
+    if model.has("compliance"):
+        check_result_inertia(entry, robot, path, where)
     parameters = unknowns["parameters"]
     names = [p.get("name") if isinstance(p, dict) else None for p in parameters]
     if names != list(model.names):
