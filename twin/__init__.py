@@ -13,6 +13,7 @@ from twin.kinds.length import cable_length
 from twin.kinematics import Structure, flange_transform, point_jacobian, point_position
 from twin.metrics import Metrics
 from twin.model import Model
+from twin.predict import Prediction, predict
 from twin.rig import Rig
 from twin.robot import RobotModel, default_robot, load_robot
 from twin.stopping import Budget, StopReason
@@ -24,6 +25,7 @@ __all__ = [
     "Measurements",
     "Metrics",
     "Model",
+    "Prediction",
     "Rig",
     "RobotModel",
     "StopReason",
@@ -39,5 +41,6 @@ __all__ = [
     "load_robot",
     "point_jacobian",
     "point_position",
+    "predict",
     "write_measurements",
 ]
