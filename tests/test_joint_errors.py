@@ -352,3 +352,22 @@ def test_compensate_cli_uses_the_whole_model(capture: Path, tmp_path: Path,
                           encoding="utf-8")
     assert not np.allclose(np.stack([table[f"q{i}"] for i in range(1, 7)], axis=1),
                            outputs["hooked"], atol=1e-4)
+
+
+def test_plan_designs_for_the_chosen_groups(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """`twin plan --errors` plans for the extended model's base parameters, and its plan
+    predicts a smaller flange error than as many random poses; a group it does not know is one
+    line naming the choices."""
+    out = tmp_path / "plan.csv"
+    argv = ["plan", "--port", "600,-400,100", "--poses", "80", "--candidates", "400",
+            "--joint-limits-only", "--cable-tension", "5", "--out", str(out)]
+    assert main([*argv, "--errors", "dh,transmission,backlash,compliance"]) == 0
+    printed = capsys.readouterr().out
+    assert "49 base parameters of 60 unknowns" in printed
+    rows = {line.split()[0]: float(line.split()[-1]) for line in printed.splitlines()
+            if line.strip().startswith(("planned", "random"))}
+    assert rows["planned"] < rows["random"]
+    assert len(out.read_text().splitlines()) == 81
+    assert main([*argv, "--errors", "auto"]) == 2
+    assert "--errors: found 'auto', expected dh,transmission" in capsys.readouterr().err
