@@ -17,6 +17,7 @@ A group module exports ``make(robot, rig) -> Group`` and the registry
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
@@ -93,3 +94,26 @@ class Group:
     def size(self) -> int:
         """Number of parameters p_g."""
         return len(self.names)
+
+
+CACHED = 4
+"""Measurement sets a :func:`cached` basis keeps: a fit alternates between its training and
+validation poses."""
+
+
+def cached(basis: Callable[[Measurements], Array]) -> Callable[[Measurements], Array]:
+    """A joints-stage basis that depends on the measurements alone (not on x), computed once per
+    measurement set: a fit evaluates it at every residual and Jacobian on the same poses, and
+    measurements are immutable. Sets are recognised by identity and held weakly."""
+    kept: list[tuple[weakref.ref[Measurements], Array]] = []
+
+    def lookup(data: Measurements) -> Array:
+        for reference, value in kept:
+            if reference() is data:
+                return value
+        value = basis(data)
+        value.setflags(write=False)
+        kept[:] = [*kept[-(CACHED - 1):], (weakref.ref(data), value)]
+        return value
+
+    return lookup

@@ -21,8 +21,6 @@ out as noise around zero instead of resting on the bound. Radius 10 µrad/(N·m)
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from twin.dataset import Measurements
@@ -31,7 +29,7 @@ from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.statics import joint_torques
 from twin.units import COMPLIANCE_UNIT
-from twin.unknowns.base import Array, Group, Stage
+from twin.unknowns.base import Array, Group, Stage, cached
 
 LOWER = -1e-5
 """Lower search bound of a compliance, rad/(N·m)."""
@@ -39,9 +37,6 @@ UPPER = 1e-3
 """Upper search bound of a compliance, rad/(N·m)."""
 RADIUS = 1e-5
 """Typical compliance, rad/(N·m)."""
-CACHED = 4
-"""Measurement sets whose torques a group keeps: a fit alternates between its training and
-validation poses, and a row's torque never changes."""
 
 
 def cable_forces(robot: RobotModel, rig: Rig, data: Measurements) -> Array:
@@ -79,21 +74,15 @@ def make(robot: RobotModel, rig: Rig) -> Group:
                          "link masses and centres of mass (keys 'mass' and 'com' on every "
                          "joint of the robot file) for the compliance unknowns")
     n = robot.n_joints
-    cache: list[tuple[weakref.ref[Measurements], Array]] = []
 
     def basis(data: Measurements) -> Array:
-        for reference, value in cache:
-            if reference() is data:
-                return value
         out = np.zeros((len(data), n, n))
         out[:, np.arange(n), np.arange(n)] = torques(robot, rig, data)
-        out.setflags(write=False)
-        cache[:] = [*cache[-(CACHED - 1):], (weakref.ref(data), out)]
         return out
 
     return Group(
         name="compliance", stage=Stage.JOINTS,
         names=tuple(f"compliance{i + 1}" for i in range(n)), units=(COMPLIANCE_UNIT,) * n,
         lower=np.full(n, LOWER), upper=np.full(n, UPPER), radius=np.full(n, RADIUS),
-        basis=basis,
+        basis=cached(basis),
     )

@@ -30,7 +30,7 @@ from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import deg_to_rad
-from twin.unknowns.base import Array, Group, Stage
+from twin.unknowns.base import Array, Group, Stage, cached
 
 BOUND_RAD = float(deg_to_rad(1.0))
 """Search bound on each harmonic coefficient."""
@@ -62,5 +62,5 @@ def make(robot: RobotModel, rig: Rig) -> Group:
         name="transmission", stage=Stage.JOINTS,
         names=tuple(f"{term}{i + 1}" for i in range(n) for term in TERMS),
         units=("rad",) * p, lower=np.full(p, -BOUND_RAD), upper=np.full(p, BOUND_RAD),
-        radius=np.full(p, RADIUS_RAD), basis=basis,
+        radius=np.full(p, RADIUS_RAD), basis=cached(basis),
     )
