@@ -371,3 +371,18 @@ def test_plan_designs_for_the_chosen_groups(tmp_path: Path,
     assert len(out.read_text().splitlines()) == 81
     assert main([*argv, "--errors", "auto"]) == 2
     assert "--errors: found 'auto', expected dh,transmission" in capsys.readouterr().err
+
+
+def test_identify_names_what_the_extended_model_cannot_see(
+        capture: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`twin identify --errors` on the twin's capture: rank 49 of 60, every joint-6 term among
+    the unidentifiable directions beside the D-H ones, σ of the joint-level errors printed."""
+    assert main(["identify", str(capture / "capture.toml"), "--errors",
+                 "dh,transmission,backlash,compliance"]) == 0
+    printed = capsys.readouterr().out
+    assert "rank 49 of 60" in printed
+    unseen = next(line for line in printed.splitlines() if "not identifiable" in line)
+    for name in ("sin_q6", "cos_q6", "sin2_q6", "cos2_q6", "backlash6", "compliance6",
+                 "theta6", "d2-d3"):
+        assert name in unseen
+    assert "Identified joint-level errors" in printed

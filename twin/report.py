@@ -124,7 +124,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
             if truth:
                 row += f"{truth[key][i]:>10.4f}"
         lines.append(row)
-    lines += _joint_group_lines(result)
+    lines += format_joint_groups(result)
     return "\n".join(lines)
 
 
@@ -142,9 +142,9 @@ def _report_units(values_si: NDArray[np.float64], unit: str) -> tuple[NDArray[np
     return np.asarray(values_si) * factor, label
 
 
-def _joint_group_lines(result: CalibrationResult) -> list[str]:
+def format_joint_groups(result: CalibrationResult) -> list[str]:
     """The identified joint-level errors, one row per joint, each with its σ (— where the
-    poses do not identify it)."""
+    poses do not identify it); empty without joint-level groups."""
     model = result.model
     present = [name for name in JOINT_GROUP_COLUMNS if model.has(name)]
     if not present:
