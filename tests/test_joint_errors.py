@@ -84,6 +84,22 @@ def test_extended_fit_recovers_the_flange_and_scipy_agrees(
     assert apart < 0.1 * bound_m
 
 
+@pytest.mark.parametrize("method", ["ekf", "amlm", "amlm-bipso"])
+def test_the_papers_methods_run_on_the_extended_problem(
+    irb120: RobotModel, core_case: tuple[object, np.ndarray, Measurements], method: str
+) -> None:
+    """EKF, AMLM and M9 fit the 60 unknowns with their own stopping rules and predict the true
+    flange within 3× the Cramér–Rao bound, as LM does."""
+    model, x_true, data = core_case
+    result = calibrate(irb120, data, rig=model.rig, errors=EXTENDED, seed=1, method=method)
+    train = data.subset(result.train_rows)
+    q_ws = random_poses(irb120, 300, np.random.default_rng(2))
+    at_ws = model.poses(q_ws)
+    error_m = rms_distance(result.model.flange_positions(result.x, at_ws),
+                           model.flange_positions(x_true, at_ws))
+    assert error_m < 3.0 * cramer_rao_flange_rms(model, x_true, train, SIGMA_M, q_ws)
+
+
 def test_dh_alone_cannot_hold_joint_errors(
     irb120: RobotModel, core_case: tuple[object, np.ndarray, Measurements]
 ) -> None:
