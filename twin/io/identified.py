@@ -245,6 +245,10 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
     check_result_robot(entry, robot, path, where)
+    # The D-H errors are written twice (``delta`` for people, the ``dh`` unknowns for the
+    # model): checked as export checks them, then held to agree.
+    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta")
+    check_bounds(delta, path, where)
     unknowns = entry.get("unknowns")
     if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
         raise InputError("no 'unknowns'", "a result written by this version of twin calibrate",
@@ -292,4 +296,12 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
         raise InputError(f"{model.names[k]} = {values[k]:g} {labels[k]}",
                          "a value within its search bounds, in the unit twin writes",
                          source=path, where=f"{where}unknowns.parameters[{k}]")
+    tolerance = np.where(np.array(DH_IS_LENGTH)[:, None], mm_to_m(ROBOT_TOLERANCE_MM),
+                         deg_to_rad(ROBOT_TOLERANCE_DEG))
+    apart = np.abs(model.table(x) - robot.dh - delta) > tolerance
+    if np.any(apart):
+        row, joint = np.argwhere(apart)[0]
+        raise InputError(f"delta.{DH_KEYS[row]}{joint + 1} and the unknowns disagree",
+                         "a result as twin calibrate wrote it", source=path,
+                         where=f"{where}delta.{DH_KEYS[row]}")
     return IdentifiedModel(model, x, str(entry.get("method")))
