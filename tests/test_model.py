@@ -76,7 +76,8 @@ def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
     np.testing.assert_allclose(upper[:12], 5e-3)
     np.testing.assert_allclose(upper[12:24], np.deg2rad(8.0))
     np.testing.assert_array_equal(lower, -upper)
-    assert list(GROUPS) == ["dh", "transmission", "backlash", "compliance", "port", "offset"]
+    assert list(GROUPS) == ["dh", "transmission", "backlash", "compliance", "link_compliance",
+                            "port", "offset"]
 
 
 def test_batched_residuals(
@@ -135,7 +136,7 @@ def _with_approach(data: Measurements) -> Measurements:
     return Measurements(data.q_rad, data.length_m, approach=approach_directions(data.q_rad))
 
 
-@pytest.mark.parametrize("group", [*JOINT_GROUPS, "all"])
+@pytest.mark.parametrize("group", [*JOINT_GROUPS, "link_compliance", "all"])
 def test_joint_groups_jacobian_matches_finite_differences(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray, group: str
 ) -> None:
@@ -146,7 +147,7 @@ def test_joint_groups_jacobian_matches_finite_differences(
     model = make_model(irb120, rig, errors=errors, estimate_port=group == "all",
                        estimate_offset=group == "all")
     x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
-    x[model.slice(errors[-1])] *= 0.1 if errors[-1] == "compliance" else 1.0
+    x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     data = _with_approach(measurements.subset(np.arange(15)))
     r, jacobian = model.jacobian(x, data)
     np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
@@ -198,5 +199,36 @@ def test_joint_groups_need_what_they_read(
     np.testing.assert_array_equal(poses.approach, approach_directions(measurements.q_rad[:5]))
     bare = RobotModel("bare", irb120.dh, irb120.lower_rad, irb120.upper_rad,
                       mass_kg=irb120.mass_kg)
-    with pytest.raises(InputError, match="without centres of mass"):
-        make_model(bare, Rig.cable(port_m), errors=["dh", "compliance"])
+    for compliant in ("compliance", "link_compliance"):
+        with pytest.raises(InputError, match="without centres of mass"):
+            make_model(bare, Rig.cable(port_m), errors=["dh", compliant])
+    with pytest.raises(InputError, match="compliance with link_compliance"):
+        make_model(irb120, Rig.cable(port_m), errors=["dh", "compliance", "link_compliance"])
+
+
+def test_link_compliance_holds_compliance(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Each link's gravity torque summed over the links is the gravity part of the joint
+    torque; so link_compliance with every link coefficient of joint i equal to c_i moves the
+    joints exactly as compliance c_i does."""
+    from twin.statics import joint_torques, link_torques
+
+    assert irb120.mass_kg is not None and irb120.com_m is not None
+    q = measurements.q_rad[:20]
+    by_link = link_torques(irb120.structure, irb120.dh, q, irb120.mass_kg, irb120.com_m)
+    np.testing.assert_allclose(by_link.sum(axis=2), joint_torques(
+        irb120.structure, irb120.dh, q, irb120.mass_kg, irb120.com_m), atol=1e-12)
+    np.testing.assert_array_equal(np.tril(np.ones((6, 6)), -1) * by_link, 0.0)
+    rig = Rig.cable(port_m, tension_n=5.0)
+    plain = make_model(irb120, rig, errors=["dh", "compliance"])
+    split = make_model(irb120, rig, errors=["dh", "link_compliance"])
+    c = np.random.default_rng(2).uniform(1e-6, 5e-5, 6)
+    x_plain = np.zeros(plain.n_params)
+    x_plain[plain.slice("compliance")] = c
+    x_split = np.zeros(split.n_params)
+    rows, _ = np.triu_indices(6)
+    x_split[split.slice("link_compliance")] = np.r_[c, c[rows]]
+    data = measurements.subset(np.arange(20))
+    np.testing.assert_allclose(split.joints(x_split, data), plain.joints(x_plain, data),
+                               atol=1e-15)

@@ -73,3 +73,31 @@ def joint_torques(
     origins, axes = joint_axes(structure, dh, q)
     about_joint = moment_beyond - np.cross(origins, force_beyond)
     return np.asarray(np.sum(axes * about_joint, axis=-1), dtype=np.float64)
+
+
+def link_torques(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, mass_kg: ArrayLike,
+                 com_m: ArrayLike) -> Array:
+    """The torque each link's weight puts on each joint, apart: ``τ[:, i, j]`` from link j on
+    joint i, zero where link j does not turn with joint i (j < i). Summed over the links it is
+    the gravity part of :func:`joint_torques`.
+
+    Args:
+        structure, dh, q_rad, mass_kg, com_m: As :func:`joint_torques`.
+
+    Returns:
+        Shape (m, n, n), N·m.
+    """
+    q = np.asarray(q_rad, dtype=np.float64)
+    mass = np.asarray(mass_kg, dtype=np.float64)
+    chain = frames(structure, dh, q)
+    rotation = np.stack([chain.x_axes, chain.y_axes, chain.z_axes], axis=-1)[:, 1:]
+    centres = chain.origins[:, 1:] + np.einsum("mnij,nj->mni", rotation,
+                                               np.asarray(com_m, dtype=np.float64))
+    weights = np.zeros(centres.shape)
+    weights[..., 2] = -GRAVITY_M_S2 * mass
+    origins, axes = joint_axes(structure, dh, q)
+    arms = centres[:, None, :, :] - origins[:, :, None, :]  # (m, joint i, link j, 3)
+    torque = np.einsum("mic,mijc->mij", axes, np.cross(arms, weights[:, None, :, :]))
+    n = mass.size
+    return np.asarray(torque * (np.arange(n)[None, :] >= np.arange(n)[:, None]),
+                      dtype=np.float64)

@@ -56,7 +56,8 @@ joint errors), paths relative to the scenario file::
     stop = "converge"                      # stopping protocol: "converge" or "paper"
     max_iterations = 200                   # optional: iteration limit of every method and stage
     errors = ["dh"]                        # the robot's error groups the calibration fits:
-                                           # dh, transmission, backlash, compliance
+                                           # dh, transmission, backlash, compliance (or
+                                           # link_compliance: masses unknown link by link)
 
     [study]                                # left to twin.study: passed through unread
     [expect]                               # left to twin.study.expect (`twin check`): unread
@@ -393,6 +394,9 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     if not isinstance(errors, list) or not errors or len(set(map(str, errors))) != len(errors) \
             or not all(isinstance(name, str) and name in ERRORS for name in errors):
         raise calibration.error("errors", repr(errors), expected_errors)
+    if {"compliance", "link_compliance"} <= set(errors):
+        raise calibration.error("errors", repr(errors), "compliance or link_compliance, not "
+                                "both (link_compliance holds each joint's compliance)")
 
     return Scenario(
         name=name,

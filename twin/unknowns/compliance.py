@@ -62,8 +62,8 @@ def torques(robot: RobotModel, rig: Rig, data: Measurements) -> Array:
                          rig.attachment_m, cable_forces(robot, rig, data))
 
 
-def make(robot: RobotModel, rig: Rig) -> Group:
-    """The compliance of every joint of ``robot``.
+def require_inertia(robot: RobotModel) -> tuple[Array, Array]:
+    """The robot's link masses (n,) and centres of mass (n, 3), which compliance needs.
 
     Raises:
         InputError: if the robot file gives no masses and centres of mass.
@@ -73,6 +73,16 @@ def make(robot: RobotModel, rig: Rig) -> Group:
         raise InputError(f"a robot model without {missing} ({robot.name})",
                          "link masses and centres of mass (keys 'mass' and 'com' on every "
                          "joint of the robot file) for the compliance unknowns")
+    return robot.mass_kg, robot.com_m
+
+
+def make(robot: RobotModel, rig: Rig) -> Group:
+    """The compliance of every joint of ``robot``.
+
+    Raises:
+        InputError: if the robot file gives no masses and centres of mass.
+    """
+    require_inertia(robot)
     n = robot.n_joints
 
     def basis(data: Measurements) -> Array:
