@@ -175,13 +175,13 @@ def format_choice(choice: ErrorChoice) -> str:
     BIC, the chosen one marked, and the rule."""
     lines = ["Error models, fitted on the same training poses "
              f"({choice.best.result.method}):",
-             f"  {'errors':<40}{'unknowns':>9}{'rank':>6}{'train RMSE':>12}"
+             f"  {'errors':<44}{'unknowns':>9}{'rank':>6}{'train RMSE':>12}"
              f"{'valid. RMSE':>13}{'BIC':>12}  [mm]"]
     for k, candidate in enumerate(choice.candidates):
         train = float(m_to_mm(candidate.result.metrics["train"].rmse))
         validation = float(m_to_mm(candidate.result.metrics["validation"].rmse))
         mark = "  <- chosen" if k == choice.chosen else ""
-        lines.append(f"  {'+'.join(candidate.errors):<40}{candidate.unknowns:>9}"
+        lines.append(f"  {'+'.join(candidate.errors):<44}{candidate.unknowns:>9}"
                      f"{candidate.rank:>6}{train:>12.4f}{validation:>13.4f}"
                      f"{candidate.bic:>12.1f}{mark}")
     lines += [f"  skipped: {reason}" for reason in choice.skipped]

@@ -2,8 +2,10 @@
 
 Nested candidates, each one group more than the last, cheapest first: ``dh``; ``dh +
 compliance`` (n unknowns); ``+ backlash`` (n, only when the measurements carry the approach
-directions); ``+ transmission`` (4n) — all of them. Each is fitted on the same training poses by
-the same method and compared on
+directions); ``+ transmission`` (4n) — all of them; and last the same with ``link_compliance``
+in place of ``compliance`` (each link's weight its own coefficient, n(n+1)/2 more unknowns: for
+masses known only link by link). Each is fitted on the same training poses by the same method
+and compared on
 
 - the **Bayesian information criterion** of its training residuals,
   ``BIC = m ln(RSS / m) + k ln m`` with m the training residuals and k the rank of the
@@ -98,9 +100,12 @@ def warn_few_poses(n_train: int, rank: int, errors: Sequence[str]) -> None:
 
 
 def nested_errors(has_approach: bool) -> list[tuple[str, ...]]:
-    """The candidate error models, in nesting order (backlash only with approach directions)."""
+    """The candidate error models, in nesting order (backlash only with approach directions),
+    then the largest with ``link_compliance`` for ``compliance``."""
     groups = [name for name in NESTED if has_approach or name != "backlash"]
-    return [tuple(groups[: k + 1]) for k in range(len(groups))]
+    nested = [tuple(groups[: k + 1]) for k in range(len(groups))]
+    split = tuple("link_compliance" if name == "compliance" else name for name in nested[-1])
+    return [*nested, split]
 
 
 def bic(residuals_m: np.ndarray, rank: int) -> float:

@@ -57,9 +57,10 @@ def add_parser(subparsers: Any) -> None:
                         help="seed of the split and of the method")
     parser.add_argument("--errors", type=error_groups(auto=True), metavar="GROUPS",
                         help="the robot's error groups to identify, comma-separated: "
-                        + ", ".join(ERRORS) + "; or auto: fit dh, then add compliance, "
-                        "backlash, transmission one at a time and keep the lowest BIC "
-                        "(default: the capture's, else dh)")
+                        + ", ".join(ERRORS) + " (compliance or link_compliance); or auto: "
+                        "fit dh, then add compliance, backlash, transmission one at a time, "
+                        "then all with link_compliance, and keep the lowest BIC (default: the "
+                        "capture's, else dh)")
     parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
                         help="the cable's pull towards the port in newtons (the encoder's "
                         "spring force; loads the joints for the compliance group); default: "
