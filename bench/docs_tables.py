@@ -323,6 +323,8 @@ def bipso_table() -> str:
 
 EXTENDED = ("dh", "transmission", "backlash", "compliance")
 """The extended error model: D-H and every joint-level group."""
+EXTENDED_BY_LINK = ("dh", "transmission", "backlash", "link_compliance")
+"""The same with each link's weight given its own compliance (masses unknown link by link)."""
 MASS_ERROR = 0.2
 """Mass error of the "masses off" variants of the joint-error regimes (the issue's ±20 %)."""
 MASS_OFF_POSES = 400
@@ -372,7 +374,9 @@ def _error_model_job(job: tuple[str, Scenario, int]) -> list[ErrorModelRun]:
     physical = true_flange(sim, q_ws)
     rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
     runs = []
-    for errors in (("dh",), EXTENDED):
+    # Splitting compliance by link matters only where the twin's joints give way.
+    models = (("dh",), EXTENDED) + ((EXTENDED_BY_LINK,) if not scenario.physics.rigid else ())
+    for errors in models:
         try:
             result = calibrate(sim.robot, sim.measurements, rig=rig, errors=errors, seed=seed,
                                estimate_port=scenario.estimate_port,
@@ -396,17 +400,19 @@ def _error_model_job(job: tuple[str, Scenario, int]) -> list[ErrorModelRun]:
 
 def error_models_table() -> str:
     """Every regime: D-H alone against D-H + transmission + backlash + compliance (LM), each
-    held to the twin's physical flange, the extended one also to its Cramér–Rao bound."""
+    held to the twin's physical flange, the extended one also to its Cramér–Rao bound; where
+    the twin's joints give way, also the extended model with compliance split by link."""
     cases = error_model_regimes()
     jobs = [(label, scenario, trial) for label, scenario in cases for trial in range(TRIALS)]
     print(f"error models: {len(jobs)} trials", file=sys.stderr, flush=True)
     with ProcessPoolExecutor() as pool:
         runs = [run for batch in pool.map(_error_model_job, jobs) for run in batch]
-    extended = "+".join(EXTENDED)
+    extended, by_link = "+".join(EXTENDED), "+".join(EXTENDED_BY_LINK)
     rows = []
     for label, _ in cases:
         dh = [run for run in runs if run.regime == label and run.errors == "dh"]
         ext = [run for run in runs if run.regime == label and run.errors == extended]
+        split = [run for run in runs if run.regime == label and run.errors == by_link]
         cells = [label, str(dh[0].poses), fmt(statistics.mean(r.noise_mm for r in dh)),
                  fmt(statistics.mean(r.validation_mm for r in dh)),
                  fmt(statistics.mean(r.table_mm for r in dh)),
@@ -419,15 +425,24 @@ def error_models_table() -> str:
                       f"{statistics.median(ratios):.2f} ({max(ratios):.2f})"]
         else:
             cells += ["too few poses"] + [""] * 3
+        if split:
+            ratios = [r.physical_mm / r.crlb_mm for r in split]
+            cells += [fmt(statistics.mean(r.validation_mm for r in split)),
+                      fmt(statistics.mean(r.physical_mm for r in split)),
+                      f"{statistics.median(ratios):.2f} ({max(ratios):.2f})"]
+        else:
+            cells += ["rigid joints", "", ""]
         rows.append(cells)
     header = ["regime", "poses", "noise floor [mm]", "dh: validation RMSE [mm]",
               "dh: flange vs true table [mm]", "dh: flange vs physical flange [mm]",
               "extended: validation RMSE [mm]", "extended: flange vs physical flange [mm]",
-              "extended: Cramér–Rao bound [mm]", "extended: flange / bound, median (max)"]
+              "extended: Cramér–Rao bound [mm]", "extended: flange / bound, median (max)",
+              "by link: validation RMSE [mm]", "by link: flange vs physical flange [mm]",
+              "by link: flange / its bound, median (max)"]
     return markdown_table(header, rows) + "\n\n" + stamp(
         f"{TRIALS} trials per regime (the studies' seeds), LM run to convergence; extended = "
-        f"{extended}; means (ratios: median and max over the trials); workspace: the "
-        "studies' 500 poses, visited in order.")
+        f"{extended}; by link = {by_link}; means (ratios: median and max over the trials); "
+        "workspace: the studies' 500 poses, visited in order.")
 
 
 def bench_output(script: str, *args: str) -> str:
