@@ -437,3 +437,14 @@ def test_link_compliance_holds_masses_off_link_by_link(tmp_path: Path) -> None:
     error_m, accuracy_m = errors["link_compliance"]
     assert error_m < 3 * accuracy_m, errors
     assert error_m < errors["compliance"][0], errors
+
+
+def test_export_says_what_a_robot_file_cannot_hold(capture: Path, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """Exporting an extended result writes the identified table and warns that the joint-level
+    errors are not in the file."""
+    out = tmp_path / "identified.toml"
+    assert main(["export", str(capture / "result.json"), "--robot", str(capture / "robot.toml"),
+                 "--format", "dh", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "joint-level errors (transmission, backlash, compliance)" in err and out.exists()

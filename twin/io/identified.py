@@ -174,6 +174,20 @@ def load_result_delta(
     return delta
 
 
+def result_groups(path: str | Path, method: str | None = None) -> tuple[str, ...]:
+    """The unknown groups a result file names (``unknowns.groups``), or none for a result
+    written before they were recorded.
+
+    Raises:
+        InputError: if the file is not a result, or ``method`` is missing or unknown.
+    """
+    path = Path(path)
+    entry, _ = _pick(read_json(path, RESULT_FILE), path, method)
+    unknowns = entry.get("unknowns")
+    groups = unknowns.get("groups") if isinstance(unknowns, dict) else None
+    return tuple(str(g) for g in groups) if isinstance(groups, list) else ()
+
+
 class IdentifiedModel(NamedTuple):
     """A calibration result as a model and its unknowns, ready to predict or compensate with."""
 
