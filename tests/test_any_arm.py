@@ -28,7 +28,9 @@ from twin.dataset import Measurements
 from twin.io.capture_file import load_capture
 from twin.io.identified import load_result
 from twin.io.measurements import load_measurements
+from twin.io.truth import load_truth_delta
 from twin.pinocchio_bridge import urdf_flange
+from twin.predict import predict
 from twin.sim import Simulation, Twin, load_scenario, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
 from twin.synthetic import random_poses
@@ -121,7 +123,7 @@ def test_seven_and_four_axes_end_to_end(name: str) -> None:
     twin = Twin.build(sim.true_robot, sim.port_m)
     rng = np.random.default_rng(3)
     q_new, target_m = reachable_targets(robot, 200, rng)
-    predicted = result.model.flange_positions(result.solver.x, result.model.poses(q_new))
+    predicted = predict(result, q_new).position_m
     true_at_new = twin.flange_positions(q_new)
     assert rms_distance(predicted, true_at_new) < 0.05 * rms_distance(
         robot.flange_positions(q_new), true_at_new)
@@ -139,3 +141,40 @@ def test_seven_and_four_axes_end_to_end(name: str) -> None:
         assert np.all(program.rotation_error_rad[program.converged] <= 1e-10)
     else:
         assert np.max(program.rotation_error_rad) > 0  # reported, not solved
+
+
+@pytest.mark.parametrize("name", ["fr3", "scara4"])
+def test_seven_and_four_axes_through_the_commands(name: str, tmp_path: Path) -> None:
+    """The same arms through the command line: twin simulate, twin calibrate --json, twin
+    predict on new poses (q1..qN) — within 2× the bound's scale of the twin's true flange — and
+    twin compensate --joints on them."""
+    sim_dir, result = tmp_path / "sim", tmp_path / "result.json"
+    assert main(["simulate", str(SCENARIOS / f"geometric_{name}.toml"), "--out",
+                 str(sim_dir)]) == 0
+    assert main(["calibrate", str(sim_dir / "capture.toml"), "--json", str(result)]) == 0
+    capture = load_capture(sim_dir / "capture.toml")
+    robot = capture.robot
+    q_new, _ = reachable_targets(robot, 50, np.random.default_rng(4))
+    columns = [f"q{i + 1}" for i in range(robot.n_joints)]
+    poses = tmp_path / "poses.csv"
+    poses.write_text(",".join(columns) + "\n" + "".join(
+        ",".join(repr(float(v)) for v in np.rad2deg(row)) + "\n" for row in q_new))
+    robot_file = sim_dir / "robot.toml"
+    predicted_csv = tmp_path / "predicted.csv"
+    assert main(["predict", "--identified", str(result), "--joints", str(poses), "--robot",
+                 str(robot_file), "--out", str(predicted_csv)]) == 0
+    lines = predicted_csv.read_text().splitlines()
+    header = lines[0].split(",")
+    xyz = np.array([[float(v) for v in line.split(",")[header.index("x"):
+                                                          header.index("x") + 3]]
+                    for line in lines[1:]]) * 1e-3
+    true_robot = robot.perturbed(load_truth_delta(sim_dir / "truth.json", robot.n_joints,
+                                                  robot.is_length))
+    true_at_new = Twin.build(true_robot, capture.port_m).flange_positions(q_new)
+    assert rms_distance(xyz, true_at_new) < 0.05 * rms_distance(
+        robot.flange_positions(q_new), true_at_new)
+    corrected = tmp_path / "corrected.csv"
+    assert main(["compensate", "--identified", str(result), "--joints", str(poses), "--robot",
+                 str(robot_file), "--out", str(corrected)]) == 0
+    rows = corrected.read_text().splitlines()
+    assert rows[0].split(",")[:robot.n_joints] == columns and len(rows) == len(q_new) + 1

@@ -20,6 +20,7 @@ import pytest
 
 from twin.calibration import calibrate
 from twin.cli import main
+from twin.dataset import approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.capture_session import CAPTURE_COLUMNS, HEADER, check_folder, locked, recover
 from twin.hardware.robot_sources.file import FileRobot
@@ -46,6 +47,8 @@ resolution_mm = 0.001
 [joints]
 backlash_arcsec = 20.0
 """
+SIDES = ",+1,+1,+1,+1,+1,+1"
+"""The approach columns of a row written by hand."""
 SETTLE = ["--settle-k", "4", "--settle-tol", "0.03", "--settle-timeout", "5"]
 N_SHORT, N_LONG = 10, 32
 TWIN = [sys.executable, "-m", "twin"]
@@ -145,23 +148,24 @@ def check_complete(out: Path, n: int, true_mm: np.ndarray) -> None:
     """Every plan pose exactly once, in order, each at the twin's length within the noise."""
     table = rows(out)
     assert table[:, 0].tolist() == list(range(1, n + 1))
-    assert np.max(np.abs(table[:, -1] - true_mm[:n])) < 0.01
+    assert np.max(np.abs(table[:, CAPTURE_COLUMNS.index("length")] - true_mm[:n])) < 0.01
 
 
 def test_recover_drops_a_partial_line_and_refuses_a_pose_twice(tmp_path: Path) -> None:
     """A torn last line is truncated away; a repeated pose number is an InputError."""
     path = tmp_path / "measurements.csv"
     assert recover(path, 5) == (set(), None) and path.read_text() == HEADER
-    path.write_text(HEADER + "1,0,0,0,0,0,0,500.0\n2,0,0,0,0,0,0,501.0\n3,0,0,0,0")
+    path.write_text(HEADER + "1,0,0,0,0,0,0,500.0" + SIDES + "\n2,0,0,0,0,0,0,501.0" + SIDES
+                    + "\n3,0,0,0,0")
     done, note = recover(path, 5)
     assert done == {1, 2} and note is not None and "partial last line" in note
-    assert path.read_text().endswith("501.0\n")
-    path.write_text(HEADER + "1,0,0,0,0,0,0,500.0\n1,0,0,0,0,0,0,500.0\n")
+    assert path.read_text().endswith("501.0" + SIDES + "\n")
+    path.write_text(HEADER + ("1,0,0,0,0,0,0,500.0" + SIDES + "\n") * 2)
     with pytest.raises(InputError, match="pose 1 a second time"):
         recover(path, 5)
     path.write_text("")
     assert recover(path, 5) == (set(), None) and path.read_text() == HEADER
-    path.write_text(HEADER + "7,0,0,0,0,0,0,500.0\n")
+    path.write_text(HEADER + "7,0,0,0,0,0,0,500.0" + SIDES + "\n")
     with pytest.raises(InputError, match=r"a pose number in 1\.\.5"):
         recover(path, 5)
 
@@ -178,7 +182,8 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
     columns = ", ".join(f"{key} = {value!r}" for key, value in (
         ("a", 0.0), ("d", 290.0), ("alpha", -90.00000000000001), ("theta", 0.0),
         ("lower", -165.00000000000003), ("upper", 165.00000000000003), ("mass", 3.067),
-        ("radius", 60.0), ("velocity", 250.00000000000003)))
+        ("radius", 60.0), ("velocity", 250.00000000000003),
+        ("com", [0.09800000000000001, 51.59, -0.12])))
     rows = robot_to_toml(robot).splitlines()
     rows[5] = "  { " + columns + " },"
     (tmp_path / "robot.toml").write_text("\n".join(rows) + "\n")
@@ -192,8 +197,9 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
 def test_capture_end_to_end_then_rerun_measures_nothing(
         protocol: str, folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """A full capture writes every pose once at the twin's lengths; running it again is a no-op
-    and the folder calibrates as a capture (capture.toml, robot.toml, truth.json)."""
+    """A full capture writes every pose once at the twin's lengths, each with the side every
+    joint came from (plan pose K − 1 to K, home first); running it again is a no-op and the
+    folder calibrates as a capture (capture.toml, robot.toml, truth.json)."""
     out = tmp_path / "run"
     args = capture_args(folder, devices[protocol], out)
     assert main(args) == 0
@@ -205,7 +211,9 @@ def test_capture_end_to_end_then_rerun_measures_nothing(
     capture = load_capture(out / "capture.toml")
     assert capture.truth is not None and capture.truth.exists()
     assert capture.encoder["url"].startswith("serial:///dev/pts/")
-    assert len(load_measurements(capture.measurements, capture.robot)) == N_SHORT
+    measured = load_measurements(capture.measurements, capture.robot)
+    assert len(measured) == N_SHORT and measured.approach is not None
+    np.testing.assert_array_equal(measured.approach, approach_directions(measured.q_rad))
 
 
 def test_garbage_bytes_are_retried_and_the_capture_completes(

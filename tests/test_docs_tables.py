@@ -11,7 +11,8 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 BLOCK = re.compile(r"<!-- BEGIN GENERATED (?P<name>[\w-]+) -->\n(?P<body>.*?)"
                    r"<!-- END GENERATED (?P=name) -->", re.DOTALL)
 EXPECTED = {
-    "methods.md": {"protocols", "m9-bipso-stage", "bench-solvers", "bench-calibration"},
+    "methods.md": {"protocols", "m9-bipso-stage", "bench-solvers", "bench-calibration",
+                   "error-models", "bench-extended"},
     "studies.md": {"paper-replica", "regimes", "bench-study"},
     "robots.md": {"parametrisation"},
 }

@@ -58,6 +58,10 @@ def files(tmp_path: Path, csv_path: Path, result_document: dict, irb120: RobotMo
         (["identify", "{csv}", "--port", PORT, "--map", "{out}"], "csv"),
         (["plan", "--robot", "{robot}", "--port", PORT, "--poses", "30", "--out", "{out}"],
          "robot"),
+        (["predict", "--identified", "{result}", "--joints", "{program}", "--out", "{out}"],
+         "program"),
+        (["predict", "--identified", "{result}", "--joints", "{program}", "--out", "{out}"],
+         "result"),
     ],
 )
 @pytest.mark.parametrize("alias", ["same name", "hard link", "symbolic link"])

@@ -61,6 +61,23 @@ def test_a_kilometre_of_dh_error(result_document: dict, tmp_path: Path,
            "within the search bounds (±5 mm, ±8 deg)")
 
 
+def test_delta_and_unknowns_that_disagree(result_document: dict, tmp_path: Path,
+                                          refusals: Refusals) -> None:
+    """A result whose model unknowns were edited apart from its delta block (0.5 mm on a1) is
+    not what a calibration wrote: compensate and predict, which rebuild the model, refuse it."""
+    document = json.loads(json.dumps(result_document))
+    document["unknowns"]["parameters"][0]["value"] += 0.5
+    result, program = tmp_path / "result.json", tmp_path / "program.csv"
+    result.write_text(json.dumps(document))
+    program.write_text(PROGRAM)
+    for command in ("compensate", "predict"):
+        refusals.cli([command, "--identified", result, "--joints", program, "--out",
+                      tmp_path / "out"], [result, program],
+                     "delta.a: found delta.a1 and the unknowns disagree, expected a result as "
+                     "twin calibrate wrote it")
+        assert not (tmp_path / "out").exists()
+
+
 def test_another_robots_result(result_document: dict, tmp_path: Path, irb120: RobotModel,
                                refusals: Refusals) -> None:
     """The IRB 120's result applied to another robot: refused by name, and by nominal table

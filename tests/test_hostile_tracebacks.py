@@ -73,6 +73,8 @@ def test_a_negative_seed(argv: list[str], files: dict[str, Path], refusals: Refu
         (["export", "{result}", "--format", "dh", "--out", "{folder}"], "found a directory"),
         (["compensate", "--identified", "{result}", "--joints", "{program}", "--out",
           "{folder}"], "found a directory"),
+        (["predict", "--identified", "{result}", "--joints", "{program}", "--out",
+          "{folder}"], "found a directory"),
         (["calibrate", "{csv}", "--port", PORT, "--json", "{csv}/result.json"],
          "result.json: found a path under the file {csv}"),
         (["simulate", str(SCENARIO), "--out", "{csv}/run"], "found a path under the file"),

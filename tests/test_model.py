@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from twin.calibration import make_model
-from twin.dataset import Measurements
-from twin.errors import UnknownChoiceError
+from twin.dataset import Measurements, approach_directions
+from twin.errors import InputError, UnknownChoiceError
 from twin.kinds.length import cable_length
 from twin.model import Model
 from twin.rig import Rig
@@ -76,7 +76,8 @@ def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
     np.testing.assert_allclose(upper[:12], 5e-3)
     np.testing.assert_allclose(upper[12:24], np.deg2rad(8.0))
     np.testing.assert_array_equal(lower, -upper)
-    assert list(GROUPS)[:3] == ["dh", "port", "offset"]
+    assert list(GROUPS) == ["dh", "transmission", "backlash", "compliance", "link_compliance",
+                            "port", "offset"]
 
 
 def test_batched_residuals(
@@ -126,3 +127,108 @@ def test_groups_must_fit_the_kind(irb120: RobotModel, port_m: np.ndarray) -> Non
     model = make_model(irb120, rig)
     with pytest.raises(ValueError, match="twice"):
         Model(irb120, rig, model.kind, (*model.groups, *model.groups))
+
+
+JOINT_GROUPS = ["transmission", "backlash", "compliance"]
+
+
+def _with_approach(data: Measurements) -> Measurements:
+    return Measurements(data.q_rad, data.length_m, approach=approach_directions(data.q_rad))
+
+
+@pytest.mark.parametrize("group", [*JOINT_GROUPS, "link_compliance", "all"])
+def test_joint_groups_jacobian_matches_finite_differences(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray, group: str
+) -> None:
+    """Each joint-level group, alone and all together with the rig's unknowns and the cable
+    pulling: ∂r/∂x and ∂(flange)/∂x equal central differences."""
+    errors = ["dh", *(JOINT_GROUPS if group == "all" else [group])]
+    rig = Rig.cable(port_m, [0.01, -0.02, 0.03], tension_n=5.0)
+    model = make_model(irb120, rig, errors=errors, estimate_port=group == "all",
+                       estimate_offset=group == "all")
+    x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
+    x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
+    data = _with_approach(measurements.subset(np.arange(15)))
+    r, jacobian = model.jacobian(x, data)
+    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
+    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
+    eps = 1e-6
+    steps = np.eye(model.n_params) * eps
+    numeric = (model.flange_positions(x + steps, data)
+               - model.flange_positions(x - steps, data)) / (2 * eps)
+    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
+                               atol=1e-8)
+
+
+def test_joint_groups_move_the_joints_as_stated(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Transmission adds its harmonics of the recorded angle, backlash b·s, compliance c·τ:
+    the model's joints equal those written out by hand."""
+    rig = Rig.cable(port_m, tension_n=4.0)
+    model = make_model(irb120, rig, errors=["dh", *JOINT_GROUPS])
+    data = _with_approach(measurements.subset(np.arange(10)))
+    rng = np.random.default_rng(5)
+    x = np.zeros(model.n_params)
+    harmonic = rng.normal(scale=1e-3, size=(6, 4))
+    backlash = rng.normal(scale=1e-3, size=6)
+    compliance = rng.uniform(1e-6, 1e-4, size=6)
+    x[model.slice("transmission")] = harmonic.ravel()
+    x[model.slice("backlash")] = backlash
+    x[model.slice("compliance")] = compliance
+    q = data.q_rad
+    from twin.unknowns.compliance import torques
+
+    expected = (q + harmonic[:, 0] * np.sin(q) + harmonic[:, 1] * np.cos(q)
+                + harmonic[:, 2] * np.sin(2 * q) + harmonic[:, 3] * np.cos(2 * q)
+                + backlash * data.approach + compliance * torques(irb120, rig, data))
+    np.testing.assert_allclose(model.joints(x, data), expected, atol=1e-15)
+
+
+def test_joint_groups_need_what_they_read(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Backlash needs the approach directions (a model's own poses get those of visiting them
+    in order); compliance needs the links' masses and centres of mass."""
+    model = make_model(irb120, Rig.cable(port_m), errors=["dh", "backlash"])
+    assert model.needs_approach
+    with pytest.raises(ValueError, match="approach"):
+        model.residuals(np.zeros(model.n_params), measurements)
+    poses = model.poses(measurements.q_rad[:5])
+    assert poses.approach is not None
+    np.testing.assert_array_equal(poses.approach, approach_directions(measurements.q_rad[:5]))
+    bare = RobotModel("bare", irb120.dh, irb120.lower_rad, irb120.upper_rad,
+                      mass_kg=irb120.mass_kg)
+    for compliant in ("compliance", "link_compliance"):
+        with pytest.raises(InputError, match="without centres of mass"):
+            make_model(bare, Rig.cable(port_m), errors=["dh", compliant])
+    with pytest.raises(InputError, match="compliance with link_compliance"):
+        make_model(irb120, Rig.cable(port_m), errors=["dh", "compliance", "link_compliance"])
+
+
+def test_link_compliance_holds_compliance(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """Each link's gravity torque summed over the links is the gravity part of the joint
+    torque; so link_compliance with every link coefficient of joint i equal to c_i moves the
+    joints exactly as compliance c_i does."""
+    from twin.statics import joint_torques, link_torques
+
+    assert irb120.mass_kg is not None and irb120.com_m is not None
+    q = measurements.q_rad[:20]
+    by_link = link_torques(irb120.structure, irb120.dh, q, irb120.mass_kg, irb120.com_m)
+    np.testing.assert_allclose(by_link.sum(axis=2), joint_torques(
+        irb120.structure, irb120.dh, q, irb120.mass_kg, irb120.com_m), atol=1e-12)
+    np.testing.assert_array_equal(np.tril(np.ones((6, 6)), -1) * by_link, 0.0)
+    rig = Rig.cable(port_m, tension_n=5.0)
+    plain = make_model(irb120, rig, errors=["dh", "compliance"])
+    split = make_model(irb120, rig, errors=["dh", "link_compliance"])
+    c = np.random.default_rng(2).uniform(1e-6, 5e-5, 6)
+    x_plain = np.zeros(plain.n_params)
+    x_plain[plain.slice("compliance")] = c
+    x_split = np.zeros(split.n_params)
+    rows, _ = np.triu_indices(6)
+    x_split[split.slice("link_compliance")] = np.r_[c, c[rows]]
+    data = measurements.subset(np.arange(20))
+    np.testing.assert_allclose(split.joints(x_split, data), plain.joints(x_plain, data),
+                               atol=1e-15)

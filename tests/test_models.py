@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from twin.io.robot_file import load_robot
+from twin.kinematics import frames
 from twin.robot import MAX_JOINTS, MIN_JOINTS
 from twin.sim import load_scenario
 from twin.sim.builder import build_spec
@@ -74,7 +75,8 @@ def test_mjcf_steps_without_warnings(path: Path) -> None:
 def test_mjcf_is_the_builders_model(name: str) -> None:
     """models/<robot>/<robot>.xml is what the builder makes of the robot with its scenario's
     port (and, for the IRB 120, the paper scenario's servos): its flange equals the core's FK to
-    1e-9 m, its port is the scenario's, its link masses the model's."""
+    1e-9 m, its port is the scenario's, its link masses the model's, and, where the model gives
+    them, its links' centres of mass the model file's (in each link frame) to 1e-6 m."""
     scenario = load_scenario(SCENARIOS / f"{BUILT[name]}.toml")
     robot = scenario.robot
     model = mujoco.MjModel.from_xml_path(str(MODELS / name / f"{name}.xml"))
@@ -82,9 +84,16 @@ def test_mjcf_is_the_builders_model(name: str) -> None:
     q = random_poses(robot, 200, np.random.default_rng(0))
     site = model.site("flange").id
     core = robot.flange_transforms(q)
-    for pose, expected in zip(q, core, strict=True):
+    chain = frames(robot.structure, robot.dh, q)
+    rotation = np.stack([chain.x_axes, chain.y_axes, chain.z_axes], axis=-1)[:, 1:]
+    centres = None if robot.com_m is None else \
+        chain.origins[:, 1:] + np.einsum("mnij,nj->mni", rotation, robot.com_m)
+    for k, (pose, expected) in enumerate(zip(q, core, strict=True)):
         data.qpos[:] = pose
         mujoco.mj_kinematics(model, data)
+        if centres is not None:
+            # The file keeps 6 significant digits of the inertial's position.
+            assert np.allclose(data.xipos[1:], centres[k], rtol=0, atol=1e-6)
         assert np.allclose(data.site_xpos[site], expected[:3, 3], rtol=0, atol=1e-9)
         assert np.allclose(data.site_xmat[site].reshape(3, 3), expected[:3, :3], rtol=0,
                            atol=1e-9)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -38,10 +39,11 @@ def test_toml_round_trip(irb120: RobotModel, tmp_path: Path) -> None:
     assert np.max(np.abs(lengths)) <= 0.5e-6 + 1e-15 and np.max(np.abs(lengths)) > 0
     assert np.max(np.abs(angles)) <= 0.5e-6 + 1e-12
     for line in text.splitlines()[5:-1]:  # no float noise: at most 6 decimals per number
-        for item in line.strip("{ },").split(", "):
-            value = item.split(" = ")[1]
-            assert len(value.split(".")[1]) <= 6, item
+        for value in re.findall(r"-?\d+\.\d+", line):
+            assert len(value.split(".")[1]) <= 6, line
     assert back.mass_kg is not None and back.radius_m is not None
+    assert back.com_m is not None and robot.com_m is not None
+    assert np.max(np.abs(back.com_m - robot.com_m)) <= 0.5e-6 + 1e-15
 
 
 def test_metres_and_radians_are_accepted() -> None:

@@ -94,3 +94,29 @@ def test_physics_rejects_loads_without_stiffness() -> None:
         Physics(tension_n=5.0)
     with pytest.raises(ValueError, match="positive"):
         Physics(np.array([1e5, 0, 1e5, 1e5, 1e5, 1e5]))
+
+
+def test_core_torques_equal_mujoco_generalised_forces() -> None:
+    """The calibration's static torques (twin.statics: gravity at the robot file's centres of
+    mass, the cable's pull towards the port) equal MuJoCo's generalised forces on the twin built
+    from the same file, qfrc_actuator − qfrc_bias with the servos at the pose, to 1e-9 N·m."""
+    from twin.rig import Rig
+    from twin.unknowns.compliance import torques
+
+    robot = default_robot()
+    twin = Twin.build(robot, PORT_M, PAPER)
+    q = _poses(25, seed=11)
+    data = twin.statics_data
+    expected = np.empty_like(q)
+    for row, pose in enumerate(q):
+        data.ctrl[:6] = pose
+        data.qpos[:] = pose
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(twin.statics_model, data)
+        expected[row] = data.qfrc_actuator - data.qfrc_bias
+    rig = Rig.cable(PORT_M, tension_n=PAPER.tension_n)
+    from twin.dataset import Measurements
+
+    tau = torques(robot, rig, Measurements(q, length_m=np.zeros(len(q))))
+    assert np.max(np.abs(expected)) > 10.0  # the shoulder carries tens of N·m
+    np.testing.assert_allclose(tau, expected, atol=1e-9)

@@ -14,6 +14,7 @@ from twin.kinds.length import cable_length
 from twin.kinematics import Structure, flange_transform, point_jacobian, point_position
 from twin.metrics import Metrics
 from twin.model import Model
+from twin.predict import Prediction, predict
 from twin.rig import Rig
 from twin.robot import RobotModel, default_robot
 from twin.stopping import Budget, StopReason
@@ -25,6 +26,7 @@ __all__ = [
     "Measurements",
     "Metrics",
     "Model",
+    "Prediction",
     "Rig",
     "RobotModel",
     "StopReason",
@@ -40,5 +42,6 @@ __all__ = [
     "load_robot",
     "point_jacobian",
     "point_position",
+    "predict",
     "write_measurements",
 ]

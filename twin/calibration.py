@@ -123,6 +123,11 @@ class CalibrationResult:
     budget: Budget = field(default_factory=Budget)
 
     @property
+    def x(self) -> Array:
+        """The identified unknowns, shape (p,), SI (``solver.x``)."""
+        return self.solver.x
+
+    @property
     def method(self) -> str:
         """The method's name."""
         return self.solver.method
@@ -199,6 +204,24 @@ def match_ports(measurements: Measurements, rig: Rig) -> Measurements:
     return measurements
 
 
+def check_approach(model: Model, approach: ArrayLike | None) -> None:
+    """Refuse poses without the approach directions a group of the model reads.
+
+    Args:
+        model: The model to fit or evaluate.
+        approach: The poses' approach directions, shape (m, n), or None if not recorded.
+
+    Raises:
+        InputError: naming the missing columns ``approach1..approachN``.
+    """
+    if model.needs_approach and approach is None:
+        n = model.robot.n_joints
+        raise InputError(
+            f"no columns approach1..approach{n}",
+            f"approach1..approach{n} (+1 or -1: the direction each joint last moved in before "
+            "the reading), which backlash needs")
+
+
 def _rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
     if (port_m is None) == (rig is None):
         raise ValueError("give either port_m or rig")
@@ -223,12 +246,14 @@ def make_problem(
     Takes the arguments of :func:`calibrate`.
 
     Raises:
-        InputError: if there are fewer poses than the unknowns need.
+        InputError: if there are fewer poses than the unknowns need, or the measurements lack
+            what a group reads (the approach directions of backlash).
     """
     setup = _rig(port_m, rig)
     measurements = match_ports(measurements, setup)
     model = make_model(robot, setup, measurements.kind, errors=errors,
                        estimate_port=estimate_port, estimate_offset=estimate_offset)
+    check_approach(model, measurements.approach)
     needed = required_poses(model.n_params, train_fraction, model.kind.rows_per_pose)
     if len(measurements) < needed:
         percent = round(100 * train_fraction)

@@ -19,23 +19,36 @@ once (no loop over rows):
 
 Each step is ``Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e`` with e the position error (m) and, for full poses, the
 rotation error ``log(R_target Rᵀ)`` (rad, base frame); λ is adapted per row (Levenberg–
-Marquardt: a step is taken only if it lowers ‖e‖). Solutions are never clipped: a row that does
-not converge is *unreachable*, a converged row whose angles (after choosing among the
-equivalent angles q + 2πk the one closest to the seed) leave the joint limits is reported as a
-*joint-limit* violation.
+Marquardt: a step is taken only if it lowers ‖e‖).
+
+The identified robot is its identified table and, when the calibration identified them, its
+joint-level errors (:class:`ActualJoints`): commanded q, the joints stand at q + Δq(q) —
+transmission error, backlash for the direction the robot comes from, compliance under the load
+at the pose — and the flange is the table's at those angles. The IK solves for the command; its
+Jacobian is the table's at the actual angles, leaving out ∂Δq/∂q (some 1e-3 of the identity):
+each step then shrinks the error by about that factor instead of quadratically — a step or two
+more, the same solution.
+
+Solutions are never clipped: a row that does not converge is *unreachable*, a converged row
+whose angles (after choosing among the equivalent angles q + 2πk the one closest to the seed)
+leave the joint limits is reported as a *joint-limit* violation.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from twin.dataset import approach_directions
 from twin.kinematics import flange_jacobian
 from twin.metrics import Metrics, metrics
+from twin.model import Model
 from twin.robot import RobotModel
+from twin.unknowns import Stage
 
 Array = NDArray[np.float64]
 _T = TypeVar("_T", bound=np.generic)
@@ -115,11 +128,40 @@ def home_pose(robot: RobotModel) -> Array:
     return np.asarray(np.clip(home, robot.lower_rad, robot.upper_rad), dtype=np.float64)
 
 
+class ActualJoints:
+    """Where an identified model's joints stand when commanded: its joint-level errors.
+
+    Args:
+        model: The identified measurement model (with ``transmission``, ``backlash``,
+            ``compliance`` groups, any of them).
+        x: Its identified unknowns, shape (p,).
+        approach: The direction each joint comes from at each target row, shape (m, n), ±1;
+            needed when the model has backlash.
+    """
+
+    def __init__(self, model: Model, x: ArrayLike, approach: ArrayLike | None = None) -> None:
+        self.model = model
+        self.x = np.asarray(x, dtype=np.float64)
+        self.approach = None if approach is None else np.asarray(approach)
+        if model.needs_approach and self.approach is None:
+            raise ValueError("backlash needs the direction the robot comes from at each row")
+
+    def __call__(self, q_rad: Array, rows: NDArray[np.intp]) -> Array:
+        """Actual joint angles, shape (k, n), rad, for commands q (k, n) at target rows
+        ``rows`` (k,)."""
+        approach = None if self.approach is None else self.approach[rows]
+        return np.asarray(self.model.joints(self.x, self.model.poses(q_rad, approach=approach)),
+                          dtype=np.float64)
+
+
 def _errors(
-    robot: RobotModel, q_rad: Array, base_p_target: Array, base_R_target: Array | None
+    robot: RobotModel, q_rad: Array, base_p_target: Array, base_R_target: Array | None,
+    actual: Array | None = None,
 ) -> tuple[Array, Array]:
-    """Stacked error e (m, k) and Jacobian J (m, k, n), k = 3 or 6."""
-    base_T_flange, jacobian = flange_jacobian(robot.structure, robot.dh, q_rad)
+    """Stacked error e (m, k) and Jacobian J (m, k, n), k = 3 or 6, with the joints at the
+    commands or, if given, at ``actual`` (m, n)."""
+    base_T_flange, jacobian = flange_jacobian(robot.structure, robot.dh,
+                                              q_rad if actual is None else actual)
     error = base_p_target - base_T_flange[:, :3, 3]
     if base_R_target is None:
         return error, jacobian[:, :3, :]
@@ -148,8 +190,9 @@ def solve_ik(
     tolerance_m: float = TOLERANCE_M,
     tolerance_rad: float = TOLERANCE_RAD,
     max_iterations: int = MAX_ITERATIONS,
+    joints: ActualJoints | None = None,
 ) -> IKResult:
-    """Joint angles that put the robot's flange at the targets, all rows at once.
+    """Joint angles to command so that the robot's flange reaches the targets, all rows at once.
 
     Args:
         robot: The robot to solve on (nominal or identified table), SI.
@@ -159,9 +202,11 @@ def solve_ik(
         tolerance_m: Position convergence tolerance, m.
         tolerance_rad: Rotation convergence tolerance, rad.
         max_iterations: Newton iterations at most.
+        joints: Where the joints stand for a command (the identified joint-level errors), or
+            None: exactly at it.
 
     Returns:
-        The solved angles and per-row convergence and limit flags.
+        The solved commands and per-row convergence and limit flags.
     """
     p_target = np.asarray(base_p_target, dtype=np.float64)
     q = np.array(q_seed, dtype=np.float64)
@@ -178,7 +223,12 @@ def solve_ik(
             len(error))
         return np.linalg.norm(error[:, :3], axis=-1), rotation
 
-    error, jacobian = _errors(robot, q, p_target, R_target)
+    def evaluate(q_rows: Array, rows: NDArray[np.intp]) -> tuple[Array, Array]:
+        actual = None if joints is None else joints(q_rows, rows)
+        return _errors(robot, q_rows, p_target[rows],
+                       None if R_target is None else R_target[rows], actual)
+
+    error, jacobian = evaluate(q, np.arange(len(q)))
     damping = np.full(len(q), INITIAL_DAMPING)
     identity = np.eye(error.shape[1])
     iterations = 0
@@ -194,10 +244,9 @@ def solve_ik(
         JJt = J @ np.swapaxes(J, -1, -2) + damping[active, None, None] * identity
         step = (np.swapaxes(J, -1, -2) @ np.linalg.solve(JJt, e[..., None]))[..., 0]
         q_try = q[active] + step
-        R_try = None if R_target is None else R_target[active]
-        error_try, jacobian_try = _errors(robot, q_try, p_target[active], R_try)
-        better = np.linalg.norm(error_try, axis=-1) < np.linalg.norm(e, axis=-1)
         rows = np.flatnonzero(active)
+        error_try, jacobian_try = evaluate(q_try, rows)
+        better = np.linalg.norm(error_try, axis=-1) < np.linalg.norm(e, axis=-1)
         taken = rows[better]
         q[taken], error[taken], jacobian[taken] = (
             q_try[better], error_try[better], jacobian_try[better],
@@ -276,14 +325,16 @@ def nominal_ik(
 
 
 def compensate_program(
-    nominal: RobotModel, identified: RobotModel, q_program_rad: ArrayLike
+    nominal: RobotModel, identified: RobotModel, q_program_rad: ArrayLike,
+    joints: ActualJoints | None = None,
 ) -> IKResult:
     """Corrected joint angles that put the identified robot's flange at the nominal pose.
 
     Args:
         nominal: The model the program was written against, SI.
-        identified: The identified (real) robot, SI.
+        identified: The identified (real) robot's table, SI.
         q_program_rad: Programmed joint angles, shape (m, n), rad.
+        joints: The identified joint-level errors, if any (:class:`ActualJoints`).
 
     Returns:
         Angles whose identified flange pose (position and orientation) equals the nominal
@@ -293,25 +344,97 @@ def compensate_program(
     """
     q = np.asarray(q_program_rad, dtype=np.float64)
     base_T_target = nominal.flange_transforms(q)
+    target = base_T_target[:, :3, 3]
     if identified.n_joints >= FULL_POSE_JOINTS:
-        return solve_ik(identified, base_T_target[:, :3, 3], q, base_T_target[:, :3, :3])
-    solved = solve_ik(identified, base_T_target[:, :3, 3], q)
-    reached = identified.flange_transforms(solved.q_rad)[:, :3, :3]
+        return solve_ik(identified, target, q, base_T_target[:, :3, :3], joints=joints)
+    solved = solve_ik(identified, target, q, joints=joints)
+    actual = solved.q_rad if joints is None else joints(solved.q_rad, np.arange(len(q)))
+    reached = identified.flange_transforms(actual)[:, :3, :3]
     left = Rotation.from_matrix(base_T_target[:, :3, :3] @ np.swapaxes(reached, -1, -2))
     return solved._replace(rotation_error_rad=np.asarray(left.magnitude(), dtype=np.float64))
 
 
 def compensate_targets(
-    identified: RobotModel, base_p_target: ArrayLike, q_nominal_rad: ArrayLike
+    identified: RobotModel, base_p_target: ArrayLike, q_nominal_rad: ArrayLike,
+    joints: ActualJoints | None = None,
 ) -> IKResult:
     """Corrected joint angles that put the identified robot's flange at Cartesian targets.
 
     Args:
-        identified: The identified (real) robot, SI.
+        identified: The identified (real) robot's table, SI.
         base_p_target: Flange position targets, shape (m, 3), m.
         q_nominal_rad: Nominal solutions (e.g. from :func:`nominal_ik`), shape (m, n), rad.
+        joints: The identified joint-level errors, if any (:class:`ActualJoints`).
     """
-    return solve_ik(identified, base_p_target, q_nominal_rad)
+    return solve_ik(identified, base_p_target, q_nominal_rad, joints=joints)
+
+
+APPROACH_PASSES = 4
+"""Most solves of :func:`solve_in_order`; a pass changes sides only where a joint moves less
+between two rows than the correction, so the second pass almost always settles it."""
+
+
+class InOrder(NamedTuple):
+    """Rows solved for visiting them in order (:func:`solve_in_order`)."""
+
+    solved: IKResult
+    """The corrected commands."""
+    approach: NDArray[np.int8] | None
+    """The side each joint must come from at each row, shape (m, n), ±1, for which they were
+    corrected; None without backlash."""
+    approach_moves: NDArray[np.bool_]
+    """Rows, shape (m,), where moving straight from the previous row comes from the other side
+    for some joint: the robot must make an approach move there (overshoot and come back)."""
+
+
+def solve_in_order(model: Model, x: ArrayLike,
+                   solve: Callable[[RobotModel, ActualJoints | None], IKResult],
+                   q_rad: ArrayLike) -> InOrder:
+    """Solve rows the robot will visit in order, from home, with the whole identified model.
+
+    Backlash depends on the side each joint comes from, which is that of the corrected commands
+    themselves: where a joint moves less between two rows than its correction, correcting may
+    change the side. The rows are solved with the directions of ``q_rad`` (the uncorrected
+    commands), then again with those of the solution, until they no longer change (at most
+    :data:`APPROACH_PASSES` solves). Where a joint must move by less than its backlash no side
+    is consistent (coming from either side, the correction sends it the other way): those rows
+    are flagged for an approach move, and their commands hold for the side stated.
+
+    Args:
+        model: The identified measurement model.
+        x: Its unknowns, shape (p,).
+        solve: Solves every row on an identified arm (:func:`identified_arm`).
+        q_rad: The uncorrected commands, in visiting order, shape (m, n), rad.
+    """
+    approach = approach_directions(q_rad) if model.needs_approach else None
+    for _ in range(APPROACH_PASSES):
+        solved = solve(*identified_arm(model, x, approach))
+        if approach is None:
+            return InOrder(solved, None, np.zeros(len(solved.q_rad), dtype=bool))
+        comes_from = approach_directions(solved.q_rad)
+        if np.array_equal(comes_from, approach):
+            break
+        used, approach = approach, comes_from
+    else:
+        approach = used
+    moves = np.any(approach_directions(solved.q_rad) != approach, axis=1)
+    return InOrder(solved, approach, moves)
+
+
+def identified_arm(model: Model, x: ArrayLike, approach: ArrayLike | None
+                   ) -> tuple[RobotModel, ActualJoints | None]:
+    """The whole identified robot as the IK solves on it: the nominal robot with the identified
+    table, and its joint-level errors when the model has any.
+
+    Args:
+        model: The identified measurement model.
+        x: Its unknowns, shape (p,).
+        approach: The direction each joint comes from at each row to solve, shape (m, n), ±1
+            (needed with backlash).
+    """
+    robot = model.robot.perturbed(model.table(x) - model.robot.dh)
+    has_joints = any(group.stage == Stage.JOINTS for group in model.groups)
+    return robot, ActualJoints(model, x, approach) if has_joints else None
 
 
 class CompensationCheck(NamedTuple):

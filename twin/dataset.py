@@ -138,3 +138,24 @@ class Measurements:
         return Measurements(self.q_rad[index], pick(self.length_m), pick(self.position_m),
                             pick(self.point), pick(self.port), pick(self.approach),
                             self.port_names, self.point_names)
+
+
+def approach_directions(q_rad: ArrayLike, start_rad: ArrayLike | None = None) -> NDArray[np.int8]:
+    """The direction each joint last moved in when the poses are visited in order.
+
+    Args:
+        q_rad: Poses in visiting order, shape (m, n), rad.
+        start_rad: Where the arm starts, shape (n,), rad; zeros (home) by default.
+
+    Returns:
+        +1 or −1 per joint and pose, shape (m, n); a joint that does not move keeps the
+        direction it had (+1 before its first move).
+    """
+    q = np.asarray(q_rad, dtype=np.float64)
+    start = np.zeros(q.shape[1]) if start_rad is None else np.asarray(start_rad, dtype=np.float64)
+    steps = np.sign(np.diff(np.vstack([start, q]), axis=0))
+    # Carry the last nonzero sign forward over joints that did not move.
+    index = np.where(steps != 0, np.arange(len(q))[:, None], -1)
+    last = np.maximum.accumulate(index, axis=0)
+    signs = np.take_along_axis(steps, np.maximum(last, 0), axis=0)
+    return np.where(last >= 0, signs, 1.0).astype(np.int8)

@@ -207,7 +207,8 @@ def choose_port(
         candidates = np.broadcast_to(candidates, (len(ports), *candidates.shape))
     plans, scores = [], []
     for port, port_candidates in zip(ports, candidates, strict=True):
-        at_port = replace(model, rig=replace(model.rig, ports_m=port[None]))
+        # Made again for the port: the cable's pull loads the joints (compliance) towards it.
+        at_port = model.with_rig(replace(model.rig, ports_m=port[None]), x)[0]
         plan = plan_poses(at_port, x, port_candidates, n_poses)
         plans.append(plan)
         scores.append(

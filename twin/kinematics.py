@@ -287,6 +287,27 @@ def frames(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> Frames:
     return Frames(origins, x_axes, y_axes, z_axes, flange)
 
 
+def joint_axes(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
+    """Where each joint turns: a point on its axis and the axis' direction, in the base frame.
+
+    Args:
+        structure: What the table means.
+        dh: Parameter tables, shape (..., 4, n), m and rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+
+    Returns:
+        ``(origins, axes)``: shapes (..., m, n, 3), m and unit vectors; a positive joint rate
+        turns everything beyond joint i about ``axes[..., i, :]`` through ``origins[..., i, :]``
+        (for a D-H joint, frame i−1's z axis through its origin).
+    """
+    _, motions, flange = _walk(structure, dh, q_rad, record=True)
+    turns = [(u, o) for _, _, slot, u, o in motions if slot == JOINT_SLOT]
+    shape = (*flange.shape[:-2], 3)
+    origins = np.stack([np.broadcast_to(o, shape) for _, o in turns], axis=-2)
+    axes = np.stack([np.broadcast_to(u, shape) for u, _ in turns], axis=-2)
+    return origins, axes
+
+
 def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
                    point_m: ArrayLike | None = None) -> PointJacobian:
     """A flange point and its analytic Jacobians w.r.t. the table, the joints and the point.
@@ -355,6 +376,28 @@ def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
     Returns:
         T_0..T_n, shape (n + 1, 4, 4).
     """
+    pre, post = joint_placements(structure, dh)
+    n = structure.n_joints
+    transforms = [structure.base @ pre[0]]
+    transforms += [post[i] @ pre[i + 1] for i in range(n - 1)]
+    transforms.append(post[-1] @ structure.tool)
+    return np.stack(transforms)
+
+
+def joint_placements(structure: Structure, dh: ArrayLike) -> tuple[Array, Array]:
+    """Each joint's link transform split at its turn: A_i(q) = pre_i · Rz(q_i) · post_i.
+
+    ``post_i`` places link frame i (the frame :func:`frames` gives, which turns with joint i) in
+    the joint's own turning frame: where a link's centre of mass, given in its link frame, sits
+    in a body that carries the joint.
+
+    Args:
+        structure: What the table means.
+        dh: One parameter table, shape (4, n).
+
+    Returns:
+        ``(pre, post)``, each shape (n, 4, 4).
+    """
     table = np.asarray(dh, dtype=np.float64)
     n = structure.n_joints
     if table.shape != (4, n):
@@ -366,10 +409,7 @@ def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
         pre.append(_compose(motions[:joint_at], table[:, i]))
         # The joint's own offset θ turns with q: Rz(q + θ) = Rz(q) · Rz(θ).
         post.append(_compose(motions[joint_at:], table[:, i]))
-    transforms = [structure.base @ pre[0]]
-    transforms += [post[i] @ pre[i + 1] for i in range(n - 1)]
-    transforms.append(post[-1] @ structure.tool)
-    return np.stack(transforms)
+    return np.stack(pre), np.stack(post)
 
 
 def _compose(motions: tuple[tuple[int, int, int], ...], slots: Array) -> Array:

@@ -24,12 +24,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.dataset import Measurements
+from twin.dataset import Measurements, approach_directions
 from twin.kinds import Kind
 from twin.kinematics import point_jacobian, point_position
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.unknowns import Group, Stage
+from twin.unknowns import Group, Stage, make_groups
 
 Array = NDArray[np.float64]
 
@@ -96,6 +96,12 @@ class Model:
         return (np.concatenate([group.lower for group in self.groups]),
                 np.concatenate([group.upper for group in self.groups]))
 
+    @property
+    def needs_approach(self) -> bool:
+        """Whether a group reads the direction each joint approached its pose from (backlash):
+        measurements without it cannot be fitted or predicted."""
+        return any(group.needs_approach for group in self.groups)
+
     def has(self, name: str) -> bool:
         """Whether the group ``name`` is among the unknowns."""
         return name in self._slices
@@ -115,6 +121,24 @@ class Model:
     def group(self, name: str) -> Group:
         """The group called ``name``."""
         return self.groups[list(self._slices).index(name)]
+
+    def with_rig(self, rig: Rig, x: ArrayLike) -> tuple[Model, Array]:
+        """This model for another rig (other ports, another cable tension), and unknowns x (p,)
+        carried over: the groups are made again for it (compliance depends on the cable's
+        pull); a group whose size changes with the rig (a correction per port) starts again at
+        zero.
+
+        Returns:
+            ``(model, x)``: the model for ``rig`` and its unknowns, shape (p',).
+        """
+        x = self._check(x)
+        model = Model(self.robot, rig, self.kind,
+                      make_groups([group.name for group in self.groups], self.robot, rig))
+        carried = np.zeros(model.n_params)
+        for group in model.groups:
+            if group.size == self.group(group.name).size:
+                carried[model.slice(group.name)] = self.block(x, group.name)
+        return model, carried
 
     def _check(self, x: ArrayLike) -> Array:
         x = np.asarray(x, dtype=np.float64)
@@ -174,10 +198,14 @@ class Model:
         Args:
             q_rad: Joint angles, shape (m, n), rad.
             port: The port of each row, shape (m,), for cable lengths; port 0 if None.
-            approach: Direction each joint last moved in, shape (m, n), ±1, if known.
+            approach: Direction each joint last moved in, shape (m, n), ±1, if known. If None
+                and the model needs it (:attr:`needs_approach`): the directions of visiting
+                the poses in the order given, from home (:func:`twin.dataset.approach_directions`).
         """
         q = np.asarray(q_rad, dtype=np.float64)
         ports = None if port is None else np.asarray(port, dtype=np.intp)
+        if approach is None and self.needs_approach:
+            approach = approach_directions(q)
         labels = None if approach is None else np.asarray(approach)
         if self.kind.name == "length":
             return Measurements(q, length_m=np.zeros(len(q)), port=ports, approach=labels)

@@ -12,8 +12,16 @@ from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.metrics import Metrics
 from twin.parametrisation import PARALLEL_THRESHOLD_DEG
 from twin.robot import RobotModel
+from twin.selection import ErrorChoice
 from twin.solvers import get_solver
-from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, slot_label
+from twin.units import (
+    DH_KEYS,
+    DISPLAY_UNITS,
+    dh_rows_to_display,
+    m_to_mm,
+    rad_to_arcsec,
+    slot_label,
+)
 
 MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the standard deviation.'
 
@@ -135,6 +143,69 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
             if truth:
                 row += f"{truth[key][i]:>10.4f}"
         lines.append(row)
+    lines += format_joint_groups(result)
+    return "\n".join(lines)
+
+
+JOINT_GROUP_COLUMNS = {"transmission": ("sin q", "cos q", "sin 2q", "cos 2q"),
+                       "backlash": ("backlash",), "compliance": ("compliance",)}
+"""Columns of each joint-level group in the report, one row per joint."""
+
+
+def _report_units(values_si: NDArray[np.float64], unit: str) -> tuple[NDArray[np.float64], str]:
+    """Joint-level values as the report shows them: angles in arc-seconds, the rest in the
+    unit results use (µrad/(N·m) for compliance)."""
+    if unit == "rad":
+        return rad_to_arcsec(values_si), "arcsec"
+    label, factor, _ = DISPLAY_UNITS[unit]
+    return np.asarray(values_si) * factor, label
+
+
+def format_joint_groups(result: CalibrationResult) -> list[str]:
+    """The identified joint-level errors, one row per joint, each with its σ (— where the
+    poses do not identify it); empty without joint-level groups."""
+    model = result.model
+    present = [name for name in JOINT_GROUP_COLUMNS if model.has(name)]
+    if not present:
+        return []
+    sigma = result.uncertainty.sigma if result.uncertainty is not None \
+        else np.full(model.n_params, np.nan)
+    n = model.robot.n_joints
+    header, tables = "  joint", []
+    for name in present:
+        unit, columns = model.group(name).units[0], JOINT_GROUP_COLUMNS[name]
+        values, label = _report_units(model.block(result.solver.x, name), unit)
+        deviations, _ = _report_units(sigma[model.slice(name)], unit)
+        header += "".join(f"{f'{column} [{label}]':>24}{'±σ':>8}" for column in columns)
+        tables.append((np.reshape(values, (n, -1)), np.reshape(deviations, (n, -1))))
+    lines = ["", "Identified joint-level errors", header]
+    for i in range(n):
+        row = f"  {i + 1:>5}"
+        for table, table_sigma in tables:
+            for value, deviation in zip(table[i], table_sigma[i], strict=True):
+                row += f"{value:>24.2f}" + (f"{deviation:>8.2f}" if np.isfinite(deviation)
+                                             else f"{'—':>8}")
+        lines.append(row)
+    return lines
+
+
+def format_choice(choice: ErrorChoice) -> str:
+    """The ``--errors auto`` table: each nested error model's unknowns, rank, residuals and
+    BIC, the chosen one marked, and the rule."""
+    lines = ["Error models, fitted on the same training poses "
+             f"({choice.best.result.method}):",
+             f"  {'errors':<44}{'unknowns':>9}{'rank':>6}{'train RMSE':>12}"
+             f"{'valid. RMSE':>13}{'BIC':>12}  [mm]"]
+    for k, candidate in enumerate(choice.candidates):
+        train = float(m_to_mm(candidate.result.metrics["train"].rmse))
+        validation = float(m_to_mm(candidate.result.metrics["validation"].rmse))
+        mark = "  <- chosen" if k == choice.chosen else ""
+        lines.append(f"  {'+'.join(candidate.errors):<44}{candidate.unknowns:>9}"
+                     f"{candidate.rank:>6}{train:>12.4f}{validation:>13.4f}"
+                     f"{candidate.bic:>12.1f}{mark}")
+    lines += [f"  skipped: {reason}" for reason in choice.skipped]
+    lines += ["  rule: the lowest BIC = m ln(RSS/m) + k ln m (m training residuals, k the rank:",
+              "  each identified unknown costs ln m); the validation RMSE is shown as a check"]
     return "\n".join(lines)
 
 

@@ -16,6 +16,10 @@ from twin.arrays import frozen_array
 
 Array = NDArray[np.float64]
 
+MAX_TENSION_N = 1000.0
+"""Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
+bend an IRB 120 rather than load it."""
+
 
 def _origin() -> Array:
     return np.zeros(3)
@@ -31,11 +35,16 @@ class Rig:
         port_names: A name per port, length k.
         attachment_m: The measured point (cable eyelet, tracker target, ball) in the flange
             frame, shape (3,), m; the flange centre by default.
+        tension_n: The cable's pull on the attachment point, towards each row's port, N (a
+            drawstring encoder's spring force; its data sheet gives it). It loads the joints
+            of a compliant arm (unknown group ``compliance``); 0 for instruments that do not
+            touch the robot.
     """
 
     ports_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
     port_names: tuple[str, ...] = ()
     attachment_m: Array = field(default_factory=_origin)
+    tension_n: float = 0.0
 
     def __post_init__(self) -> None:
         ports = np.asarray(self.ports_m, dtype=np.float64).reshape(-1, 3)
@@ -47,13 +56,18 @@ class Rig:
         object.__setattr__(self, "port_names", names)
         object.__setattr__(self, "attachment_m",
                            frozen_array(self.attachment_m, (3,), "attachment_m"))
+        if not (np.isfinite(self.tension_n) and 0.0 <= self.tension_n <= MAX_TENSION_N):
+            raise ValueError(f"tension_n: {self.tension_n}, expected 0 to {MAX_TENSION_N:g} N")
+        object.__setattr__(self, "tension_n", float(self.tension_n))
 
     @classmethod
-    def cable(cls, port_m: ArrayLike, attachment_m: ArrayLike | None = None) -> Rig:
-        """One port, base frame, shape (3,), m; the measured point at ``attachment_m``."""
+    def cable(cls, port_m: ArrayLike, attachment_m: ArrayLike | None = None,
+              tension_n: float = 0.0) -> Rig:
+        """One port, base frame, shape (3,), m; the measured point at ``attachment_m``; the
+        cable pulling with ``tension_n`` newtons."""
         return cls(np.asarray(port_m, dtype=np.float64).reshape(1, 3),
                    attachment_m=_origin() if attachment_m is None
-                   else np.asarray(attachment_m, dtype=np.float64))
+                   else np.asarray(attachment_m, dtype=np.float64), tension_n=tension_n)
 
     @property
     def port_m(self) -> Array:

@@ -26,9 +26,11 @@ From 4 to 7 joints. ``parametrisation`` says what a joint row means (:mod:`twin.
 
 ``base`` and ``tool`` are fixed transforms (xyz in the length unit, fixed-axis roll–pitch–yaw in
 the angle unit, as a URDF origin) before joint 1 and after the last joint's row. Optional
-per-joint keys: ``mass`` (kg, of the link after the joint) and ``radius`` (length unit, of
-that link's capsule) for the digital twin; ``velocity`` (angle unit per second) and ``effort``
-(N·m), the joint's rated limits, for exported URDFs.
+per-joint keys: ``mass`` (kg, of the link after the joint), ``com = [x, y, z]`` (length unit:
+that link's centre of mass in its own frame i, which turns with joint i; needs ``mass``) and
+``radius`` (length unit, of that link's capsule) for the digital twin and the ``compliance``
+unknowns' gravity torques; ``velocity`` (angle unit per second) and ``effort`` (N·m), the
+joint's rated limits, for exported URDFs.
 
 A model file may instead name a URDF (:mod:`twin.urdf`, through Pinocchio)::
 
@@ -86,6 +88,7 @@ _TOP_KEYS = ("name", "parametrisation", "convention", "length_unit", "angle_unit
              "base", "tool")
 _LIMIT_KEYS = ("lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius", "velocity", "effort")
+_COM_KEY = "com"
 MAX_ANGLE_RAD = 4 * math.pi
 """Largest |alpha|, |theta| and |joint limit| accepted from a model file: two turns."""
 MAX_MASS_KG = 1e4
@@ -140,6 +143,9 @@ class RobotModel:
         velocity_rad_s: Rated joint speeds, shape (n,), rad/s, or None when unknown.
         effort_nm: Rated joint torques, shape (n,), N·m, or None when unknown.
         urdf: The URDF the robot was read from, or None.
+        com_m: Link centres of mass, row i in link i's frame (frame i of the chain, which
+            turns with joint i), shape (n, 3), m, or None when the file gives none; needs
+            ``mass_kg``.
     """
 
     name: str
@@ -152,6 +158,7 @@ class RobotModel:
     velocity_rad_s: NDArray[np.float64] | None = field(default=None)
     effort_nm: NDArray[np.float64] | None = field(default=None)
     urdf: UrdfSource | None = field(default=None)
+    com_m: NDArray[np.float64] | None = field(default=None)
 
     def __post_init__(self) -> None:
         dh = np.asarray(self.dh, dtype=np.float64)
@@ -176,6 +183,10 @@ class RobotModel:
                 object.__setattr__(self, name, array)
         if self.urdf is not None and len(self.urdf.joint_names) != n:
             raise ValueError(f"urdf: {len(self.urdf.joint_names)} joint names for {n} joints")
+        if self.com_m is not None:
+            if self.mass_kg is None:
+                raise ValueError("com_m: centres of mass need link masses (mass_kg)")
+            object.__setattr__(self, "com_m", frozen_array(self.com_m, (n, 3), "com_m"))
 
     @property
     def n_joints(self) -> int:
@@ -341,16 +352,19 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
                 "upper": (to_rad, MAX_ANGLE_RAD, angle_unit)}
     table = np.zeros((4, n))
     columns: dict[str, list[float]] = {key: [] for key in per_unit}
+    coms: list[list[float]] = []
     for index, (joint, kind) in enumerate(zip(joints, kinds, strict=True)):
         where = f"joint {index + 1}"
         slots = SLOT_NAMES[kind]
-        allowed = (*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS)
+        allowed = (*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY)
         if not isinstance(joint, dict):
             raise doc.error(f"{joint!r}", "an inline table", where)
         extra = sorted(set(joint) - set(allowed))
         if extra:
             raise doc.error(f"unknown key {extra[0]!r}", f"only {', '.join(allowed)} (a "
                             f"{kind} joint)", where)
+        if _COM_KEY in joint:
+            coms.append(_parse_com(joint[_COM_KEY], to_m, length_unit, doc, where))
         for key in (*slots, *_LIMIT_KEYS):
             if key not in joint:
                 raise doc.error(f"no {key!r}", f"a number for {key!r}", where)
@@ -374,6 +388,11 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
             raise doc.error(f"{key!r} on {given} of {n} joints",
                             f"{key!r} on every joint or on none")
         optional[key] = np.array(columns[key]) if given else None
+    if len(coms) not in (0, n):
+        raise doc.error(f"{_COM_KEY!r} on {len(coms)} of {n} joints",
+                        f"{_COM_KEY!r} on every joint or on none")
+    if coms and optional["mass"] is None:
+        raise doc.error(f"{_COM_KEY!r} without 'mass'", "a 'mass' beside every centre of mass")
     units = (length_unit, angle_unit)
     try:
         structure = Structure(kinds, base=_end_transform(doc, "base", to_m, to_rad, units),
@@ -390,7 +409,20 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
         lower_rad=np.array(columns["lower"]), upper_rad=np.array(columns["upper"]),
         mass_kg=optional["mass"], radius_m=optional["radius"],
         velocity_rad_s=optional["velocity"], effort_nm=optional["effort"],
+        com_m=np.array(coms) if coms else None,
     )
+
+
+def _parse_com(value: Any, to_m: float, length_unit: str, doc: ModelDocument,
+               where: str) -> list[float]:
+    """A centre of mass ``[x, y, z]`` in the file's length unit, in m."""
+    expected = (f"[x, y, z]: three finite numbers in {length_unit}, each within "
+                f"±{MAX_LENGTH_M / to_m:g}")
+    if not isinstance(value, list) or len(value) != 3 or any(
+            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
+            or abs(v * to_m) > MAX_LENGTH_M for v in value):
+        raise doc.error(f"{_COM_KEY} = {value!r}", expected, where)
+    return [float(v) * to_m for v in value]
 
 
 def default_robot() -> RobotModel:
@@ -439,11 +471,15 @@ def robot_to_toml(robot: RobotModel) -> str:
                 else rad_to_deg(robot.velocity_rad_s), "effort": robot.effort_nm}
     places = {"lower": FILE_DEG_DECIMALS, "upper": FILE_DEG_DECIMALS, "mass": 3,
               "radius": FILE_MM_DECIMALS, "velocity": FILE_DEG_DECIMALS, "effort": 3}
+    coms = None if robot.com_m is None else np.reshape(
+        rounded(m_to_mm(robot.com_m), FILE_MM_DECIMALS), (-1, 3)).tolist()
     for i, kind in enumerate(kinds):
         items = [f"{key} = {rounded([display[slot, i]], int(decimals[slot, i]))[0]!r}"
                  for slot, key in enumerate(SLOT_NAMES[kind])]
         items += [f"{key} = {rounded([values[i]], places[key])[0]!r}"
                   for key, values in optional.items() if values is not None]
+        if coms is not None:
+            items.append(f"{_COM_KEY} = [{', '.join(map(repr, coms[i]))}]")
         lines.append("  { " + ", ".join(items) + " },")
     lines.append("]")
     lines += [line for key in ("base", "tool")

@@ -39,6 +39,11 @@ def rad_to_deg(value_rad: ArrayLike) -> NDArray[np.float64]:
     return np.rad2deg(np.asarray(value_rad, dtype=np.float64))
 
 
+def rad_to_arcsec(value_rad: ArrayLike) -> NDArray[np.float64]:
+    """Radians to arc-seconds: how reports show joint-level errors (gear makers' unit)."""
+    return rad_to_deg(value_rad) * 3600.0
+
+
 DH_KEYS = ("a", "d", "alpha", "theta")
 """Row order of a D-H table and of the error vector X (paper eq. 7). In a table of any
 parametrisation the rows are its four slots under these keys: a Hayati joint holds its β (an
@@ -112,9 +117,19 @@ def significant(value: float, digits: int = RESULT_SIGNIFICANT) -> float:
     return float(f"{value:.{digits}g}") + 0.0
 
 
+COMPLIANCE_UNIT = "rad/(N·m)"
+"""SI unit of a joint compliance (deflection per torque, the inverse of a stiffness)."""
+MICRO = 1e6
+RESULT_COMPLIANCE_DECIMALS = 4
+"""Results: compliances to 1e-4 µrad/(N·m), far below what a calibration resolves (~0.1)."""
+
 DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
     "m": ("mm", 1.0 / M_PER_MM, RESULT_MM_DECIMALS),
+    # Joint-level angles (transmission error, backlash) read in degrees like the D-H angles
+    # they trade with (δθ against a cos q term); 1e-6 degree is 0.0036 arc-second.
     "rad": ("deg", 180.0 / np.pi, FILE_DEG_DECIMALS),
+    # An IRB 120 joint is some 1e4–1e6 N·m/rad stiff: 1–100 µrad/(N·m).
+    COMPLIANCE_UNIT: ("µrad/(N·m)", MICRO, RESULT_COMPLIANCE_DECIMALS),
 }
 """For each SI unit an unknown may have: the unit people read, the factor to it, and the
 decimals a result keeps. An unknown group with a unit of its own adds it here."""

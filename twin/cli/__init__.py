@@ -26,6 +26,7 @@ from twin.cli import (
     export,
     identify,
     plan,
+    predict,
     simulate,
     study,
     virtual_encoder,
@@ -35,8 +36,8 @@ from twin.distribution import missing_extra
 from twin.errors import InputError, TwinError
 from twin.io.paths import check_command_paths, command_scope
 
-SUBCOMMANDS = (calibrate, simulate, identify, plan, compensate, export, study, check, capture,
-               virtual_encoder)
+SUBCOMMANDS = (calibrate, simulate, identify, plan, predict, compensate, export, study, check,
+               capture, virtual_encoder)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141

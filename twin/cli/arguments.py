@@ -148,3 +148,27 @@ def robot_from_flags(args: argparse.Namespace) -> RobotModel | None:
                              source=flag)
         return None
     return load_robot(args.robot, **links)
+
+
+AUTO = "auto"
+"""The ``--errors`` value that lets the data choose the error groups (:mod:`twin.selection`)."""
+
+
+def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:
+    """An argparse type: comma-separated error groups among :data:`twin.unknowns.ERRORS` (in the
+    registry's order), or ``auto`` (returned as ``("auto",)``) when ``auto``."""
+    from twin.unknowns import ERRORS
+
+    choices = ",".join(ERRORS) + (f" (any of them, comma-separated) or {AUTO}" if auto
+                                  else " (any of them, comma-separated)")
+
+    def parse(text: str) -> tuple[str, ...]:
+        names = [name.strip().lower() for name in text.split(",")]
+        if auto and names == [AUTO]:
+            return (AUTO,)
+        if not names or any(name not in ERRORS for name in names) \
+                or len(set(names)) != len(names):
+            raise argparse.ArgumentTypeError(f"found {text!r}, expected {choices}")
+        return tuple(name for name in ERRORS if name in names)
+
+    return parse

@@ -1,4 +1,9 @@
-"""`twin calibrate`: identify the D-H errors from a measurement file or a capture."""
+"""`twin calibrate`: identify the robot's errors from a measurement file or a capture.
+
+``--errors`` chooses the robot's error groups (D-H by default; transmission, backlash and
+compliance beside it), or ``auto`` fits nested choices and keeps the one the data support
+(:mod:`twin.selection`).
+"""
 
 from __future__ import annotations
 
@@ -11,18 +16,31 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import TRAIN_FRACTION, SplitProblem, make_problem, solve_many
-from twin.cli.arguments import add_robot_flags, integer, robot_from_flags, seed, share
+from twin.cli.arguments import (
+    AUTO,
+    add_robot_flags,
+    error_groups,
+    integer,
+    number,
+    robot_from_flags,
+    seed,
+    share,
+)
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.identifiability import RankWarning, measurement_identifiability, spread_rank
 from twin.io.capture_file import CalibrationSettings, load_capture, parse_port_mm
 from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
-from twin.io.results import result_to_dict, write_json
+from twin.io.results import choice_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
-from twin.report import format_comparison, format_result
+from twin.report import format_choice, format_comparison, format_result
+from twin.rig import MAX_TENSION_N, Rig
 from twin.robot import RobotModel, default_robot
+from twin.selection import choose_errors, warn_few_poses
 from twin.solvers import SOLVERS, get_solver, solver_choices
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS
+from twin.unknowns import ERRORS
 from twin.viz import add_rerun_flags, calibration_log
 
 
@@ -45,6 +63,16 @@ def add_parser(subparsers: Any) -> None:
     )
     parser.add_argument("--seed", type=seed, default=0,
                         help="seed of the split and of the method")
+    parser.add_argument("--errors", type=error_groups(auto=True), metavar="GROUPS",
+                        help="the robot's error groups to identify, comma-separated: "
+                        + ", ".join(ERRORS) + " (compliance or link_compliance); or auto: "
+                        "fit dh, then add compliance, backlash, transmission one at a time, "
+                        "then all with link_compliance, and keep the lowest BIC (default: the "
+                        "capture's, else dh)")
+    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
+                        help="the cable's pull towards the port in newtons (the encoder's "
+                        "spring force; loads the joints for the compliance group); default: "
+                        "the capture's, else 0")
     parser.add_argument("--estimate-port", action="store_true",
                         help="also identify a correction of the port position")
     parser.add_argument("--estimate-offset", action="store_true",
@@ -87,6 +115,9 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     named = robot_from_flags(args)
     fraction = getattr(args, "train_fraction", None)
     stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
+    errors = getattr(args, "errors", None)
+    errors = None if errors == (AUTO,) else errors
+    tension = getattr(args, "cable_tension", None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
         settings = capture.calibration
@@ -101,6 +132,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
                 train_fraction=fraction or settings.train_fraction,
                 stop=stop or settings.stop,
                 max_iterations=limit or settings.max_iterations,
+                errors=errors or settings.errors,
+                cable_tension_n=settings.cable_tension_n if tension is None else tension,
             ),
         )
     if port is None:
@@ -114,7 +147,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         calibration=CalibrationSettings(
             estimate_port=args.estimate_port, estimate_offset=args.estimate_offset,
             train_fraction=fraction or TRAIN_FRACTION, stop=stop or PROTOCOLS[0],
-            max_iterations=limit,
+            max_iterations=limit, errors=errors or ("dh",), cable_tension_n=tension or 0.0,
         ),
     )
 
@@ -142,9 +175,15 @@ def run(args: argparse.Namespace) -> int:
     everything = args.method.strip().lower() == "all"
     methods = list(SOLVERS) if everything else [get_solver(args.method).name]
     measurements = load_measurements(measurements_path, robot, stdin=True)
+    rig = Rig.cable(port_m, tension_n=settings.cable_tension_n)
+    if args.errors == (AUTO,):
+        if everything:
+            raise InputError("--errors auto with --method all", "one method to compare the "
+                             "error models with", source="--errors")
+        return _run_auto(args, robot, rig, measurements, measurements_path, settings)
     try:
         split = make_problem(
-            robot, measurements, port_m, seed=args.seed,
+            robot, measurements, rig=rig, errors=settings.errors, seed=args.seed,
             estimate_port=settings.estimate_port, estimate_offset=settings.estimate_offset,
             train_fraction=settings.train_fraction,
         )
@@ -153,6 +192,9 @@ def run(args: argparse.Namespace) -> int:
             raise
         raise InputError(exc.found, exc.expected, source=measurements_path) from None
     warn_rank_deficient(robot, split, measurements_path, args.seed)
+    rank = measurement_identifiability(split.problem.model, split.problem.x0,
+                                       split.problem.train).rank
+    warn_few_poses(len(split.train_rows), rank, settings.errors)
     truth = None
     if truth_path is not None and truth_path.exists():
         truth = load_truth_delta(truth_path, robot.n_joints, robot.is_length)
@@ -172,4 +214,26 @@ def run(args: argparse.Namespace) -> int:
             write_json(args.json, document)
         if live is not None:
             live.finish(results)
+    return 0
+
+
+def _run_auto(args: argparse.Namespace, robot: RobotModel, rig: Rig,
+              measurements: Measurements, measurements_path: Path,
+              settings: CalibrationSettings) -> int:
+    """Fit the nested error models, print the comparison and the chosen one's result."""
+    try:
+        choice = choose_errors(
+            robot, measurements, rig, method=get_solver(args.method).name, seed=args.seed,
+            estimate_port=settings.estimate_port, estimate_offset=settings.estimate_offset,
+            budget=settings.budget, train_fraction=settings.train_fraction)
+    except InputError as exc:
+        if exc.source is not None:
+            raise
+        raise InputError(exc.found, exc.expected, source=measurements_path) from None
+    print(format_choice(choice))
+    print()
+    print(format_result(choice.best.result))
+    if args.json:
+        write_json(args.json, {**result_to_dict(choice.best.result),
+                               "error_choice": choice_to_dict(choice)})
     return 0

@@ -4,39 +4,50 @@ With ``--targets`` (flange positions x,y,z in mm) or ``--joints`` (a program q1.
 written against the nominal model) it writes corrected joint angles with a per-row status; with
 ``--verify SCENARIO.toml`` it measures, in the MuJoCo twin, how much compensation reduces the true
 flange error.
+
+The whole identified model is used: its table and, when the calibration identified them, its
+joint-level errors — transmission error, backlash for the direction the robot comes from (the
+rows are executed in order, from home; a program's ``approach1..6`` columns win), compliance
+under gravity and the cable's pull at each pose (``--cable-tension 0`` when the encoder is
+unhooked while the program runs).
 """
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cli.arguments import add_robot_flags, integer, robot_from_flags, seed
+from twin.cli.arguments import add_robot_flags, integer, number, robot_from_flags, seed
 from twin.compensation import (
     STATUS_OK,
     STATUS_UNREACHABLE,
     CompensationCheck,
-    IKResult,
+    InOrder,
     check_compensation,
     compensate_program,
     compensate_targets,
+    identified_arm,
     nominal_ik,
     reachable_targets,
+    solve_in_order,
 )
-from twin.dataset import MAX_POSES
+from twin.dataset import MAX_POSES, approach_directions
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.identified import load_result_delta
-from twin.io.measurements import joint_columns, load_plan, read_table
+from twin.io.identified import load_result
+from twin.io.measurements import approach_columns, joint_columns, load_poses, read_table
 from twin.io.paths import InputPath, OutputFile
 from twin.metrics import Metrics
 from twin.plots import pyplot, save_png
+from twin.rig import MAX_TENSION_N, Rig
 from twin.robot import default_robot
 from twin.units import FILE_DEG_DECIMALS, MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg, rounded
+from twin.unknowns import Stage
 
 TARGET_COLUMNS = ("x", "y", "z")
 RESULT_COLUMNS = ("status", "error_mm")
@@ -50,8 +61,8 @@ def add_parser(subparsers: Any) -> None:
         help="correct joint angles with an identified model, or verify compensation in the twin",
         description="Compute the joint angles to command so that the real (identified) robot "
         "reaches Cartesian flange targets (--targets x,y,z in mm, base frame) or the flange "
-        "poses a program written against the nominal model meant (--joints q1..q6 in degrees). "
-        "Writes q1..q6 (deg), a status (ok, unreachable, joint_limit) and the remaining flange "
+        "poses a program written against the nominal model meant (--joints q1..qN in degrees). "
+        "Writes q1..qN (deg), a status (ok, unreachable, joint_limit) and the remaining flange "
         "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
         "calibrate and compare the true flange error with and without compensation.",
     )
@@ -64,7 +75,7 @@ def add_parser(subparsers: Any) -> None:
     request.add_argument("--targets", type=InputPath, metavar="TARGETS.csv",
                          help="flange targets, columns x,y,z in mm (- for standard input)")
     request.add_argument("--joints", type=InputPath, metavar="PROGRAM.csv",
-                         help="program joint angles, columns q1..q6 in degrees (- for "
+                         help="program joint angles, columns q1..qN in degrees (- for "
                          "standard input)")
     request.add_argument("--verify", type=InputPath, metavar="SCENARIO.toml",
                          help="measure compensation in the twin for a scenario")
@@ -76,28 +87,43 @@ def add_parser(subparsers: Any) -> None:
                         help=f"targets for --verify (default {VERIFY_TARGETS})")
     parser.add_argument("--figure", type=OutputFile, metavar="OUT.png",
                         help="with --verify: histogram of the true flange errors")
+    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
+                        help="the cable's pull while the robot runs, N, for the compliance "
+                        "the result identified (default: the calibration's; 0 when the encoder "
+                        "is unhooked)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.verify is not None:
-        for flag in ("identified", "out", "robot"):
+        for flag in ("identified", "out", "robot", "cable_tension"):
             if getattr(args, flag) is not None:
-                raise InputError(f"--{flag} with --verify",
+                option = "--" + flag.replace("_", "-")
+                raise InputError(f"{option} with --verify",
                                  "--verify SCENARIO.toml alone (the scenario names the robot)",
-                                 source=f"--{flag}")
+                                 source=option)
         return _verify(args)
     if args.identified is None or args.out is None:
         missing = "--identified" if args.identified is None else "--out"
         raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
                          source=missing)
     robot = robot_from_flags(args) or default_robot()
-    identified = robot.perturbed(load_result_delta(args.identified, robot, args.method))
+    model, x, _ = load_result(args.identified, robot, args.method)
+    if args.cable_tension is not None:
+        model, x = model.with_rig(replace(model.rig, tension_n=args.cable_tension), x)
     if args.joints is not None:
-        q_nominal, _ = load_plan(args.joints, robot, "a program CSV (q1..q6 in degrees)",
-                                 stdin=True)
-        solved = compensate_program(robot, identified, q_nominal)
+        program = load_poses(args.joints, robot,
+                             f"a program CSV (q1..q{robot.n_joints} in degrees)", stdin=True)
+        q_nominal = program.q_rad
+        if program.approach is not None:
+            arm, joints = identified_arm(model, x, program.approach)
+            solved = compensate_program(robot, arm, q_nominal, joints)
+            approach = program.approach if model.needs_approach else None
+            ordered = InOrder(solved, approach, np.zeros(len(q_nominal), dtype=bool))
+        else:
+            ordered = solve_in_order(model, x, lambda arm, joints: compensate_program(
+                robot, arm, q_nominal, joints), q_nominal)
     else:
         xyz_mm, lines = read_table(args.targets, TARGET_COLUMNS, "a target CSV (x,y,z in mm)",
                                    stdin=True)
@@ -109,27 +135,36 @@ def run(args: argparse.Namespace) -> int:
         target_m = mm_to_m(xyz_mm)
         nominal = nominal_ik(robot, target_m, np.random.default_rng(args.seed or 0))
         q_nominal = nominal.q_rad
-        solved = compensate_targets(identified, target_m, q_nominal)
-    write_atomic(args.out, format_corrected(solved))
-    print(_summary(solved, q_nominal))
+        ordered = solve_in_order(model, x, lambda arm, joints: compensate_targets(
+            arm, target_m, q_nominal, joints), q_nominal)
+    write_atomic(args.out, format_corrected(ordered))
+    print(_summary(ordered, q_nominal))
     print(f"wrote {args.out}")
     return 0
 
 
-def format_corrected(solved: IKResult) -> str:
+def format_corrected(ordered: InOrder) -> str:
     """CSV text: q1..qN (deg to 1e-6, empty when unreachable), status, remaining flange error
-    (mm)."""
+    (mm); with backlash, approach1..N: the side each joint must come from (the corrections hold
+    for it)."""
+    solved = ordered.solved
     q_deg = rad_to_deg(solved.q_rad)
     error_mm = m_to_mm(solved.position_error_m)
-    lines = [",".join((*joint_columns(q_deg.shape[1]), *RESULT_COLUMNS))]
-    for q, status, error in zip(q_deg, solved.status, error_mm, strict=True):
+    n = q_deg.shape[1]
+    header = [*joint_columns(n), *RESULT_COLUMNS,
+              *(approach_columns(n) if ordered.approach is not None else ())]
+    lines = [",".join(header)]
+    for row, (q, status, error) in enumerate(zip(q_deg, solved.status, error_mm, strict=True)):
         angles = [""] * len(q) if status == STATUS_UNREACHABLE \
             else list(map(repr, rounded(q, FILE_DEG_DECIMALS)))
-        lines.append(",".join([*angles, str(status), f"{error:.6f}"]))
+        sides = [] if ordered.approach is None else [f"{int(s):+d}"
+                                                     for s in ordered.approach[row]]
+        lines.append(",".join([*angles, str(status), f"{error:.6f}", *sides]))
     return "\n".join(lines) + "\n"
 
 
-def _summary(solved: IKResult, q_nominal_rad: NDArray[np.float64]) -> str:
+def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
+    solved = ordered.solved
     statuses, counts = np.unique(solved.status, return_counts=True)
     text = f"{len(solved.q_rad)} rows: " + ", ".join(
         f"{count} {status}" for status, count in zip(statuses, counts, strict=True))
@@ -139,6 +174,12 @@ def _summary(solved: IKResult, q_nominal_rad: NDArray[np.float64]) -> str:
         text += ("\ncorrection per joint, mean |Δq| [deg]: "
                  + " ".join(f"{v:.4f}" for v in change_deg.mean(axis=0))
                  + f"; largest {change_deg.max():.4f}")
+    if np.any(ordered.approach_moves):
+        rows = np.flatnonzero(ordered.approach_moves) + 1
+        text += (f"\n{rows.size} rows need an approach move (a joint moves less than its "
+                 "backlash from the row before: overshoot and come back from the side in "
+                 f"approach1..6): rows {', '.join(map(str, rows[:10]))}"
+                 + ("…" if rows.size > 10 else ""))
     return text
 
 
@@ -150,8 +191,9 @@ def _verify(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.verify)
     sim = simulate(scenario, seed=args.seed)
     print(f"{scenario.name}: simulated {len(sim.measurements)} poses (seed {sim.seed}); "
-          "calibrating…", flush=True)
-    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m,
+          f"calibrating {'+'.join(scenario.errors)}…", flush=True)
+    rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
+    result = calibrate(sim.robot, sim.measurements, rig=rig, errors=scenario.errors,
                        method=args.method or "lm", seed=sim.seed, budget=scenario.budget,
                        estimate_port=scenario.estimate_port,
                        estimate_offset=scenario.estimate_offset)
@@ -163,14 +205,28 @@ def _verify(args: argparse.Namespace) -> int:
     q_nominal, target_m = reachable_targets(sim.robot, args.count, rng)
     print(f"{args.count} random reachable targets: solving and moving the true robot…",
           flush=True)
-    at_nominal = twin.flange_positions(q_nominal)
+    # The robot visits the targets in order from home; the twin's joints then come from the
+    # directions of the commands actually sent.
+    at_nominal = twin.flange_positions(q_nominal, approach_directions(q_nominal))
+    extended = any(group.stage == Stage.JOINTS for group in result.model.groups)
+    ordered = solve_in_order(result.model, result.x, lambda arm, joints: compensate_targets(
+        arm, target_m, q_nominal, joints), q_nominal)
+    solutions = {
+        "identified model" if extended else "identified table": ordered.solved,
+        "true D-H table": compensate_targets(sim.true_robot, target_m, q_nominal),
+    }
     checks = {}
-    for label, model in (("identified table", result.identified_robot),
-                         ("true D-H table", sim.true_robot)):
-        solved = compensate_targets(model, target_m, q_nominal)
-        checks[label] = check_compensation(target_m, at_nominal,
-                                           twin.flange_positions(solved.q_rad), solved)
+    for label, solved in solutions.items():
+        # Approach moves where the compensation asks for them, else straight from the row
+        # before.
+        approach = approach_directions(solved.q_rad) if ordered.approach is None \
+            or solved is not ordered.solved else ordered.approach
+        reached = twin.flange_positions(solved.q_rad, approach)
+        checks[label] = check_compensation(target_m, at_nominal, reached, solved)
     print(format_checks(checks))
+    if np.any(ordered.approach_moves):
+        print(f"  ({int(np.sum(ordered.approach_moves))} targets reached with an approach move: "
+              "a joint moves less than its backlash from the target before)")
     if args.figure is not None:
         _write_histogram(args.figure, checks, f"{scenario.name}, seed {sim.seed}")
         print(f"wrote {args.figure}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from dataclasses import replace
 from typing import Any
 
@@ -10,9 +11,10 @@ from twin.cli.arguments import add_robot_flags, robot_from_flags
 from twin.errors import UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
-from twin.io.identified import load_result_delta
+from twin.io.identified import ResultWarning, load_result_delta, result_groups
 from twin.io.paths import InputPath, OutputFile
 from twin.robot import default_robot
+from twin.unknowns import ERRORS
 
 
 def add_parser(subparsers: Any) -> None:
@@ -41,6 +43,13 @@ def run(args: argparse.Namespace) -> int:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
     robot = robot_from_flags(args) or default_robot()
     delta = load_result_delta(args.result, robot, args.method)
+    joint_level = [name for name in result_groups(args.result, args.method)
+                   if name in ERRORS and name != "dh"]
+    if joint_level:
+        warnings.warn(f"{args.result}: a {args.format_name} file holds the identified D-H table "
+                      f"only, not the joint-level errors ({', '.join(joint_level)}) the result "
+                      "also has: use twin compensate or twin predict with the result itself",
+                      ResultWarning, stacklevel=2)
     identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
     write_atomic(args.out, export_text(identified, args.format_name))
     print(f"wrote {args.out} ({args.format_name}, {identified.name})")

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import WORKSPACE_POSES, calibrate, make_model
-from twin.cli.arguments import add_robot_flags, seed, sigma_mm
+from twin.calibration import WORKSPACE_POSES, calibrate, check_approach, make_model
+from twin.cli.arguments import add_robot_flags, error_groups, number, seed, sigma_mm
 from twin.cli.calibrate import resolve_inputs
 from twin.design import score_poses
 from twin.errors import InputError
@@ -21,7 +21,8 @@ from twin.io.results import identifiability_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.model import Model
 from twin.plots import pyplot, save_png
-from twin.rig import Rig
+from twin.report import format_joint_groups
+from twin.rig import MAX_TENSION_N, Rig
 from twin.synthetic import random_poses
 from twin.uncertainty import flange_sigma, rms_distance, workspace_grid
 from twin.units import (
@@ -33,6 +34,7 @@ from twin.units import (
     rounded,
     slot_label,
 )
+from twin.unknowns import ERRORS
 
 MAP_GRID = 41
 """Grid points per axis of the accuracy map over joints 2 and 3."""
@@ -57,6 +59,12 @@ def add_parser(subparsers: Any) -> None:
                         help="treat the port position as unknown too")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
+    parser.add_argument("--errors", type=error_groups(auto=False), metavar="GROUPS",
+                        help="the robot's error groups, comma-separated: " + ", ".join(ERRORS)
+                        + " (default: the capture's, else dh)")
+    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
+                        help="the cable's pull in N, for the compliance group (default: the "
+                        "capture's, else 0)")
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
     parser.add_argument("--seed", type=seed, default=0,
@@ -121,9 +129,14 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
     data = load_measurements(measurements_path, robot, stdin=True)
-    model = make_model(robot, Rig.cable(port_m), data.kind,
-                       estimate_port=settings.estimate_port,
-                       estimate_offset=settings.estimate_offset)
+    rig = Rig.cable(port_m, tension_n=settings.cable_tension_n)
+    try:
+        model = make_model(robot, rig, data.kind, errors=settings.errors,
+                           estimate_port=settings.estimate_port,
+                           estimate_offset=settings.estimate_offset)
+        check_approach(model, data.approach)
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=measurements_path) from None
     x0 = np.zeros(model.n_params)
     sigma_m = float(mm_to_m(args.sigma))
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(args.seed))
@@ -134,11 +147,7 @@ def run(args: argparse.Namespace) -> int:
     lines = [
         f"{robot.name} — {len(data)} poses from {measurements_path}, port ({port}) mm, "
         f"{model.n_params} unknowns ("
-        + ", ".join([f"{model.group('dh').size} "
-                     + ("D-H" if set(robot.structure.parametrisation) == {"dh"}
-                        else "/".join(sorted(set(robot.structure.parametrisation))))
-                     + " errors",
-                     *model.names[model.slice("dh").stop:]]) + ")",
+        + ", ".join(f"{group.name} {group.size}" for group in model.groups) + ")",
         "At the nominal geometry (all poses):",
         *_identifiability_lines(nominal),
         "    (coefficients in column-scaled units: each unknown in units of its column norm)",
@@ -149,8 +158,8 @@ def run(args: argparse.Namespace) -> int:
         f"{WORKSPACE_POSES} workspace poses {float(m_to_mm(score.flange_rms_m)):.4f} mm",
     ]
     try:
-        result = calibrate(robot, data, port_m, method="lm-base", seed=args.seed,
-                           estimate_port=settings.estimate_port,
+        result = calibrate(robot, data, rig=rig, errors=settings.errors, method="lm-base",
+                           seed=args.seed, estimate_port=settings.estimate_port,
                            estimate_offset=settings.estimate_offset,
                            train_fraction=settings.train_fraction, budget=settings.budget)
     except InputError as exc:
@@ -166,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
         f"  predicted flange RMS error over the workspace "
         f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
     ]
-    if truth_path is not None and truth_path.exists():
+    if truth_path is not None and truth_path.exists() and settings.errors == ("dh",):
         true_robot = robot.perturbed(load_truth_delta(truth_path, robot.n_joints,
                                                       robot.is_length))
         true_error = rms_distance(result.identified_robot.flange_positions(q_workspace),
@@ -176,6 +185,7 @@ def run(args: argparse.Namespace) -> int:
     lines += [
         "  standard deviations of the base parameters (dependent ones held: —)",
         *_sigma_table(model, uncertainty.sigma),
+        *format_joint_groups(result),
     ]
     print("\n".join(lines))
     if args.map:

@@ -1,7 +1,10 @@
 """`twin plan`: a D-optimal pose plan for a cable calibration, and where to put the port.
 
 Candidates come from the MuJoCo twin's feasibility sampler (imported lazily in `run`), unless
-``--joint-limits-only``: the design itself (:mod:`twin.design`) is pure numpy.
+``--joint-limits-only``: the design itself (:mod:`twin.design`) is pure numpy. ``--errors``
+plans for the error groups the calibration will fit; with backlash, each candidate is taken as
+approached from the one before it (random candidates: random sides) and the plan is scored for
+the sides of visiting it in order, as `twin capture` does.
 """
 
 from __future__ import annotations
@@ -14,7 +17,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import WORKSPACE_POSES, make_model
-from twin.cli.arguments import add_robot_flags, integer, robot_from_flags, seed, sigma_mm
+from twin.cli.arguments import (
+    add_robot_flags,
+    error_groups,
+    integer,
+    number,
+    robot_from_flags,
+    seed,
+    sigma_mm,
+)
 from twin.dataset import MAX_POSES
 from twin.design import DesignScore, choose_port, score_poses
 from twin.errors import InputError
@@ -22,10 +33,12 @@ from twin.io.atomic import write_atomic
 from twin.io.capture_file import parse_port_mm
 from twin.io.measurements import joint_columns
 from twin.io.paths import OutputFile
-from twin.rig import Rig
+from twin.model import Model
+from twin.rig import MAX_TENSION_N, Rig
 from twin.robot import RobotModel, default_robot
 from twin.synthetic import random_poses
 from twin.units import FILE_DEG_DECIMALS, m_to_mm, mm_to_m, rad_to_deg, rounded
+from twin.unknowns import ERRORS
 
 DEFAULT_CANDIDATES = 2000
 """Candidate poses drawn within the joint limits."""
@@ -53,6 +66,12 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random draw")
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the predicted accuracy (default 0.01)")
+    parser.add_argument("--errors", type=error_groups(auto=False), default=("dh",),
+                        metavar="GROUPS", help="the robot's error groups the calibration will "
+                        "fit, comma-separated: " + ", ".join(ERRORS) + " (default: dh)")
+    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), default=0.0,
+                        metavar="N", help="the cable's pull, N, which loads the joints for the "
+                        "compliance group (default 0: gravity alone)")
     parser.add_argument("--estimate-port", action="store_true",
                         help="plan for a calibration that also identifies the port")
     parser.add_argument("--estimate-offset", action="store_true",
@@ -97,8 +116,13 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot = robot_from_flags(args) or default_robot()
     ports_m = np.stack([parse_port_mm(value, "--port", "") for value in args.port])
-    model = make_model(robot, Rig.cable(ports_m[0]), estimate_port=args.estimate_port,
-                       estimate_offset=args.estimate_offset)
+
+    def model_at(port_m: NDArray[np.float64]) -> Model:
+        return make_model(robot, Rig.cable(port_m, tension_n=args.cable_tension),
+                          errors=args.errors, estimate_port=args.estimate_port,
+                          estimate_offset=args.estimate_offset)
+
+    model = model_at(ports_m[0])
     if not model.n_params <= args.poses <= args.candidates:
         raise InputError(f"{args.poses} poses from {args.candidates} candidates",
                          f"at least {model.n_params} poses (the unknowns) and no more than "
@@ -113,8 +137,7 @@ def run(args: argparse.Namespace) -> int:
     port_m = ports_m[choice.best]
     plan = choice.plans[choice.best]
     q_random = draw(port_m, args.poses)
-    at_port = make_model(robot, Rig.cable(port_m), estimate_port=args.estimate_port,
-                         estimate_offset=args.estimate_offset)
+    at_port = model_at(port_m)
     x0 = np.zeros(model.n_params)
     planned = score_poses(at_port, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace)
     drawn = score_poses(at_port, x0, q_random, plan.base_mask, sigma_m, q_workspace)

@@ -3,10 +3,12 @@
 Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
-- ``measurements.csv`` — header ``pose,q1,…,q6,length`` (deg, mm), one row per measured pose,
-  appended as one whole line and ``fsync``-ed before the robot moves on (a journal,
-  :mod:`twin.io.journal`).
-  ``pose`` numbers the plan rows from 1; `twin calibrate` ignores it.
+- ``measurements.csv`` — header ``pose,q1,…,q6,length,approach1,…,approach6`` (deg, mm, ±1),
+  one row per measured pose, appended as one whole line and ``fsync``-ed before the robot moves
+  on (a journal, :mod:`twin.io.journal`). ``pose`` numbers the plan rows from 1; `twin
+  calibrate` ignores it. ``approach`` is the direction each joint moved in to reach the pose:
+  the capture goes through the plan in order, pose K from plan pose K − 1 (pose 1 from home),
+  also when it resumes — as the simulated robot does; backlash depends on it.
 - ``robot.toml``, ``capture.toml`` — so that ``twin calibrate DIR/capture.toml`` needs nothing
   else (written atomically).
 - ``.lock`` — an exclusive ``flock`` held while a capture runs; the kernel drops it when the
@@ -31,35 +33,45 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.dataset import Measurements
+from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
 from twin.hardware.encoders.settle import Settled, SettleRule, settle
 from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
 from twin.io.journal import Journal
-from twin.io.measurements import COLUMNS, format_measurements, load_plan, read_table
+from twin.io.measurements import (
+    COLUMNS,
+    JOINT_COLUMNS,
+    approach_columns,
+    format_measurements,
+    load_plan,
+    read_table,
+)
 from twin.io.paths import os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot
 from twin.robot import robot_files
 from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
-CAPTURE_COLUMNS = (POSE_COLUMN, *COLUMNS)
+ROW_COLUMNS = (POSE_COLUMN, *COLUMNS)
+"""The columns a resumed capture reads back."""
+CAPTURE_COLUMNS = (*ROW_COLUMNS, *approach_columns(len(JOINT_COLUMNS)))
 MEASUREMENTS_NAME = "measurements.csv"
 PLAN_NAME = "plan.csv"
 ROBOT_NAME = "robot.toml"
 CAPTURE_NAME = "capture.toml"
 LOCK_NAME = ".lock"
-JOURNAL = "a capture measurement CSV (pose, q1..q6, length)"
+JOURNAL = "a capture measurement CSV (pose, q1..q6, length, approach1..approach6)"
 RECONNECT_POLL_S = 0.5
 """How often a lost port is tried again, s."""
 
 
-def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float) -> str:
-    """One line of the measurement file, with its LF."""
-    line = format_measurements(Measurements(q_rad[None, :], np.array([length_m]))).splitlines()[1]
-    return f"{pose},{line}\n"
+def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float,
+               approach: NDArray[np.int8]) -> str:
+    """One line of the measurement file, with its LF; ``approach`` (n,) the pose's sides."""
+    measured = Measurements(q_rad[None, :], np.array([length_m]), approach=approach[None, :])
+    return f"{pose},{format_measurements(measured).splitlines()[1]}\n"
 
 
 HEADER = ",".join(CAPTURE_COLUMNS) + "\n"
@@ -84,7 +96,7 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
     whole, note = journal(path).recover()
     if whole.count("\n") <= 1:
         return set(), note
-    values, lines = read_table(path, CAPTURE_COLUMNS, JOURNAL, journal=True)
+    values, lines = read_table(path, ROW_COLUMNS, JOURNAL, journal=True)
     done: set[int] = set()
     for number, line in zip(values[:, 0], lines, strict=True):
         pose = int(number)
@@ -236,6 +248,7 @@ def capture(
         start = f"resuming at pose {todo[0]}/{n_poses}" if todo else "nothing left to measure"
         report(f"{len(done)} of {n_poses} poses already in {measurements_path}; {start}")
     pose = todo[0] if todo else 0
+    approach = approach_directions(plan_q_rad)
     try:
         for pose in todo:
             started = time.monotonic()
@@ -245,7 +258,7 @@ def capture(
             except TwinError as exc:
                 raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
                     from None
-            record.append(format_row(pose, q_reached, settled.length_m))
+            record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
             done.add(pose)
             report(f"pose {pose}/{n_poses}: {float(m_to_mm(settled.length_m)):.4f} mm "
                    f"({settled.readings} readings, spread "

@@ -12,6 +12,8 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     train_fraction = 0.8
     stop = "converge"                 # or "paper" (twin.stopping)
     max_iterations = 200              # optional: another iteration limit
+    errors = ["dh"]                   # the robot's error groups to fit (twin.unknowns.ERRORS)
+    cable_tension_n = 0.0             # the cable's pull, N (loads a compliant arm)
     [encoder]                         # optional: how the data was captured
     url = "serial:///dev/ttyUSB0?baud=115200"
 """
@@ -32,9 +34,11 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
+from twin.rig import MAX_TENSION_N
 from twin.robot import RobotModel
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
+from twin.unknowns import ERRORS
 
 _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder")
 
@@ -49,6 +53,8 @@ class CalibrationSettings:
         train_fraction: Share of the poses used for identification, in (0, 1).
         stop: The stopping protocol, one of :data:`twin.stopping.PROTOCOLS`.
         max_iterations: Iteration limit of every method and stage, or None for the protocol's.
+        errors: The robot's error groups to fit, among :data:`twin.unknowns.ERRORS`.
+        cable_tension_n: The cable's pull towards the port, N (:attr:`twin.rig.Rig.tension_n`).
     """
 
     estimate_port: bool = False
@@ -56,6 +62,8 @@ class CalibrationSettings:
     train_fraction: float = TRAIN_FRACTION
     stop: str = PROTOCOLS[0]
     max_iterations: int | None = None
+    errors: tuple[str, ...] = ("dh",)
+    cable_tension_n: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0 < self.train_fraction < 1:
@@ -65,6 +73,14 @@ class CalibrationSettings:
         if self.max_iterations is not None and not 1 <= self.max_iterations <= MAX_ITERATIONS:
             raise ValueError(f"max_iterations: {self.max_iterations}, expected 1 to "
                              f"{MAX_ITERATIONS}")
+        object.__setattr__(self, "errors", tuple(self.errors))
+        if not self.errors or not set(self.errors) <= set(ERRORS):
+            raise ValueError(f"errors: {self.errors!r}, expected groups among "
+                             + ", ".join(ERRORS))
+        if not (math.isfinite(self.cable_tension_n)
+                and 0.0 <= self.cable_tension_n <= MAX_TENSION_N):
+            raise ValueError(f"cable_tension_n: {self.cable_tension_n}, expected 0 to "
+                             f"{MAX_TENSION_N:g} N")
 
     @property
     def budget(self) -> Budget:
@@ -94,9 +110,24 @@ def _parse_calibration(table: object, source: Path) -> CalibrationSettings:
                     or not 1 <= value <= MAX_ITERATIONS:
                 raise InputError(f"{value!r}", f"an integer from 1 to {MAX_ITERATIONS}",
                                  source=source, where=where)
+        elif key == "errors":
+            if not isinstance(value, list) or not value \
+                    or not all(isinstance(name, str) and name in ERRORS for name in value):
+                raise InputError(f"{value!r}", "a non-empty list of error groups among "
+                                 + ", ".join(ERRORS), source=source, where=where)
+        elif key == "cable_tension_n":
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or not 0 <= value <= MAX_TENSION_N:
+                raise InputError(f"{value!r}", f"a tension in N from 0 to {MAX_TENSION_N:g}",
+                                 source=source, where=where)
         elif not isinstance(value, bool):
             raise InputError(f"{value!r}", "true or false", source=source, where=where)
-    return CalibrationSettings(**table)
+    settings = dict(table)
+    if "errors" in settings:
+        settings["errors"] = tuple(name for name in ERRORS if name in settings["errors"])
+    if "cable_tension_n" in settings:
+        settings["cable_tension_n"] = float(settings["cable_tension_n"])
+    return CalibrationSettings(**settings)
 
 
 @dataclass(frozen=True)
@@ -206,6 +237,8 @@ def write_capture(
         ]
         if calibration.max_iterations is not None:
             lines.append(f"max_iterations = {calibration.max_iterations}")
+        lines += [f"errors = {json.dumps(list(calibration.errors))}",
+                  f"cable_tension_n = {calibration.cable_tension_n!r}"]
     if encoder:
         lines.append("[encoder]")
         lines += [f"{key} = {json.dumps(value)}" for key, value in encoder.items()]

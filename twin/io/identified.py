@@ -31,7 +31,7 @@ from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
 from twin.kinds import get_kind
 from twin.model import Model
-from twin.rig import Rig
+from twin.rig import MAX_TENSION_N, Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,
@@ -58,6 +58,8 @@ BOUND_TOLERANCE_MM = 1e-3
 """How far beyond ±5 mm an identified length error may lie (rounding), mm."""
 BOUND_TOLERANCE_DEG = 1e-3
 """How far beyond ±8° an identified angle error may lie (rounding), degrees."""
+MASS_TOLERANCE_KG = 1e-3
+"""Largest difference of a link mass that still names the same robot (a file keeps 1 g)."""
 BOUND_SLACK = 1e-6
 """How far beyond its search bound an unknown of :func:`load_result` may lie (rounding), as a
 fraction of its range."""
@@ -186,6 +188,20 @@ def load_result_delta(
     return delta
 
 
+def result_groups(path: str | Path, method: str | None = None) -> tuple[str, ...]:
+    """The unknown groups a result file names (``unknowns.groups``), or none for a result
+    written before they were recorded.
+
+    Raises:
+        InputError: if the file is not a result, or ``method`` is missing or unknown.
+    """
+    path = Path(path)
+    entry, _ = _pick(read_json(path, RESULT_FILE), path, method)
+    unknowns = entry.get("unknowns")
+    groups = unknowns.get("groups") if isinstance(unknowns, dict) else None
+    return tuple(str(g) for g in groups) if isinstance(groups, list) else ()
+
+
 class IdentifiedModel(NamedTuple):
     """A calibration result as a model and its unknowns, ready to predict or compensate with."""
 
@@ -207,7 +223,38 @@ def _rig(document: Any, path: Path, where: str) -> Rig:
         names.append(str(name))
     attachment = parse_port_mm(document.get("attachment", [0.0, 0.0, 0.0]), path,
                                f"{where}unknowns.rig.attachment")
-    return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment)
+    tension = document.get("tension_n", 0.0)
+    if isinstance(tension, bool) or not isinstance(tension, int | float) \
+            or not 0.0 <= tension <= MAX_TENSION_N:
+        raise InputError(f"{tension!r}", f"a cable tension in N from 0 to {MAX_TENSION_N:g}",
+                         source=path, where=f"{where}unknowns.rig.tension_n")
+    return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment, float(tension))
+
+
+def check_result_inertia(entry: dict[str, Any], robot: RobotModel, path: Path,
+                         where: str) -> None:
+    """Refuse compliances identified with other link masses or centres of mass than
+    ``robot``'s: the torques they multiply would not be the same.
+
+    Raises:
+        InputError: naming the first mass or centre of mass that differs.
+    """
+    recorded = entry.get("robot", {})
+    for key, what, mine, scale, tolerance, unit in (
+            ("mass_kg", "link masses", robot.mass_kg, 1.0, MASS_TOLERANCE_KG, "kg"),
+            ("com_mm", "centres of mass", robot.com_m, float(m_to_mm(1.0)), ROBOT_TOLERANCE_MM,
+             "mm")):
+        given = recorded.get(key) if isinstance(recorded, dict) else None
+        try:
+            theirs = None if given is None else np.asarray(given, dtype=np.float64)
+        except (TypeError, ValueError):
+            theirs = np.full(1, np.nan)
+        if mine is None or theirs is None or theirs.shape != mine.shape \
+                or not np.all(np.abs(theirs - mine * scale) <= tolerance):
+            raise InputError(
+                f"compliances identified with other {what} than the robot's",
+                f"the masses and centres of mass of the robot file it is applied to (within "
+                f"{tolerance:g} {unit})", source=path, where=f"{where}robot.{key}")
 
 
 def load_result(path: str | Path, robot: RobotModel, method: str | None = None
@@ -226,6 +273,11 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
     check_result_robot(entry, robot, path, where)
+    # The D-H errors are written twice (``delta`` for people, the ``dh`` unknowns for the
+    # model): checked as export checks them, then held to agree.
+    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
+                          robot.is_length)
+    check_bounds(delta, path, where, robot.is_length)
     unknowns = entry.get("unknowns")
     if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
         raise InputError("no 'unknowns'", "a result written by this version of twin calibrate",
@@ -241,6 +293,8 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=path,
                          where=f"{where}unknowns") from None
+    if model.has("compliance"):
+        check_result_inertia(entry, robot, path, where)
     parameters = unknowns["parameters"]
     names = [p.get("name") if isinstance(p, dict) else None for p in parameters]
     if names != list(model.names):
@@ -271,4 +325,12 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
         raise InputError(f"{model.names[k]} = {values[k]:g} {labels[k]}",
                          "a value within its search bounds, in the unit twin writes",
                          source=path, where=f"{where}unknowns.parameters[{k}]")
+    tolerance = np.where(robot.is_length, mm_to_m(ROBOT_TOLERANCE_MM),
+                         deg_to_rad(ROBOT_TOLERANCE_DEG))
+    apart = np.abs(model.table(x) - robot.dh - delta) > tolerance
+    if np.any(apart):
+        row, joint = np.argwhere(apart)[0]
+        raise InputError(f"delta.{DH_KEYS[row]}{joint + 1} and the unknowns disagree",
+                         "a result as twin calibrate wrote it", source=path,
+                         where=f"{where}delta.{DH_KEYS[row]}")
     return IdentifiedModel(model, x, str(entry.get("method")))

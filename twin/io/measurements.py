@@ -301,6 +301,32 @@ def load_plan(
     return deg_to_rad(q_deg), lines
 
 
+class Poses(NamedTuple):
+    """Joint angles to evaluate a model at, with the directions the joints came from."""
+
+    q_rad: NDArray[np.float64]
+    """Joint angles, shape (N, n), rad."""
+    approach: NDArray[np.int8] | None
+    """The ``approach1..approachN`` columns (±1), shape (N, n), or None when absent."""
+    lines: list[int]
+    """Each pose's line in the file."""
+
+
+def load_poses(path: str | Path, robot: RobotModel, what: str, *, stdin: bool = False
+               ) -> Poses:
+    """Read joint angles (``q1..qN`` in degrees, checked against the limits) and, when the
+    file has them, the ``approach1..approachN`` columns; other columns are ignored.
+
+    Raises:
+        InputError: on any problem with the file, naming line and column.
+    """
+    n = robot.n_joints
+    table = read_columns(path, joint_columns(n), what, optional=approach_columns(n),
+                         stdin=stdin)
+    check_joint_limits(table.values, table.lines, robot, path)
+    return Poses(deg_to_rad(table.values), _approach(table, n, path), table.lines)
+
+
 def check_joint_limits(
     q_deg: NDArray[np.float64], lines: list[int], robot: RobotModel, path: str | Path
 ) -> None:

@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.calibration import CalibrationResult
@@ -18,6 +19,7 @@ from twin.identifiability import Identifiability
 from twin.io.atomic import write_atomic
 from twin.metrics import Metrics
 from twin.robot import RobotModel
+from twin.selection import ErrorChoice
 from twin.units import (
     FILE_DEG_DECIMALS,
     RESULT_MM_DECIMALS,
@@ -29,6 +31,8 @@ from twin.units import (
 )
 
 MM2_PER_M2 = float(m_to_mm(1.0)) ** 2
+MASS_DECIMALS = 3
+"""Masses to 1 g, as a robot file keeps them."""
 
 
 def _mm(values_m: ArrayLike) -> list[float]:
@@ -42,9 +46,16 @@ def _metrics_mm(m: Metrics) -> dict[str, float]:
 def robot_to_dict(robot: RobotModel) -> dict[str, Any]:
     """The ``robot`` JSON object: the name, parametrisation and nominal table (mm, degrees; a
     Hayati β in degrees) a result was identified for, so that it is never applied to another
-    robot."""
-    return {"name": robot.name, "parametrisation": list(robot.structure.parametrisation),
-            "dh": dh_rows_rounded(robot.dh, RESULT_MM_DECIMALS, is_length=robot.is_length)}
+    robot; and the link masses (kg) and centres of mass (mm) when the file gives them, which
+    identified compliances depend on."""
+    document: dict[str, Any] = {
+        "name": robot.name, "parametrisation": list(robot.structure.parametrisation),
+        "dh": dh_rows_rounded(robot.dh, RESULT_MM_DECIMALS, is_length=robot.is_length)}
+    if robot.mass_kg is not None:
+        document["mass_kg"] = rounded(robot.mass_kg, MASS_DECIMALS)
+    if robot.com_m is not None:
+        document["com_mm"] = np.reshape(_mm(robot.com_m), robot.com_m.shape).tolist()
+    return document
 
 
 def identifiability_to_dict(identifiability: Identifiability, at: str) -> dict[str, Any]:
@@ -113,7 +124,7 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
         "groups": [group.name for group in model.groups],
         "rig": {"ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
                                                                  strict=True)},
-                "attachment": _mm(rig.attachment_m)},
+                "attachment": _mm(rig.attachment_m), "tension_n": rig.tension_n},
         "parameters": [
             {"name": name, "group": group.name, "value": value, "unit": label,
              "sigma": deviation if math.isfinite(deviation) else None,
@@ -171,6 +182,23 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
         }
     )
     return document
+
+
+def choice_to_dict(choice: ErrorChoice) -> dict[str, Any]:
+    """The ``error_choice`` JSON object of ``--errors auto``: the rule and every candidate's
+    unknowns, rank, BIC and residuals (mm), the chosen one marked."""
+    return {
+        "rule": "lowest BIC = m ln(RSS/m) + k ln m, m training residuals, k the rank at the "
+                "nominal geometry",
+        "candidates": [
+            {"errors": list(candidate.errors), "unknowns": candidate.unknowns,
+             "rank": candidate.rank, "bic": significant(candidate.bic),
+             "train_rmse": _mm(candidate.result.metrics["train"].rmse)[0],
+             "validation_rmse": _mm(candidate.result.metrics["validation"].rmse)[0],
+             "chosen": k == choice.chosen}
+            for k, candidate in enumerate(choice.candidates)],
+        "skipped": list(choice.skipped),
+    }
 
 
 def write_json(path: str | Path, document: dict[str, Any]) -> None:

@@ -31,8 +31,9 @@ Public API (SI inside: m, rad)::
 Importing this package imports MuJoCo; the calibration core never imports it.
 """
 
+from twin.dataset import approach_directions
 from twin.sim.builder import build_spec, model_xml
-from twin.sim.joint_errors import JointErrors, approach_directions
+from twin.sim.joint_errors import JointErrors
 from twin.sim.noise import NoiseModel
 from twin.sim.perturbation import Perturbation
 from twin.sim.physics import RIGID, Physics, static_equilibrium

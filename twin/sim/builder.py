@@ -11,11 +11,13 @@ hinge ``joint<i>`` about its local z axis at its origin; site ``flange`` sits at
 Each link is drawn and collides as capsules along its skeleton, from its joint to the next
 joint (or the flange): along the joint axis first, then across to the next origin (for a
 standard D-H link: along z by d_i, then along x by a_i); a sphere when both are zero. They take
-the model file's ``radius`` and share its ``mass``; when joint 1 stands off the base origin, a
-pedestal capsule of the world reaches up to it. World site ``port`` is the encoder port;
-spatial tendon ``cable`` runs from ``port`` to ``flange``: its ``ten_length`` is the measured
-cable length. With compliant physics, actuators ``servo<i>`` are position servos of the joint
-stiffness, and actuator ``tension`` pulls the cable with a force equal to its ``ctrl`` (N).
+the model file's ``radius`` and share its ``mass``; when the file gives the link's centre of mass
+(``com``, in link frame i), the body's mass sits there instead (an explicit inertial), as the
+calibration's compliance model assumes. When joint 1 stands off the base origin, a pedestal
+capsule of the world reaches up to it. World site ``port`` is the encoder port; spatial tendon
+``cable`` runs from ``port`` to ``flange``: its ``ten_length`` is the measured cable length.
+With compliant physics, actuators ``servo<i>`` are position servos of the joint stiffness, and
+actuator ``tension`` pulls the cable with a force equal to its ``ctrl`` (N).
 """
 
 from __future__ import annotations
@@ -26,9 +28,10 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.kinematics import fixed_transforms
+from twin.kinematics import fixed_transforms, joint_placements
 from twin.robot import RobotModel
 from twin.sim.physics import RIGID, Physics
+from twin.statics import GRAVITY_M_S2
 from twin.units import rad_to_deg
 
 Array = NDArray[np.float64]
@@ -40,7 +43,6 @@ ARMATURE_KG_M2 = 0.05
 SERVO_DAMPING_RATIO = 1.0
 """Servo damping as a ratio of critical: statics ignore it, stepping settles with it."""
 TIMESTEP_S = 5e-4
-GRAVITY_M_S2 = 9.81
 CABLE_WIDTH_M = 0.002
 _SEGMENT_EPS_M = 1e-9
 
@@ -79,6 +81,17 @@ def _add_link_geoms(body: mujoco.MjsBody, next_m: Array, radius_m: float,
             geom.mass = mass_kg * float(np.linalg.norm(end - start)) / total
 
 
+def _set_inertial(body: mujoco.MjsBody, mass_kg: float, com_in_body_m: Array,
+                  radius_m: float) -> None:
+    """The link's mass at its centre of mass (in the body's frame), overriding what the
+    capsules would make of it; the inertia of a ball of the capsule's radius (statics do not
+    depend on it)."""
+    body.explicitinertial = True
+    body.mass = mass_kg
+    body.ipos = np.asarray(com_in_body_m, dtype=np.float64)
+    body.inertia = np.full(3, 0.4 * mass_kg * radius_m**2)
+
+
 def build_spec(
     robot: RobotModel,
     port_m: ArrayLike | None = None,
@@ -108,6 +121,7 @@ def build_spec(
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     radius = robot.radius_m if robot.radius_m is not None else np.full(n, DEFAULT_RADIUS_M)
     fixed = fixed_transforms(robot.structure, robot.dh)
+    post = joint_placements(robot.structure, robot.dh)[1]
     if np.linalg.norm(fixed[0][:3, 3]) > _SEGMENT_EPS_M:
         # Joint 1 stands off the base origin (a base transform, a Hayati joint 1): a pedestal.
         spec.worldbody.add_geom(name="pedestal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -123,6 +137,11 @@ def build_spec(
         joint.range = [robot.lower_rad[i], robot.upper_rad[i]]
         _add_link_geoms(body, fixed[i + 1][:3, 3], radius[i],
                         None if robot.mass_kg is None else float(robot.mass_kg[i]))
+        if robot.com_m is not None:
+            assert robot.mass_kg is not None  # RobotModel: a centre of mass needs a mass
+            link = post[i]  # link frame i in the body, which turns with joint i
+            _set_inertial(body, float(robot.mass_kg[i]), link[:3, :3] @ robot.com_m[i]
+                          + link[:3, 3], radius[i])
         parent = body
     parent.add_site(name="flange", pos=fixed[n][:3, 3], quat=_quat(fixed[n][:3, :3]),
                     size=[0.008, 0, 0], rgba=[0.1, 0.6, 0.1, 1.0])

@@ -59,6 +59,23 @@ class JointErrors:
         """Whether any error is nonzero."""
         return bool(np.any(self.transmission_rad) or np.any(self.backlash_rad))
 
+    def coefficients(self) -> Array:
+        """The transmission error in the calibration's terms: per joint the coefficients of
+        sin q, cos q, sin 2q, cos 2q (:mod:`twin.unknowns.transmission`), shape (n, 4), rad;
+        NaN for a joint whose error repeats more than twice per revolution (no first- or
+        second-harmonic model holds it)."""
+        amplitude, phase = self.transmission_rad, self.phase_rad
+        terms = np.zeros((len(amplitude), 4))
+        # A sin(h q + φ) = A cos φ · sin(h q) + A sin φ · cos(h q).
+        harmonic = np.round(self.harmonic).astype(int)  # whole numbers (checked on creation)
+        for h, columns in ((1, [0, 1]), (2, [2, 3])):
+            rows = harmonic == h
+            terms[np.ix_(rows, columns)] = np.stack(
+                [amplitude[rows] * np.cos(phase[rows]), amplitude[rows] * np.sin(phase[rows])],
+                axis=-1)
+        terms[(harmonic > 2) & (amplitude > 0)] = np.nan
+        return terms
+
     def actual(self, q_rad: ArrayLike, approach: ArrayLike) -> Array:
         """The joint angles the arm is really at.
 
@@ -72,24 +89,3 @@ class JointErrors:
         q = np.asarray(q_rad, dtype=np.float64)
         periodic = self.transmission_rad * np.sin(self.harmonic * q + self.phase_rad)
         return q + periodic + 0.5 * self.backlash_rad * np.asarray(approach, dtype=np.float64)
-
-
-def approach_directions(q_rad: ArrayLike, start_rad: ArrayLike | None = None) -> Array:
-    """The direction each joint last moved in when the poses are visited in order.
-
-    Args:
-        q_rad: Poses in visiting order, shape (m, n), rad.
-        start_rad: Where the arm starts, shape (n,), rad; zeros (home) by default.
-
-    Returns:
-        +1 or −1 per joint and pose, shape (m, n); a joint that does not move keeps the
-        direction it had (+1 before its first move).
-    """
-    q = np.asarray(q_rad, dtype=np.float64)
-    start = np.zeros(q.shape[1]) if start_rad is None else np.asarray(start_rad, dtype=np.float64)
-    steps = np.sign(np.diff(np.vstack([start, q]), axis=0))
-    # Carry the last nonzero sign forward over joints that did not move.
-    index = np.where(steps != 0, np.arange(len(q))[:, None], -1)
-    last = np.maximum.accumulate(index, axis=0)
-    signs = np.take_along_axis(steps, np.maximum(last, 0), axis=0)
-    return np.where(last >= 0, signs, 1.0)

@@ -51,6 +51,8 @@ joint errors), paths relative to the scenario file::
     stiffness_nm_per_rad = [...]           # required with compliance
     gravity = true                         # with compliance
     tension_n = 0.0                        # cable tension, with compliance
+    mass_error = 0.0                       # true masses and centres of mass off the file's by
+                                           # up to this share, drawn per seed (with compliance)
 
     [calibration]                          # how the data are calibrated (studies, capture.toml)
     train_fraction = 0.8
@@ -58,6 +60,9 @@ joint errors), paths relative to the scenario file::
     estimate_offset = false
     stop = "converge"                      # stopping protocol: "converge" or "paper"
     max_iterations = 200                   # optional: iteration limit of every method and stage
+    errors = ["dh"]                        # the robot's error groups the calibration fits:
+                                           # dh, transmission, backlash, compliance (or
+                                           # link_compliance: masses unknown link by link)
 
     [study]                                # left to twin.study: passed through unread
     [expect]                               # left to twin.study.expect (`twin check`): unread
@@ -80,6 +85,7 @@ from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
+from twin.rig import MAX_TENSION_N
 from twin.robot import RobotModel, default_robot
 from twin.sim.joint_errors import JointErrors
 from twin.sim.noise import NoiseModel
@@ -88,6 +94,7 @@ from twin.sim.physics import Physics
 from twin.sim.poses import PoseConstraints
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import deg_to_rad, mm_to_m, rad_to_deg
+from twin.unknowns import ERRORS
 
 Array = NDArray[np.float64]
 ARCSEC_PER_DEG = 3600.0
@@ -102,11 +109,13 @@ _TABLES = {
                 "offset_mm"),
     "joints": ("repeatability_mm", "transmission_arcsec", "transmission_harmonic",
                "transmission_phase_deg", "backlash_arcsec"),
-    "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n"),
+    "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"),
     "calibration": ("train_fraction", "estimate_port", "estimate_offset", "stop",
-                    "max_iterations"),
+                    "max_iterations", "errors"),
 }
 DEFAULT_RESOLUTION_MM = 0.004
+MAX_MASS_ERROR = 0.9
+"""Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
 
 
 @dataclass(frozen=True)
@@ -135,6 +144,7 @@ class Scenario:
         estimate_offset: Hint: calibrate with a length offset.
         stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
         max_iterations: Iteration limit of every method and stage, or None (the protocol's).
+        errors: The robot's error groups the calibration fits (:data:`twin.unknowns.ERRORS`).
         study: The ``[study]`` table as written, for twin.study.
         expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
         source: The file, or None.
@@ -160,6 +170,7 @@ class Scenario:
     estimate_offset: bool = False
     stop: str = PROTOCOLS[0]
     max_iterations: int | None = None
+    errors: tuple[str, ...] = ("dh",)
     study: dict[str, Any] = field(default_factory=dict)
     expect: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
@@ -373,10 +384,11 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
             stiffness_nm_per_rad=phys.vector("stiffness_nm_per_rad", n, per_joint=True,
                                              minimum=1.0),
             gravity=phys.boolean("gravity", True),
-            tension_n=phys.number("tension_n", 0.0, minimum=0.0),
+            tension_n=phys.number("tension_n", 0.0, minimum=0.0, maximum=MAX_TENSION_N),
+            mass_error=phys.number("mass_error", 0.0, minimum=0.0, maximum=MAX_MASS_ERROR),
         )
     else:
-        for key in ("stiffness_nm_per_rad", "gravity", "tension_n"):
+        for key in ("stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"):
             if phys.has(key):
                 raise phys.error(key, f"{key} with compliance = false",
                                  "compliance = true to use it")
@@ -396,6 +408,14 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     if max_iterations is not None and max_iterations > MAX_ITERATIONS:
         raise calibration.error("max_iterations", repr(max_iterations),
                                 f"an integer from 1 to {MAX_ITERATIONS}")
+    errors = calibration.values.get("errors", ["dh"])
+    expected_errors = "a non-empty list of distinct error groups among " + ", ".join(ERRORS)
+    if not isinstance(errors, list) or not errors or len(set(map(str, errors))) != len(errors) \
+            or not all(isinstance(name, str) and name in ERRORS for name in errors):
+        raise calibration.error("errors", repr(errors), expected_errors)
+    if {"compliance", "link_compliance"} <= set(errors):
+        raise calibration.error("errors", repr(errors), "compliance or link_compliance, not "
+                                "both (link_compliance holds each joint's compliance)")
 
     return Scenario(
         name=name,
@@ -432,6 +452,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         estimate_offset=calibration.boolean("estimate_offset", False),
         stop=stop,
         max_iterations=max_iterations,
+        errors=tuple(name for name in ERRORS if name in errors),
         study=passed_through["study"],
         expect=passed_through["expect"],
         source=source,

@@ -1,7 +1,11 @@
 """One simulated capture: draw the truth, measure it with the twin, write it like a real rig.
 
 Random draws come from one generator seeded with the seed, in a fixed order: D-H errors, the
-port the calibration is told, transmission phases, poses, joint jitter, length noise, outliers.
+port the calibration is told, transmission phases, the true masses and centres of mass (only with
+``[physics] mass_error``), poses, joint jitter, length noise, outliers.
+
+The measurements carry the direction each joint approached its pose from (the poses are visited
+in order from home), which backlash depends on.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import TRAIN_FRACTION
-from twin.dataset import Measurements
+from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture_file import CalibrationSettings, write_capture
@@ -23,11 +27,12 @@ from twin.io.results import write_json
 from twin.kinds.length import cable_length
 from twin.metrics import metrics
 from twin.robot import RobotModel, robot_files
-from twin.sim.joint_errors import JointErrors, approach_directions
+from twin.sim.joint_errors import JointErrors
+from twin.sim.physics import true_inertia
 from twin.sim.poses import read_pose_plan, sample_poses
 from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
 from twin.sim.twin import Twin
-from twin.units import dh_rows_to_display, m_to_mm, rad_to_deg
+from twin.units import COMPLIANCE_UNIT, dh_rows_to_display, m_to_mm, rad_to_deg, to_display
 
 Array = NDArray[np.float64]
 
@@ -45,7 +50,8 @@ class Simulation:
         scenario: What was simulated.
         seed: The seed of every draw.
         robot: The nominal robot (what the calibration is told).
-        true_robot: The robot the twin simulated: nominal plus ``delta``.
+        true_robot: The robot the twin simulated: nominal plus ``delta``, with its true masses
+            and centres of mass.
         delta: True D-H errors, shape (4, n): rows δa [m], δd [m], δα [rad], δθ [rad].
         port_m: True port, shape (3,), m.
         port_nominal_m: The port the calibration is told, shape (3,), m.
@@ -105,6 +111,21 @@ class Simulation:
         }
 
     @property
+    def joint_unknowns(self) -> dict[str, list[Any]]:
+        """The true joint-level errors as a calibration's unknowns name them, in the units its
+        results show (degrees, µrad/(N·m)); null for a transmission error of a higher harmonic
+        than the model's two."""
+        n = self.robot.n_joints
+        terms = self.joint_errors.coefficients()
+        compliance = self.scenario.physics.compliance(n)
+        return {
+            "transmission": [[None if np.isnan(v) else float(v) for v in row]
+                             for row in rad_to_deg(terms)],
+            "backlash": rad_to_deg(0.5 * self.joint_errors.backlash_rad).tolist(),
+            "compliance": to_display(compliance, [COMPLIANCE_UNIT] * n)[0],
+        }
+
+    @property
     def truth(self) -> dict[str, Any]:
         """The document written to truth.json (mm, degrees, arc-seconds)."""
         errors = self.joint_errors
@@ -125,10 +146,18 @@ class Simulation:
                 "backlash_arcsec": (errors.backlash_rad * arcsec).tolist(),
             },
             "physics": self.physics,
+            "inertia": _inertia(self.true_robot),
+            "joint_unknowns": self.joint_unknowns,
             "outlier_rows": self.outlier_rows.tolist(),
             "train_fraction": self.train_fraction,
             "effects": self.effects,
         }
+
+
+def _inertia(robot: RobotModel) -> dict[str, Any]:
+    """The true masses (kg) and centres of mass (mm, each link's D-H frame), or nulls."""
+    return {"mass_kg": None if robot.mass_kg is None else robot.mass_kg.tolist(),
+            "com_mm": None if robot.com_m is None else m_to_mm(robot.com_m).tolist()}
 
 
 def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
@@ -150,6 +179,7 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
     port_nominal = scenario.port_told_m if scenario.port_told_m is not None \
         else scenario.port_m + told_error
     phases = rng.uniform(0.0, 2.0 * np.pi, n)
+    true_robot = true_inertia(true_robot, scenario.physics.mass_error, rng)
     joint_errors = scenario.joint_errors or JointErrors.none(n)
     if scenario.draw_phases:
         joint_errors = replace(joint_errors, phase_rad=phases)
@@ -174,7 +204,8 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
         scenario=scenario, seed=seed, robot=scenario.robot, true_robot=true_robot, delta=delta,
         port_m=scenario.port_m, port_nominal_m=np.asarray(port_nominal, dtype=np.float64),
         joint_errors=joint_errors, joint_sigma_rad=joint_sigma, q_actual_rad=rest.q_rad,
-        true_length_m=rest.length_m, measurements=Measurements(q, readings.length_m),
+        true_length_m=rest.length_m,
+        measurements=Measurements(q, readings.length_m, approach=approach_directions(q)),
         outlier_rows=readings.outlier_rows, train_fraction=scenario.train_fraction,
     )
 
@@ -194,7 +225,8 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
     settings = CalibrationSettings(
         estimate_port=sim.scenario.estimate_port, estimate_offset=sim.scenario.estimate_offset,
         train_fraction=sim.train_fraction or TRAIN_FRACTION, stop=sim.scenario.stop,
-        max_iterations=sim.scenario.max_iterations,
+        max_iterations=sim.scenario.max_iterations, errors=sim.scenario.errors,
+        cable_tension_n=sim.scenario.physics.tension_n,
     )
     write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, port_m=sim.port_nominal_m,
                   measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings)

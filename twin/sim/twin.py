@@ -15,9 +15,10 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.dataset import approach_directions
 from twin.robot import RobotModel
 from twin.sim.builder import build_spec
-from twin.sim.joint_errors import JointErrors, approach_directions
+from twin.sim.joint_errors import JointErrors
 from twin.sim.physics import RIGID, Physics, static_equilibrium
 
 Array = NDArray[np.float64]

@@ -29,6 +29,7 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg import solve_triangular
 from scipy.optimize import lsq_linear
 
 from twin.problem import Problem
@@ -79,12 +80,16 @@ def boxed_damped_step(J: Array, r: Array, mu: float, low: Array, high: Array) ->
         low: Lower limits of the step (lower − x), shape (p,), all <= 0.
         high: Upper limits of the step (upper − x), shape (p,), all >= 0.
     """
-    p = J.shape[1]
-    augmented = np.vstack([J, np.sqrt(mu) * np.eye(p)])
-    target = np.concatenate([-r, np.zeros(p)])
+    # ‖r + J h‖² + μ‖h‖² = ‖Lᵀh + L⁻¹Jᵀr‖² + const with JᵀJ + μI = L Lᵀ: the same minimiser
+    # from a p×p system instead of the (m + p)×p augmented one, m/p times less work for the
+    # bounded solver (the unbounded step solves the same normal equations).
+    A = J.T @ J
+    A[np.diag_indices_from(A)] += mu
+    L = np.linalg.cholesky(A)
+    target = -solve_triangular(L, J.T @ r, lower=True)
     # lsq_linear needs low < high strictly; an unknown exactly at a bound still has room
     # on the other side.
-    solved = lsq_linear(augmented, target, bounds=(low, high), method="bvls", tol=1e-14)
+    solved = lsq_linear(L.T, target, bounds=(low, high), method="bvls", tol=1e-14)
     return np.clip(np.asarray(solved.x, dtype=np.float64), low, high)
 
 

@@ -7,12 +7,18 @@ in whatever order. The same seed is used at every sweep point (common random num
 Against the truth, for each method:
 
 - **flange error**: RMS over a fixed set of random workspace poses (seeded from the scenario's
-  seed, the same for every trial) of the distance between the flange centres of the true and the
-  identified D-H tables;
+  seed, the same for every trial) of the distance between the true and the identified flange
+  centres. A fit of the D-H table alone is held to the true table (what a D-H model can
+  represent: how much of the non-geometric errors it folds into the table); a fit with
+  joint-level groups (transmission, backlash, compliance) is held to where the twin's flange
+  really is — MuJoCo at rest with transmission error, backlash and sag (``Twin.at_rest``), the
+  workspace poses visited in order from home — against the identified model's prediction at the
+  same commanded poses and approach directions;
 - **Cramér–Rao bound** of that error (:func:`twin.uncertainty.cramer_rao_flange_rms`) for the
   trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
-  cable), averaged over the poses. Outliers, compliance and joint errors are not noise, so in
-  those regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
+  cable), averaged over the poses, from the fitted model's Jacobian (joint groups included).
+  Outliers are not noise, nor are compliance and joint errors to a D-H-only model, so in those
+  regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
 - **identifiable parameter error**: x̂ − x_true with its components along the null space of the
   cable Jacobian removed (:mod:`twin.identifiability`). The null space is taken at the nominal
   geometry, where it is exact (rank 19 of 24 for the IRB 120 with a known port): at the
@@ -29,15 +35,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import TRAIN_FRACTION, calibrate_many
+from twin.dataset import approach_directions
 from twin.identifiability import measurement_identifiability
 from twin.model import Model
+from twin.rig import Rig
 from twin.sim.scenario import Scenario
 from twin.sim.simulate import Simulation, simulate
+from twin.sim.twin import Twin
 from twin.study.rows import TrialRow
 from twin.study.store import TrialOutcome
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.units import m_to_mm, rad_to_deg
+from twin.units import m_to_mm, to_display
+from twin.unknowns import Stage
 
 Array = NDArray[np.float64]
 
@@ -65,9 +75,18 @@ def workspace(spec: TrialSpec) -> Array:
 
 
 def true_unknowns(sim: Simulation, model: Model) -> Array:
-    """The unknowns x a perfect calibration returns, shape (p,), m and rad."""
+    """The unknowns x a perfect calibration returns, shape (p,), SI: the D-H errors, the
+    transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
+    hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
+    the port's correction and the offset."""
     x = np.zeros(model.n_params)
     x[model.slice("dh")] = sim.delta.ravel()
+    if model.has("transmission"):
+        x[model.slice("transmission")] = np.nan_to_num(sim.joint_errors.coefficients()).ravel()
+    if model.has("backlash"):
+        x[model.slice("backlash")] = 0.5 * sim.joint_errors.backlash_rad
+    if model.has("compliance"):
+        x[model.slice("compliance")] = sim.scenario.physics.compliance(sim.robot.n_joints)
     if model.has("port"):
         x[model.slice("port")] = sim.port_m - sim.port_nominal_m
     if model.has("offset"):
@@ -95,7 +114,19 @@ def _mm(value_m: float) -> float:
 
 
 def _display(values: Array, model: Model) -> list[float]:
-    return np.where(model.is_length, m_to_mm(values), rad_to_deg(values)).tolist()
+    return to_display(values, model.units)[0]
+
+
+def has_joint_groups(model: Model) -> bool:
+    """Whether the model holds joint-level errors: then it is held to the physical flange."""
+    return any(group.stage == Stage.JOINTS for group in model.groups)
+
+
+def true_flange(sim: Simulation, q_workspace: Array) -> Array:
+    """Where the twin's flange really is at the workspace poses, visited in order from home:
+    MuJoCo at rest with joint errors and sag, shape (k, 3), m."""
+    twin = Twin.build(sim.true_robot, sim.port_m, sim.scenario.physics, sim.joint_errors)
+    return twin.at_rest(q_workspace, approach_directions(q_workspace)).flange_m
 
 
 def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> TrialOutcome:
@@ -103,9 +134,11 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     scenario = spec.scenario
     seed = trial_seed(scenario.seed, trial)
     sim = simulate(scenario, seed)
+    rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
     results = calibrate_many(
-        sim.robot, sim.measurements, sim.port_nominal_m, spec.methods, seed=seed,
-        estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
+        sim.robot, sim.measurements, None, spec.methods, rig=rig, errors=scenario.errors,
+        seed=seed, estimate_port=scenario.estimate_port,
+        estimate_offset=scenario.estimate_offset,
         train_fraction=sim.train_fraction or TRAIN_FRACTION, budget=scenario.budget,
     )
     first = next(iter(results.values()))
@@ -119,11 +152,13 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[TrialRow] = []
     methods: dict[str, Any] = {}
-    true_flange = sim.true_robot.flange_positions(q_workspace)
+    # The model's poses come with the approach directions of visiting them in order, as the
+    # twin's flange below.
     at_workspace = model.poses(q_workspace)
+    truth_m = true_flange(sim, q_workspace) if has_joint_groups(model) \
+        else sim.true_robot.flange_positions(q_workspace)
     for name, result in results.items():
-        flange_m = rms_distance(model.flange_positions(result.solver.x, at_workspace),
-                                true_flange)
+        flange_m = rms_distance(model.flange_positions(result.solver.x, at_workspace), truth_m)
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
@@ -153,7 +188,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         "before_residuals_mm": m_to_mm(before).tolist(),
         "noise_sigma_mm": float(m_to_mm(sigma_m)),
         "parameter_names": list(model.names),
-        "parameter_units": ["mm" if length else "deg" for length in model.is_length],
+        "parameter_units": to_display(np.zeros(model.n_params), model.units)[1],
         "methods": methods,
     }
     return TrialOutcome(case=case, trial=trial, seed=seed, rows=tuple(rows), detail=detail)

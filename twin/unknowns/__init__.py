@@ -8,20 +8,27 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from twin.errors import UnknownChoiceError
+from twin.errors import InputError, UnknownChoiceError
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.unknowns import dh, offset, port
+from twin.unknowns import backlash, compliance, dh, link_compliance, offset, port, transmission
 from twin.unknowns.base import Group, Stage
 
 Factory = Callable[[RobotModel, Rig], Group]
 
 GROUPS: dict[str, Factory] = {
     "dh": dh.make,
+    "transmission": transmission.make,
+    "backlash": backlash.make,
+    "compliance": compliance.make,
+    "link_compliance": link_compliance.make,
     "port": port.make,
     "offset": offset.make,
 }
 """Every unknown group, by name, in the order x lays them out."""
+ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")
+"""The robot's error groups, which a calibration chooses (``--errors``, ``[calibration] errors``);
+the rig's (port, offset) come with the estimate flags."""
 
 
 def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
@@ -30,11 +37,15 @@ def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
 
     Raises:
         UnknownChoiceError: listing the groups.
+        InputError: for compliance and link_compliance together (the second holds the first).
     """
     for name in names:
         if name not in GROUPS:
             raise UnknownChoiceError("error group", name, GROUPS)
+    if "compliance" in names and "link_compliance" in names:
+        raise InputError("compliance with link_compliance", "one of them: link_compliance "
+                         "holds each joint's compliance, link by link")
     return tuple(factory(robot, rig) for name, factory in GROUPS.items() if name in names)
 
 
-__all__ = ["GROUPS", "Group", "Stage", "make_groups"]
+__all__ = ["ERRORS", "GROUPS", "Group", "Stage", "make_groups"]

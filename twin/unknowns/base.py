@@ -17,6 +17,7 @@ A group module exports ``make(robot, rig) -> Group`` and the registry
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
@@ -55,6 +56,8 @@ class Group:
             swarm's first particles.
         linear: ``table``: (4n, p_g), ``point``: (3, p_g); None at other stages.
         basis: ``joints``: ``basis(data) -> (m, n, p_g)``, rad per unit; None at other stages.
+        needs_approach: Whether the basis reads the direction each joint approached its pose
+            from (``data.approach``): measurements without it cannot be fitted.
     """
 
     name: str
@@ -66,6 +69,7 @@ class Group:
     radius: Array
     linear: Array | None = None
     basis: Callable[[Measurements], Array] | None = None
+    needs_approach: bool = False
 
     def __post_init__(self) -> None:
         p = len(self.names)
@@ -90,3 +94,26 @@ class Group:
     def size(self) -> int:
         """Number of parameters p_g."""
         return len(self.names)
+
+
+CACHED = 4
+"""Measurement sets a :func:`cached` basis keeps: a fit alternates between its training and
+validation poses."""
+
+
+def cached(basis: Callable[[Measurements], Array]) -> Callable[[Measurements], Array]:
+    """A joints-stage basis that depends on the measurements alone (not on x), computed once per
+    measurement set: a fit evaluates it at every residual and Jacobian on the same poses, and
+    measurements are immutable. Sets are recognised by identity and held weakly."""
+    kept: list[tuple[weakref.ref[Measurements], Array]] = []
+
+    def lookup(data: Measurements) -> Array:
+        for reference, value in kept:
+            if reference() is data:
+                return value
+        value = basis(data)
+        value.setflags(write=False)
+        kept[:] = [*kept[-(CACHED - 1):], (weakref.ref(data), value)]
+        return value
+
+    return lookup

@@ -59,7 +59,7 @@ def _bar_rows(delta: NDArray[np.float64], table_is_length: ArrayLike
 
 def log_parameters(
     writer: Writer, method: str | None, delta: NDArray[np.float64], values: NDArray[np.float64],
-    names: tuple[str, ...], is_length: ArrayLike, color: tuple[int, int, int],
+    names: tuple[str, ...], units: tuple[str, ...], color: tuple[int, int, int],
     slot: tuple[int, int] = (0, 1), table_is_length: ArrayLike | None = None,
 ) -> None:
     """One source's table errors as bars per row (mm, deg) and its values exactly (SI).
@@ -68,10 +68,10 @@ def log_parameters(
         writer: Where to log.
         method: The method, or None for the truth.
         delta: Table errors, shape (4, n), m and rad.
-        values: The exact values to keep, shape (p,), m and rad: the unknowns x of a method
-            (D-H errors, then port and offset if estimated) or the true D-H errors.
+        values: The exact values to keep, shape (p,), SI: the unknowns x of a method (table
+            errors, then the joint-level and rig groups asked for) or the true table errors.
         names: Name of each value, shape (p,).
-        is_length: Which values are lengths (m) rather than angles (rad), shape (p,).
+        units: The SI unit of each value (``m``, ``rad``, ``rad/(N·m)``), length p.
         color: Bar colour.
         slot: ``(index, count)``: this source's place among the sources drawn side by side in
             one chart, so that the truth and each method get their own bar per joint.
@@ -90,8 +90,7 @@ def log_parameters(
     writer.once(
         entities.parameter_exact(method),
         rr.Scalars(values),
-        rr.AnyValues(names=list(names),
-                     units=["m" if length else "rad" for length in np.asarray(is_length, bool)]),
+        rr.AnyValues(names=list(names), units=list(units)),
     )
 
 
@@ -179,7 +178,7 @@ class CalibrationLog:
             # first method's flange once that is known.
             self._log_cable(robots["true"])
             truth = np.asarray(truth_delta, dtype=np.float64)
-            log_parameters(writer, None, truth, truth.ravel(), nominal.names, nominal.is_length,
+            log_parameters(writer, None, truth, truth.ravel(), nominal.names, nominal.units,
                            TRUE_COLOR, (0, self.sources), robot.is_length)
         log_robots(writer, robots, measurements.q_rad)
         log_residuals_before(writer, nominal, measurements)
@@ -198,7 +197,7 @@ class CalibrationLog:
         log_residuals_after(self.writer, result, self.measurements, order)
         log_convergence(self.writer, result.method, result, order)
         log_parameters(self.writer, result.method, result.delta, result.solver.x,
-                       result.model.names, result.model.is_length,
+                       result.model.names, result.model.units,
                        robot_color(result.method, order),
                        (order + (self.truth_delta is not None), self.sources),
                        result.robot.is_length)

@@ -1,0 +1,97 @@
+"""`twin predict`: where an identified model puts the measured point (and what the cable reads)
+at joint angles of one's choosing."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.cli.arguments import add_robot_flags, robot_from_flags
+from twin.errors import InputError
+from twin.io.atomic import write_atomic
+from twin.io.capture_file import parse_port_mm
+from twin.io.identified import load_result
+from twin.io.measurements import approach_columns, joint_columns, load_poses
+from twin.io.paths import InputPath, OutputFile
+from twin.predict import Prediction, predict
+from twin.robot import default_robot
+from twin.units import FILE_DEG_DECIMALS, RESULT_MM_DECIMALS, m_to_mm, rad_to_deg, rounded
+
+POSITION_COLUMNS = ("x", "y", "z")
+LENGTH_COLUMN = "length"
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register the subcommand."""
+    parser = subparsers.add_parser(
+        "predict",
+        help="predict the measured point (and cable length) with an identified model",
+        description="For each row of joint angles (q1..q6 in degrees; approach1..approach6 "
+        "when the model has backlash), write where the identified model puts the measured "
+        "point — the rig's attachment point, the flange centre unless one is set — as x,y,z "
+        "in mm in the robot's base frame, with every identified group applied (D-H, "
+        "transmission error, backlash for the row's approach, compliance at the pose), and "
+        "the cable length in mm when --port is given or the result has one port. Compare it "
+        "with anything else: a tracker, another capture, the twin's truth.",
+    )
+    parser.add_argument("--identified", type=InputPath, required=True, metavar="RESULT.json",
+                        help="calibration result written by `twin calibrate --json`")
+    parser.add_argument("--joints", type=InputPath, required=True, metavar="POSES.csv",
+                        help="joint angles q1..qN in degrees (and approach1..approachN: +1 "
+                        "or -1), one row per pose (- for standard input)")
+    add_robot_flags(parser, "the nominal robot the result was identified for")
+    parser.add_argument("--method", help="result to use from a `--method all` result file")
+    parser.add_argument("--port", metavar="X,Y,Z", help="encoder port in mm, base frame: "
+                        "the length column is the distance from it, the cable pulling "
+                        "towards it (default: the result's port, with its identified "
+                        "correction and offset, when it has one)")
+    parser.add_argument("--out", type=OutputFile, required=True, metavar="PRED.csv",
+                        help="where to write the predictions")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the subcommand."""
+    robot = robot_from_flags(args) or default_robot()
+    identified = load_result(args.identified, robot, args.method)
+    port_m = None if args.port is None else parse_port_mm(args.port, "--port", "")
+    poses = load_poses(args.joints, robot, f"a pose CSV ({','.join(joint_columns(1))}.."
+                       f"q{robot.n_joints} in degrees)", stdin=True)
+    try:
+        prediction = predict(identified, poses.q_rad, approach=poses.approach, port_m=port_m)
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=args.joints) from None
+    write_atomic(args.out, format_prediction(poses.q_rad, poses.approach, prediction))
+    model = identified.model
+    columns = "x,y,z" + (",length" if prediction.length_m is not None else "")
+    point = "attachment point" if np.any(model.rig.attachment_m) else "flange centre"
+    groups = ", ".join(group.name for group in model.groups)
+    print(f"{len(poses.q_rad)} poses: {columns} (mm, base frame) of the {point}, by the "
+          f"{identified.method} model ({groups})")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def format_prediction(q_rad: NDArray[np.float64], approach: NDArray[np.int8] | None,
+                      prediction: Prediction) -> str:
+    """CSV text: the poses as given (q in degrees, approach), then x,y,z and length in mm to
+    1e-6 mm."""
+    n = q_rad.shape[1]
+    header = [*joint_columns(n), *(approach_columns(n) if approach is not None else ()),
+              *POSITION_COLUMNS, *((LENGTH_COLUMN,) if prediction.length_m is not None else ())]
+    columns: list[list[str]] = [[repr(v) for v in rounded(q, FILE_DEG_DECIMALS)]
+                                for q in rad_to_deg(q_rad)]
+    if approach is not None:
+        columns = [[*row, *(f"{int(v):+d}" for v in signs)]
+                   for row, signs in zip(columns, approach, strict=True)]
+    xyz = m_to_mm(prediction.position_m)
+    length = None if prediction.length_m is None else m_to_mm(prediction.length_m)
+    lines = [",".join(header)]
+    for i, row in enumerate(columns):
+        values = rounded(xyz[i], RESULT_MM_DECIMALS) + (
+            [] if length is None else rounded([length[i]], RESULT_MM_DECIMALS))
+        lines.append(",".join([*row, *map(repr, values)]))
+    return "\n".join(lines) + "\n"

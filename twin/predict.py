@@ -1,0 +1,85 @@
+"""What an identified model predicts at any poses: where the measured point is, what the cable
+reads. This is how a model is checked against anything else (a tracker, another capture, the
+twin's truth)::
+
+    result = twin.calibrate(robot, data, rig=rig, errors=["dh", "compliance"])
+    prediction = twin.predict(result, q_rad, approach=None)   # or a load_result(...) model
+    prediction.position_m    # (m, 3) measured point, base frame, m
+    prediction.length_m      # (m,) cable length, m, when the rig has one port
+
+The measured point is the rig's attachment point (the flange centre unless one is set), moved by
+every group of the model: the D-H table, the joints' transmission error, backlash (for each row's
+approach direction) and compliance (under gravity and the cable's pull at the pose).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.calibration import check_approach
+from twin.model import Model
+
+Array = NDArray[np.float64]
+
+
+class Identified(Protocol):
+    """An identified model: a calibration result, or one read back from a result file."""
+
+    @property
+    def model(self) -> Model:
+        """The measurement model that was fitted."""
+        ...
+
+    @property
+    def x(self) -> Array:
+        """The identified unknowns, shape (p,), SI."""
+        ...
+
+
+class Prediction(NamedTuple):
+    """What the identified model predicts at each pose."""
+
+    position_m: Array
+    """The measured point in the base frame, shape (m, 3), m."""
+    length_m: Array | None
+    """The cable length from the port, shape (m,), m; None when there is no single port."""
+
+
+def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | None = None,
+            port_m: ArrayLike | None = None) -> Prediction:
+    """The measured point (and cable length) an identified model predicts at poses.
+
+    Args:
+        identified: The model and its unknowns (:class:`~twin.calibration.CalibrationResult`,
+            :class:`~twin.io.identified.IdentifiedModel`).
+        q_rad: Joint angles, shape (m, n), rad.
+        approach: The direction each joint approached each pose from, shape (m, n), ±1; needed
+            when the model has backlash.
+        port_m: A port in the base frame, shape (3,), m: the length is the straight distance
+            from it (no identified port correction or offset applies to a port one names), and
+            the cable pulls towards it (compliance). None: the model's own single port, its
+            identified correction and offset included.
+
+    Raises:
+        InputError: if the model has backlash and no approach directions are given.
+    """
+    model, x = identified.model, np.asarray(identified.x, dtype=np.float64)
+    if port_m is not None:
+        rig = replace(model.rig, ports_m=np.asarray(port_m, dtype=np.float64).reshape(1, 3),
+                      port_names=("port",))
+        model, x = model.with_rig(rig, x)
+        for name in ("port", "offset"):
+            if model.has(name):
+                x[model.slice(name)] = 0.0
+    q = np.asarray(q_rad, dtype=np.float64)
+    check_approach(model, approach)
+    poses = model.poses(q, approach=approach)
+    position = model.positions(x, poses)
+    length = None
+    if model.kind.name == "length" and len(model.rig.ports_m) == 1:
+        length = model.measure(x, q, approach=poses.approach).lengths
+    return Prediction(np.asarray(position, dtype=np.float64), length)

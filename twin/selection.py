@@ -1,0 +1,165 @@
+"""Choosing the error model: which of the robot's error groups the data support (``--errors auto``).
+
+Nested candidates, each one group more than the last, cheapest first: ``dh``; ``dh +
+compliance`` (n unknowns); ``+ backlash`` (n, only when the measurements carry the approach
+directions); ``+ transmission`` (4n) — all of them; and last the same with ``link_compliance``
+in place of ``compliance`` (each link's weight its own coefficient, n(n+1)/2 more unknowns: for
+masses known only link by link). Each is fitted on the same training poses by the same method
+and compared on
+
+- the **Bayesian information criterion** of its training residuals,
+  ``BIC = m ln(RSS / m) + k ln m`` with m the training residuals and k the rank of the
+  Jacobian at the nominal geometry (the combinations the poses identify; an unknown nobody sees
+  adds no freedom, and the directions only a perturbed geometry lifts off zero, by 1e-4 or less
+  of the largest singular value, add none in practice), and
+- the **validation RMSE** on the held-out poses, reported beside it.
+
+Rule: the candidate with the lowest BIC. BIC charges ln m per identified unknown — about 5–6 for
+100–400 poses — so a group is kept only when it lowers the training residuals by more than
+noise fitted by that many more unknowns would; unlike the validation RMSE it does not depend on
+which poses were held out. The validation column shows whether the choice holds on new poses.
+
+A candidate needs at least :data:`POSES_PER_UNKNOWN` training poses per unknown to be worth
+fitting; below that the choice warns (:class:`FewPosesWarning`), and a candidate with fewer
+training residuals than unknowns is not fitted at all.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.calibration import (
+    TRAIN_FRACTION,
+    CalibrationResult,
+    calibrate,
+    make_model,
+    required_poses,
+)
+from twin.dataset import Measurements
+from twin.rig import Rig
+from twin.robot import RobotModel
+from twin.stopping import Budget
+
+NESTED = ("dh", "compliance", "backlash", "transmission")
+"""The order in which candidates add groups: fewest unknowns first."""
+POSES_PER_UNKNOWN = 3
+"""Training poses per unknown below which a fit follows the noise: the choice warns."""
+
+
+class FewPosesWarning(UserWarning):
+    """Fewer poses than the unknowns of an error model need to be fitted reliably."""
+
+
+class Candidate(NamedTuple):
+    """One fitted error model of :func:`choose_errors`."""
+
+    errors: tuple[str, ...]
+    """Its error groups."""
+    result: CalibrationResult
+    """The calibration."""
+    rank: int
+    """Identified combinations at the nominal geometry (the k of BIC)."""
+    bic: float
+    """m ln(RSS / m) + k ln m over the m training residuals (RSS in m²)."""
+
+    @property
+    def unknowns(self) -> int:
+        """Number of unknowns fitted."""
+        return self.result.model.n_params
+
+
+class ErrorChoice(NamedTuple):
+    """Every candidate fitted, and the one chosen."""
+
+    candidates: tuple[Candidate, ...]
+    """In nesting order."""
+    chosen: int
+    """Index of the lowest BIC."""
+    skipped: tuple[str, ...]
+    """Why candidates were left out (no approach columns, too few poses)."""
+
+    @property
+    def best(self) -> Candidate:
+        """The chosen candidate."""
+        return self.candidates[self.chosen]
+
+
+def warn_few_poses(n_train: int, rank: int, errors: Sequence[str]) -> None:
+    """Warn (:class:`FewPosesWarning`) when ``n_train`` training poses are fewer than
+    :data:`POSES_PER_UNKNOWN` per identified unknown (``rank``) of the error groups."""
+    if n_train < POSES_PER_UNKNOWN * rank:
+        warnings.warn(
+            f"{n_train} training poses for the {rank} identifiable unknowns of "
+            f"{'+'.join(errors)}: fewer than {POSES_PER_UNKNOWN} per unknown, so the fit follows "
+            f"the noise; measure at least {POSES_PER_UNKNOWN * rank} (twin plan --errors "
+            f"{','.join(errors)})", FewPosesWarning, stacklevel=3)
+
+
+def nested_errors(has_approach: bool) -> list[tuple[str, ...]]:
+    """The candidate error models, in nesting order (backlash only with approach directions),
+    then the largest with ``link_compliance`` for ``compliance``."""
+    groups = [name for name in NESTED if has_approach or name != "backlash"]
+    nested = [tuple(groups[: k + 1]) for k in range(len(groups))]
+    split = tuple("link_compliance" if name == "compliance" else name for name in nested[-1])
+    return [*nested, split]
+
+
+def bic(residuals_m: np.ndarray, rank: int) -> float:
+    """m ln(RSS / m) + k ln m of residuals (m,), in m, with k = ``rank``."""
+    m = residuals_m.size
+    return float(m * np.log(float(residuals_m @ residuals_m) / m) + rank * np.log(m))
+
+
+def choose_errors(
+    robot: RobotModel,
+    measurements: Measurements,
+    rig: Rig,
+    *,
+    method: str = "lm",
+    seed: int = 0,
+    estimate_port: bool = False,
+    estimate_offset: bool = False,
+    budget: Budget | None = None,
+    train_fraction: float = TRAIN_FRACTION,
+    candidates: Sequence[tuple[str, ...]] | None = None,
+) -> ErrorChoice:
+    """Fit every nested error model on the same split and choose by BIC (module docstring).
+
+    Takes the arguments of :func:`twin.calibration.calibrate`; ``candidates`` replaces the
+    nested error models.
+
+    Raises:
+        InputError: if not even the first candidate (D-H alone) can be fitted to so few
+            poses.
+    """
+    models = list(candidates) if candidates is not None \
+        else nested_errors(measurements.approach is not None)
+    skipped = [] if candidates is not None or measurements.approach is not None else [
+        "backlash: the measurements do not carry the approach directions"]
+    n_train = round(train_fraction * len(measurements))
+    fitted: list[Candidate] = []
+    for errors in models:
+        model = make_model(robot, rig, measurements.kind, errors=errors,
+                           estimate_port=estimate_port, estimate_offset=estimate_offset)
+        needed = required_poses(model.n_params, train_fraction, model.kind.rows_per_pose)
+        if fitted and len(measurements) < needed:
+            skipped.append(f"{'+'.join(errors)}: {len(measurements)} poses, fewer than the "
+                           f"{needed} its {model.n_params} unknowns need")
+            continue
+        # The first candidate (D-H alone) raises InputError if even it cannot be fitted.
+        result = calibrate(robot, measurements, rig=rig, errors=errors, method=method,
+                           seed=seed, estimate_port=estimate_port,
+                           estimate_offset=estimate_offset, budget=budget,
+                           train_fraction=train_fraction)
+        nominal = result.identifiability
+        rank = nominal.rank if nominal is not None else model.n_params
+        warn_few_poses(n_train, rank, errors)
+        train = measurements.subset(result.train_rows)
+        residuals = model.residuals(result.solver.x, train)
+        fitted.append(Candidate(tuple(errors), result, rank, bic(residuals, rank)))
+    chosen = int(np.argmin([candidate.bic for candidate in fitted]))
+    return ErrorChoice(tuple(fitted), chosen, tuple(skipped))

@@ -1,0 +1,72 @@
+"""Compliance with each link's weight apart: for a robot whose link masses are not known.
+
+Per joint i::
+
+    Δq_i = compliance{i}_cable · τ_i^cable + Σ_{j ≥ i} compliance{i}_link{j} · τ_ij
+
+with τ_ij the torque link j's weight puts on joint i (:func:`twin.statics.link_torques`, from the
+robot file's masses and centres of mass, at the nominal geometry and the recorded pose) and
+τ_i^cable the cable's pull's (the rig's ``tension_n``). Each coefficient is the joint's
+compliance times how far the link's true weight (and lever) is from the file's: the group
+``compliance`` assumes the file's masses right up to a common scale per joint, this one lets
+every link be off by its own share. n + n(n+1)/2 unknowns (27 for six joints), in rad/(N·m)
+(results show µrad/(N·m)); use it instead of ``compliance``, not beside it.
+
+Why it exists: with the masses 20 % off link by link, the shape of the gravity torque on the
+shoulder and elbow over the poses changes (one link heavier than its file, another lighter);
+c_i τ_i cannot follow it and leaves a few µrad of deflection in the residual — on soft joints
+several times the Cramér–Rao bound of the flange (docs/methods.md). Split by link, it is linear
+again.
+
+What the cable cannot see: joint 1's axis is vertical, so no weight loads it (its six link
+coefficients are zero columns; its cable coefficient remains); the last joint's are unseen at
+the flange centre; and the wrist links' weights act almost at the wrist centre, so on the
+shoulder and elbow they trade with the forearm's (weak directions).
+
+Bounds −100 to 10000 µrad/(N·m): ten times compliance's upper bound, for a link up to ten times
+heavier than its file says; a little below zero for the weak directions. Radius 10 µrad/(N·m).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twin.dataset import Measurements
+from twin.rig import Rig
+from twin.robot import RobotModel
+from twin.statics import joint_torques, link_torques
+from twin.units import COMPLIANCE_UNIT
+from twin.unknowns.base import Array, Group, Stage, cached
+from twin.unknowns.compliance import RADIUS, cable_forces, require_inertia
+
+LOWER = -1e-4
+"""Lower search bound of a coefficient, rad/(N·m)."""
+UPPER = 1e-2
+"""Upper search bound of a coefficient, rad/(N·m)."""
+
+
+def make(robot: RobotModel, rig: Rig) -> Group:
+    """Per joint, a compliance for the cable and one for each link's weight.
+
+    Raises:
+        InputError: if the robot file gives no masses and centres of mass.
+    """
+    mass, com = require_inertia(robot)
+    n = robot.n_joints
+    joint, link = np.triu_indices(n)  # link j turns with joint i when j >= i
+    names = tuple(f"compliance{i + 1}_cable" for i in range(n)) + tuple(
+        f"compliance{i + 1}_link{j + 1}" for i, j in zip(joint, link, strict=True))
+    p = len(names)
+
+    def basis(data: Measurements) -> Array:
+        out = np.zeros((len(data), n, p))
+        cable = joint_torques(robot.structure, robot.dh, data.q_rad, np.zeros(n), com,
+                              rig.attachment_m, cable_forces(robot, rig, data))
+        out[:, np.arange(n), np.arange(n)] = cable
+        weights = link_torques(robot.structure, robot.dh, data.q_rad, mass, com)
+        out[:, joint, n + np.arange(joint.size)] = weights[:, joint, link]
+        return out
+
+    return Group(name="link_compliance", stage=Stage.JOINTS, names=names,
+                 units=(COMPLIANCE_UNIT,) * p, lower=np.full(p, LOWER),
+                 upper=np.full(p, UPPER), radius=np.full(p, RADIUS), basis=cached(basis))
