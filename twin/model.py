@@ -167,7 +167,8 @@ class Model:
                 if group.stage == Stage.MEASUREMENT}
 
     def poses(self, q_rad: ArrayLike, port: ArrayLike | None = None,
-              approach: ArrayLike | None = None) -> Measurements:
+              approach: ArrayLike | None = None, point: ArrayLike | None = None
+              ) -> Measurements:
         """Poses where nothing was read, as measurements of this model's kind with zero
         readings: for the positions, flanges and Jacobians at poses of one's choosing.
 
@@ -175,22 +176,29 @@ class Model:
             q_rad: Joint angles, shape (m, n), rad.
             port: The port of each row, shape (m,), for cable lengths; port 0 if None.
             approach: Direction each joint last moved in, shape (m, n), ±1, if known.
+            point: The fixed place of each row, shape (m,), for fixed points; place 0 if None.
         """
         q = np.asarray(q_rad, dtype=np.float64)
         ports = None if port is None else np.asarray(port, dtype=np.intp)
         labels = None if approach is None else np.asarray(approach)
         if self.kind.name == "length":
             return Measurements(q, length_m=np.zeros(len(q)), port=ports, approach=labels)
+        if self.kind.name == "point":
+            places = np.zeros(len(q), dtype=np.intp) if point is None \
+                else np.asarray(point, dtype=np.intp)
+            return Measurements(q, point=places, approach=labels,
+                                point_names=self.rig.point_names)
         return Measurements(q, position_m=np.zeros((len(q), 3)), approach=labels)
 
     def measure(self, x: ArrayLike, q_rad: ArrayLike, port: ArrayLike | None = None,
-                approach: ArrayLike | None = None) -> Measurements:
+                approach: ArrayLike | None = None, point: ArrayLike | None = None
+                ) -> Measurements:
         """Noise-free measurements of this model's kind at unknowns x (p,) and poses q (m, n):
         what the model fits exactly (arguments as :meth:`poses`)."""
         x = self._check(x)
-        template = self.poses(q_rad, port, approach)
+        template = self.poses(q_rad, port, approach, point)
         measured = self.kind.measure(self.positions(x, template), self._measurement_values(x),
-                                     template.q_rad, self.rig, template.port)
+                                     template.q_rad, self.rig, template.port, template.point)
         return replace(measured, approach=template.approach)
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
@@ -202,8 +210,16 @@ class Model:
     def flange_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
         """∂(flange centre)/∂x at every pose, shape (m, 3, p), for unknowns x (p,): the table and
         joint groups move the flange; the rig's unknowns and the measured point do not."""
-        x = self._check(x)
-        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data))
+        return self._chain_jacobian(self._check(x), data, measured=False)
+
+    def position_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
+        """∂(measured point, base frame)/∂x at every pose, shape (m, 3, p), for unknowns x (p,):
+        the table, joint and point groups move it; the instrument's unknowns do not."""
+        return self._chain_jacobian(self._check(x), data, measured=True)
+
+    def _chain_jacobian(self, x: Array, data: Measurements, measured: bool) -> Array:
+        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
+                               self.point(x) if measured else None)
         jacobian = np.zeros((len(data), 3, self.n_params))
         for group in self.groups:
             if group.stage == Stage.TABLE:
@@ -212,6 +228,9 @@ class Model:
             elif group.stage == Stage.JOINTS:
                 assert group.basis is not None
                 jacobian[..., self.slice(group.name)] = chain.joints @ group.basis(data)
+            elif group.stage == Stage.POINT and measured:
+                assert group.linear is not None
+                jacobian[..., self.slice(group.name)] = chain.rotation @ group.linear
         return jacobian
 
     # --- residuals ------------------------------------------------------------------------

@@ -52,7 +52,9 @@ class Kind(Protocol):
         ...
 
     def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
-                port: NDArray[np.intp] | None = None) -> Measurements:
+                port: NDArray[np.intp] | None = None, point: NDArray[np.intp] | None = None
+                ) -> Measurements:
         """Noise-free readings of this kind at positions (m, 3) and values (p_g,): the data
-        the model fits exactly (for identifiability on synthetic poses, and for tests)."""
+        the model fits exactly (for identifiability on synthetic poses, and for tests); row i
+        from port ``port[i]`` (cable lengths) or at fixed place ``point[i]`` (fixed points)."""
         ...

@@ -51,7 +51,11 @@ class Length:
         ports = rig.ports_m
         if "port" in values:
             correction = values["port"]
-            ports = ports + correction.reshape(*correction.shape[:-1], len(rig.ports_m), 3)
+            estimated = rig.estimated_port_index
+            full = np.zeros((*correction.shape[:-1], len(rig.ports_m), 3))
+            full[..., estimated, :] = correction.reshape(*correction.shape[:-1], len(estimated),
+                                                         3)
+            ports = ports + full
         return np.asarray(ports[..., data.port_index, :], dtype=np.float64)
 
     def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
@@ -64,7 +68,8 @@ class Length:
         return np.asarray(length - data.length_m, dtype=np.float64)
 
     def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
-                port: NDArray[np.intp] | None = None) -> Measurements:
+                port: NDArray[np.intp] | None = None, point: NDArray[np.intp] | None = None
+                ) -> Measurements:
         """The cable lengths the model gives; row i from port ``port[i]`` (port 0 if None)."""
         zeros = Measurements(q_rad, length_m=np.zeros(len(q_rad)), port=port)
         return Measurements(q_rad, length_m=self.residuals(positions, values, zeros, rig),
@@ -72,8 +77,8 @@ class Length:
 
     def jacobian(self, positions: Array, values: Mapping[str, Array], data: Measurements,
                  rig: Rig) -> KindJacobian:
-        """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on port j's
-        rows; ∂r/∂c = 1."""
+        """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on the rows
+        of estimated port j; ∂r/∂c = 1."""
         difference = positions - self._ports(values, data, rig)
         distance = np.linalg.norm(difference, axis=-1)
         u = difference / distance[:, None]
@@ -81,7 +86,7 @@ class Length:
         if "port" in values:
             columns = np.zeros((len(data), len(rig.ports_m), 3))
             columns[np.arange(len(data)), data.port_index] = -u
-            by_group["port"] = columns.reshape(len(data), -1)
+            by_group["port"] = columns[:, rig.estimated_port_index].reshape(len(data), -1)
         if "offset" in values:
             distance = distance + values["offset"][0]
             by_group["offset"] = np.ones((len(data), 1))

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from twin.errors import UnknownChoiceError
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.unknowns import dh, offset, port
+from twin.unknowns import attachment, dh, offset, points, port, tracker
 from twin.unknowns.base import Group, Stage
 
 Factory = Callable[[RobotModel, Rig], Group]
@@ -20,6 +20,9 @@ GROUPS: dict[str, Factory] = {
     "dh": dh.make,
     "port": port.make,
     "offset": offset.make,
+    "attachment": attachment.make,
+    "base": tracker.make,
+    "points": points.make,
 }
 """Every unknown group, by name, in the order x lays them out."""
 

@@ -1,0 +1,85 @@
+"""Fixed points: the measured point was brought to the same unknown place on several rows.
+
+A ball on the tool set into the sockets of a fixture, a pointer touched to fixed marks: a row
+says only which place (a name) the measured point was at. For pose i at place j, three rows
+``r_i = p_i − (P_j + δP_j)``, with P_j the rig's :attr:`~twin.rig.Rig.points_m` and δP_j the
+correction of group ``points``; then one row per known distance between two places,
+``‖P_a − P_b‖ − D_ab`` (:attr:`~twin.rig.Rig.distances`). The distance rows belong to no pose:
+every subset of the measurements (training, validation) carries them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.dataset import Measurements
+from twin.kinds.base import KindJacobian
+from twin.rig import Rig
+
+Array = NDArray[np.float64]
+
+
+class Point:
+    """Fixed points (:mod:`twin.kinds.point`)."""
+
+    name = "point"
+    rows_per_pose = 3
+    groups: tuple[str, ...] = ("points",)
+
+    @staticmethod
+    def _points(values: Mapping[str, Array], rig: Rig) -> Array:
+        """Every fixed point, shape (..., f, 3), m."""
+        if "points" not in values:
+            return rig.points_m
+        correction = values["points"]
+        return np.asarray(rig.points_m + correction.reshape(*correction.shape[:-1], -1, 3),
+                          dtype=np.float64)
+
+    def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
+                  rig: Rig) -> Array:
+        """r = point − its place (3 rows per pose), then ‖P_a − P_b‖ − D per known distance:
+        shape (..., 3m + d), m."""
+        assert data.point is not None
+        points = self._points(values, rig)
+        difference = positions - points[..., data.point, :]
+        pairs = rig.distance_index
+        spans = np.linalg.norm(points[..., pairs[:, 0], :] - points[..., pairs[:, 1], :],
+                               axis=-1)
+        batch = difference.shape[:-2]
+        return np.concatenate([difference.reshape(*batch, -1),
+                               np.broadcast_to(spans - rig.distances_m, (*batch, len(pairs)))],
+                              axis=-1)
+
+    def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
+                port: NDArray[np.intp] | None = None, point: NDArray[np.intp] | None = None
+                ) -> Measurements:
+        """Rows at the places ``point`` (place 0 if None): the model fits them exactly when the
+        rows of each place put the measured point there."""
+        index = np.zeros(len(q_rad), dtype=np.intp) if point is None else point
+        return Measurements(q_rad, point=index, point_names=rig.point_names)
+
+    def jacobian(self, positions: Array, values: Mapping[str, Array], data: Measurements,
+                 rig: Rig) -> KindJacobian:
+        """∂r/∂p = I; ∂r/∂δP_j = −I on the rows of place j; a distance row has ±u (the unit
+        vector from b to a) on its two places."""
+        assert data.point is not None
+        m = len(data)
+        residuals = self.residuals(positions, values, data, rig)
+        by_group: dict[str, Array] = {}
+        if "points" in values:
+            f = len(rig.point_names)
+            pose_rows = np.zeros((m, 3, f, 3))
+            pose_rows[np.arange(m), :, data.point, :] = -np.eye(3)
+            points = self._points(values, rig)
+            pairs = rig.distance_index
+            span = points[pairs[:, 0]] - points[pairs[:, 1]]
+            u = span / np.linalg.norm(span, axis=-1, keepdims=True)
+            distance_rows = np.zeros((len(pairs), f, 3))
+            distance_rows[np.arange(len(pairs)), pairs[:, 0]] = u
+            distance_rows[np.arange(len(pairs)), pairs[:, 1]] = -u
+            by_group["points"] = np.concatenate([pose_rows.reshape(3 * m, 3 * f),
+                                                 distance_rows.reshape(len(pairs), 3 * f)])
+        return KindJacobian(residuals, np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), by_group)
