@@ -33,6 +33,10 @@ from twin.unknowns import Group, Stage
 
 Array = NDArray[np.float64]
 
+NULL_RTOL = 1e-8
+"""Singular values of the column-scaled Jacobian below this fraction of the largest make an
+exact null direction (the rank tolerance of :mod:`twin.identifiability`)."""
+
 
 @dataclass(frozen=True)
 class Model:
@@ -275,3 +279,33 @@ class Model:
             jacobian[: m * rows, where] = np.einsum("mrc,mcp->mrp", by_position,
                                                     moves).reshape(m * rows, -1)
         return kind.residuals, jacobian
+
+    def symmetries(self, x: ArrayLike) -> Array:
+        """The kind's known gauge directions at x (:meth:`twin.kinds.base.Kind.symmetries`),
+        shape (p, g)."""
+        return self.kind.symmetries(self, self._check(x))
+
+    def identifiable_jacobian(self, x: ArrayLike, data: Measurements,
+                              rtol: float = NULL_RTOL) -> tuple[Array, Array]:
+        """:meth:`jacobian` with the kind's known gauge directions G projected out: what the
+        data can identify. Equal to :meth:`jacobian` for kinds without such directions (cable
+        lengths, tracker positions).
+
+        Along G the rows move by the size of the residuals only (the cost is flat there), so the
+        projection subtracts noise-sized columns: ``J − (J B) B⁺`` with ``B = [G, N]``, N the
+        exact null directions of J (singular values of the column-scaled J below ``rtol`` of the
+        largest), so that G joins the null space and N stays in it. (Projecting on G alone,
+        orthogonally, would smear J G into exact null directions that overlap G — a shift
+        along joint 1's axis overlaps a scale — and turn them weak.)
+        """
+        r, jacobian = self.jacobian(x, data)
+        gauge = self.symmetries(x)
+        if not gauge.shape[1]:
+            return r, jacobian
+        norms = np.linalg.norm(jacobian, axis=0)
+        unit = np.where(norms > rtol * np.max(norms), norms, 1.0)
+        _, s, vt = np.linalg.svd(jacobian / unit, full_matrices=True)
+        s = np.concatenate([s, np.zeros(self.n_params - s.size)])
+        null = vt[s <= rtol * s[0]].T / unit[:, None]
+        basis = np.concatenate([gauge, null], axis=1)
+        return r, jacobian - (jacobian @ basis) @ np.linalg.pinv(basis)

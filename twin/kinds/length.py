@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
-from twin.kinds.base import KindJacobian
+from twin.kinds.base import KindJacobian, no_symmetries
 from twin.kinematics import Structure, point_position
 from twin.rig import Rig
 
@@ -42,6 +42,7 @@ class Length:
     """Cable lengths (:mod:`twin.kinds.length`)."""
 
     name = "length"
+    symmetries = staticmethod(no_symmetries)
     rows_per_pose = 1
     groups: tuple[str, ...] = ("port", "offset")
 

@@ -1,7 +1,14 @@
 """Fixed points: the measured point was brought to the same unknown place on several rows.
 
 A ball on the tool set into the sockets of a fixture, a pointer touched to fixed marks: a row
-says only which place (a name) the measured point was at. For pose i at place j, three rows
+says only which place (a name) the measured point was at.
+
+Such data cannot see a turn of the robot and every fixed point together about joint 1's axis, a
+shift along it, nor — without a known distance — a common scale of every length (robot, tool
+point and fixed points). The shift is an exact null direction of the Jacobian; the turn and the
+scale are not (they rotate or stretch the residuals, a change of the size of the noise) although
+the cost is exactly flat along them: :meth:`Point.symmetries` gives them to the identifiability
+and the Cramér–Rao bound as the known gauge group. For pose i at place j, three rows
 ``r_i = p_i − (P_j + δP_j)``, with P_j the rig's :attr:`~twin.rig.Rig.points_m` and δP_j the
 correction of group ``points``; then one row per known distance between two places,
 ``‖P_a − P_b‖ − D_ab`` (:attr:`~twin.rig.Rig.distances`). The distance rows belong to no pose:
@@ -11,6 +18,7 @@ every subset of the measurements (training, validation) carries them.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,7 +27,14 @@ from twin.dataset import Measurements
 from twin.kinds.base import KindJacobian
 from twin.rig import Rig
 
+if TYPE_CHECKING:
+    from twin.model import Model
+
 Array = NDArray[np.float64]
+
+ORIGIN_TOL_M = 1e-12
+"""A chain's fixed base or tool translation shorter than this counts as none (scale is then a
+symmetry: nothing of fixed length is left)."""
 
 
 class Point:
@@ -83,3 +98,29 @@ class Point:
             by_group["points"] = np.concatenate([pose_rows.reshape(3 * m, 3 * f),
                                                  distance_rows.reshape(len(pairs), 3 * f)])
         return KindJacobian(residuals, np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), by_group)
+
+    def symmetries(self, model: Model, x: Array) -> Array:
+        """The turn about joint 1's axis (θ1 with every fixed point) and, without a known
+        distance, the scale (every length of the table, the estimated attachment and every
+        fixed point about the base origin), as directions of x, shape (p, g)."""
+        if not (model.has("points") and model.has("dh")):
+            return np.zeros((model.n_params, 0))
+        structure = model.robot.structure
+        n = structure.n_joints
+        origin, axis = structure.base[:3, 3], structure.base[:3, 2]
+        points = self._points({"points": model.block(x, "points")}, model.rig)
+        turn = np.zeros(model.n_params)
+        turn[model.slice("dh").start + 3 * n] = 1.0  # θ1, slot 3 of joint 1
+        turn[model.slice("points")] = np.cross(axis, points - origin).ravel()
+        directions = [turn]
+        fixed = max(np.linalg.norm(structure.base[:3, 3]), np.linalg.norm(structure.tool[:3, 3]))
+        attachment_fixed = not model.has("attachment") \
+            and np.linalg.norm(model.rig.attachment_m) > ORIGIN_TOL_M
+        if not model.rig.distances and fixed < ORIGIN_TOL_M and not attachment_fixed:
+            scale = np.zeros(model.n_params)
+            scale[model.slice("dh")] = np.where(structure.is_length, model.table(x), 0.0).ravel()
+            if model.has("attachment"):
+                scale[model.slice("attachment")] = model.point(x)
+            scale[model.slice("points")] = (points - origin).ravel()
+            directions.append(scale)
+        return np.stack(directions, axis=1)

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
-from twin.kinds.base import KindJacobian
+from twin.kinds.base import KindJacobian, no_symmetries
 from twin.rig import Rig
 from twin.rigid import rotation, rotation_derivatives
 
@@ -25,6 +25,7 @@ class Position:
     """Tracker positions (:mod:`twin.kinds.position`)."""
 
     name = "position"
+    symmetries = staticmethod(no_symmetries)
     rows_per_pose = 3
     groups: tuple[str, ...] = ("base",)
 
