@@ -1,0 +1,123 @@
+"""Why a calibration does not fit its data: the likely causes of a misfit (:mod:`twin.misfit`).
+
+Each cause the data could reveal is tried by refitting: the rig's unknowns the calibration left
+out (the port, the attachment point, the tracker frame, the length offset) are added one at a
+time and the problem solved again with LM from the first fit; a cause whose refit brings the
+training RMSE within :data:`twin.misfit.FAR` times the noise is *likely*, and the refit's RMSE is
+quoted. Causes no refit can test follow in a fixed order: units (readings whose scale is far
+from the nominal model's), outliers (the bulk of the rows fits but not all), and the robot model
+(joint-level errors, another model file).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.calibration import CalibrationResult, SplitProblem, make_model
+from twin.misfit import FAR
+from twin.problem import Problem
+from twin.solvers import get_solver
+from twin.stopping import Budget
+
+Array = NDArray[np.float64]
+
+REFITS = {
+    "port": ("the port position", "--estimate-port"),
+    "attachment": ("the attachment point", "--estimate-attachment"),
+    "base": ("the tracker frame", "--estimate-base"),
+    "offset": ("the cable's length offset", "--estimate-offset"),
+}
+"""Unknown groups a refit tries: what they stand for and the flag that adds them."""
+UNITS_RATIO = 2.0
+"""Readings whose typical size is more than this factor off the nominal model's (either way)
+point at units."""
+MAD_TO_SIGMA = 1.4826
+"""σ of a normal distribution per unit of median absolute deviation."""
+
+
+class Cause(NamedTuple):
+    """One likely cause of a misfit."""
+
+    name: str
+    """What may be wrong, e.g. ``the port position``."""
+    remedy: str
+    """What to try."""
+    refit_rmse_m: float | None
+    """Training RMSE after refitting with it, m; None when no refit tests it."""
+
+    def describe(self) -> str:
+        """``the port position (--estimate-port reaches 0.0104 mm)``."""
+        if self.refit_rmse_m is None:
+            return f"{self.name} ({self.remedy})"
+        return f"{self.name} ({self.remedy} reaches {float(self.refit_rmse_m) * 1e3:.4g} mm)"
+
+
+def _refit(split: SplitProblem, result: CalibrationResult, group: str) -> float | None:
+    """Training RMSE of LM with ``group`` added, started from the result; None if the data
+    cannot have that group."""
+    problem = split.problem
+    model = problem.model
+    if model.has(group) or (group not in model.kind.groups and group != "attachment"):
+        return None
+    names = [g.name for g in model.groups if g.name not in ("points",)]
+    wider = make_model(model.robot, replace(model.rig, estimated_ports=()), model.kind.name,
+                       errors=[*names, group])
+    start = np.zeros(wider.n_params)
+    for name in names:
+        start[wider.slice(name)] = model.block(result.solver.x, name)
+    if model.has("points"):
+        start[wider.slice("points")] = model.block(result.solver.x, "points")
+    trial = Problem(wider, problem.train, problem.validation, sigma_m=problem.sigma_m,
+                    x0=np.clip(start, *wider.bounds()), loss=problem.loss)
+    solved = get_solver("lm").solve(trial, Budget(), np.random.default_rng(result.seed))
+    return float(np.sqrt(np.mean(wider.residuals(solved.x, problem.train) ** 2)))
+
+
+def _units_suspect(problem: Problem) -> bool:
+    """Whether the readings' size is far from the nominal model's."""
+    data, model = problem.train, problem.model
+    nominal = model.residuals(np.zeros(model.n_params), data)
+    rows = model.kind.rows_per_pose * len(data)
+    if data.kind == "length":
+        read = np.median(data.lengths)
+        modelled = np.median(nominal[:rows] + data.lengths)
+    elif data.kind == "position":
+        assert data.position_m is not None
+        measured = data.position_m
+        modelled_points = nominal[:rows].reshape(-1, 3) + measured
+        read = np.sqrt(np.mean(np.sum((measured - measured.mean(axis=0)) ** 2, axis=1)))
+        modelled = np.sqrt(np.mean(np.sum((modelled_points - modelled_points.mean(axis=0)) ** 2,
+                                          axis=1)))
+    else:
+        return False
+    ratio = float(read / modelled) if modelled > 0 else np.inf
+    return not 1.0 / UNITS_RATIO <= ratio <= UNITS_RATIO
+
+
+def likely_causes(split: SplitProblem, result: CalibrationResult) -> tuple[Cause, ...]:
+    """The likely causes of the result's misfit, most likely first (see the module docstring).
+    """
+    problem = split.problem
+    assert result.misfit is not None
+    noise = result.misfit.noise_m
+    tried = []
+    for group, (name, flag) in REFITS.items():
+        rmse = _refit(split, result, group)
+        if rmse is not None:
+            tried.append(Cause(name, flag, rmse))
+    tried.sort(key=lambda cause: cause.refit_rmse_m or np.inf)
+    likely = [cause for cause in tried if (cause.refit_rmse_m or np.inf) <= FAR * noise]
+    rest = [cause for cause in tried if cause not in likely]
+    fixed = []
+    if _units_suspect(problem):
+        fixed.append(Cause("units", "lengths in mm, joint angles in degrees", None))
+    residuals = problem.model.residuals(result.solver.x, problem.train)
+    spread = MAD_TO_SIGMA * float(np.median(np.abs(residuals - np.median(residuals))))
+    if not problem.loss.robust and spread <= FAR * noise:
+        fixed.append(Cause("outliers", "--loss huber", None))
+    fixed.append(Cause("the robot model", "joint-level errors, another model file", None))
+    return (*likely, *fixed, *rest)
