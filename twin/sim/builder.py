@@ -9,8 +9,10 @@ core's ``flange_transform`` (tested over 1000 random poses).
 
 Each link is drawn and collides as capsules along its D-H skeleton: one along z for d_i, one
 along x for a_i (a sphere when both are zero), of the model file's ``radius`` and sharing its
-``mass``. World site ``port`` is the encoder port; spatial tendon ``cable`` runs from ``port`` to
-``flange``: its ``ten_length`` is the measured cable length. With compliant physics, actuators
+``mass``. Site ``point`` in ``link6`` is the measured point (cable eyelet, tracker target, ball)
+when it is off the flange centre. World site ``port`` is the encoder port; spatial tendon
+``cable`` runs from ``port`` to ``point`` (``flange`` without one): its ``ten_length`` is the
+measured cable length. With compliant physics, actuators
 ``servo<i>`` are position servos of the joint stiffness, and actuator ``tension`` pulls the cable
 with a force equal to its ``ctrl`` (N).
 """
@@ -83,12 +85,15 @@ def build_spec(
     physics: Physics = RIGID,
     *,
     floor: bool = False,
+    attachment_m: ArrayLike | None = None,
 ) -> mujoco.MjSpec:
     """The MjSpec of a robot (and its cable, when a port is given).
 
     Args:
         robot: The arm; its ``mass_kg`` and ``radius_m`` size the links when given.
         port_m: Encoder port in the base frame, shape (3,), m; None for the arm alone.
+        attachment_m: The measured point in the flange frame, shape (3,), m: site ``point``,
+            where the cable ends; None for the flange centre.
         physics: Adds the joint servos (stiffness) and the cable's tension actuator when
             compliant; gravity is always in the model's options (statics switch it off when
             ``physics.gravity`` is false).
@@ -125,6 +130,13 @@ def build_spec(
         parent = body
     parent.add_site(name="flange", pos=pos, quat=quat, size=[0.008, 0, 0],
                     rgba=[0.1, 0.6, 0.1, 1.0])
+    end = "flange"
+    if attachment_m is not None:
+        offset = np.empty(3)
+        mujoco.mju_rotVecQuat(offset, np.asarray(attachment_m, dtype=np.float64), quat)
+        parent.add_site(name="point", pos=pos + offset, quat=quat, size=[0.006, 0, 0],
+                        rgba=[0.8, 0.1, 0.1, 1.0])
+        end = "point"
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
     # offset, links two apart meet at the wrist and elbow centres too.
     for i in range(1, n - 1):
@@ -149,7 +161,7 @@ def build_spec(
                                 size=[0.01, 0, 0], rgba=[0.1, 0.1, 0.8, 1.0])
         cable = spec.add_tendon(name="cable", width=CABLE_WIDTH_M, rgba=[0.2, 0.2, 0.2, 1.0])
         cable.wrap_site("port")
-        cable.wrap_site("flange")
+        cable.wrap_site(end)
         if physics.stiffness_nm_per_rad is not None:
             # gear −1: a positive control (N) shortens the cable, i.e. pulls the flange.
             tension = spec.add_actuator(name="tension", target="cable",
