@@ -2,16 +2,28 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import CalibrationResult
+from twin.calibration import WORKSPACE_POSES, CalibrationResult
+from twin.dataset import Measurements
 from twin.identifiability import WEAK_RTOL, Identifiability
+from twin.loss import REJECT_SCALES
 from twin.metrics import Metrics
+from twin.rig import Rig
+from twin.rigid import angles
 from twin.solvers import get_solver
-from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm
+from twin.units import DH_KEYS, dh_rows_to_display, display_unit, m_to_mm, rad_to_deg
+
+if TYPE_CHECKING:
+    from twin.accuracy import TruthErrors
+    from twin.diagnosis import Cause
+
+MAX_ROWS_SHOWN = 20
+"""Rejected rows listed in the report (the JSON lists them all)."""
 
 MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the standard deviation.'
 
@@ -55,6 +67,9 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
             "predicted flange RMS error over the workspace "
             f"{float(m_to_mm(result.uncertainty.flange_rms_m)):.4f} mm"
         )
+        if result.model.has("attachment"):
+            lines[-1] += (", measured point "
+                          f"{float(m_to_mm(result.uncertainty.point_rms_m)):.4f} mm")
     return lines
 
 
@@ -76,12 +91,94 @@ def format_stop(result: CalibrationResult) -> list[str]:
     return lines
 
 
-def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
+def _xyz(values_m: NDArray[np.float64]) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in m_to_mm(values_m)) + ") mm"
+
+
+def describe_rig(rig: Rig, measurements: Measurements) -> str:
+    """``port (600.000, -400.000, 100.000) mm``, ``2 ports (front, left)``, ``tracker
+    positions`` or ``6 fixed points``, with the attachment when it is off the flange."""
+    if measurements.kind == "length":
+        text = "port (" + ", ".join(f"{v:.3f}" for v in m_to_mm(rig.ports_m[0])) + ") mm" \
+            if len(rig.ports_m) == 1 else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
+    elif measurements.kind == "position":
+        text = "laser-tracker positions"
+    else:
+        text = f"{len(rig.point_names or measurements.point_names)} fixed points"
+    if np.any(np.abs(rig.attachment_m) > 0):
+        text += ", measured point (" + ", ".join(f"{v:.3f}" for v in m_to_mm(rig.attachment_m)) \
+            + ") mm in the flange frame"
+    return text
+
+
+def format_rig(result: CalibrationResult) -> list[str]:
+    """The rig's identified unknowns: ports, offset, attachment, tracker frame, fixed points."""
+    model, lines = result.model, []
+    if model.has("port"):
+        rig = model.rig
+        for j in rig.estimated_port_index:
+            name = "" if len(rig.ports_m) == 1 else f" {rig.port_names[j]}"
+            lines.append(f"  identified port{name}: {_xyz(result.ports_m[j])}")
+    if model.has("offset"):
+        lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
+    if model.has("attachment"):
+        lines.append(f"  identified attachment (flange frame): {_xyz(result.attachment_m)}")
+    if model.has("base"):
+        transform = result.base_in_tracker
+        turn = rad_to_deg(angles(transform[:3, :3]))
+        lines.append(f"  identified base in the tracker frame: {_xyz(transform[:3, 3])}, "
+                     f"rx ry rz ({turn[0]:.4f}, {turn[1]:.4f}, {turn[2]:.4f}) deg")
+    if model.has("points"):
+        lines.append(f"  identified fixed points: {len(model.rig.point_names)} (in the JSON)")
+    return lines
+
+
+def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[str]:
+    """The misfit line, the rows the loss rejected, and what the data cannot see."""
+    lines = []
+    misfit = result.misfit
+    if misfit is not None and misfit.misfit:
+        likely = "; likely causes: " + ", ".join(cause.describe() for cause in causes) \
+            if causes else ""
+        lines.append(f"  MISFIT: the model does not fit these data — training RMSE "
+                     f"{float(m_to_mm(misfit.rmse_m)):.4g} mm against a noise of "
+                     f"{float(m_to_mm(misfit.noise_m)):.4g} mm ({misfit.describe()}){likely}")
+    if result.loss.robust:
+        rows = result.rejected_rows
+        shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
+            + (", …" if rows.size > MAX_ROWS_SHOWN else "")
+        lines.append(f"  {result.loss.name} loss, scale {float(m_to_mm(result.loss.scale_m)):.4g}"
+                     f" mm: {rows.size} row(s) rejected (beyond {REJECT_SCALES:g} scales; "
+                     f"0-based data rows){': ' + shown if rows.size else ''}")
+    gauge = result.gauge
+    if gauge is not None and gauge.names:
+        lines.append("  motions of the flange the data cannot see: " + gauge.describe()
+                     + "; pin them with " + " or ".join(gauge.pins))
+    return lines
+
+
+def format_truth(truth: TruthErrors) -> list[str]:
+    """The errors against the truth over the workspace, raw and modulo the unseen motions."""
+    lines = [f"  against the truth over {WORKSPACE_POSES} workspace poses: flange RMS "
+             f"{float(m_to_mm(truth.flange_m)):.4f} mm"]
+    if truth.motions:
+        lines[-1] += (f", {float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm modulo "
+                      + ", ".join(truth.motions))
+    lines.append(f"  measured point RMS {float(m_to_mm(truth.point_m)):.4f} mm"
+                 + (f", {float(m_to_mm(truth.point_gauge_free_m)):.4f} mm modulo "
+                    + ", ".join(truth.point_motions) if truth.point_motions else ""))
+    return lines
+
+
+def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None,
+                  *, truth: TruthErrors | None = None, causes: Sequence[Cause] = ()) -> str:
     """Before/after metrics, run statistics and the identified D-H errors as a table.
 
     Args:
         result: The calibration.
         truth_delta: The true D-H errors, shape (4, n), m and rad, to print beside, if known.
+        truth: The errors against the truth over the workspace, if known.
+        causes: The likely causes of a misfit (:func:`twin.diagnosis.likely_causes`).
     """
     solver = get_solver(result.method)
     lines = [
@@ -97,24 +194,23 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         "  " + MAE_NOTE,
         *format_identifiability(result),
     ]
-    if result.model.has("port"):
-        port = ", ".join(f"{v:.3f}" for v in m_to_mm(result.port_m))
-        lines.append(f"  identified port: ({port}) mm")
-    if result.model.has("offset"):
-        lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
+    lines += format_rig(result)
+    lines += format_fit(result, causes)
+    if truth is not None:
+        lines += format_truth(truth)
     identified = dh_rows_to_display(result.delta)
-    truth = None if truth_delta is None else dh_rows_to_display(truth_delta)
+    true_rows = None if truth_delta is None else dh_rows_to_display(truth_delta)
     header = "  joint"
     for key in DH_KEYS:
         label = f"δ{key} [{display_unit(key)}]"
-        header += f"{label:>14}" + (f"{'true':>10}" if truth else "")
-    lines += ["", "Identified D-H errors" + (" (and the truth)" if truth else ""), header]
+        header += f"{label:>14}" + (f"{'true':>10}" if true_rows else "")
+    lines += ["", "Identified D-H errors" + (" (and the truth)" if true_rows else ""), header]
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
         for key in DH_KEYS:
             row += f"{identified[key][i]:>14.4f}"
-            if truth:
-                row += f"{truth[key][i]:>10.4f}"
+            if true_rows:
+                row += f"{true_rows[key][i]:>10.4f}"
         lines.append(row)
     return "\n".join(lines)
 
