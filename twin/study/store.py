@@ -38,12 +38,18 @@ COLUMNS = (
     *(f"{stage}_{key}_mm" for stage in STAGES for key in METRIC_KEYS),
     "flange_error_mm", "crlb_mm", "crlb_ratio",
     "iterations", "evaluations", "seconds", "converged", "stop_reason",
+    "flange_error_gauge_free_mm", "crlb_ratio_gauge_free", "point_error_mm", "point_crlb_ratio",
 )
 """Columns of `results.csv`, one row per trial × method. Lengths in mm; ``mae`` is the paper's
 "STD"; ``flange_error_mm`` is the RMS flange-position error over the workspace against the truth,
 ``crlb_mm`` its Cramér–Rao bound and ``crlb_ratio`` their ratio; ``converged`` is true when a
 convergence test (ftol, xtol, gtol) fired at the point returned; ``stop_reason`` names the test
-that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``)."""
+that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``);
+``flange_error_gauge_free_mm`` is the flange error modulo the motions the data cannot see
+(:mod:`twin.gauge`: a turn about joint 1's axis with an estimated port…) and
+``crlb_ratio_gauge_free`` its ratio to the bound; ``point_error_mm`` is the same for the
+measured point (eyelet, tracker target, ball: what an estimated attachment identifies) and
+``point_crlb_ratio`` its ratio to that point's Cramér–Rao bound."""
 _INTEGER_COLUMNS = ("trial", "seed", "iterations", "evaluations")
 
 TrialKey = tuple[str, int]

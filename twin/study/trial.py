@@ -13,6 +13,9 @@ Against the truth, for each method:
   trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
   cable), averaged over the poses. Outliers, compliance and joint errors are not noise, so in
   those regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
+- **gauge-free errors**: the flange error modulo the motions the data cannot see, and the
+  measured point's (eyelet, tracker target, ball) error likewise, with its own Cramér–Rao bound
+  (:mod:`twin.accuracy`, :mod:`twin.gauge`);
 - **identifiable parameter error**: x̂ − x_true with its components along the null space of the
   cable Jacobian removed (:mod:`twin.identifiability`). The null space is taken at the nominal
   geometry, where it is exact (rank 19 of 24 for the IRB 120 with a known port): at the
@@ -28,14 +31,18 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.accuracy import truth_errors
 from twin.calibration import TRAIN_FRACTION, calibrate_many
 from twin.identifiability import measurement_identifiability
+from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
 from twin.model import Model
+from twin.problem import DEFAULT_SIGMA_M
+from twin.rigid import angles
 from twin.sim.scenario import Scenario
 from twin.sim.simulate import Simulation, simulate
 from twin.study.store import METRIC_KEYS, STAGES, TrialOutcome
 from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.units import m_to_mm, rad_to_deg
 
 Array = NDArray[np.float64]
@@ -67,10 +74,20 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     """The unknowns x a perfect calibration returns, shape (p,), m and rad."""
     x = np.zeros(model.n_params)
     x[model.slice("dh")] = sim.delta.ravel()
+    rig = model.rig
     if model.has("port"):
-        x[model.slice("port")] = sim.port_m - sim.port_nominal_m
+        index = rig.estimated_port_index
+        x[model.slice("port")] = (sim.rig.ports_m[index] - rig.ports_m[index]).ravel()
     if model.has("offset"):
         x[model.slice("offset")] = sim.scenario.noise.offset_m
+    if model.has("attachment"):
+        x[model.slice("attachment")] = sim.rig.attachment_m - rig.attachment_m
+    if model.has("base"):
+        start, true = rig.base_in_tracker, sim.rig.base_in_tracker
+        turn = true[:3, :3] @ start[:3, :3].T
+        x[model.slice("base")] = np.r_[true[:3, 3] - turn @ start[:3, 3], angles(turn)]
+    if model.has("points"):
+        x[model.slice("points")] = (sim.rig.points_m - rig.points_m).ravel()
     return x
 
 
@@ -86,6 +103,8 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     n = sim.robot.n_joints
     dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, first in x
     jitter = sim.joint_sigma_rad**2 * float(np.mean(np.sum(dl_dq**2, axis=1)))
+    if sim.measurements.kind != "length":  # tracker noise or seating error, per axis
+        return float(np.sqrt(np.mean(sim.scenario.instrument.sigma_m**2) + jitter))
     return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
 
 
@@ -99,9 +118,11 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     seed = trial_seed(scenario.seed, trial)
     sim = simulate(scenario, seed)
     results = calibrate_many(
-        sim.robot, sim.measurements, sim.port_nominal_m, spec.methods, seed=seed,
+        sim.robot, sim.measurements, None, spec.methods, rig=sim.rig_told, seed=seed,
         estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION, budget=scenario.budget,
+        estimate_attachment=scenario.estimate_attachment, estimate_base=scenario.estimate_base,
+        loss=scenario_loss(sim), train_fraction=sim.train_fraction or TRAIN_FRACTION,
+        budget=scenario.budget,
     )
     first = next(iter(results.values()))
     model = first.model
@@ -111,6 +132,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     _, jacobian = model.jacobian(x_true, train)
     sigma_m = noise_sigma_m(sim, jacobian)
     crlb_m = cramer_rao_flange_rms(model, x_true, train, sigma_m, q_workspace)
+    point_crlb_m = cramer_rao_point_rms(model, x_true, train, sigma_m, q_workspace)
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[dict[str, Any]] = []
     methods: dict[str, Any] = {}
@@ -133,6 +155,15 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
             seconds=result.solver.seconds, converged=result.solver.converged,
             stop_reason=result.solver.stop_label,
         )
+        truth = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q_workspace)
+        row.update(
+            flange_error_gauge_free_mm=float(m_to_mm(truth.flange_gauge_free_m)),
+            crlb_ratio_gauge_free=truth.flange_gauge_free_m / crlb_m if crlb_m > 0
+            else float("nan"),
+            point_error_mm=float(m_to_mm(truth.point_gauge_free_m)),
+            point_crlb_ratio=truth.point_gauge_free_m / point_crlb_m if point_crlb_m > 0
+            else float("nan"),
+        )
         rows.append(row)
         methods[name] = {
             "history_mm": m_to_mm([r.validation_rmse_m for r in result.solver.history]).tolist(),
@@ -148,6 +179,19 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         "methods": methods,
     }
     return TrialOutcome(case=case, trial=trial, seed=seed, rows=tuple(rows), detail=detail)
+
+
+def scenario_loss(sim: Simulation) -> Loss:
+    """The loss a scenario's ``[calibration]`` asks for, its scale defaulting to
+    :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the simulated noise (without jitter)."""
+    scenario = sim.scenario
+    if scenario.loss_scale_m is not None:
+        return Loss(scenario.loss, scenario.loss_scale_m)
+    noise = scenario.noise
+    sigma = float(np.sqrt(np.mean(scenario.instrument.sigma_m**2))) \
+        if sim.measurements.kind != "length" \
+        else float(np.hypot(noise.sigma_m, noise.resolution_m / np.sqrt(12.0)))
+    return Loss(scenario.loss, DEFAULT_SCALE_SIGMAS * (sigma if sigma > 0 else DEFAULT_SIGMA_M))
 
 
 def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]
