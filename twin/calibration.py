@@ -410,8 +410,11 @@ def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_worksp
     out_train = rejected_poses(problem, x, problem.train)
     out_validation = rejected_poses(problem, x, problem.validation)
     rejected = np.sort(np.concatenate([train_rows[out_train], validation_rows[out_validation]]))
-    kept = problem.train.subset(np.flatnonzero(~out_train))
     rows = problem.model.kind.rows_per_pose
+    # A loss that rejects nearly everything (a swarm far from the optimum) leaves no degree of
+    # freedom to test or to estimate the noise from: then every training row counts.
+    enough = rows * int(np.sum(~out_train)) > identified.rank
+    kept = problem.train.subset(np.flatnonzero(~out_train)) if enough else problem.train
     residuals = problem.model.residuals(x, kept)
     misfit = misfit_test(residuals, identified.rank, problem.sigma_m,
                          repeat_sigma(kept, residuals, rows))

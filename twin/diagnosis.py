@@ -2,11 +2,11 @@
 
 Each cause the data could reveal is tried by refitting: the rig's unknowns the calibration left
 out (the port, the attachment point, the tracker frame, the length offset) are added one at a
-time and the problem solved again with LM from the first fit; a cause whose refit brings the
-training RMSE within :data:`twin.misfit.FAR` times the noise is *likely*, and the refit's RMSE is
-quoted. Causes no refit can test follow in a fixed order: units (readings whose scale is far
-from the nominal model's), outliers (the bulk of the rows fits but not all), and the robot model
-(joint-level errors, another model file).
+time and the problem solved again with LM from the first fit, and outliers by a Huber fit
+(scale 3 σ) whose RMSE is taken over the rows it keeps; a cause whose refit brings the training
+RMSE within :data:`twin.misfit.FAR` times the noise is *likely*, and the refit's RMSE is quoted.
+Causes no refit can test follow: units (readings whose scale is far from the nominal model's)
+and the robot model (joint-level errors, another model file).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import CalibrationResult, SplitProblem, make_model
+from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
 from twin.misfit import FAR
 from twin.problem import Problem
 from twin.solvers import get_solver
@@ -32,11 +33,11 @@ REFITS = {
     "offset": ("the cable's length offset", "--estimate-offset"),
 }
 """Unknown groups a refit tries: what they stand for and the flag that adds them."""
+OUTLIER_SHARE = 0.2
+"""A Huber refit that rejects more than this share of the rows does not point at outliers."""
 UNITS_RATIO = 2.0
 """Readings whose typical size is more than this factor off the nominal model's (either way)
 point at units."""
-MAD_TO_SIGMA = 1.4826
-"""σ of a normal distribution per unit of median absolute deviation."""
 
 
 class Cause(NamedTuple):
@@ -77,6 +78,21 @@ def _refit(split: SplitProblem, result: CalibrationResult, group: str) -> float 
     return float(np.sqrt(np.mean(wider.residuals(solved.x, problem.train) ** 2)))
 
 
+def _refit_robust(split: SplitProblem, result: CalibrationResult, noise_m: float
+                  ) -> float | None:
+    """Training RMSE over the rows a Huber fit (scale 3 σ) from the result keeps; None when it
+    rejects more than :data:`OUTLIER_SHARE` of them (then they are not outliers)."""
+    problem = split.problem
+    trial = replace(problem, x0=result.solver.x,
+                    loss=Loss("huber", DEFAULT_SCALE_SIGMAS * noise_m))
+    solved = get_solver("lm").solve(trial, Budget(), np.random.default_rng(result.seed))
+    residuals = problem.model.residuals(solved.x, problem.train)
+    kept = ~trial.loss.rejected(residuals)
+    if np.mean(~kept) > OUTLIER_SHARE:
+        return None
+    return float(np.sqrt(np.mean(residuals[kept] ** 2)))
+
+
 def _units_suspect(problem: Problem) -> bool:
     """Whether the readings' size is far from the nominal model's."""
     data, model = problem.train, problem.model
@@ -109,15 +125,14 @@ def likely_causes(split: SplitProblem, result: CalibrationResult) -> tuple[Cause
         rmse = _refit(split, result, group)
         if rmse is not None:
             tried.append(Cause(name, flag, rmse))
+    robust = None if problem.loss.robust else _refit_robust(split, result, noise)
+    if robust is not None:
+        tried.append(Cause("outliers", "--loss huber", robust))
     tried.sort(key=lambda cause: cause.refit_rmse_m or np.inf)
     likely = [cause for cause in tried if (cause.refit_rmse_m or np.inf) <= FAR * noise]
     rest = [cause for cause in tried if cause not in likely]
     fixed = []
     if _units_suspect(problem):
         fixed.append(Cause("units", "lengths in mm, joint angles in degrees", None))
-    residuals = problem.model.residuals(result.solver.x, problem.train)
-    spread = MAD_TO_SIGMA * float(np.median(np.abs(residuals - np.median(residuals))))
-    if not problem.loss.robust and spread <= FAR * noise:
-        fixed.append(Cause("outliers", "--loss huber", None))
     fixed.append(Cause("the robot model", "joint-level errors, another model file", None))
     return (*likely, *fixed, *rest)

@@ -13,6 +13,7 @@ from twin.dataset import Measurements
 from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.loss import REJECT_SCALES
 from twin.metrics import Metrics
+from twin.misfit import ALPHA
 from twin.rig import Rig
 from twin.rigid import angles
 from twin.solvers import get_solver
@@ -244,4 +245,17 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
     if predicted:
         lines.append("  predicted flange RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
+    misfits = [name for name, result in results.items()
+               if result.misfit is not None and result.misfit.misfit]
+    if misfits:
+        lines.append(f"  MISFIT: {', '.join(misfits)} do(es) not fit these data (training RMSE "
+                     f"far above the noise, chi-square at {1 - ALPHA:g}): calibrate with one "
+                     "method for the likely causes")
+    if first.loss.robust:
+        lines.append(f"  rows rejected by the {first.loss.name} loss (scale "
+                     f"{float(m_to_mm(first.loss.scale_m)):.4g} mm): " + ", ".join(
+                         f"{name} {result.rejected_rows.size}" for name, result in results.items())
+                     + " (the JSON lists them)")
+    if first.gauge is not None and first.gauge.names:
+        lines.append("  motions of the flange the data cannot see: " + first.gauge.describe())
     return "\n".join(lines)
