@@ -9,6 +9,7 @@ import pytest
 
 from twin.calibration import make_model
 from twin.dataset import Measurements
+from twin.kinds.point import DISTANCE_WEIGHT
 from twin.model import Model
 from twin.rig import Distance, Rig
 from twin.rigid import transform
@@ -78,8 +79,9 @@ def test_point_jacobian_matches_differences(irb120: RobotModel, q_rad: np.ndarra
     positions = model.positions(np.zeros(model.n_params), data)
     np.testing.assert_allclose(r[: 3 * len(q_rad)], (positions - points[place]).ravel(),
                                atol=1e-15)
-    expected = [np.linalg.norm(points[0] - points[1]) - 0.05,
-                np.linalg.norm(points[1] - points[2]) - 0.1][: len(distances)]
+    expected = DISTANCE_WEIGHT * np.array([np.linalg.norm(points[0] - points[1]) - 0.05,
+                                           np.linalg.norm(points[1] - points[2]) - 0.1])
+    expected = expected[: len(distances)]
     np.testing.assert_allclose(r[3 * len(q_rad):], expected, atol=1e-15)
     _check_jacobian(model, data, 2)
 

@@ -11,8 +11,12 @@ the cost is exactly flat along them: :meth:`Point.symmetries` gives them to the 
 and the Cramér–Rao bound as the known gauge group. For pose i at place j, three rows
 ``r_i = p_i − (P_j + δP_j)``, with P_j the rig's :attr:`~twin.rig.Rig.points_m` and δP_j the
 correction of group ``points``; then one row per known distance between two places,
-``‖P_a − P_b‖ − D_ab`` (:attr:`~twin.rig.Rig.distances`). The distance rows belong to no pose:
-every subset of the measurements (training, validation) carries them.
+``w (‖P_a − P_b‖ − D_ab)`` (:attr:`~twin.rig.Rig.distances`), weighted by
+:data:`DISTANCE_WEIGHT`: a fixture's spacing is known far better than a ball seats (a ball bar
+is certified to a micrometre), so its row counts as if its noise were a tenth of a reading's —
+the least-squares fit then holds it nearly exactly, and the Cramér–Rao bound, which takes one σ
+for every row, sees the distance as the sharp constraint it is. The distance rows belong to no
+pose: every subset of the measurements (training, validation) carries them.
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
+DISTANCE_WEIGHT = 10.0
+"""Weight of a known-distance row against a reading's rows (its noise a tenth of theirs)."""
 ORIGIN_TOL_M = 1e-12
 """A chain's fixed base or tool translation shorter than this counts as none (scale is then a
 symmetry: nothing of fixed length is left)."""
@@ -55,8 +61,8 @@ class Point:
 
     def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
-        """r = point − its place (3 rows per pose), then ‖P_a − P_b‖ − D per known distance:
-        shape (..., 3m + d), m."""
+        """r = point − its place (3 rows per pose), then w (‖P_a − P_b‖ − D) per known
+        distance: shape (..., 3m + d), m."""
         assert data.point is not None
         points = self._points(values, rig)
         difference = positions - points[..., data.point, :]
@@ -65,7 +71,8 @@ class Point:
                                axis=-1)
         batch = difference.shape[:-2]
         return np.concatenate([difference.reshape(*batch, -1),
-                               np.broadcast_to(spans - rig.distances_m, (*batch, len(pairs)))],
+                               np.broadcast_to(DISTANCE_WEIGHT * (spans - rig.distances_m),
+                                               (*batch, len(pairs)))],
                               axis=-1)
 
     def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
@@ -78,7 +85,7 @@ class Point:
 
     def jacobian(self, positions: Array, values: Mapping[str, Array], data: Measurements,
                  rig: Rig) -> KindJacobian:
-        """∂r/∂p = I; ∂r/∂δP_j = −I on the rows of place j; a distance row has ±u (the unit
+        """∂r/∂p = I; ∂r/∂δP_j = −I on the rows of place j; a distance row has ±w u (u the unit
         vector from b to a) on its two places."""
         assert data.point is not None
         m = len(data)
@@ -93,8 +100,8 @@ class Point:
             span = points[pairs[:, 0]] - points[pairs[:, 1]]
             u = span / np.linalg.norm(span, axis=-1, keepdims=True)
             distance_rows = np.zeros((len(pairs), f, 3))
-            distance_rows[np.arange(len(pairs)), pairs[:, 0]] = u
-            distance_rows[np.arange(len(pairs)), pairs[:, 1]] = -u
+            distance_rows[np.arange(len(pairs)), pairs[:, 0]] = DISTANCE_WEIGHT * u
+            distance_rows[np.arange(len(pairs)), pairs[:, 1]] = -DISTANCE_WEIGHT * u
             by_group["points"] = np.concatenate([pose_rows.reshape(3 * m, 3 * f),
                                                  distance_rows.reshape(len(pairs), 3 * f)])
         return KindJacobian(residuals, np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), by_group)
