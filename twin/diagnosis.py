@@ -23,11 +23,12 @@ from twin.misfit import FAR
 from twin.problem import Problem
 from twin.solvers import get_solver
 from twin.stopping import Budget
+from twin.units import m_to_mm
 
 Array = NDArray[np.float64]
 
 REFITS = {
-    "port": ("the port position", "--estimate-port"),
+    "port": ("the port positions", "--estimate-port"),
     "attachment": ("the attachment point", "--estimate-attachment"),
     "base": ("the tracker frame", "--estimate-base"),
     "offset": ("the cable's length offset", "--estimate-offset"),
@@ -54,24 +55,32 @@ class Cause(NamedTuple):
         """``the port position (--estimate-port reaches 0.0104 mm)``."""
         if self.refit_rmse_m is None:
             return f"{self.name} ({self.remedy})"
-        return f"{self.name} ({self.remedy} reaches {float(self.refit_rmse_m) * 1e3:.4g} mm)"
+        return f"{self.name} ({self.remedy} reaches {float(m_to_mm(self.refit_rmse_m)):.4g} mm)"
 
 
 def _refit(split: SplitProblem, result: CalibrationResult, group: str) -> float | None:
-    """Training RMSE of LM with ``group`` added, started from the result; None if the data
-    cannot have that group."""
+    """Training RMSE of LM with ``group`` added (for ``port``: every port, when only some were
+    estimated), started from the result; None if the data cannot have that group or the model
+    has it already."""
     problem = split.problem
-    model = problem.model
-    if model.has(group) or (group not in model.kind.groups and group != "attachment"):
+    model, x = problem.model, result.solver.x
+    rig = model.rig
+    more_ports = group == "port" and model.has("port") \
+        and len(rig.estimated_port_index) < len(rig.ports_m)
+    if (model.has(group) and not more_ports) \
+            or (group not in model.kind.groups and group != "attachment"):
         return None
-    names = [g.name for g in model.groups if g.name not in ("points",)]
-    wider = make_model(model.robot, replace(model.rig, estimated_ports=()), model.kind.name,
-                       errors=[*names, group])
+    wider_rig = replace(rig, estimated_ports=()) if group == "port" else rig
+    names = list(dict.fromkeys([*(g.name for g in model.groups if g.name != "points"), group]))
+    wider = make_model(model.robot, wider_rig, model.kind.name, errors=names)
     start = np.zeros(wider.n_params)
-    for name in names:
-        start[wider.slice(name)] = model.block(result.solver.x, name)
-    if model.has("points"):
-        start[wider.slice("points")] = model.block(result.solver.x, "points")
+    for found in model.groups:
+        block = model.block(x, found.name)
+        if found.name == "port":
+            ports = np.zeros((len(rig.ports_m), 3))
+            ports[rig.estimated_port_index] = block.reshape(-1, 3)
+            block = ports[wider_rig.estimated_port_index].ravel()
+        start[wider.slice(found.name)] = block
     trial = Problem(wider, problem.train, problem.validation, sigma_m=problem.sigma_m,
                     x0=np.clip(start, *wider.bounds()), loss=problem.loss)
     solved = get_solver("lm").solve(trial, Budget(), np.random.default_rng(result.seed))

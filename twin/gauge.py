@@ -49,7 +49,8 @@ MATCH_RTOL = 1e-4
 """A candidate motion is unobservable when its distance from the span of the null motions is
 below this fraction of its norm."""
 ROTATION, SHIFT, SCALE, FLANGE_SHIFT = "rotation", "shift", "scale", "flange shift"
-PIN_BASE = ("a measured port or tracker frame (--port without --estimate-port, no "
+PIN_BASE = ("a port measured in the base frame (--port without --estimate-port, or estimate "
+            "only the others: --estimate-port NAME) or a measured tracker frame (no "
             "--estimate-base), or a base reference: hold θ1 and d1 at the nominal (lm-base)")
 PIN_SCALE = "a known distance between two fixed points (--distance A,B=MM)"
 PIN_FLANGE = ("a measured attachment (--attachment X,Y,Z without --estimate-attachment); the "
