@@ -132,7 +132,7 @@ def test_a_port_50_mm_off_is_reported_as_a_misfit() -> None:
     (wrong,) = solve_many(sim.robot, split, ["lm"]).values()
     assert wrong.misfit is not None and wrong.misfit.misfit
     assert wrong.misfit.statistic > wrong.misfit.threshold
-    assert likely_causes(split, wrong)[0].name == "the port positions"
+    assert likely_causes(split, wrong)[0].name == "the port position"
 
 
 def test_tracker_positions_recover_the_target_and_the_frame() -> None:

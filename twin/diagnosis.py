@@ -132,6 +132,8 @@ def likely_causes(split: SplitProblem, result: CalibrationResult) -> tuple[Cause
     tried = []
     for group, (name, flag) in REFITS.items():
         rmse = _refit(split, result, group)
+        if group == "port" and len(problem.model.rig.ports_m) == 1:
+            name = "the port position"
         if rmse is not None:
             tried.append(Cause(name, flag, rmse))
     robust = None if problem.loss.robust else _refit_robust(split, result, noise)

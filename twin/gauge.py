@@ -49,9 +49,9 @@ MATCH_RTOL = 1e-4
 """A candidate motion is unobservable when its distance from the span of the null motions is
 below this fraction of its norm."""
 ROTATION, SHIFT, SCALE, FLANGE_SHIFT = "rotation", "shift", "scale", "flange shift"
-PIN_BASE = ("a port measured in the base frame (--port without --estimate-port, or estimate "
-            "only the others: --estimate-port NAME) or a measured tracker frame (no "
-            "--estimate-base), or a base reference: hold θ1 and d1 at the nominal (lm-base)")
+PIN_BASE = ("a reference in the base frame: a port or tracker frame measured in it (no "
+            "--estimate-port, or --estimate-port NAME for the others; no --estimate-base), or "
+            "θ1 and d1 held at the nominal (lm-base)")
 PIN_SCALE = "a known distance between two fixed points (--distance A,B=MM)"
 PIN_FLANGE = ("a measured attachment (--attachment X,Y,Z without --estimate-attachment); the "
               "measured point itself is identified")

@@ -158,17 +158,26 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
     return lines
 
 
-def format_truth(truth: TruthErrors) -> list[str]:
-    """The errors against the truth over the workspace, raw and modulo the unseen motions."""
+def format_truth(truth: TruthErrors, point: bool = True) -> list[str]:
+    """The errors against the truth over the workspace, raw and modulo the unseen motions; the
+    measured point's line only if ``point`` (an attachment off the flange or estimated)."""
     lines = [f"  against the truth over {WORKSPACE_POSES} workspace poses: flange RMS "
              f"{float(m_to_mm(truth.flange_m)):.4f} mm"]
     if truth.motions:
         lines[-1] += (f", {float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm modulo "
                       + ", ".join(truth.motions))
-    lines.append(f"  measured point RMS {float(m_to_mm(truth.point_m)):.4f} mm"
-                 + (f", {float(m_to_mm(truth.point_gauge_free_m)):.4f} mm modulo "
-                    + ", ".join(truth.point_motions) if truth.point_motions else ""))
+    if point:
+        lines.append(f"  measured point RMS {float(m_to_mm(truth.point_m)):.4f} mm"
+                     + (f", {float(m_to_mm(truth.point_gauge_free_m)):.4f} mm modulo "
+                        + ", ".join(truth.point_motions) if truth.point_motions else ""))
     return lines
+
+
+def has_point(result: CalibrationResult) -> bool:
+    """Whether the measured point is not simply the flange centre (an attachment estimated, or
+    told off the flange)."""
+    return result.model.has("attachment") or bool(np.any(np.abs(result.model.rig.attachment_m)
+                                                          > 0))
 
 
 def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None,
@@ -198,7 +207,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
     lines += format_rig(result)
     lines += format_fit(result, causes)
     if truth is not None:
-        lines += format_truth(truth)
+        lines += format_truth(truth, has_point(result))
     identified = dh_rows_to_display(result.delta)
     true_rows = None if truth_delta is None else dh_rows_to_display(truth_delta)
     header = "  joint"

@@ -20,7 +20,7 @@ from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
 from twin.model import Model
-from twin.report import describe_rig, format_fit, format_truth
+from twin.report import describe_rig, format_fit, format_truth, has_point
 from twin.synthetic import random_poses
 from twin.uncertainty import flange_sigma, workspace_grid
 from twin.units import (
@@ -165,9 +165,10 @@ def run(args: argparse.Namespace) -> int:
         lines.append(f"  true flange RMS error over the workspace "
                      f"{float(m_to_mm(truth.flange_m)):.4f} mm (against the D-H table of "
                      f"{inputs.truth_path.name})")
-        lines += format_truth(truth)[1:] if not truth.motions else [
+        point = format_truth(truth, has_point(result))[1:]
+        lines += point if not truth.motions else [
             f"    modulo {', '.join(truth.motions)}: "
-            f"{float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm", *format_truth(truth)[1:]]
+            f"{float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm", *point]
     lines += [
         "  standard deviations of the base parameters (dependent ones held: —)",
         *_sigma_table(model, uncertainty.sigma),
