@@ -329,10 +329,10 @@ RIGS = ("eyelet", "tracker", "fixed_points", "stations", "unknown_port", "outlie
 """Rig regimes of docs/measurements.md, each studied with its own [study] methods."""
 RIG_COLUMNS = (("flange_error_mm", "flange [mm]", "mean"),
                ("flange_error_gauge_free_mm", "flange mod gauge [mm]", "mean"),
-               ("crlb_ratio_gauge_free", "/ bound", "median"),
+               ("crlb_ratio_gauge_free", "flange / bound", "median"),
                ("point_error_mm", "point mod gauge [mm]", "mean"),
-               ("point_crlb_ratio", "/ bound", "median"),
-               ("point_crlb_ratio", "max", "max"))
+               ("point_crlb_ratio", "point / bound", "median"),
+               ("point_crlb_ratio", "point / bound, max", "max"))
 STATIONS = (("front", (600.0, -400.0, 100.0)), ("left", (300.0, 600.0, 50.0)),
             ("back", (-500.0, -300.0, 150.0)))
 STATION_POSES = 120
