@@ -21,6 +21,7 @@ them digit for digit. Times vary from run to run and machine to machine.
 from __future__ import annotations
 
 import argparse
+import csv
 import datetime
 import re
 import shutil
@@ -518,6 +519,104 @@ def parametrisation_table() -> str:
         f"1000 workspace poses; flange error: mean over {PARAMETRISATION_TRIALS} truths, LM.")
 
 
+# --- measurements.md --------------------------------------------------------------------------
+
+RIGS = ("eyelet", "tracker", "fixed_points", "stations", "unknown_port", "outliers")
+"""Rig regimes of docs/measurements.md, each studied with its own [study] methods."""
+RIG_COLUMNS = (("flange_error_mm", "flange [mm]", "mean"),
+               ("flange_error_gauge_free_mm", "flange mod gauge [mm]", "mean"),
+               ("crlb_ratio_gauge_free", "flange / bound", "median"),
+               ("point_error_mm", "point mod gauge [mm]", "mean"),
+               ("point_crlb_ratio", "point / bound", "median"),
+               ("point_crlb_ratio", "point / bound, max", "max"))
+STATIONS = (("front", (600.0, -400.0, 100.0)), ("left", (300.0, 600.0, 50.0)),
+            ("back", (-500.0, -300.0, 150.0)))
+STATION_POSES = 120
+"""Poses of every configuration of the stations table, shared evenly between its stations."""
+
+
+def rigs_table(folder: Path) -> str:
+    """Every rig regime: errors against the truth raw and modulo the gauge, and their ratios to
+    the Cramér–Rao bound, per method (fresh studies, each regime's own methods)."""
+    rows = []
+    for regime in RIGS:
+        plan = load_study(scenario_path(regime), trials=TRIALS)
+        print(f"study {regime} (rigs)", file=sys.stderr, flush=True)
+        run_study(plan, folder / regime, LocalProcesses(), stream=sys.stderr)
+        with (folder / regime / "results.csv").open(encoding="utf-8") as handle:
+            found = list(csv.DictReader(handle))
+        for method in plan.methods:
+            values = {column: [float(r[column]) for r in found if r["method"] == method]
+                      for column, _, _ in RIG_COLUMNS}
+            cells = [fmt({"mean": statistics.fmean, "median": statistics.median,
+                          "max": max}[stat](values[column])) for column, _, stat in RIG_COLUMNS]
+            rows.append([regime.replace("_", " "), method, *cells])
+    header = ["regime", "method", *(title for _, title, _ in RIG_COLUMNS)]
+    return markdown_table(header, rows) + "\n\n" + stamp(
+        f"`twin study scenarios/<regime>_irb120.toml`, {TRIALS} trials, the methods of each "
+        "scenario's [study] table; errors over 1000 workspace poses (means; ratios to the "
+        "Cramér–Rao bound: medians, and the largest); the point is the measured one (eyelet, "
+        "tracker target, ball; the flange centre for a cable without attachment).")
+
+
+def stations_table() -> str:
+    """What extra stations change: rank, σ of the D-H lengths and the bound, for the same
+    number of random feasible poses shared between 1, 2 or 3 stations, ports measured or
+    estimated."""
+    from twin.calibration import make_model
+    from twin.design import score_poses
+    from twin.gauge import unobservable_motions
+    from twin.identifiability import measurement_identifiability
+    from twin.rig import Rig
+    from twin.robot import default_robot
+    from twin.sim.poses import PoseConstraints, sample_poses
+    from twin.sim.twin import Twin
+    from twin.synthetic import random_poses
+    from twin.uncertainty import base_covariance, parameter_sigma
+    from twin.units import mm_to_m
+
+    robot = default_robot()
+    rng = np.random.default_rng(0)
+    sigma_m = float(mm_to_m(0.01))
+    q_workspace = random_poses(robot, 1000, rng)
+    ports = np.array([mm_to_m(port) for _, port in STATIONS])
+    names = tuple(name for name, _ in STATIONS)
+    drawn = [sample_poses(Twin.build(robot, port), STATION_POSES, PoseConstraints(), rng)
+             for port in ports]
+    rows = []
+    for count in (1, 2, 3):
+        share, extra = divmod(STATION_POSES, count)
+        sizes = [share + (k < extra) for k in range(count)]
+        q = np.concatenate([drawn[k][: sizes[k]] for k in range(count)])
+        port = np.repeat(np.arange(count), sizes)
+        configurations = [(), names[:count]] + ([names[1:count]] if count > 1 else [])
+        for estimated in configurations:
+            rig = Rig(ports[:count], names[:count], estimated_ports=estimated)
+            model = make_model(robot, rig, estimate_port=bool(estimated))
+            x0 = np.zeros(model.n_params)
+            data = model.poses(q, port)
+            ident = measurement_identifiability(model, x0, data)
+            covariance = base_covariance(model.identifiable_jacobian(x0, data)[1], ident.base,
+                                         sigma_m)
+            sigma = parameter_sigma(covariance, ident.base)[model.slice("dh")]
+            lengths = sigma[model.robot.structure.is_length.ravel()]
+            score = score_poses(model, x0, q, ident.base_mask, sigma_m, q_workspace, port)
+            gauge = unobservable_motions(model, x0, ident.null_space, q_workspace)
+            told = "every port estimated" if len(estimated) == count else (
+                "ports measured" if not estimated else "first port measured, others estimated")
+            rows.append([str(count), told, f"{ident.rank} of {ident.n_params}",
+                         fmt(ident.condition),
+                         fmt(float(m_to_mm(np.nanmedian(lengths)))),
+                         fmt(float(m_to_mm(score.flange_rms_m))),
+                         gauge.describe()])
+    header = ["stations", "ports", "rank", "condition", "median σ of a D-H length [mm]",
+              "bound, flange RMS [mm]", "unobservable"]
+    return markdown_table(header, rows) + "\n\n" + stamp(
+        f"IRB 120 at the nominal geometry, {STATION_POSES} feasible random poses (the twin's "
+        "default constraints) shared evenly between the stations, σ = 0.01 mm; σ and the bound "
+        "(Cramér–Rao over 1000 workspace poses) leave the unobservable motions out.")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "docs",
@@ -537,6 +636,8 @@ def main() -> None:
                        "m9-bipso-stage": bipso_table(),
                        "error-models": error_models_table()},
         "robots.md": {"parametrisation": parametrisation_table()},
+        "measurements.md": {"rigs": rigs_table(studies / "rigs"),
+                            "stations": stations_table()},
     }
     if not args.skip_bench:
         blocks["methods.md"]["bench-solvers"] = bench_output(

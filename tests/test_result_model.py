@@ -60,3 +60,46 @@ def test_a_result_that_cannot_be_right_is_refused(
     write_json(path, document)
     with pytest.raises(InputError, match=message):
         load_result(path, irb120)
+
+
+@pytest.mark.parametrize("kind", ["position", "point", "stations"])
+def test_results_of_every_rig_rebuild_their_model(tmp_path: Path, irb120: RobotModel,
+                                                  kind: str) -> None:
+    """A tracker result keeps its tracker frame exactly (the rigid-fit start), a fixed-point
+    result its points and distances, a stations result which ports were estimated: the
+    rebuilt model predicts the same residuals."""
+    from twin.calibration import make_model
+    from twin.rig import Distance, Rig
+    from twin.rigid import transform
+    from twin.synthetic import random_poses
+
+    rng = np.random.default_rng(11)
+    q = random_poses(irb120, 60, rng)
+    attachment = np.array([0.02, -0.01, 0.05])
+    if kind == "position":
+        truth = Rig(attachment_m=attachment,
+                    base_in_tracker=transform([1.5, 0.2, 0.3], [0.01, -0.02, 2.0]))
+        data = make_model(irb120, truth, "position").measure(np.zeros(24), q)
+        rig, flags = Rig(), {"estimate_base": True, "estimate_attachment": True}
+    elif kind == "point":
+        points = irb120.flange_positions(q[:2])
+        place = np.arange(60) % 2
+        data = Measurements(q, point=place, point_names=("a", "b"))
+        rig = Rig(distances=(Distance("a", "b", float(np.linalg.norm(points[0] - points[1]))),))
+        flags = {"estimate_attachment": True}
+    else:
+        ports = np.array([[0.6, -0.4, 0.1], [0.3, 0.6, 0.05]])
+        rig = Rig(ports, ("front", "left"), estimated_ports=("left",))
+        data = make_model(irb120, rig, "length").measure(np.zeros(24), q, port=np.arange(60) % 2)
+        flags = {"estimate_port": True}
+    result = calibrate(irb120, data, rig=rig, **flags)
+    path = tmp_path / "result.json"
+    write_json(path, result_to_dict(result))
+    loaded = load_result(path, irb120)
+    assert loaded.model.names == result.model.names
+    np.testing.assert_array_equal(loaded.model.rig.base_in_tracker,
+                                  result.model.rig.base_in_tracker)
+    assert loaded.model.rig.estimated_ports == result.model.rig.estimated_ports
+    assert loaded.model.rig.point_names == result.model.rig.point_names
+    np.testing.assert_allclose(loaded.model.residuals(loaded.x, data),
+                               result.model.residuals(result.solver.x, data), atol=2e-7)

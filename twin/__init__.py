@@ -12,17 +12,20 @@ from twin.io.measurements import load_measurements, write_measurements
 from twin.io.robot_file import load_robot
 from twin.kinds.length import cable_length
 from twin.kinematics import Structure, flange_transform, point_jacobian, point_position
+from twin.loss import Loss
 from twin.metrics import Metrics
 from twin.model import Model
 from twin.predict import Prediction, predict
-from twin.rig import Rig
+from twin.rig import Distance, Rig
 from twin.robot import RobotModel, default_robot
 from twin.stopping import Budget, StopReason
 
 __all__ = [
     "Budget",
     "CalibrationResult",
+    "Distance",
     "InputError",
+    "Loss",
     "Measurements",
     "Metrics",
     "Model",

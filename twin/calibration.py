@@ -22,12 +22,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
 from twin.errors import InputError
+from twin.gauge import Gauge, unobservable_motions
 from twin.identifiability import Identifiability, measurement_identifiability
 from twin.kinds import get_kind
+from twin.loss import LEAST_SQUARES, Loss
 from twin.metrics import Metrics, metrics
+from twin.misfit import Misfit, misfit_test, repeat_sigma
 from twin.model import Model
 from twin.problem import DEFAULT_SIGMA_M, Problem
 from twin.rig import Rig
+from twin.rigid import kabsch, rotation
 from twin.robot import RobotModel
 from twin.solvers import SolverResult, get_solver
 from twin.stopping import Budget, at_bounds
@@ -66,6 +70,11 @@ def required_poses(n_params: int, train_fraction: float = TRAIN_FRACTION,
     return max(ceil(per_pose / train_fraction), per_pose + 1)
 
 
+RIG_GROUPS = {"port": "--estimate-port", "offset": "--estimate-offset",
+              "attachment": "--estimate-attachment", "base": "--estimate-base"}
+"""The rig's unknown groups and the flag that asks for each."""
+
+
 def make_model(
     robot: RobotModel,
     rig: Rig,
@@ -74,6 +83,8 @@ def make_model(
     errors: Sequence[str] = ("dh",),
     estimate_port: bool = False,
     estimate_offset: bool = False,
+    estimate_attachment: bool = False,
+    estimate_base: bool = False,
 ) -> Model:
     """The measurement model of a calibration: the robot's error groups and the rig's unknowns.
 
@@ -83,11 +94,19 @@ def make_model(
         kind: The measurement kind (:data:`twin.dataset.KINDS`).
         errors: The robot's error groups (:data:`twin.unknowns.GROUPS`): ``("dh",)`` is the
             paper's D-H errors alone.
-        estimate_port: Also identify a correction of every port.
+        estimate_port: Also identify a correction of the rig's estimated ports (every port
+            unless :attr:`twin.rig.Rig.estimated_ports` names some).
         estimate_offset: Also identify the encoder's length offset.
+        estimate_attachment: Also identify the measured point in the flange frame.
+        estimate_base: Also identify a correction of the tracker frame (tracker positions).
+
+    Fixed-point data always identify their fixed points (group ``points``).
     """
     names = [*errors, *(["port"] if estimate_port else []),
-             *(["offset"] if estimate_offset else [])]
+             *(["offset"] if estimate_offset else []),
+             *(["attachment"] if estimate_attachment else []),
+             *(["base"] if estimate_base else []),
+             *(["points"] if kind == "point" else [])]
     return Model(robot, rig, get_kind(kind), make_groups(names, robot, rig))
 
 
@@ -108,6 +127,12 @@ class CalibrationResult:
         identified_identifiability: The same at the identified geometry.
         uncertainty: Noise estimate, base-parameter covariance and predicted flange accuracy.
         budget: The iteration limits and stopping tests the method ran with.
+        misfit: The chi-square test of the training residuals against the noise
+            (:mod:`twin.misfit`).
+        rejected_rows: Measurement rows (poses, 0-based, train and validation) whose residual
+            the robust loss rejects (:mod:`twin.loss`), ascending; empty for least squares.
+        gauge: The motions of the flange the data cannot see (:mod:`twin.gauge`).
+        loss: The loss the methods minimised.
     """
 
     robot: RobotModel
@@ -121,6 +146,10 @@ class CalibrationResult:
     identified_identifiability: Identifiability | None = None
     uncertainty: CalibrationUncertainty | None = None
     budget: Budget = field(default_factory=Budget)
+    misfit: Misfit | None = None
+    rejected_rows: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    gauge: Gauge | None = None
+    loss: Loss = LEAST_SQUARES
 
     @property
     def x(self) -> Array:
@@ -152,10 +181,36 @@ class CalibrationResult:
     @property
     def ports_m(self) -> Array:
         """Ports used or identified, base frame, shape (k, 3), m."""
-        ports = self.model.rig.ports_m
+        rig = self.model.rig
+        ports = np.array(rig.ports_m)
         if self.model.has("port"):
-            ports = ports + self.model.block(self.solver.x, "port").reshape(ports.shape)
-        return np.asarray(ports, dtype=np.float64)
+            ports[rig.estimated_port_index] += self.model.block(self.solver.x, "port").reshape(
+                -1, 3)
+        return ports
+
+    @property
+    def attachment_m(self) -> Array:
+        """The measured point in the flange frame, used or identified, shape (3,), m."""
+        return self.model.point(self.solver.x)
+
+    @property
+    def base_in_tracker(self) -> Array:
+        """Where the base frame sits in the tracker frame, used or identified, (4, 4), m."""
+        transform = np.array(self.model.rig.base_in_tracker)
+        if self.model.has("base"):
+            correction = self.model.block(self.solver.x, "base")
+            turn = rotation(correction[3:])
+            transform[:3, :3] = turn @ transform[:3, :3]
+            transform[:3, 3] = turn @ transform[:3, 3] + correction[:3]
+        return transform
+
+    @property
+    def points_m(self) -> Array:
+        """The fixed points, used or identified, base frame, shape (f, 3), m."""
+        points = np.array(self.model.rig.points_m)
+        if self.model.has("points"):
+            points += self.model.block(self.solver.x, "points").reshape(points.shape)
+        return points
 
     @property
     def port_m(self) -> Array:
@@ -223,9 +278,46 @@ def check_approach(model: Model, approach: ArrayLike | None) -> None:
 
 
 def _rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
-    if (port_m is None) == (rig is None):
+    if port_m is not None and rig is not None:
         raise ValueError("give either port_m or rig")
-    return rig if rig is not None else Rig.cable(np.asarray(port_m, dtype=np.float64))
+    if rig is not None:
+        return rig
+    return Rig.cable(np.asarray(port_m, dtype=np.float64)) if port_m is not None else Rig()
+
+
+def with_fixed_points(robot: RobotModel, rig: Rig, measurements: Measurements) -> Rig:
+    """The rig with the fixed points of fixed-point data, each started at the mean of the
+    nominal model's measured points of its rows (every row: a start, not a fit).
+
+    Raises:
+        InputError: for a known distance between points the data do not name.
+    """
+    assert measurements.point is not None
+    names = measurements.point_names or tuple(
+        f"point{j + 1}" for j in range(int(measurements.point.max()) + 1))
+    nominal = Model(robot, replace(rig, point_names=(), points_m=np.zeros((0, 3)),
+                                   distances=()), get_kind("point"), ())
+    positions = nominal.positions(np.zeros(0), measurements)
+    counts = np.bincount(measurements.point, minlength=len(names))
+    starts = np.stack([np.bincount(measurements.point, positions[:, k], minlength=len(names))
+                       for k in range(3)], axis=1) / np.maximum(counts, 1)[:, None]
+    for distance in rig.distances:
+        for name in (distance.first, distance.second):
+            if name not in names:
+                raise InputError(f"a distance to the point {name!r}", "distances between "
+                                 "points the measurements name: " + ", ".join(names),
+                                 source="--distance")
+    return replace(rig, point_names=names, points_m=starts)
+
+
+def tracker_start(model: Model, train: Measurements) -> Model:
+    """The model with its tracker frame started at the rigid fit (Kabsch) of the nominal model's
+    measured points onto the training readings."""
+    nominal = replace(model, rig=replace(model.rig, base_in_tracker=np.eye(4)))
+    positions = nominal.positions(np.zeros(model.n_params), train)
+    assert train.position_m is not None
+    fit = kabsch(positions, train.position_m)
+    return replace(model, rig=replace(model.rig, base_in_tracker=fit.transform))
 
 
 def make_problem(
@@ -238,21 +330,42 @@ def make_problem(
     seed: int = 0,
     estimate_port: bool = False,
     estimate_offset: bool = False,
+    estimate_attachment: bool = False,
+    estimate_base: bool = False,
     sigma_m: float = DEFAULT_SIGMA_M,
+    loss: Loss = LEAST_SQUARES,
     train_fraction: float = TRAIN_FRACTION,
 ) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
-    Takes the arguments of :func:`calibrate`.
+    Takes the arguments of :func:`calibrate`. Tracker data with ``estimate_base`` start the
+    tracker frame at a rigid fit of the nominal model's points to the training readings;
+    fixed-point data start their points at the nominal model's mean point of each name.
 
     Raises:
-        InputError: if there are fewer poses than the unknowns need, or the measurements lack
-            what a group reads (the approach directions of backlash).
+        InputError: if there are fewer poses than the unknowns need, the measurements lack
+            what a group reads (the approach directions of backlash), or an unknown is asked
+            for that these measurements cannot have (a port of tracker data…).
     """
     setup = _rig(port_m, rig)
-    measurements = match_ports(measurements, setup)
+    kind = get_kind(measurements.kind)
+    wanted = {"port": estimate_port, "offset": estimate_offset, "base": estimate_base}
+    for name, asked in wanted.items():
+        if asked and name not in kind.groups:
+            raise InputError(f"{RIG_GROUPS[name]} with {measurements.kind} measurements",
+                             "only the unknowns they can have: " + ", ".join(
+                                 flag for group, flag in RIG_GROUPS.items()
+                                 if group in kind.groups or group == "attachment"))
+    if measurements.kind == "length":
+        if not len(setup.ports_m):
+            raise InputError("cable lengths without a port", "the port (--port X,Y,Z or "
+                             "--port NAME=X,Y,Z)")
+        measurements = match_ports(measurements, setup)
+    elif measurements.kind == "point":
+        setup = with_fixed_points(robot, setup, measurements)
     model = make_model(robot, setup, measurements.kind, errors=errors,
-                       estimate_port=estimate_port, estimate_offset=estimate_offset)
+                       estimate_port=estimate_port, estimate_offset=estimate_offset,
+                       estimate_attachment=estimate_attachment, estimate_base=estimate_base)
     check_approach(model, measurements.approach)
     needed = required_poses(model.n_params, train_fraction, model.kind.rows_per_pose)
     if len(measurements) < needed:
@@ -263,8 +376,11 @@ def make_problem(
             "split",
         )
     train_rows, validation_rows = split_rows(len(measurements), seed, train_fraction)
-    problem = Problem(model, measurements.subset(train_rows), measurements.subset(validation_rows),
-                      sigma_m=sigma_m)
+    train = measurements.subset(train_rows)
+    if estimate_base:
+        model = tracker_start(model, train)
+    problem = Problem(model, train, measurements.subset(validation_rows), sigma_m=sigma_m,
+                      loss=loss)
     return SplitProblem(problem, train_rows, validation_rows)
 
 
@@ -279,6 +395,10 @@ def calibrate_many(
     seed: int = 0,
     estimate_port: bool = False,
     estimate_offset: bool = False,
+    estimate_attachment: bool = False,
+    estimate_base: bool = False,
+    sigma_m: float = DEFAULT_SIGMA_M,
+    loss: Loss = LEAST_SQUARES,
     budget: Budget | None = None,
     train_fraction: float = TRAIN_FRACTION,
     on_result: Callable[[CalibrationResult], None] | None = None,
@@ -294,9 +414,37 @@ def calibrate_many(
     split = make_problem(
         robot, measurements, port_m, rig=rig, errors=errors, seed=seed,
         estimate_port=estimate_port, estimate_offset=estimate_offset,
-        train_fraction=train_fraction,
+        estimate_attachment=estimate_attachment, estimate_base=estimate_base, sigma_m=sigma_m,
+        loss=loss, train_fraction=train_fraction,
     )
     return solve_many(robot, split, methods, seed=seed, budget=budget, on_result=on_result)
+
+
+def rejected_poses(problem: Problem, x: ArrayLike, data: Measurements) -> NDArray[np.bool_]:
+    """Which poses of ``data`` have a residual row the problem's loss rejects, shape (m,)."""
+    rows = problem.model.kind.rows_per_pose
+    residuals = problem.model.residuals(np.asarray(x, dtype=np.float64), data)
+    beyond = problem.loss.rejected(residuals[: rows * len(data)])
+    return np.asarray(np.any(beyond.reshape(len(data), rows), axis=1))
+
+
+def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_workspace: Array
+            ) -> tuple[Misfit, NDArray[np.intp], Measurements, Gauge]:
+    """The fit test, the rejected rows, the training poses kept and the unobservable motions."""
+    problem, train_rows, validation_rows = split
+    out_train = rejected_poses(problem, x, problem.train)
+    out_validation = rejected_poses(problem, x, problem.validation)
+    rejected = np.sort(np.concatenate([train_rows[out_train], validation_rows[out_validation]]))
+    rows = problem.model.kind.rows_per_pose
+    # A loss that rejects nearly everything (a swarm far from the optimum) leaves no degree of
+    # freedom to test or to estimate the noise from: then every training row counts.
+    enough = rows * int(np.sum(~out_train)) > identified.rank
+    kept = problem.train.subset(np.flatnonzero(~out_train)) if enough else problem.train
+    residuals = problem.model.residuals(x, kept)
+    misfit = misfit_test(residuals, identified.rank, problem.sigma_m,
+                         repeat_sigma(kept, residuals, rows))
+    gauge = unobservable_motions(problem.model, x, identified.null_space, q_workspace)
+    return misfit, rejected.astype(np.intp), kept, gauge
 
 
 def solve_many(
@@ -312,13 +460,15 @@ def solve_many(
     :func:`make_problem`."""
     solvers = [get_solver(name) for name in methods]
     problem, train_rows, validation_rows = split
-    before = metrics(problem.model.residuals(np.zeros(problem.model.n_params), problem.validation))
+    before = metrics(problem.model.residuals(problem.x0, problem.validation))
     nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
     budget = budget or Budget()
     results = {}
     for solver in solvers:
         solved = solver.solve(problem, budget, np.random.default_rng(seed))
+        identified = measurement_identifiability(problem.model, solved.x, problem.train)
+        misfit, rejected, kept, gauge = _assess(split, solved.x, identified, q_workspace)
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
             train_rows=train_rows, validation_rows=validation_rows,
@@ -328,13 +478,15 @@ def solve_many(
                 "validation": metrics(problem.model.residuals(solved.x, problem.validation)),
             },
             identifiability=nominal,
-            identified_identifiability=measurement_identifiability(
-                problem.model, solved.x, problem.train
-            ),
+            identified_identifiability=identified,
             uncertainty=calibration_uncertainty(
-                problem.model, solved.x, problem.train, nominal.base, q_workspace
+                problem.model, solved.x, kept, nominal.base, q_workspace
             ),
             budget=budget,
+            misfit=misfit,
+            rejected_rows=rejected,
+            gauge=gauge,
+            loss=problem.loss,
         )
         if on_result is not None:
             on_result(results[solver.name])
@@ -352,6 +504,10 @@ def calibrate(
     seed: int = 0,
     estimate_port: bool = False,
     estimate_offset: bool = False,
+    estimate_attachment: bool = False,
+    estimate_base: bool = False,
+    sigma_m: float = DEFAULT_SIGMA_M,
+    loss: Loss = LEAST_SQUARES,
     budget: Budget | None = None,
     train_fraction: float = TRAIN_FRACTION,
 ) -> CalibrationResult:
@@ -359,22 +515,30 @@ def calibrate(
 
     Args:
         robot: Nominal robot.
-        measurements: Joint angles (rad) and what was read (lengths in m, …).
+        measurements: Joint angles (rad) and what was read (lengths, tracker positions in m,
+            or fixed-point names).
         port_m: Encoder port in the base frame, shape (3,), m — shorthand for
-            ``rig=Rig.cable(port_m)``; give one of the two.
-        rig: The nominal rig (ports, attachment point).
+            ``rig=Rig.cable(port_m)``; cable lengths need one of the two.
+        rig: The nominal rig (ports, attachment point, tracker frame, known distances).
         errors: The robot's error groups (:data:`twin.unknowns.GROUPS`); the paper's D-H
             errors by default.
         method: A method name or paper alias (``lm``, ``m2``, …).
         seed: Seed of the train/validation split and of any random draw of the method.
-        estimate_port: Also identify a correction to the port position.
+        estimate_port: Also identify a correction to the (estimated) port positions.
         estimate_offset: Also identify an unknown cable-length offset.
+        estimate_attachment: Also identify the measured point in the flange frame.
+        estimate_base: Also identify the tracker frame (tracker positions), started at a rigid
+            fit of the nominal model's points.
+        sigma_m: The instrument's noise 1σ, m: the filters' measurement noise and the misfit
+            test's reference (:mod:`twin.misfit`).
+        loss: How residual rows count (:mod:`twin.loss`); least squares by default.
         budget: Iteration limits and stopping tests; by default ``Budget()``, run to
             convergence (``Budget.paper()`` is the paper's protocol).
         train_fraction: Share of the poses used for identification (paper: 0.8).
     """
     return calibrate_many(
         robot, measurements, port_m, [method], rig=rig, errors=errors, seed=seed,
-        estimate_port=estimate_port, estimate_offset=estimate_offset, budget=budget,
-        train_fraction=train_fraction,
+        estimate_port=estimate_port, estimate_offset=estimate_offset,
+        estimate_attachment=estimate_attachment, estimate_base=estimate_base, sigma_m=sigma_m,
+        loss=loss, budget=budget, train_fraction=train_fraction,
     )[get_solver(method).name]

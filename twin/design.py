@@ -123,6 +123,7 @@ def score_poses(
     base_mask: NDArray[np.bool_],
     sigma_m: float,
     q_workspace_rad: ArrayLike,
+    port: ArrayLike | None = None,
 ) -> DesignScore:
     """Observability indices and predicted workspace accuracy of measuring at ``q_rad``.
 
@@ -133,8 +134,9 @@ def score_poses(
         base_mask: Base unknowns whose columns the indices use, shape (p,).
         sigma_m: Length noise 1σ, m.
         q_workspace_rad: Poses where the flange error is predicted, shape (k, n), rad.
+        port: The station of each pose, shape (m,), for a rig of several ports; port 0 if None.
     """
-    data = model.poses(q_rad)
+    data = model.poses(q_rad, port)
     jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)[1]
     return DesignScore(
         observability=observability(jacobian[:, base_mask]),
@@ -168,6 +170,42 @@ def plan_poses(
     rows, mask = base_rows(model, x, candidates)
     selection = d_optimal_rows(rows, n_poses)
     return PosePlan(q_rad=candidates[selection.rows], selection=selection, base_mask=mask)
+
+
+class StationPlan(NamedTuple):
+    """A D-optimal plan of poses and the station (port) each is measured from."""
+
+    q_rad: Array
+    """Planned poses, shape (n, joints), rad."""
+    port: NDArray[np.intp]
+    """The station of each planned pose, shape (n,), an index into the rig's ports."""
+    selection: Selection
+    """The chosen candidate rows."""
+    base_mask: NDArray[np.bool_]
+    """Base unknowns the plan was optimised for, shape (p,)."""
+
+
+def plan_stations(model: Model, x: ArrayLike, candidates_rad: ArrayLike, n_poses: int
+                  ) -> StationPlan:
+    """The D-optimal ``n_poses`` (pose, station) pairs for a rig of several ports measured
+    together: every candidate pose of every station is one candidate row, and the greedy and
+    exchange steps choose among all of them at once, so stations and poses are chosen together.
+
+    Args:
+        model: The cable model that will be fitted, its rig holding every station.
+        x: Unknowns at which to linearise (zeros: nominal), shape (p,).
+        candidates_rad: Candidate poses per station, shape (K, M, n), rad (each station's poses
+            are those it can measure).
+        n_poses: Poses to plan.
+    """
+    candidates = np.asarray(candidates_rad, dtype=np.float64)
+    stations, count = candidates.shape[:2]
+    q_all = candidates.reshape(stations * count, -1)
+    port = np.repeat(np.arange(stations, dtype=np.intp), count)
+    jacobian = model.jacobian(np.asarray(x, dtype=np.float64), model.poses(q_all, port))[1]
+    mask = identifiability(jacobian, model.names).base_mask
+    selection = d_optimal_rows(jacobian[:, mask], n_poses)
+    return StationPlan(q_all[selection.rows], port[selection.rows], selection, mask)
 
 
 class PortChoice(NamedTuple):

@@ -39,14 +39,14 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
-from twin.model import Model
+from twin.model import NULL_RTOL, Model
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 from twin.unknowns import Stage
 
 Array = NDArray[np.float64]
 
-RANK_RTOL = 1e-8
+RANK_RTOL = NULL_RTOL
 """Singular values below this fraction of the largest are treated as zero."""
 COLUMN_RTOL = 1e-8
 """Columns whose norm is below this fraction of the largest are unidentifiable outright."""
@@ -217,12 +217,14 @@ def measurement_identifiability(
 ) -> Identifiability:
     """:func:`identifiability` of the model's Jacobian at unknowns ``x`` (p,) and poses.
 
-    The rig's unknowns (port correction, length offset…) are preferred as base parameters:
-    where they trade against a D-H error (d1 + port_z), the unknown with the wide bound
-    carries the combination and the D-H error, bounded to ±5 mm, is the one held.
+    The rig's unknowns (port correction, length offset, attachment point, tracker frame…) are
+    preferred as base parameters: where they trade against a D-H error (d1 + port_z, d6 +
+    attachment_z), the unknown with the wide bound carries the combination and the D-H error,
+    bounded to ±5 mm, is the one held.
     """
-    _, jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)
-    prefer = [index for group in model.groups if group.stage == Stage.MEASUREMENT
+    _, jacobian = model.identifiable_jacobian(np.asarray(x, dtype=np.float64), data)
+    prefer = [index for group in model.groups
+              if group.stage in (Stage.MEASUREMENT, Stage.POINT)
               for index in range(model.n_params)[model.slice(group.name)]]
     return identifiability(jacobian, model.names, rtol, prefer=prefer)
 

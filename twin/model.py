@@ -33,6 +33,10 @@ from twin.unknowns import Group, Stage, make_groups
 
 Array = NDArray[np.float64]
 
+NULL_RTOL = 1e-8
+"""Singular values of the column-scaled Jacobian below this fraction of the largest make an
+exact null direction (the rank tolerance of :mod:`twin.identifiability`)."""
+
 
 @dataclass(frozen=True)
 class Model:
@@ -191,7 +195,8 @@ class Model:
                 if group.stage == Stage.MEASUREMENT}
 
     def poses(self, q_rad: ArrayLike, port: ArrayLike | None = None,
-              approach: ArrayLike | None = None) -> Measurements:
+              approach: ArrayLike | None = None, point: ArrayLike | None = None
+              ) -> Measurements:
         """Poses where nothing was read, as measurements of this model's kind with zero
         readings: for the positions, flanges and Jacobians at poses of one's choosing.
 
@@ -201,6 +206,7 @@ class Model:
             approach: Direction each joint last moved in, shape (m, n), ±1, if known. If None
                 and the model needs it (:attr:`needs_approach`): the directions of visiting
                 the poses in the order given, from home (:func:`twin.dataset.approach_directions`).
+            point: The fixed place of each row, shape (m,), for fixed points; place 0 if None.
         """
         q = np.asarray(q_rad, dtype=np.float64)
         ports = None if port is None else np.asarray(port, dtype=np.intp)
@@ -209,16 +215,22 @@ class Model:
         labels = None if approach is None else np.asarray(approach)
         if self.kind.name == "length":
             return Measurements(q, length_m=np.zeros(len(q)), port=ports, approach=labels)
+        if self.kind.name == "point":
+            places = np.zeros(len(q), dtype=np.intp) if point is None \
+                else np.asarray(point, dtype=np.intp)
+            return Measurements(q, point=places, approach=labels,
+                                point_names=self.rig.point_names)
         return Measurements(q, position_m=np.zeros((len(q), 3)), approach=labels)
 
     def measure(self, x: ArrayLike, q_rad: ArrayLike, port: ArrayLike | None = None,
-                approach: ArrayLike | None = None) -> Measurements:
+                approach: ArrayLike | None = None, point: ArrayLike | None = None
+                ) -> Measurements:
         """Noise-free measurements of this model's kind at unknowns x (p,) and poses q (m, n):
         what the model fits exactly (arguments as :meth:`poses`)."""
         x = self._check(x)
-        template = self.poses(q_rad, port, approach)
+        template = self.poses(q_rad, port, approach, point)
         measured = self.kind.measure(self.positions(x, template), self._measurement_values(x),
-                                     template.q_rad, self.rig, template.port)
+                                     template.q_rad, self.rig, template.port, template.point)
         return replace(measured, approach=template.approach)
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
@@ -230,8 +242,16 @@ class Model:
     def flange_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
         """∂(flange centre)/∂x at every pose, shape (m, 3, p), for unknowns x (p,): the table and
         joint groups move the flange; the rig's unknowns and the measured point do not."""
-        x = self._check(x)
-        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data))
+        return self._chain_jacobian(self._check(x), data, measured=False)
+
+    def position_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
+        """∂(measured point, base frame)/∂x at every pose, shape (m, 3, p), for unknowns x (p,):
+        the table, joint and point groups move it; the instrument's unknowns do not."""
+        return self._chain_jacobian(self._check(x), data, measured=True)
+
+    def _chain_jacobian(self, x: Array, data: Measurements, measured: bool) -> Array:
+        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
+                               self.point(x) if measured else None)
         jacobian = np.zeros((len(data), 3, self.n_params))
         for group in self.groups:
             if group.stage == Stage.TABLE:
@@ -240,6 +260,9 @@ class Model:
             elif group.stage == Stage.JOINTS:
                 assert group.basis is not None
                 jacobian[..., self.slice(group.name)] = chain.joints @ group.basis(data)
+            elif group.stage == Stage.POINT and measured:
+                assert group.linear is not None
+                jacobian[..., self.slice(group.name)] = chain.rotation @ group.linear
         return jacobian
 
     # --- residuals ------------------------------------------------------------------------
@@ -284,3 +307,33 @@ class Model:
             jacobian[: m * rows, where] = np.einsum("mrc,mcp->mrp", by_position,
                                                     moves).reshape(m * rows, -1)
         return kind.residuals, jacobian
+
+    def symmetries(self, x: ArrayLike) -> Array:
+        """The kind's known gauge directions at x (:meth:`twin.kinds.base.Kind.symmetries`),
+        shape (p, g)."""
+        return self.kind.symmetries(self, self._check(x))
+
+    def identifiable_jacobian(self, x: ArrayLike, data: Measurements,
+                              rtol: float = NULL_RTOL) -> tuple[Array, Array]:
+        """:meth:`jacobian` with the kind's known gauge directions G projected out: what the
+        data can identify. Equal to :meth:`jacobian` for kinds without such directions (cable
+        lengths, tracker positions).
+
+        Along G the rows move by the size of the residuals only (the cost is flat there), so the
+        projection subtracts noise-sized columns: ``J − (J B) B⁺`` with ``B = [G, N]``, N the
+        exact null directions of J (singular values of the column-scaled J below ``rtol`` of the
+        largest), so that G joins the null space and N stays in it. (Projecting on G alone,
+        orthogonally, would smear J G into exact null directions that overlap G — a shift
+        along joint 1's axis overlaps a scale — and turn them weak.)
+        """
+        r, jacobian = self.jacobian(x, data)
+        gauge = self.symmetries(x)
+        if not gauge.shape[1]:
+            return r, jacobian
+        norms = np.linalg.norm(jacobian, axis=0)
+        unit = np.where(norms > rtol * np.max(norms), norms, 1.0)
+        _, s, vt = np.linalg.svd(jacobian / unit, full_matrices=True)
+        s = np.concatenate([s, np.zeros(self.n_params - s.size)])
+        null = vt[s <= rtol * s[0]].T / unit[:, None]
+        basis = np.concatenate([gauge, null], axis=1)
+        return r, jacobian - (jacobian @ basis) @ np.linalg.pinv(basis)

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
+from twin.loss import LEAST_SQUARES, Loss
 from twin.model import Model
 from twin.stopping import scale
 from twin.units import mm_to_m
@@ -23,7 +24,8 @@ DEFAULT_SIGMA_M = float(mm_to_m(0.01))
 
 @dataclass(frozen=True)
 class Problem:
-    """What a solver gets: minimise f(x) = mean r(x)² over the training poses inside the box.
+    """What a solver gets: minimise f(x) = mean r(x)² over the training poses inside the box
+    (with a robust loss, the mean of each row's cost, :mod:`twin.loss`).
 
     Attributes:
         model: Maps unknowns x (p,) to residuals.
@@ -31,6 +33,7 @@ class Problem:
         validation: Held-out poses, for the history only; solvers never fit to them.
         sigma_m: Expected length noise (1σ), m: the measurement noise of the filters.
         x0: Start (and centre of the initial swarms), shape (p,); empty means zeros (nominal).
+        loss: How much each residual row counts; least squares by default.
     """
 
     model: Model
@@ -38,6 +41,7 @@ class Problem:
     validation: Measurements
     sigma_m: float = DEFAULT_SIGMA_M
     x0: Array = field(default_factory=lambda: np.zeros(0))
+    loss: Loss = LEAST_SQUARES
 
     def __post_init__(self) -> None:
         x0 = np.array(self.x0, dtype=np.float64)

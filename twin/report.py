@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import CalibrationResult
+from twin.calibration import WORKSPACE_POSES, CalibrationResult
+from twin.dataset import Measurements
 from twin.identifiability import WEAK_RTOL, Identifiability
+from twin.loss import REJECT_SCALES
 from twin.metrics import Metrics
+from twin.misfit import ALPHA
 from twin.parametrisation import PARALLEL_THRESHOLD_DEG
+from twin.rig import Rig
+from twin.rigid import angles
 from twin.robot import RobotModel
 from twin.selection import ErrorChoice
 from twin.solvers import get_solver
@@ -20,8 +26,16 @@ from twin.units import (
     dh_rows_to_display,
     m_to_mm,
     rad_to_arcsec,
+    rad_to_deg,
     slot_label,
 )
+
+if TYPE_CHECKING:
+    from twin.accuracy import TruthErrors
+    from twin.diagnosis import Cause
+
+MAX_ROWS_SHOWN = 20
+"""Rejected rows listed in the report (the JSON lists them all)."""
 
 MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the standard deviation.'
 
@@ -65,6 +79,9 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
             "predicted flange RMS error over the workspace "
             f"{float(m_to_mm(result.uncertainty.flange_rms_m)):.4f} mm"
         )
+        if result.model.has("attachment"):
+            lines[-1] += (", measured point "
+                          f"{float(m_to_mm(result.uncertainty.point_rms_m)):.4f} mm")
     return lines
 
 
@@ -99,12 +116,103 @@ def format_parametrisation(robot: RobotModel) -> list[str]:
     return [f"  joints 1..{len(kinds)}: " + ", ".join(kinds) + why]
 
 
-def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None) -> str:
+def _xyz(values_m: NDArray[np.float64]) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in m_to_mm(values_m)) + ") mm"
+
+
+def describe_rig(rig: Rig, measurements: Measurements) -> str:
+    """``port (600.000, -400.000, 100.000) mm``, ``2 ports (front, left)``, ``tracker
+    positions`` or ``6 fixed points``, with the attachment when it is off the flange."""
+    if measurements.kind == "length":
+        text = "port (" + ", ".join(f"{v:.3f}" for v in m_to_mm(rig.ports_m[0])) + ") mm" \
+            if len(rig.ports_m) == 1 else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
+    elif measurements.kind == "position":
+        text = "laser-tracker positions"
+    else:
+        text = f"{len(rig.point_names or measurements.point_names)} fixed points"
+    if np.any(np.abs(rig.attachment_m) > 0):
+        text += ", measured point (" + ", ".join(f"{v:.3f}" for v in m_to_mm(rig.attachment_m)) \
+            + ") mm in the flange frame"
+    return text
+
+
+def format_rig(result: CalibrationResult) -> list[str]:
+    """The rig's identified unknowns: ports, offset, attachment, tracker frame, fixed points."""
+    model, lines = result.model, []
+    if model.has("port"):
+        rig = model.rig
+        for j in rig.estimated_port_index:
+            name = "" if len(rig.ports_m) == 1 else f" {rig.port_names[j]}"
+            lines.append(f"  identified port{name}: {_xyz(result.ports_m[j])}")
+    if model.has("offset"):
+        lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
+    if model.has("attachment"):
+        lines.append(f"  identified attachment (flange frame): {_xyz(result.attachment_m)}")
+    if model.has("base"):
+        transform = result.base_in_tracker
+        turn = rad_to_deg(angles(transform[:3, :3]))
+        lines.append(f"  identified base in the tracker frame: {_xyz(transform[:3, 3])}, "
+                     f"rx ry rz ({turn[0]:.4f}, {turn[1]:.4f}, {turn[2]:.4f}) deg")
+    if model.has("points"):
+        lines.append(f"  identified fixed points: {len(model.rig.point_names)} (in the JSON)")
+    return lines
+
+
+def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[str]:
+    """The misfit line, the rows the loss rejected, and what the data cannot see."""
+    lines = []
+    misfit = result.misfit
+    if misfit is not None and misfit.misfit:
+        likely = "; likely causes: " + ", ".join(cause.describe() for cause in causes) \
+            if causes else ""
+        lines.append(f"  MISFIT: the model does not fit these data — training RMSE "
+                     f"{float(m_to_mm(misfit.rmse_m)):.4g} mm against a noise of "
+                     f"{float(m_to_mm(misfit.noise_m)):.4g} mm ({misfit.describe()}){likely}")
+    if result.loss.robust:
+        rows = result.rejected_rows
+        shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
+            + (", …" if rows.size > MAX_ROWS_SHOWN else "")
+        lines.append(f"  {result.loss.name} loss, scale {float(m_to_mm(result.loss.scale_m)):.4g}"
+                     f" mm: {rows.size} row(s) rejected (beyond {REJECT_SCALES:g} scales; "
+                     f"0-based data rows){': ' + shown if rows.size else ''}")
+    gauge = result.gauge
+    if gauge is not None and gauge.names:
+        lines.append("  motions of the flange the data cannot see: " + gauge.describe()
+                     + "; pin them with " + " or ".join(gauge.pins))
+    return lines
+
+
+def format_truth(truth: TruthErrors, point: bool = True) -> list[str]:
+    """The errors against the truth over the workspace, raw and modulo the unseen motions; the
+    measured point's line only if ``point`` (an attachment off the flange or estimated)."""
+    lines = [f"  against the truth over {WORKSPACE_POSES} workspace poses: flange RMS "
+             f"{float(m_to_mm(truth.flange_m)):.4f} mm"]
+    if truth.motions:
+        lines[-1] += (f", {float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm modulo "
+                      + ", ".join(truth.motions))
+    if point:
+        lines.append(f"  measured point RMS {float(m_to_mm(truth.point_m)):.4f} mm"
+                     + (f", {float(m_to_mm(truth.point_gauge_free_m)):.4f} mm modulo "
+                        + ", ".join(truth.point_motions) if truth.point_motions else ""))
+    return lines
+
+
+def has_point(result: CalibrationResult) -> bool:
+    """Whether the measured point is not simply the flange centre (an attachment estimated, or
+    told off the flange)."""
+    return result.model.has("attachment") or bool(np.any(np.abs(result.model.rig.attachment_m)
+                                                          > 0))
+
+
+def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None,
+                  *, truth: TruthErrors | None = None, causes: Sequence[Cause] = ()) -> str:
     """Before/after metrics, run statistics and the identified D-H errors as a table.
 
     Args:
         result: The calibration.
         truth_delta: The true D-H errors, shape (4, n), m and rad, to print beside, if known.
+        truth: The errors against the truth over the workspace, if known.
+        causes: The likely causes of a misfit (:func:`twin.diagnosis.likely_causes`).
     """
     solver = get_solver(result.method)
     lines = [
@@ -120,28 +228,27 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         "  " + MAE_NOTE,
         *format_identifiability(result),
     ]
-    if result.model.has("port"):
-        port = ", ".join(f"{v:.3f}" for v in m_to_mm(result.port_m))
-        lines.append(f"  identified port: ({port}) mm")
-    if result.model.has("offset"):
-        lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
+    lines += format_rig(result)
+    lines += format_fit(result, causes)
+    if truth is not None:
+        lines += format_truth(truth, has_point(result))
     is_length = result.robot.is_length
     identified = dh_rows_to_display(result.delta, is_length)
-    truth = None if truth_delta is None else dh_rows_to_display(truth_delta, is_length)
+    true_rows = None if truth_delta is None else dh_rows_to_display(truth_delta, is_length)
     header = "  joint"
     for key, lengths in zip(DH_KEYS, is_length, strict=True):
         label = f"δ{slot_label(key, lengths)}"
-        header += f"{label:>{max(14, len(label) + 1)}}" + (f"{'true':>10}" if truth else "")
+        header += f"{label:>{max(14, len(label) + 1)}}" + (f"{'true':>10}" if true_rows else "")
     kinds = set(result.robot.structure.parametrisation)
     errors = "D-H" if kinds == {"dh"} else "/".join(sorted(kinds))
-    lines += ["", f"Identified {errors} errors" + (" (and the truth)" if truth else ""),
+    lines += ["", f"Identified {errors} errors" + (" (and the truth)" if true_rows else ""),
               *format_parametrisation(result.robot), header]
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
         for key, lengths in zip(DH_KEYS, is_length, strict=True):
             row += f"{identified[key][i]:>{max(14, len(slot_label(key, lengths)) + 2)}.4f}"
-            if truth:
-                row += f"{truth[key][i]:>10.4f}"
+            if true_rows:
+                row += f"{true_rows[key][i]:>10.4f}"
         lines.append(row)
     lines += format_joint_groups(result)
     return "\n".join(lines)
@@ -238,4 +345,17 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
     if predicted:
         lines.append("  predicted flange RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
+    misfits = [name for name, result in results.items()
+               if result.misfit is not None and result.misfit.misfit]
+    if misfits:
+        lines.append(f"  MISFIT: {', '.join(misfits)} do(es) not fit these data (training RMSE "
+                     f"far above the noise, chi-square at {1 - ALPHA:g}): calibrate with one "
+                     "method for the likely causes")
+    if first.loss.robust:
+        lines.append(f"  rows rejected by the {first.loss.name} loss (scale "
+                     f"{float(m_to_mm(first.loss.scale_m)):.4g} mm): " + ", ".join(
+                         f"{name} {result.rejected_rows.size}" for name, result in results.items())
+                     + " (the JSON lists them)")
+    if first.gauge is not None and first.gauge.names:
+        lines.append("  motions of the flange the data cannot see: " + first.gauge.describe())
     return "\n".join(lines)

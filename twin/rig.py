@@ -2,12 +2,20 @@
 
 The nominal values of everything around the robot that a measurement model needs. Each may be
 known (used as it is) or an unknown group whose correction is identified with the robot's
-errors (:mod:`twin.unknowns`).
+errors (:mod:`twin.unknowns`):
+
+- cable ports (:mod:`twin.kinds.length`): group ``port``, for the ports named in
+  ``estimated_ports``;
+- the measured point on the tool (cable eyelet, tracker target, ball): group ``attachment``;
+- the laser tracker's frame (:mod:`twin.kinds.position`): group ``base``;
+- fixed places the tool point was brought to, and known distances between them
+  (:mod:`twin.kinds.point`): group ``points``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,9 +33,24 @@ def _origin() -> Array:
     return np.zeros(3)
 
 
+def _identity() -> Array:
+    return np.eye(4)
+
+
+class Distance(NamedTuple):
+    """A known distance between two named fixed points (a ball fixture's socket spacing, a
+    gauge bar)."""
+
+    first: str
+    second: str
+    length_m: float
+    """The distance, m."""
+
+
 @dataclass(frozen=True)
 class Rig:
-    """Ports of the cable and the point of the tool that is measured.
+    """Ports of the cable, the point of the tool that is measured, the tracker's frame and the
+    fixed points.
 
     Attributes:
         ports_m: Cable ports in the robot base frame, shape (k, 3), m; row j is the port a
@@ -39,12 +62,24 @@ class Rig:
             drawstring encoder's spring force; its data sheet gives it). It loads the joints
             of a compliant arm (unknown group ``compliance``); 0 for instruments that do not
             touch the robot.
+        estimated_ports: The ports whose position the ``port`` group corrects; every port when
+            empty.
+        base_in_tracker: Where the robot base frame sits in the tracker's frame, shape (4, 4), m:
+            ``p_tracker = base_in_tracker · p_base``; the identity by default.
+        point_names: A name per fixed point, length f.
+        points_m: The fixed points in the robot base frame, shape (f, 3), m.
+        distances: Known distances between named fixed points.
     """
 
     ports_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
     port_names: tuple[str, ...] = ()
     attachment_m: Array = field(default_factory=_origin)
     tension_n: float = 0.0
+    estimated_ports: tuple[str, ...] = ()
+    base_in_tracker: Array = field(default_factory=_identity)
+    point_names: tuple[str, ...] = ()
+    points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    distances: tuple[Distance, ...] = ()
 
     def __post_init__(self) -> None:
         ports = np.asarray(self.ports_m, dtype=np.float64).reshape(-1, 3)
@@ -54,11 +89,38 @@ class Rig:
         if len(names) != len(ports) or len(set(names)) != len(names):
             raise ValueError(f"port_names {names!r}: expected {len(ports)} distinct names")
         object.__setattr__(self, "port_names", names)
+        estimated = tuple(self.estimated_ports)
+        unknown = [name for name in estimated if name not in names]
+        if unknown or len(set(estimated)) != len(estimated):
+            raise ValueError(f"estimated_ports {estimated!r}: expected distinct names among "
+                             + ", ".join(names))
+        object.__setattr__(self, "estimated_ports", estimated)
         object.__setattr__(self, "attachment_m",
                            frozen_array(self.attachment_m, (3,), "attachment_m"))
         if not (np.isfinite(self.tension_n) and 0.0 <= self.tension_n <= MAX_TENSION_N):
             raise ValueError(f"tension_n: {self.tension_n}, expected 0 to {MAX_TENSION_N:g} N")
         object.__setattr__(self, "tension_n", float(self.tension_n))
+        tracker = frozen_array(self.base_in_tracker, (4, 4), "base_in_tracker")
+        rotation = tracker[:3, :3]
+        if not (np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
+                and np.linalg.det(rotation) > 0 and np.allclose(tracker[3], [0, 0, 0, 1])):
+            raise ValueError("base_in_tracker: not a rigid transform")
+        object.__setattr__(self, "base_in_tracker", tracker)
+        points = np.asarray(self.points_m, dtype=np.float64).reshape(-1, 3)
+        object.__setattr__(self, "points_m", frozen_array(points, points.shape, "points_m"))
+        point_names = tuple(self.point_names)
+        if len(point_names) != len(points) or len(set(point_names)) != len(point_names):
+            raise ValueError(f"point_names {point_names!r}: expected {len(points)} distinct "
+                             "names")
+        object.__setattr__(self, "point_names", point_names)
+        distances = tuple(Distance(str(a), str(b), float(length))
+                          for a, b, length in self.distances)
+        for distance in distances:
+            if distance.first == distance.second or not distance.length_m > 0 \
+                    or not np.isfinite(distance.length_m):
+                raise ValueError(f"distance {distance}: expected two different points and a "
+                                 "positive length")
+        object.__setattr__(self, "distances", distances)
 
     @classmethod
     def cable(cls, port_m: ArrayLike, attachment_m: ArrayLike | None = None,
@@ -79,3 +141,34 @@ class Rig:
         if len(self.ports_m) != 1:
             raise ValueError(f"the rig has {len(self.ports_m)} ports, not one")
         return self.ports_m[0]
+
+    @property
+    def estimated_port_index(self) -> NDArray[np.intp]:
+        """Indices of the ports the ``port`` group corrects, shape (e,), in the rig's order."""
+        if not self.estimated_ports:
+            return np.arange(len(self.ports_m), dtype=np.intp)
+        return np.array([j for j, name in enumerate(self.port_names)
+                         if name in self.estimated_ports], dtype=np.intp)
+
+    @property
+    def distance_index(self) -> NDArray[np.intp]:
+        """The two points of each known distance as indices into ``point_names``, shape (d, 2).
+
+        Raises:
+            ValueError: naming a distance's point the rig does not have.
+        """
+        pairs = []
+        for distance in self.distances:
+            for name in (distance.first, distance.second):
+                if name not in self.point_names:
+                    raise ValueError(f"distance {distance.first},{distance.second}: no point "
+                                     f"{name!r}; the points are "
+                                     + (", ".join(self.point_names) or "none"))
+            pairs.append((self.point_names.index(distance.first),
+                          self.point_names.index(distance.second)))
+        return np.array(pairs, dtype=np.intp).reshape(-1, 2)
+
+    @property
+    def distances_m(self) -> Array:
+        """The known distances, shape (d,), m."""
+        return np.array([distance.length_m for distance in self.distances], dtype=np.float64)

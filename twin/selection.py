@@ -47,7 +47,7 @@ from twin.stopping import Budget
 NESTED = ("dh", "compliance", "backlash", "transmission")
 """The order in which candidates add groups: fewest unknowns first."""
 POSES_PER_UNKNOWN = 3
-"""Training poses per unknown below which a fit follows the noise: the choice warns."""
+"""Readings per identified unknown below which a fit follows the noise: the choice warns."""
 
 
 class FewPosesWarning(UserWarning):
@@ -88,15 +88,20 @@ class ErrorChoice(NamedTuple):
         return self.candidates[self.chosen]
 
 
-def warn_few_poses(n_train: int, rank: int, errors: Sequence[str]) -> None:
-    """Warn (:class:`FewPosesWarning`) when ``n_train`` training poses are fewer than
-    :data:`POSES_PER_UNKNOWN` per identified unknown (``rank``) of the error groups."""
-    if n_train < POSES_PER_UNKNOWN * rank:
+def warn_few_poses(n_train: int, rank: int, errors: Sequence[str], rows_per_pose: int = 1
+                   ) -> None:
+    """Warn (:class:`FewPosesWarning`) when ``n_train`` training poses of ``rows_per_pose``
+    readings each (1 for a cable, 3 for a tracker position) give fewer than
+    :data:`POSES_PER_UNKNOWN` readings per identified unknown (``rank``, rig unknowns
+    included)."""
+    needed = -(-POSES_PER_UNKNOWN * rank // rows_per_pose)
+    if n_train < needed:
+        readings = f" ({n_train * rows_per_pose} readings)" if rows_per_pose > 1 else ""
         warnings.warn(
-            f"{n_train} training poses for the {rank} identifiable unknowns of "
-            f"{'+'.join(errors)}: fewer than {POSES_PER_UNKNOWN} per unknown, so the fit follows "
-            f"the noise; measure at least {POSES_PER_UNKNOWN * rank} (twin plan --errors "
-            f"{','.join(errors)})", FewPosesWarning, stacklevel=3)
+            f"{n_train} training poses{readings} for {rank} identifiable unknowns "
+            f"({'+'.join(errors)} and the rig's): fewer than {POSES_PER_UNKNOWN} readings per "
+            f"unknown, so the fit follows the noise; measure at least {needed} (twin plan "
+            f"--errors {','.join(errors)})", FewPosesWarning, stacklevel=3)
 
 
 def nested_errors(has_approach: bool) -> list[tuple[str, ...]]:
@@ -157,7 +162,7 @@ def choose_errors(
                            train_fraction=train_fraction)
         nominal = result.identifiability
         rank = nominal.rank if nominal is not None else model.n_params
-        warn_few_poses(n_train, rank, errors)
+        warn_few_poses(n_train, rank, errors, model.kind.rows_per_pose)
         train = measurements.subset(result.train_rows)
         residuals = model.residuals(result.solver.x, train)
         fitted.append(Candidate(tuple(errors), result, rank, bic(residuals, rank)))

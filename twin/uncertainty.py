@@ -143,9 +143,20 @@ def cramer_rao_flange_rms(
         sigma_m: Measurement noise 1σ, m.
         q_rad: Workspace poses where the flange error is evaluated, shape (k, n).
     """
-    _, jacobian = model.jacobian(x_true, data)
+    _, jacobian = model.identifiable_jacobian(x_true, data)
     covariance = parameter_covariance(jacobian, sigma_m)
     return predicted_flange_rms(model.flange_jacobian(x_true, model.poses(q_rad)), covariance)
+
+
+def cramer_rao_point_rms(
+    model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike
+) -> float:
+    """Cramér–Rao bound on the RMS position error of the measured point (eyelet, tracker
+    target, ball) over the poses ``q_rad``, m; arguments as :func:`cramer_rao_flange_rms`.
+    With the attachment estimated the flange is not identified but this point is."""
+    _, jacobian = model.identifiable_jacobian(x_true, data)
+    covariance = parameter_covariance(jacobian, sigma_m)
+    return predicted_flange_rms(model.position_jacobian(x_true, model.poses(q_rad)), covariance)
 
 
 class CalibrationUncertainty(NamedTuple):
@@ -159,6 +170,9 @@ class CalibrationUncertainty(NamedTuple):
     """Standard deviation of each unknown, shape (p,), m and rad; NaN if not identifiable."""
     flange_rms_m: float
     """Predicted RMS flange-position error over the workspace poses, m."""
+    point_rms_m: float = float("nan")
+    """Predicted RMS position error of the measured point (eyelet, tracker target, ball) over
+    the workspace poses, m: what an estimated attachment identifies."""
 
 
 def calibration_uncertainty(
@@ -178,14 +192,15 @@ def calibration_uncertainty(
         q_workspace_rad: Poses where the flange accuracy is predicted, shape (k, n), rad.
     """
     x = np.asarray(x, dtype=np.float64)
-    residuals, jacobian = model.jacobian(x, train)
+    residuals, jacobian = model.identifiable_jacobian(x, train)
     base = np.asarray(base, dtype=np.intp)
     noise = residual_sigma(residuals, base.size)
     covariance = base_covariance(jacobian, base, noise)
-    flange = model.flange_jacobian(x, model.poses(q_workspace_rad))
+    poses = model.poses(q_workspace_rad)
     return CalibrationUncertainty(
         noise_sigma_m=noise,
         covariance=covariance,
         sigma=parameter_sigma(covariance, base),
-        flange_rms_m=predicted_flange_rms(flange, covariance),
+        flange_rms_m=predicted_flange_rms(model.flange_jacobian(x, poses), covariance),
+        point_rms_m=predicted_flange_rms(model.position_jacobian(x, poses), covariance),
     )

@@ -107,6 +107,10 @@ def run(args: argparse.Namespace) -> int:
         from twin.units import dh_rows_to_display, m_to_mm
 
         sim = simulate(load_scenario(args.scenario), args.seed)
+        if sim.port_m is None or sim.port_nominal_m is None or len(sim.rig.ports_m) > 1:
+            raise InputError(f"a {sim.measurements.kind} scenario with "
+                             f"{len(sim.rig.ports_m)} ports", "a scenario of one cable port "
+                             "(the virtual encoder serves one cable)", source=args.scenario)
         robot, port_m = sim.robot, sim.port_nominal_m
         truth = {"scenario": sim.scenario.name, "seed": sim.seed,
                  "delta": dh_rows_to_display(sim.delta, sim.robot.is_length),

@@ -44,7 +44,7 @@ from twin.io.measurements import approach_columns, joint_columns, load_poses, re
 from twin.io.paths import InputPath, OutputFile
 from twin.metrics import Metrics
 from twin.plots import pyplot, save_png
-from twin.rig import MAX_TENSION_N, Rig
+from twin.rig import MAX_TENSION_N
 from twin.robot import default_robot
 from twin.units import FILE_DEG_DECIMALS, MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg, rounded
 from twin.unknowns import Stage
@@ -192,15 +192,18 @@ def _verify(args: argparse.Namespace) -> int:
     sim = simulate(scenario, seed=args.seed)
     print(f"{scenario.name}: simulated {len(sim.measurements)} poses (seed {sim.seed}); "
           f"calibrating {'+'.join(scenario.errors)}…", flush=True)
-    rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
+    rig = replace(sim.rig_told, tension_n=scenario.physics.tension_n)
     result = calibrate(sim.robot, sim.measurements, rig=rig, errors=scenario.errors,
                        method=args.method or "lm", seed=sim.seed, budget=scenario.budget,
                        estimate_port=scenario.estimate_port,
-                       estimate_offset=scenario.estimate_offset)
+                       estimate_offset=scenario.estimate_offset,
+                       estimate_attachment=scenario.estimate_attachment,
+                       estimate_base=scenario.estimate_base, loss=scenario.calibration_loss)
     validation = result.metrics["validation"]
     print(f"  {result.method}: validation RMSE {m_to_mm(validation.rmse):.4f} mm "
           f"(before {m_to_mm(result.metrics['before'].rmse):.4f} mm)")
-    twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors)
+    twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors,
+                      sim.rig.attachment_m)
     rng = np.random.default_rng(sim.seed)
     q_nominal, target_m = reachable_targets(sim.robot, args.count, rng)
     print(f"{args.count} random reachable targets: solving and moving the true robot…",

@@ -9,22 +9,20 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import WORKSPACE_POSES, calibrate, check_approach, make_model
+from twin.calibration import WORKSPACE_POSES, match_ports, solve_many
 from twin.cli.arguments import add_robot_flags, error_groups, number, seed, sigma_mm
-from twin.cli.calibrate import resolve_inputs
+from twin.cli.calibrate import add_rig_flags, make_split, resolve_inputs, truth_of
 from twin.design import score_poses
-from twin.errors import InputError
 from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identifiability
 from twin.io.measurements import load_measurements
 from twin.io.paths import InputPath, OutputFile
 from twin.io.results import identifiability_to_dict, result_to_dict, write_json
-from twin.io.truth import load_truth_delta
 from twin.model import Model
 from twin.plots import pyplot, save_png
-from twin.report import format_joint_groups
-from twin.rig import MAX_TENSION_N, Rig
+from twin.report import describe_rig, format_fit, format_joint_groups, format_truth, has_point
+from twin.rig import MAX_TENSION_N
 from twin.synthetic import random_poses
-from twin.uncertainty import flange_sigma, rms_distance, workspace_grid
+from twin.uncertainty import flange_sigma, workspace_grid
 from twin.units import (
     DH_KEYS,
     RESULT_MM_DECIMALS,
@@ -54,17 +52,15 @@ def add_parser(subparsers: Any) -> None:
                         help="MEASUREMENTS.csv (needs --port; - for standard input) or "
                         "capture.toml")
     add_robot_flags(parser)
-    parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame")
-    parser.add_argument("--estimate-port", action="store_true",
-                        help="treat the port position as unknown too")
-    parser.add_argument("--estimate-offset", action="store_true",
-                        help="treat the cable-length offset as unknown too")
+    add_rig_flags(parser)
     parser.add_argument("--errors", type=error_groups(auto=False), metavar="GROUPS",
                         help="the robot's error groups, comma-separated: " + ", ".join(ERRORS)
                         + " (default: the capture's, else dh)")
     parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
                         help="the cable's pull in N, for the compliance group (default: the "
                         "capture's, else 0)")
+    parser.add_argument("--estimate-offset", action="store_true",
+                        help="treat the cable-length offset as unknown too")
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
     parser.add_argument("--seed", type=seed, default=0,
@@ -127,26 +123,21 @@ def _write_map(path: Path, model: Model, x: NDArray[np.float64],
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    robot, port_m, measurements_path, truth_path, settings = resolve_inputs(args)
+    inputs = resolve_inputs(args)
+    robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)
-    rig = Rig.cable(port_m, tension_n=settings.cable_tension_n)
-    try:
-        model = make_model(robot, rig, data.kind, errors=settings.errors,
-                           estimate_port=settings.estimate_port,
-                           estimate_offset=settings.estimate_offset)
-        check_approach(model, data.approach)
-    except InputError as exc:
-        raise InputError(exc.found, exc.expected, source=measurements_path) from None
+    split = make_split(inputs, data, args.seed)
+    model = split.problem.model
+    data = match_ports(data, model.rig)
     x0 = np.zeros(model.n_params)
     sigma_m = float(mm_to_m(args.sigma))
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(args.seed))
     nominal = measurement_identifiability(model, x0, data)
     score = score_poses(model, x0, data.q_rad, nominal.base_mask, sigma_m, q_workspace)
     indices = score.observability
-    port = ", ".join(f"{v:g}" for v in m_to_mm(port_m))
     lines = [
-        f"{robot.name} — {len(data)} poses from {measurements_path}, port ({port}) mm, "
-        f"{model.n_params} unknowns ("
+        f"{robot.name} — {len(data)} poses from {measurements_path}, "
+        f"{describe_rig(model.rig, data)}, {model.n_params} unknowns ("
         + ", ".join(f"{group.name} {group.size}" for group in model.groups) + ")",
         "At the nominal geometry (all poses):",
         *_identifiability_lines(nominal),
@@ -157,13 +148,8 @@ def run(args: argparse.Namespace) -> int:
         f"  Cramér–Rao bound at σ = {args.sigma:g} mm: flange RMS error over "
         f"{WORKSPACE_POSES} workspace poses {float(m_to_mm(score.flange_rms_m)):.4f} mm",
     ]
-    try:
-        result = calibrate(robot, data, rig=rig, errors=settings.errors, method="lm-base",
-                           seed=args.seed, estimate_port=settings.estimate_port,
-                           estimate_offset=settings.estimate_offset,
-                           train_fraction=settings.train_fraction, budget=settings.budget)
-    except InputError as exc:
-        raise InputError(exc.found, exc.expected, source=measurements_path) from None
+    result = solve_many(robot, split, ["lm-base"], seed=args.seed,
+                        budget=inputs.calibration.budget)["lm-base"]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
     lines += [
@@ -174,18 +160,21 @@ def run(args: argparse.Namespace) -> int:
         *_identifiability_lines(result.identified_identifiability),
         f"  predicted flange RMS error over the workspace "
         f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
+        *format_fit(result),
+        *format_joint_groups(result),
     ]
-    if truth_path is not None and truth_path.exists() and settings.errors == ("dh",):
-        true_robot = robot.perturbed(load_truth_delta(truth_path, robot.n_joints,
-                                                      robot.is_length))
-        true_error = rms_distance(result.identified_robot.flange_positions(q_workspace),
-                                  true_robot.flange_positions(q_workspace))
-        lines.append(f"  true flange RMS error over the workspace {float(m_to_mm(true_error)):.4f}"
-                     f" mm (against the D-H table of {truth_path.name})")
+    _, truth = truth_of(inputs, result)
+    if truth is not None and inputs.truth_path is not None:
+        lines.append(f"  true flange RMS error over the workspace "
+                     f"{float(m_to_mm(truth.flange_m)):.4f} mm (against the D-H table of "
+                     f"{inputs.truth_path.name})")
+        point = format_truth(truth, has_point(result))[1:]
+        lines += point if not truth.motions else [
+            f"    modulo {', '.join(truth.motions)}: "
+            f"{float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm", *point]
     lines += [
         "  standard deviations of the base parameters (dependent ones held: —)",
         *_sigma_table(model, uncertainty.sigma),
-        *format_joint_groups(result),
     ]
     print("\n".join(lines))
     if args.map:
@@ -203,6 +192,6 @@ def run(args: argparse.Namespace) -> int:
                                                  RESULT_MM_DECIMALS)[0],
                 "sigma_assumed": args.sigma,
             },
-            "calibration": result_to_dict(result),
+            "calibration": result_to_dict(result, truth=truth),
         })
     return 0

@@ -31,6 +31,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    import numpy as np
+
     from twin.sim import load_scenario, simulate, write_simulation
     from twin.units import m_to_mm
 
@@ -41,12 +43,23 @@ def run(args: argparse.Namespace) -> int:
     print(f"{scenario.name}: {len(sim.measurements)} poses, seed {sim.seed}, "
           f"{'compliant' if not scenario.physics.rigid else 'rigid'} joints")
     print(f"  nominal model vs readings: RMSE {effects['nominal_rmse_mm']:.4f} mm")
-    print(f"  non-geometric share of the lengths: RMS {effects['non_geometric_mm']:.4f} mm; "
+    readings = "lengths" if sim.measurements.kind == "length" else "readings"
+    print(f"  non-geometric share of the {readings}: RMS {effects['non_geometric_mm']:.4f} mm; "
           f"flange shift by joint errors and sag: RMS {effects['flange_shift_mm']:.4f} mm")
     if sim.outlier_rows.size:
         print(f"  {sim.outlier_rows.size} outliers")
-    port = ", ".join(f"{v:.3f}" for v in m_to_mm(sim.port_nominal_m))
-    print(f"  port told to the calibration: ({port}) mm")
+    told = sim.rig_told
+    for name, port_m in zip(told.port_names, told.ports_m, strict=True):
+        port = ", ".join(f"{v:.3f}" for v in m_to_mm(port_m))
+        print(f"  port {'' if len(told.ports_m) == 1 else name + ' '}told to the calibration: "
+              f"({port}) mm")
+    if sim.measurements.kind != "length" or np.any(np.abs(sim.rig.attachment_m) > 0):
+        point = ", ".join(f"{v:.3f}" for v in m_to_mm(sim.rig.attachment_m))
+        told_point = ", ".join(f"{v:.3f}" for v in m_to_mm(told.attachment_m))
+        print(f"  measured point in the flange frame: ({point}) mm, told ({told_point}) mm")
+    if sim.rig.point_names:
+        print(f"  {len(sim.rig.point_names)} fixed points, {len(told.distances)} known "
+              "distances told")
     print(f"wrote {capture} (calibrate with: twin calibrate {capture})")
     record_simulation(args, sim)
     return 0

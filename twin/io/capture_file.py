@@ -3,12 +3,22 @@
 Written by ``twin simulate`` and ``twin capture``; paths are relative to the capture file::
 
     robot = "robot.toml"              # model file of the nominal robot
-    port_mm = [600.0, 300.0, 0.0]     # encoder port, base frame, mm
+    port_mm = [600.0, 300.0, 0.0]     # encoder port, base frame, mm (cable lengths)
     measurements = "measurements.csv"
     truth = "truth.json"              # optional: the twin's ground truth
+    [ports]                           # optional, instead of port_mm: several named ports (the
+    front = [600.0, -400.0, 100.0]    # measurement CSV's port column names each row's)
+    left = [500.0, 500.0, 0.0]
+    [rig]                             # optional
+    attachment_mm = [0.0, 0.0, 40.0]  # the measured point in the flange frame (default 0,0,0)
+    distances = ["f1s1,f1s2=50"]      # known distances between fixed points, mm
     [calibration]                     # optional: how to calibrate it (flags still override)
     estimate_port = false
     estimate_offset = false
+    estimate_attachment = false
+    estimate_base = false             # tracker frame
+    loss = "linear"                   # or huber, soft_l1, cauchy (twin.loss)
+    loss_scale_mm = 0.03              # optional: the loss's scale (default 3 σ)
     train_fraction = 0.8
     stop = "converge"                 # or "paper" (twin.stopping)
     max_iterations = 200              # optional: another iteration limit
@@ -16,6 +26,8 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     cable_tension_n = 0.0             # the cable's pull, N (loads a compliant arm)
     [encoder]                         # optional: how the data was captured
     url = "serial:///dev/ttyUSB0?baud=115200"
+    sigma_mm = 0.01                   # the instrument's noise 1σ (misfit test, filters)
+    resolution_mm = 0.004             # its resolution
 """
 
 from __future__ import annotations
@@ -34,13 +46,16 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
-from twin.rig import MAX_TENSION_N
+from twin.loss import LOSSES
+from twin.problem import DEFAULT_SIGMA_M
+from twin.rig import MAX_TENSION_N, Distance, Rig
 from twin.robot import RobotModel
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
 from twin.unknowns import ERRORS
 
-_KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder")
+_KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder", "ports", "rig")
+_RIG_KEYS = ("attachment_mm", "distances")
 
 
 @dataclass(frozen=True)
@@ -55,6 +70,10 @@ class CalibrationSettings:
         max_iterations: Iteration limit of every method and stage, or None for the protocol's.
         errors: The robot's error groups to fit, among :data:`twin.unknowns.ERRORS`.
         cable_tension_n: The cable's pull towards the port, N (:attr:`twin.rig.Rig.tension_n`).
+        estimate_attachment: Also identify the measured point in the flange frame.
+        estimate_base: Also identify the tracker frame.
+        loss: The loss, one of :data:`twin.loss.LOSSES`.
+        loss_scale_mm: Its scale in mm, or None for 3 σ of the noise.
     """
 
     estimate_port: bool = False
@@ -64,8 +83,17 @@ class CalibrationSettings:
     max_iterations: int | None = None
     errors: tuple[str, ...] = ("dh",)
     cable_tension_n: float = 0.0
+    estimate_attachment: bool = False
+    estimate_base: bool = False
+    loss: str = LOSSES[0]
+    loss_scale_mm: float | None = None
 
     def __post_init__(self) -> None:
+        if self.loss not in LOSSES:
+            raise ValueError(f"loss: {self.loss!r}, expected one of {', '.join(LOSSES)}")
+        if self.loss_scale_mm is not None and not (math.isfinite(self.loss_scale_mm)
+                                                   and self.loss_scale_mm > 0):
+            raise ValueError(f"loss_scale_mm: {self.loss_scale_mm}, expected > 0")
         if not 0 < self.train_fraction < 1:
             raise ValueError(f"train_fraction: {self.train_fraction}, expected in (0, 1)")
         if self.stop not in PROTOCOLS:
@@ -120,6 +148,14 @@ def _parse_calibration(table: object, source: Path) -> CalibrationSettings:
                     or not 0 <= value <= MAX_TENSION_N:
                 raise InputError(f"{value!r}", f"a tension in N from 0 to {MAX_TENSION_N:g}",
                                  source=source, where=where)
+        elif key == "loss":
+            if value not in LOSSES:
+                raise InputError(f"{value!r}", "one of " + ", ".join(LOSSES), source=source,
+                                 where=where)
+        elif key == "loss_scale_mm":
+            if isinstance(value, bool) or not isinstance(value, int | float) \
+                    or not (math.isfinite(value) and value > 0):
+                raise InputError(f"{value!r}", "a scale in mm > 0", source=source, where=where)
         elif not isinstance(value, bool):
             raise InputError(f"{value!r}", "true or false", source=source, where=where)
     settings = dict(table)
@@ -137,20 +173,32 @@ class Capture:
     Attributes:
         path: The capture file.
         robot: The nominal robot it names.
-        port_m: Encoder port in the base frame, shape (3,), m.
+        port_m: Encoder port in the base frame, shape (3,), m; the first of several, None
+            without one (tracker positions, fixed points).
         measurements: Path of the measurement CSV.
         truth: Path of the ground-truth JSON, or None.
         calibration: The ``[calibration]`` settings (defaults when the table is absent).
         encoder: The ``[encoder]`` table as written, or empty.
+        rig: The rig it names: ports (``port_mm`` or ``[ports]``), attachment, distances.
     """
 
     path: Path
     robot: RobotModel
-    port_m: NDArray[np.float64]
+    port_m: NDArray[np.float64] | None
     measurements: Path
     truth: Path | None = None
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
     encoder: dict[str, Any] = field(default_factory=dict)
+    rig: Rig = field(default_factory=Rig)
+
+    @property
+    def sigma_m(self) -> float:
+        """The instrument's noise the capture states: ``[encoder]`` sigma_mm with its
+        resolution's res²/12 folded in, m; the default 0.01 mm when it states none."""
+        sigma = float(mm_to_m(self.encoder.get("sigma_mm", 0.0)))
+        resolution = float(mm_to_m(self.encoder.get("resolution_mm", 0.0)))
+        total = math.hypot(sigma, resolution / math.sqrt(12.0))
+        return total if total > 0 else DEFAULT_SIGMA_M
 
 
 def parse_port_mm(value: object, source: str | Path, where: str) -> NDArray[np.float64]:
@@ -187,7 +235,7 @@ def load_capture(path: str | Path) -> Capture:
     unknown = sorted(set(document) - set(_KEYS))
     if unknown:
         raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(_KEYS), source=path)
-    for key in ("robot", "port_mm", "measurements"):
+    for key in ("robot", "measurements"):
         if key not in document:
             raise InputError(f"no {key!r}", f"a {key!r} key", source=path)
     for key in ("robot", "measurements", "truth"):
@@ -196,45 +244,135 @@ def load_capture(path: str | Path) -> Capture:
     encoder = document.get("encoder", {})
     if not isinstance(encoder, dict):
         raise InputError(f"{encoder!r}", "a table", source=path, where="encoder")
+    for key in ("sigma_mm", "resolution_mm"):
+        value = encoder.get(key, 0.0)
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not (math.isfinite(value) and value >= 0):
+            raise InputError(f"{value!r}", "a noise in mm >= 0", source=path,
+                             where=f"encoder.{key}")
     folder = path.parent
+    rig = _parse_rig(document, path)
     return Capture(
         path=path,
         robot=load_robot(folder / document["robot"]),
-        port_m=parse_port_mm(document["port_mm"], path, "port_mm"),
+        port_m=rig.ports_m[0] if len(rig.ports_m) else None,
         measurements=folder / document["measurements"],
         truth=folder / document["truth"] if "truth" in document else None,
         calibration=_parse_calibration(document.get("calibration", {}), path),
         encoder=encoder,
+        rig=rig,
     )
+
+
+def parse_distance(value: object, source: str | Path, where: str) -> Distance:
+    """``"A,B=MM"``: a known distance between the fixed points A and B, mm, to SI."""
+    text = value if isinstance(value, str) else ""
+    names, _, length = text.partition("=")
+    first, _, second = names.partition(",")
+    try:
+        length_mm = float(length)
+    except ValueError:
+        length_mm = math.nan
+    if not (first.strip() and second.strip() and first.strip() != second.strip()
+            and math.isfinite(length_mm) and 0 < length_mm <= m_to_mm(MAX_LENGTH_M)):
+        raise InputError(f"{value!r}", "A,B=MM: two different point names and a distance in "
+                         "mm > 0", source=source, where=where)
+    return Distance(first.strip(), second.strip(), float(mm_to_m(length_mm)))
+
+
+def parse_named_port(value: str, source: str | Path, where: str
+                     ) -> tuple[str | None, NDArray[np.float64]]:
+    """``NAME=X,Y,Z`` (a named port) or ``X,Y,Z`` (the one port), mm, to (name, port in m)."""
+    name, equals, coordinates = value.partition("=")
+    if not equals:
+        return None, parse_port_mm(value, source, where)
+    if not name.strip():
+        raise InputError(f"{value!r}", "NAME=X,Y,Z in mm, or X,Y,Z", source=source, where=where)
+    return name.strip(), parse_port_mm(coordinates, source, where)
+
+
+def _parse_rig(document: dict[str, Any], path: Path) -> Rig:
+    """The rig of ``port_mm`` or ``[ports]``, and ``[rig]``."""
+    ports = document.get("ports", {})
+    if not isinstance(ports, dict):
+        raise InputError(f"{ports!r}", "a table of name = [x, y, z] in mm", source=path,
+                         where="ports")
+    if "port_mm" in document and ports:
+        raise InputError("both port_mm and [ports]", "one of them", source=path)
+    names = tuple(str(name) for name in ports)
+    values = [parse_port_mm(value, path, f"ports.{name}") for name, value in ports.items()]
+    if "port_mm" in document:
+        names, values = ("port",), [parse_port_mm(document["port_mm"], path, "port_mm")]
+    table = document.get("rig", {})
+    if not isinstance(table, dict):
+        raise InputError(f"{table!r}", "a table", source=path, where="rig")
+    unknown = sorted(set(table) - set(_RIG_KEYS))
+    if unknown:
+        raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(_RIG_KEYS),
+                         source=path, where="rig")
+    attachment = parse_port_mm(table.get("attachment_mm", [0.0, 0.0, 0.0]), path,
+                               "rig.attachment_mm")
+    distances = table.get("distances", [])
+    if not isinstance(distances, list):
+        raise InputError(f"{distances!r}", 'a list of "A,B=MM"', source=path,
+                         where="rig.distances")
+    return Rig(np.reshape(values, (-1, 3)), names, attachment,
+               distances=tuple(parse_distance(value, path, f"rig.distances[{k}]")
+                               for k, value in enumerate(distances)))
 
 
 def write_capture(
     path: str | Path,
     *,
     robot: str,
-    port_m: NDArray[np.float64],
+    port_m: NDArray[np.float64] | None = None,
     measurements: str,
     truth: str | None = None,
     calibration: CalibrationSettings | None = None,
     encoder: dict[str, str | int | float] | None = None,
+    rig: Rig | None = None,
 ) -> None:
-    """Write a capture file atomically; ``robot``, ``measurements``, ``truth`` are relative."""
+    """Write a capture file atomically; ``robot``, ``measurements``, ``truth`` are relative.
+
+    The rig is ``port_m`` alone, or ``rig``: one port named ``port`` is written as
+    ``port_mm``, other ports as ``[ports]``; an attachment off the flange and known distances
+    as ``[rig]``.
+    """
+    if rig is None:
+        rig = Rig() if port_m is None else Rig.cable(port_m)
     lines = [
         "# Written by twin; `twin calibrate THIS_FILE` needs nothing else.",
         f"robot = {json.dumps(robot)}",
-        "port_mm = [" + ", ".join(repr(float(v)) for v in m_to_mm(port_m)) + "]",
-        f"measurements = {json.dumps(measurements)}",
     ]
+    if rig.port_names == ("port",):
+        lines.append("port_mm = " + _vector_mm(rig.ports_m[0]))
+    lines.append(f"measurements = {json.dumps(measurements)}")
     if truth is not None:
         lines.append(f"truth = {json.dumps(truth)}")
+    if len(rig.ports_m) and rig.port_names != ("port",):
+        lines.append("[ports]")
+        lines += [f"{json.dumps(name)} = {_vector_mm(port)}"
+                  for name, port in zip(rig.port_names, rig.ports_m, strict=True)]
+    if np.any(np.abs(rig.attachment_m) > 0) or rig.distances:
+        lines.append("[rig]")
+        lines.append("attachment_mm = " + _vector_mm(rig.attachment_m))
+        if rig.distances:
+            lines.append("distances = [" + ", ".join(
+                json.dumps(f"{d.first},{d.second}={float(m_to_mm(d.length_m))!r}")
+                for d in rig.distances) + "]")
     if calibration is not None:
         lines += [
             "[calibration]",
             f"estimate_port = {json.dumps(calibration.estimate_port)}",
             f"estimate_offset = {json.dumps(calibration.estimate_offset)}",
+            f"estimate_attachment = {json.dumps(calibration.estimate_attachment)}",
+            f"estimate_base = {json.dumps(calibration.estimate_base)}",
+            f"loss = {json.dumps(calibration.loss)}",
             f"train_fraction = {calibration.train_fraction!r}",
             f"stop = {json.dumps(calibration.stop)}",
         ]
+        if calibration.loss_scale_mm is not None:
+            lines.append(f"loss_scale_mm = {calibration.loss_scale_mm!r}")
         if calibration.max_iterations is not None:
             lines.append(f"max_iterations = {calibration.max_iterations}")
         lines += [f"errors = {json.dumps(list(calibration.errors))}",
@@ -243,3 +381,7 @@ def write_capture(
         lines.append("[encoder]")
         lines += [f"{key} = {json.dumps(value)}" for key, value in encoder.items()]
     write_atomic(path, "\n".join(lines) + "\n")
+
+
+def _vector_mm(values_m: NDArray[np.float64]) -> str:
+    return "[" + ", ".join(repr(float(v)) for v in m_to_mm(values_m)) + "]"

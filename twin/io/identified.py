@@ -31,7 +31,7 @@ from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
 from twin.kinds import get_kind
 from twin.model import Model
-from twin.rig import MAX_TENSION_N, Rig
+from twin.rig import MAX_TENSION_N, Distance, Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,
@@ -214,21 +214,55 @@ class IdentifiedModel(NamedTuple):
 
 
 def _rig(document: Any, path: Path, where: str) -> Rig:
+    here = f"{where}unknowns.rig"
     if not isinstance(document, dict) or not isinstance(document.get("ports"), dict):
         raise InputError("no rig", '"rig": {"ports": {name: [x, y, z]}, "attachment": [...]}',
-                         source=path, where=f"{where}unknowns.rig")
+                         source=path, where=here)
     ports, names = [], []
     for name, value in document["ports"].items():
-        ports.append(parse_port_mm(value, path, f"{where}unknowns.rig.ports.{name}"))
+        ports.append(parse_port_mm(value, path, f"{here}.ports.{name}"))
         names.append(str(name))
     attachment = parse_port_mm(document.get("attachment", [0.0, 0.0, 0.0]), path,
-                               f"{where}unknowns.rig.attachment")
+                               f"{here}.attachment")
+    points = document.get("points", {})
+    estimated = document.get("estimated_ports", [])
+    tracker = document.get("base_in_tracker", {"exact": np.eye(4).ravel().tolist()})
+    distances = document.get("distances", [])
+    exact = tracker.get("exact") if isinstance(tracker, dict) else None
+    if not isinstance(points, dict) or not isinstance(estimated, list) \
+            or not isinstance(distances, list) or not isinstance(exact, list) \
+            or len(exact) != 16 or not all(isinstance(v, int | float)
+                                           and not isinstance(v, bool) for v in exact):
+        raise InputError("a rig that is not one twin writes", "the rig of a result written by "
+                         "this version of twin calibrate", source=path, where=here)
     tension = document.get("tension_n", 0.0)
     if isinstance(tension, bool) or not isinstance(tension, int | float) \
             or not 0.0 <= tension <= MAX_TENSION_N:
         raise InputError(f"{tension!r}", f"a cable tension in N from 0 to {MAX_TENSION_N:g}",
-                         source=path, where=f"{where}unknowns.rig.tension_n")
-    return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment, float(tension))
+                         source=path, where=f"{here}.tension_n")
+    try:
+        return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment,
+                   tension_n=float(tension),
+                   estimated_ports=tuple(str(name) for name in estimated),
+                   base_in_tracker=np.reshape(exact, (4, 4)),
+                   point_names=tuple(str(name) for name in points),
+                   points_m=np.reshape([parse_port_mm(value, path, f"{here}.points.{name}")
+                                        for name, value in points.items()], (-1, 3)),
+                   distances=tuple(_distance(value, path, f"{here}.distances")
+                                   for value in distances))
+    except ValueError as exc:
+        raise InputError(str(exc), "the rig of a result written by this version of twin "
+                         "calibrate", source=path, where=here) from None
+
+
+def _distance(value: Any, path: Path, where: str) -> Distance:
+    if not isinstance(value, dict) or not isinstance(value.get("points"), list) \
+            or len(value["points"]) != 2 or isinstance(value.get("length"), bool) \
+            or not isinstance(value.get("length"), int | float):
+        raise InputError(f"{value!r}", '{"points": [A, B], "length": mm}', source=path,
+                         where=where)
+    return Distance(str(value["points"][0]), str(value["points"][1]),
+                    float(mm_to_m(value["length"])))
 
 
 def check_result_inertia(entry: dict[str, Any], robot: RobotModel, path: Path,

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -18,6 +19,9 @@ from twin.calibration import CalibrationResult
 from twin.identifiability import Identifiability
 from twin.io.atomic import write_atomic
 from twin.metrics import Metrics
+from twin.misfit import ALPHA, FAR
+from twin.rig import Rig
+from twin.rigid import angles
 from twin.robot import RobotModel
 from twin.selection import ErrorChoice
 from twin.units import (
@@ -25,10 +29,15 @@ from twin.units import (
     RESULT_MM_DECIMALS,
     dh_rows_rounded,
     m_to_mm,
+    rad_to_deg,
     rounded,
     significant,
     to_display,
 )
+
+if TYPE_CHECKING:
+    from twin.accuracy import TruthErrors
+    from twin.diagnosis import Cause
 
 MM2_PER_M2 = float(m_to_mm(1.0)) ** 2
 MASS_DECIMALS = 3
@@ -105,6 +114,8 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
                 _mm(model.block(uncertainty.sigma, "offset")))[0]
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
+        if model.has("attachment"):
+            fields["predicted_point_rms"] = _mm(uncertainty.point_rms_m)[0]
     return fields
 
 
@@ -118,13 +129,10 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     sigma = to_display(result.uncertainty.sigma, model.units)[0] \
         if result.uncertainty is not None else [math.nan] * model.n_params
     held = set(result.at_bounds)
-    rig = model.rig
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
-        "rig": {"ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
-                                                                 strict=True)},
-                "attachment": _mm(rig.attachment_m), "tension_n": rig.tension_n},
+        "rig": rig_to_dict(model.rig, model.kind.name),
         "parameters": [
             {"name": name, "group": group.name, "value": value, "unit": label,
              "sigma": deviation if math.isfinite(deviation) else None,
@@ -137,8 +145,81 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     }
 
 
-def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
-    """The JSON document of one result: lengths in mm, angles in degrees, f in mm²."""
+def pose_to_list(transform: Any) -> list[float]:
+    """A 4×4 transform as ``[x, y, z, rx, ry, rz]`` (mm, degrees; R = Rz Ry Rx), rounded."""
+    return [*_mm(transform[:3, 3]),
+            *rounded(rad_to_deg(angles(transform[:3, :3])), FILE_DEG_DECIMALS)]
+
+
+def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
+    """The rig as the calibration was told it (mm, degrees) for measurements of ``kind``: what
+    rebuilds its model. The tracker frame of tracker positions is kept exactly (16 floats)
+    besides its readable pose: it is the rigid fit the calibration started from."""
+    document: dict[str, Any] = {
+        "ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
+                                                         strict=True)},
+        "attachment": _mm(rig.attachment_m),
+        "tension_n": rig.tension_n,
+    }
+    if rig.estimated_ports:
+        document["estimated_ports"] = list(rig.estimated_ports)
+    if kind == "position":
+        document["base_in_tracker"] = {"exact": rig.base_in_tracker.ravel().tolist(),
+                                       "pose": pose_to_list(rig.base_in_tracker)}
+    if rig.point_names:
+        document["points"] = {name: _mm(point) for name, point in zip(
+            rig.point_names, rig.points_m, strict=True)}
+    if rig.distances:
+        document["distances"] = [{"points": [d.first, d.second], "length": _mm(d.length_m)[0]}
+                                 for d in rig.distances]
+    return document
+
+
+def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict[str, Any]:
+    """``misfit``, ``loss``, ``rejected_rows`` and ``unobservable`` of a result."""
+    document: dict[str, Any] = {}
+    misfit = result.misfit
+    if misfit is not None:
+        document["misfit"] = {
+            "misfit": misfit.misfit,
+            "rmse": _mm(misfit.rmse_m)[0],
+            "noise": _mm(misfit.noise_m)[0],
+            "noise_source": misfit.noise_source,
+            "test": "chi-square of the training residuals against the noise: misfit when "
+                    f"chi2 > its {1 - ALPHA:g} quantile and RMSE > {FAR:g} x noise",
+            "chi2": significant(misfit.statistic),
+            "dof": misfit.dof,
+            "threshold": significant(misfit.threshold),
+            "causes": [cause.describe() for cause in causes],
+        }
+    document["loss"] = {"name": result.loss.name,
+                        "scale": _mm(result.loss.scale_m)[0] if result.loss.robust else None}
+    document["rejected_rows"] = result.rejected_rows.tolist()
+    gauge = result.gauge
+    document["unobservable"] = {"motions": list(gauge.names) if gauge is not None else [],
+                                "pin": list(gauge.pins) if gauge is not None else []}
+    return document
+
+
+def truth_to_dict(truth: TruthErrors) -> dict[str, Any]:
+    """The errors against the truth over the workspace poses (mm)."""
+    return {"flange_error": _mm(truth.flange_m)[0],
+            "flange_error_gauge_free": _mm(truth.flange_gauge_free_m)[0],
+            "point_error": _mm(truth.point_m)[0],
+            "point_error_gauge_free": _mm(truth.point_gauge_free_m)[0],
+            "unobservable": list(truth.motions),
+            "point_unobservable": list(truth.point_motions)}
+
+
+def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
+                   truth: TruthErrors | None = None) -> dict[str, Any]:
+    """The JSON document of one result: lengths in mm, angles in degrees, f in mm².
+
+    Args:
+        result: The calibration.
+        causes: The likely causes of a misfit, if diagnosed.
+        truth: The errors against the truth, if known.
+    """
     solver = result.solver
     document: dict[str, Any] = {
         "method": result.method,
@@ -151,6 +232,16 @@ def result_to_dict(result: CalibrationResult) -> dict[str, Any]:
         document["port"] = _mm(result.port_m)
     if result.model.has("offset"):
         document["offset"] = _mm(result.offset_m)[0]
+    if result.model.has("attachment"):
+        document["attachment"] = _mm(result.attachment_m)
+    if result.model.has("base"):
+        document["base_in_tracker"] = pose_to_list(result.base_in_tracker)
+    if result.model.has("points"):
+        document["points"] = {name: _mm(point) for name, point in zip(
+            result.model.rig.point_names, result.points_m, strict=True)}
+    document.update(fit_to_dict(result, causes))
+    if truth is not None:
+        document["truth"] = truth_to_dict(truth)
     document["unknowns"] = unknowns_to_dict(result)
     document.update(_uncertainty_fields(result))
     document.update(

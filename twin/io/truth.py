@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.errors import InputError
 from twin.io.paths import read_json
-from twin.units import DH_KEYS, dh_rows_from_display
+from twin.units import DH_KEYS, dh_rows_from_display, mm_to_m
 
 
 def parse_delta(
@@ -76,3 +76,21 @@ def load_truth_delta(path: str | Path, n_joints: int, is_length: ArrayLike | Non
     """
     return parse_delta(read_json(path, "a truth JSON file"), n_joints, path,
                        is_length=is_length)
+
+
+def load_truth_attachment(path: str | Path) -> NDArray[np.float64]:
+    """The true measured point in the flange frame of a truth file, shape (3,), m; the flange
+    centre when the file does not say (written before twin simulated attachments).
+
+    Raises:
+        InputError: if the file is not JSON or ``attachment_mm`` is not three numbers.
+    """
+    document = read_json(path, "a truth JSON file")
+    value = document.get("attachment_mm", [0.0, 0.0, 0.0]) if isinstance(document, dict) \
+        else None
+    if not isinstance(value, list) or len(value) != 3 or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value):
+        raise InputError(f"{value!r}", "attachment_mm: three numbers in mm", source=path,
+                         where="attachment_mm")
+    return mm_to_m(value)

@@ -5,8 +5,10 @@ from __future__ import annotations
 from twin.errors import UnknownChoiceError
 from twin.kinds.base import Kind, KindJacobian
 from twin.kinds.length import Length
+from twin.kinds.point import Point
+from twin.kinds.position import Position
 
-KINDS: dict[str, Kind] = {kind.name: kind for kind in (Length(),)}
+KINDS: dict[str, Kind] = {kind.name: kind for kind in (Length(), Position(), Point())}
 """Every measurement kind, by the name :attr:`twin.dataset.Measurements.kind` gives."""
 
 

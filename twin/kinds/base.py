@@ -9,13 +9,16 @@ pose, then any rows that belong to no pose (a known distance between two fixed p
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import NamedTuple, Protocol
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
 from twin.rig import Rig
+
+if TYPE_CHECKING:
+    from twin.model import Model
 
 Array = NDArray[np.float64]
 
@@ -29,6 +32,11 @@ class KindJacobian(NamedTuple):
     """∂r/∂p of each pose's rows w.r.t. that pose's point, shape (m, rows_per_pose, 3)."""
     by_group: dict[str, Array]
     """∂r/∂x_g of each measurement-stage group the kind reads, shape (M, p_g)."""
+
+
+def no_symmetries(model: Model, x: Array) -> Array:
+    """No direction to project out: shape (p, 0)."""
+    return np.zeros((model.n_params, 0))
 
 
 class Kind(Protocol):
@@ -52,7 +60,17 @@ class Kind(Protocol):
         ...
 
     def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
-                port: NDArray[np.intp] | None = None) -> Measurements:
+                port: NDArray[np.intp] | None = None, point: NDArray[np.intp] | None = None
+                ) -> Measurements:
         """Noise-free readings of this kind at positions (m, 3) and values (p_g,): the data
-        the model fits exactly (for identifiability on synthetic poses, and for tests)."""
+        the model fits exactly (for identifiability on synthetic poses, and for tests); row i
+        from port ``port[i]`` (cable lengths) or at fixed place ``point[i]`` (fixed points)."""
+        ...
+
+    def symmetries(self, model: Model, x: Array) -> Array:
+        """Directions of x (p, g) along which the kind's cost is exactly flat although its
+        linearised rows are not (they move the residuals only by rotating or scaling them):
+        the known gauge group that :meth:`twin.model.Model.identifiable_jacobian` projects out.
+        Empty (p, 0) for kinds whose gauge freedoms are exact null directions of the Jacobian.
+        """
         ...

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
-from twin.kinds.base import KindJacobian
+from twin.kinds.base import KindJacobian, no_symmetries
 from twin.kinematics import Structure, point_position
 from twin.rig import Rig
 
@@ -42,6 +42,7 @@ class Length:
     """Cable lengths (:mod:`twin.kinds.length`)."""
 
     name = "length"
+    symmetries = staticmethod(no_symmetries)
     rows_per_pose = 1
     groups: tuple[str, ...] = ("port", "offset")
 
@@ -51,7 +52,11 @@ class Length:
         ports = rig.ports_m
         if "port" in values:
             correction = values["port"]
-            ports = ports + correction.reshape(*correction.shape[:-1], len(rig.ports_m), 3)
+            estimated = rig.estimated_port_index
+            full = np.zeros((*correction.shape[:-1], len(rig.ports_m), 3))
+            full[..., estimated, :] = correction.reshape(*correction.shape[:-1], len(estimated),
+                                                         3)
+            ports = ports + full
         return np.asarray(ports[..., data.port_index, :], dtype=np.float64)
 
     def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
@@ -64,7 +69,8 @@ class Length:
         return np.asarray(length - data.length_m, dtype=np.float64)
 
     def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
-                port: NDArray[np.intp] | None = None) -> Measurements:
+                port: NDArray[np.intp] | None = None, point: NDArray[np.intp] | None = None
+                ) -> Measurements:
         """The cable lengths the model gives; row i from port ``port[i]`` (port 0 if None)."""
         zeros = Measurements(q_rad, length_m=np.zeros(len(q_rad)), port=port)
         return Measurements(q_rad, length_m=self.residuals(positions, values, zeros, rig),
@@ -72,8 +78,8 @@ class Length:
 
     def jacobian(self, positions: Array, values: Mapping[str, Array], data: Measurements,
                  rig: Rig) -> KindJacobian:
-        """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on port j's
-        rows; ∂r/∂c = 1."""
+        """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on the rows
+        of estimated port j; ∂r/∂c = 1."""
         difference = positions - self._ports(values, data, rig)
         distance = np.linalg.norm(difference, axis=-1)
         u = difference / distance[:, None]
@@ -81,7 +87,7 @@ class Length:
         if "port" in values:
             columns = np.zeros((len(data), len(rig.ports_m), 3))
             columns[np.arange(len(data)), data.port_index] = -u
-            by_group["port"] = columns.reshape(len(data), -1)
+            by_group["port"] = columns[:, rig.estimated_port_index].reshape(len(data), -1)
         if "offset" in values:
             distance = distance + values["offset"][0]
             by_group["offset"] = np.ones((len(data), 1))

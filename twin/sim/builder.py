@@ -14,10 +14,12 @@ standard D-H link: along z by d_i, then along x by a_i); a sphere when both are 
 the model file's ``radius`` and share its ``mass``; when the file gives the link's centre of mass
 (``com``, in link frame i), the body's mass sits there instead (an explicit inertial), as the
 calibration's compliance model assumes. When joint 1 stands off the base origin, a pedestal
-capsule of the world reaches up to it. World site ``port`` is the encoder port; spatial tendon
-``cable`` runs from ``port`` to ``flange``: its ``ten_length`` is the measured cable length.
-With compliant physics, actuators ``servo<i>`` are position servos of the joint stiffness, and
-actuator ``tension`` pulls the cable with a force equal to its ``ctrl`` (N).
+capsule of the world reaches up to it. Site ``point`` in ``link<n>`` is the measured point (cable
+eyelet, tracker target, ball) when it is off the flange centre. World site ``port`` is the
+encoder port; spatial tendon ``cable`` runs from ``port`` to ``point`` (``flange`` without one):
+its ``ten_length`` is the measured cable length. With compliant physics, actuators ``servo<i>``
+are position servos of the joint stiffness, and actuator ``tension`` pulls the cable with a force
+equal to its ``ctrl`` (N).
 """
 
 from __future__ import annotations
@@ -98,6 +100,7 @@ def build_spec(
     physics: Physics = RIGID,
     *,
     floor: bool = False,
+    attachment_m: ArrayLike | None = None,
 ) -> mujoco.MjSpec:
     """The MjSpec of a robot (and its cable, when a port is given).
 
@@ -108,6 +111,8 @@ def build_spec(
             compliant; gravity is always in the model's options (statics switch it off when
             ``physics.gravity`` is false).
         floor: Add a floor plane at z = 0 and a light (what `scene.xml` adds to the robot).
+        attachment_m: The measured point in the flange frame, shape (3,), m: site ``point``,
+            where the cable ends; None for the flange centre.
 
     Returns:
         An uncompiled spec; ``spec.compile()`` gives the model, ``spec.to_xml()`` its MJCF.
@@ -143,8 +148,16 @@ def build_spec(
             _set_inertial(body, float(robot.mass_kg[i]), link[:3, :3] @ robot.com_m[i]
                           + link[:3, 3], radius[i])
         parent = body
-    parent.add_site(name="flange", pos=fixed[n][:3, 3], quat=_quat(fixed[n][:3, :3]),
+    flange = fixed[n]
+    parent.add_site(name="flange", pos=flange[:3, 3], quat=_quat(flange[:3, :3]),
                     size=[0.008, 0, 0], rgba=[0.1, 0.6, 0.1, 1.0])
+    end = "flange"
+    if attachment_m is not None:
+        # The attachment is given in the flange frame; the site lives in link n's body.
+        point = flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
+        parent.add_site(name="point", pos=point, quat=_quat(flange[:3, :3]),
+                        size=[0.006, 0, 0], rgba=[0.8, 0.1, 0.1, 1.0])
+        end = "point"
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
     # offset, links two apart meet at the wrist and elbow centres too.
     for i in range(1, n - 1):
@@ -169,7 +182,7 @@ def build_spec(
                                 size=[0.01, 0, 0], rgba=[0.1, 0.1, 0.8, 1.0])
         cable = spec.add_tendon(name="cable", width=CABLE_WIDTH_M, rgba=[0.2, 0.2, 0.2, 1.0])
         cable.wrap_site("port")
-        cable.wrap_site("flange")
+        cable.wrap_site(end)
         if physics.stiffness_nm_per_rad is not None:
             # gear −1: a positive control (N) shortens the cable, i.e. pulls the flange.
             tension = spec.add_actuator(name="tension", target="cable",

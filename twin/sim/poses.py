@@ -46,18 +46,27 @@ class PoseConstraints:
             raise ValueError("cable range: expected 0 <= min < max")
 
     def violations(self, twin: Twin, q_rad: Array) -> list[tuple[str, NDArray[np.bool_]]]:
-        """Each constraint's name and where it fails, each mask of shape (m,)."""
+        """Each constraint's name and where it fails, each mask of shape (m,); the cable's only
+        when the twin has one."""
         flange = twin.robot.flange_positions(q_rad)
-        length = np.linalg.norm(flange - twin.port_m, axis=-1)
         inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
-        return [
+        found = [
             ("outside the joint limits", ~np.all(inside, axis=1)),
             (f"flange below {m_to_mm(self.min_flange_height_m):g} mm",
              flange[:, 2] < self.min_flange_height_m),
+            ("links in collision", twin.in_collision(q_rad)),
+        ]
+        if twin.port_m is None:
+            return found
+        transforms = twin.robot.flange_transforms(q_rad)
+        point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
+        length = np.linalg.norm(point - twin.port_m, axis=-1)
+        return [
+            *found[:2],
             (f"cable length outside [{m_to_mm(self.cable_min_m):g}, "
              f"{m_to_mm(self.cable_max_m):g}] mm",
              (length < self.cable_min_m) | (length > self.cable_max_m)),
-            ("links in collision", twin.in_collision(q_rad)),
+            found[2],
             ("cable through a link", twin.cable_blocked(q_rad, self.cable_clearance_m)),
         ]
 

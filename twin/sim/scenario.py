@@ -8,14 +8,33 @@ joint errors), paths relative to the scenario file::
     seed = 7                               # required: seeds every random draw
     robot = "../models/irb120.toml"        # nominal model (model TOML or URDF, 4 to 7 joints);
                                            # default: the packaged IRB 120
-
-    [port]
-    position_mm = [600.0, -400.0, 100.0]   # required: true port, base frame
-    told_error_mm = 0.0                    # the calibration is told position + N(0, σ²) per axis
-    # told_mm = [601.0, -400.0, 100.0]     # ... or exactly this (not both)
-
     robot_base_link = "base_link"          # for a URDF robot: its chain (default: the root
     robot_tip_link = "tool0"               #   link to tool0, flange or the one leaf)
+
+    [port]
+    position_mm = [600.0, -400.0, 100.0]   # required for cable lengths: true port, base frame
+    told_error_mm = 0.0                    # the calibration is told position + N(0, σ²) per axis
+    # told_mm = [601.0, -400.0, 100.0]     # ... or exactly this (not both)
+    # [port.stations_mm]                   # ... or an encoder moved between stations (instead of
+    # front = [600.0, -400.0, 100.0]       # position_mm): true ports by name; the poses are
+    # left = [500.0, 500.0, 0.0]           # shared out evenly, each told with told_error_mm
+
+    [cable]
+    attachment_mm = [0.0, 0.0, 0.0]        # true eyelet in the flange frame
+    told_attachment_mm = [0.0, 0.0, 0.0]   # what the calibration is told (default: the truth)
+
+    [measurement]                          # another instrument than the cable (twin.sim.rigs)
+    kind = "length"                        # "position": laser tracker; "point": fixed points
+    sigma_mm = 0.01                        # tracker noise / ball seating, number or [x, y, z]
+    tracker_pose = [2000.0, 0.0, 0.0, 0.0, 0.0, 180.0]  # base in the tracker: mm, deg (x y z)
+    attachment_mm = [0.0, 0.0, 80.0]       # true target / ball centre in the flange frame
+    told_attachment_mm = [0.0, 0.0, 0.0]   # what the calibration is told (default: the truth)
+
+    [fixture]                              # fixed points: a ball fixture set down several times
+    sockets_mm = [[0.0, 0.0, 0.0], [50.0, 0.0, 0.0]]   # in the fixture's frame
+    placements = [[450.0, -150.0, 250.0, 0.0, 0.0, 20.0]]  # fixture in the base: mm, deg
+    touches = 12                           # configurations per socket and placement
+    distances = true                       # tell the calibration the socket spacings
 
     [perturbation]                         # the true table errors, drawn per seed
     distribution = "uniform"               # "uniform": ±scale; "normal": σ = scale
@@ -58,6 +77,10 @@ joint errors), paths relative to the scenario file::
     train_fraction = 0.8
     estimate_port = false
     estimate_offset = false
+    estimate_attachment = false
+    estimate_base = false                  # tracker frame (started at a rigid fit)
+    loss = "linear"                        # or "huber", "soft_l1", "cauchy" (twin.loss)
+    loss_scale_mm = 0.03                   # with a robust loss; default 3 σ of the noise
     stop = "converge"                      # stopping protocol: "converge" or "paper"
     max_iterations = 200                   # optional: iteration limit of every method and stage
     errors = ["dh"]                        # the robot's error groups the calibration fits:
@@ -81,17 +104,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.dataset import MAX_POSES
+from twin.dataset import KINDS, MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
+from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import MAX_TENSION_N
+from twin.rigid import transform
 from twin.robot import RobotModel, default_robot
 from twin.sim.joint_errors import JointErrors
 from twin.sim.noise import NoiseModel
 from twin.sim.perturbation import DISTRIBUTIONS, Perturbation
 from twin.sim.physics import Physics
 from twin.sim.poses import PoseConstraints
+from twin.sim.rigs import Instrument
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import ERRORS
@@ -100,9 +127,13 @@ Array = NDArray[np.float64]
 ARCSEC_PER_DEG = 3600.0
 
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
-        "perturbation", "poses", "encoder", "joints", "physics", "calibration", "study", "expect")
+        "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
+        "physics", "calibration", "study", "expect")
 _TABLES = {
-    "port": ("position_mm", "told_error_mm", "told_mm"),
+    "port": ("position_mm", "told_error_mm", "told_mm", "stations_mm"),
+    "cable": ("attachment_mm", "told_attachment_mm"),
+    "measurement": ("kind", "sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"),
+    "fixture": ("sockets_mm", "placements", "touches", "distances"),
     "perturbation": ("distribution", "a_mm", "d_mm", "beta_deg", "alpha_deg", "theta_deg"),
     "poses": ("count", "plan", "min_flange_height_mm", "cable_clearance_mm"),
     "encoder": ("range_mm", "sigma_mm", "resolution_mm", "outlier_rate", "outlier_mm",
@@ -111,7 +142,8 @@ _TABLES = {
                "transmission_phase_deg", "backlash_arcsec"),
     "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"),
     "calibration": ("train_fraction", "estimate_port", "estimate_offset", "stop",
-                    "max_iterations", "errors"),
+                    "max_iterations", "errors", "estimate_attachment", "estimate_base", "loss",
+                    "loss_scale_mm"),
 }
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
@@ -127,7 +159,8 @@ class Scenario:
         description: What the scenario is for.
         seed: Default seed of every random draw.
         robot: The nominal robot (what the calibration is told).
-        port_m: True port, shape (3,), m.
+        port_m: True port, shape (3,), m (the first station's with several); None without a
+            cable.
         port_told_m: The port the calibration is told, shape (3,), m; None means the true port
             plus an N(0, ``port_error_m``²) draw per axis.
         port_error_m: 1σ per axis of the told port's error, m.
@@ -142,6 +175,11 @@ class Scenario:
         train_fraction: Share of poses for identification, or None (the core's 80 %).
         estimate_port: Hint: calibrate with a port correction.
         estimate_offset: Hint: calibrate with a length offset.
+        instrument: Stations, attachment, tracker or fixture (:mod:`twin.sim.rigs`).
+        estimate_attachment: Hint: calibrate with the attachment point unknown.
+        estimate_base: Hint: calibrate with the tracker frame unknown.
+        loss: Hint: the loss of the calibration (:data:`twin.loss.LOSSES`).
+        loss_scale_m: Hint: its scale, m, or None for 3 σ of the noise.
         stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
         max_iterations: Iteration limit of every method and stage, or None (the protocol's).
         errors: The robot's error groups the calibration fits (:data:`twin.unknowns.ERRORS`).
@@ -153,7 +191,7 @@ class Scenario:
     name: str
     seed: int
     robot: RobotModel
-    port_m: Array
+    port_m: Array | None
     perturbation: Perturbation
     pose_count: int
     description: str = ""
@@ -174,19 +212,38 @@ class Scenario:
     study: dict[str, Any] = field(default_factory=dict)
     expect: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
+    instrument: Instrument = field(default_factory=Instrument)
+    estimate_attachment: bool = False
+    estimate_base: bool = False
+    loss: str = LOSSES[0]
+    loss_scale_m: float | None = None
 
     @property
     def budget(self) -> Budget:
         """The iteration limits and stopping tests the calibration runs with."""
         return Budget.named(self.stop, self.max_iterations)
 
+    @property
+    def calibration_loss(self) -> Loss:
+        """The loss ``[calibration]`` asks for, its scale defaulting to
+        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the simulated noise (without jitter)."""
+        if self.loss_scale_m is not None:
+            return Loss(self.loss, self.loss_scale_m)
+        sigma = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
+            if self.instrument.kind != "length" \
+            else float(np.hypot(self.noise.sigma_m, self.noise.resolution_m / np.sqrt(12.0)))
+        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * (sigma if sigma > 0 else DEFAULT_SIGMA_M))
+
     def __post_init__(self) -> None:
         n = self.robot.n_joints
-        port = np.array(self.port_m, dtype=np.float64)
-        if port.shape != (3,) or not np.all(np.isfinite(port)):
-            raise ValueError("port_m: expected 3 finite values")
-        port.setflags(write=False)
-        object.__setattr__(self, "port_m", port)
+        if self.port_m is not None:
+            port = np.array(self.port_m, dtype=np.float64)
+            if port.shape != (3,) or not np.all(np.isfinite(port)):
+                raise ValueError("port_m: expected 3 finite values")
+            port.setflags(write=False)
+            object.__setattr__(self, "port_m", port)
+        elif self.instrument.kind == "length":
+            raise ValueError("port_m: cable lengths need a port")
         if self.port_told_m is not None:
             told = np.array(self.port_told_m, dtype=np.float64)
             told.setflags(write=False)
@@ -314,13 +371,24 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
                              where=f"[{key}]")
         passed_through[key] = value
 
+    instrument = _instrument(document, tables, source)
     port = tables["port"]
-    port.required("position_mm", "the true port [x, y, z] in mm")
-    port_m = mm_to_m(port.vector("position_mm", 3))
-    if port.has("told_mm") and port.has("told_error_mm"):
-        raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
-    port_told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
-    port_error_m = float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
+    port_m, port_told_m, port_error_m = None, None, 0.0
+    if instrument.kind == "length":
+        if not instrument.station_names:
+            port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
+            port_m = mm_to_m(port.vector("position_mm", 3))
+        else:
+            port_m = instrument.stations_m[0]
+        if port.has("told_mm") and port.has("told_error_mm"):
+            raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
+        if port.has("told_mm") and instrument.station_names:
+            raise port.error("told_mm", "told_mm with stations", "told_error_mm for every station")
+        port_told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
+        port_error_m = float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
+    elif port.values:
+        raise port.error(sorted(port.values)[0], f"a port with {instrument.kind} measurements",
+                         "no [port] table (only cable lengths have ports)")
 
     pert = tables["perturbation"]
     distribution = pert.text("distribution", "uniform")
@@ -342,9 +410,17 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
 
     poses = tables["poses"]
     plan = folder / poses.text("plan") if poses.has("plan") else None
-    if plan is None:
-        poses.required("count", "the number of poses (or a plan)")
-    count = poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") else 0
+    if instrument.kind == "point":
+        for key in ("count", "plan"):
+            if poses.has(key):
+                raise poses.error(key, f"{key} with fixed points",
+                                  "[fixture] placements and touches (they set the poses)")
+        count = len(instrument.points_m) * instrument.touches
+    else:
+        if plan is None:
+            poses.required("count", "the number of poses (or a plan)")
+        count = poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") \
+            else 0
 
     encoder = tables["encoder"]
     cable_range = mm_to_m(encoder.vector("range_mm", 2, minimum=0.0, default=[50.0, 1500.0]))
@@ -403,6 +479,9 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     stop = calibration.text("stop", PROTOCOLS[0])
     if stop not in PROTOCOLS:
         raise calibration.error("stop", repr(stop), "one of " + ", ".join(PROTOCOLS))
+    loss = calibration.text("loss", LOSSES[0])
+    if loss not in LOSSES:
+        raise calibration.error("loss", repr(loss), "one of " + ", ".join(LOSSES))
     max_iterations = calibration.integer("max_iterations", minimum=1) \
         if calibration.has("max_iterations") else None
     if max_iterations is not None and max_iterations > MAX_ITERATIONS:
@@ -456,7 +535,94 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         study=passed_through["study"],
         expect=passed_through["expect"],
         source=source,
+        instrument=instrument,
+        estimate_attachment=calibration.boolean("estimate_attachment", False),
+        estimate_base=calibration.boolean("estimate_base", False),
+        loss=loss,
+        loss_scale_m=float(mm_to_m(calibration.number("loss_scale_mm", strict_minimum=True,
+                                                      minimum=0.0)))
+        if calibration.has("loss_scale_mm") else None,
     )
+
+
+def _points(table: _Table, key: str, default: list[list[float]] | None = None) -> Array:
+    """A list of [x, y, z] (mm) as an array (k, 3), m."""
+    value = table.values.get(key, default)
+    if not isinstance(value, list) or not value or any(
+            not isinstance(row, list) or len(row) != 3 or any(
+                isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
+                for v in row) for row in value):
+        raise table.error(key, repr(value), "a list of [x, y, z] in mm")
+    return mm_to_m(value)
+
+
+def _pose(table: _Table, key: str, value: Any) -> Array:
+    """``[x, y, z, rx, ry, rz]`` (mm, deg; R = Rz Ry Rx) as a 4×4 transform, m."""
+    if not isinstance(value, list) or len(value) != 6 or any(
+            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
+            for v in value):
+        raise table.error(key, repr(value), "[x, y, z, rx, ry, rz] in mm and degrees")
+    return transform(mm_to_m(value[:3]), deg_to_rad(value[3:]))
+
+
+def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Path
+                ) -> Instrument:
+    """The ``[cable]``, ``[measurement]``, ``[fixture]`` tables and ``[port.stations_mm]``."""
+    measurement, cable, fixture = tables["measurement"], tables["cable"], tables["fixture"]
+    kind = measurement.text("kind", "length")
+    if kind not in KINDS:
+        raise measurement.error("kind", repr(kind), "one of " + ", ".join(KINDS))
+    if kind == "length":
+        for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
+            if measurement.has(key):
+                raise measurement.error(key, f"{key} with cable lengths",
+                                        "[encoder] for the cable's noise, [cable] for its "
+                                        "attachment")
+        point_table = cable
+    else:
+        if cable.values:
+            raise cable.error(sorted(cable.values)[0], f"a [cable] table with {kind} "
+                              "measurements", "[measurement] attachment_mm")
+        point_table = measurement
+    attachment = mm_to_m(point_table.vector("attachment_mm", 3, default=[0.0, 0.0, 0.0]))
+    told = mm_to_m(point_table.vector("told_attachment_mm", 3)) \
+        if point_table.has("told_attachment_mm") else attachment
+    names: tuple[str, ...] = ()
+    stations = np.zeros((0, 3))
+    port = tables["port"]
+    if port.has("stations_mm"):
+        if kind != "length" or port.has("position_mm"):
+            raise port.error("stations_mm", "stations with position_mm or without cable "
+                             "lengths", "either position_mm or [port.stations_mm]")
+        block = _Table(port.values, "stations_mm", source, tuple(port.values["stations_mm"])
+                       if isinstance(port.values["stations_mm"], dict) else ())
+        block.name = "port.stations_mm"
+        names = tuple(str(name) for name in block.values)
+        if not names:
+            raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
+        stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
+    sigma = measurement.vector("sigma_mm", 3, per_joint=True, minimum=0.0, default=0.0)
+    tracker = _pose(measurement, "tracker_pose", measurement.values["tracker_pose"]) \
+        if measurement.has("tracker_pose") else np.eye(4)
+    if kind != "position" and measurement.has("tracker_pose"):
+        raise measurement.error("tracker_pose", f"a tracker with {kind} measurements",
+                                "kind = \"position\"")
+    if (kind == "point") != bool(fixture.values):
+        raise fixture.error(sorted(fixture.values)[0] if fixture.values else "sockets_mm",
+                            "a [fixture] table" if fixture.values else "no [fixture] table",
+                            "[fixture] with fixed points (kind = \"point\") only")
+    sockets, placements, touches = np.zeros((0, 3)), np.zeros((0, 4, 4)), 0
+    if kind == "point":
+        sockets = _points(fixture, "sockets_mm")
+        placed = fixture.required("placements", "a list of [x, y, z, rx, ry, rz]")
+        if not isinstance(placed, list) or not placed:
+            raise fixture.error("placements", repr(placed), "a list of [x, y, z, rx, ry, rz]")
+        placements = np.stack([_pose(fixture, "placements", value) for value in placed])
+        touches = fixture.integer("touches", 12, minimum=1, maximum=MAX_POSES)
+    return Instrument(kind=kind, attachment_m=attachment, attachment_told_m=told,
+                      station_names=names, stations_m=stations, sigma_m=mm_to_m(sigma),
+                      base_in_tracker=tracker, sockets_m=sockets, placements=placements,
+                      touches=touches, tell_distances=fixture.boolean("distances", True))
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -1,8 +1,10 @@
 """One simulated capture: draw the truth, measure it with the twin, write it like a real rig.
 
 Random draws come from one generator seeded with the seed, in a fixed order: D-H errors, the
-port the calibration is told, transmission phases, the true masses and centres of mass (only with
-``[physics] mass_error``), poses, joint jitter, length noise, outliers.
+port(s) the calibration is told, transmission phases, the true masses and centres of mass (only
+with ``[physics] mass_error``), poses (station after station), joint jitter, then the
+instrument's noise (cable: length noise and outliers; tracker: per-axis noise). Fixed points draw
+their IK starts and seating errors in place of the poses and the jitter.
 
 The measurements carry the direction each joint approached its pose from (the poses are visited
 in order from home), which backlash depends on.
@@ -10,28 +12,32 @@ in order from home), which backlash depends on.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import TRAIN_FRACTION
+from twin.calibration import TRAIN_FRACTION, tracker_start, with_fixed_points
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture_file import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
 from twin.io.results import write_json
-from twin.kinds.length import cable_length
+from twin.kinds import get_kind
 from twin.metrics import metrics
+from twin.model import Model
+from twin.rig import Rig
+from twin.rigid import angles
 from twin.robot import RobotModel, robot_files
 from twin.sim.joint_errors import JointErrors
 from twin.sim.physics import true_inertia
 from twin.sim.poses import read_pose_plan, sample_poses
+from twin.sim.rigs import touch_poses, tracker_readings
 from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
-from twin.sim.twin import Twin
+from twin.sim.twin import AtRest, Twin
 from twin.units import COMPLIANCE_UNIT, dh_rows_to_display, m_to_mm, rad_to_deg, to_display
 
 Array = NDArray[np.float64]
@@ -58,10 +64,14 @@ class Simulation:
         joint_errors: Joint-level errors, with the phases that were drawn.
         joint_sigma_rad: The joint jitter 1σ behind the repeatability, rad.
         q_actual_rad: Where the joints really were, shape (m, n), rad.
-        true_length_m: Noise-free cable lengths, shape (m,), m.
+        true_length_m: Noise-free cable lengths, shape (m,), m; NaN without a cable.
         measurements: Recorded joint angles and encoder readings, as written.
         outlier_rows: Rows that carry an outlier, shape (k,).
         train_fraction: Share of poses for identification, if the scenario sets one.
+        rig: The true rig: every port, the measured point, the tracker frame, the fixed points.
+        rig_told: The rig the calibration is told (ports and attachment as told, known
+            distances; the tracker frame and fixed points are left to the calibration).
+        true_points_m: Where the measured point really was at each pose, base frame, (m, 3), m.
     """
 
     scenario: Scenario
@@ -69,8 +79,8 @@ class Simulation:
     robot: RobotModel
     true_robot: RobotModel
     delta: Array
-    port_m: Array
-    port_nominal_m: Array
+    port_m: Array | None
+    port_nominal_m: Array | None
     joint_errors: JointErrors
     joint_sigma_rad: float
     q_actual_rad: Array
@@ -78,6 +88,9 @@ class Simulation:
     measurements: Measurements
     outlier_rows: NDArray[np.intp]
     train_fraction: float | None
+    rig: Rig = field(default_factory=Rig)
+    rig_told: Rig = field(default_factory=Rig)
+    true_points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def physics(self) -> dict[str, Any]:
@@ -92,23 +105,40 @@ class Simulation:
 
     @property
     def effects(self) -> dict[str, float]:
-        """How far the data are from the core's model, in mm (RMS over the poses).
+        """How far the data are from the core's model, in mm (RMS over the residual rows).
 
-        ``nominal_rmse_mm``: readings vs the nominal model at the told port (before
-        calibration); ``non_geometric_mm``: noise-free lengths vs the true table's rigid
-        model at the recorded angles (what no D-H fit can absorb, up to refitting);
+        ``nominal_rmse_mm``: readings vs the nominal model on the told rig (before
+        calibration; tracker positions: after the rigid fit of the tracker frame; fixed points:
+        the spread of each point's nominal positions);
+        ``non_geometric_mm``: noise-free readings vs the true table's rigid model at the
+        recorded angles (what no D-H fit can absorb, up to refitting);
         ``flange_shift_mm``: flange displacement by joint errors, jitter and sag.
         """
-        q = self.measurements.q_rad
-        nominal = cable_length(self.robot.structure, self.robot.dh, q, self.port_nominal_m)
-        rigid = cable_length(self.true_robot.structure, self.true_robot.dh, q, self.port_m)
+        data = self.measurements
+        kind = get_kind(data.kind)
+        told = with_fixed_points(self.robot, self.rig_told, data) if data.kind == "point" \
+            else self.rig_told
+        nominal = Model(self.robot, told, kind, ())
+        if data.kind == "position":
+            nominal = tracker_start(nominal, data)
+        rigid = Model(self.true_robot, self.rig, kind, ()).positions(np.zeros(0), data)
         shift = self.true_robot.flange_positions(self.q_actual_rad) \
-            - self.true_robot.flange_positions(q)
+            - self.true_robot.flange_positions(data.q_rad)
         return {
-            "nominal_rmse_mm": float(m_to_mm(metrics(nominal - self.measurements.lengths).rmse)),
-            "non_geometric_mm": float(m_to_mm(metrics(self.true_length_m - rigid).rmse)),
+            "nominal_rmse_mm": float(m_to_mm(metrics(nominal.residuals(np.zeros(0), data))
+                                             .rmse)),
+            "non_geometric_mm": float(m_to_mm(np.sqrt(np.mean(
+                self._non_geometric(rigid) ** 2)))),
             "flange_shift_mm": float(m_to_mm(np.sqrt(np.mean(np.sum(shift**2, axis=1))))),
         }
+
+    def _non_geometric(self, rigid_points_m: Array) -> Array:
+        """Noise-free reading minus the rigid true model's, per residual row, m."""
+        if self.measurements.kind != "length":
+            return np.asarray(self.true_points_m - rigid_points_m, dtype=np.float64).ravel()
+        ports = self.rig.ports_m[self.measurements.port_index]
+        return np.asarray(self.true_length_m - np.linalg.norm(rigid_points_m - ports, axis=1),
+                          dtype=np.float64)
 
     @property
     def joint_unknowns(self) -> dict[str, list[Any]]:
@@ -130,13 +160,33 @@ class Simulation:
         """The document written to truth.json (mm, degrees, arc-seconds)."""
         errors = self.joint_errors
         arcsec = float(rad_to_deg(1.0)) * ARCSEC_PER_DEG
-        return {
+        rig, told = self.rig, self.rig_told
+        tracker = rig.base_in_tracker
+        document: dict[str, Any] = {
             "scenario": self.scenario.name,
             "seed": self.seed,
+            "kind": self.measurements.kind,
             "robot": {"name": self.true_robot.name,
                       "dh": dh_rows_to_display(self.true_robot.dh, self.robot.is_length)},
-            "port": m_to_mm(self.port_m).tolist(),
-            "port_told": m_to_mm(self.port_nominal_m).tolist(),
+        }
+        if self.port_m is not None and self.port_nominal_m is not None:
+            document.update({"port": m_to_mm(self.port_m).tolist(),
+                             "port_told": m_to_mm(self.port_nominal_m).tolist()})
+        if len(rig.ports_m) > 1:
+            document["ports"] = {name: m_to_mm(port).tolist()
+                                 for name, port in zip(rig.port_names, rig.ports_m, strict=True)}
+            document["ports_told"] = {name: m_to_mm(port).tolist() for name, port
+                                      in zip(told.port_names, told.ports_m, strict=True)}
+        document["attachment_mm"] = m_to_mm(rig.attachment_m).tolist()
+        document["attachment_told_mm"] = m_to_mm(told.attachment_m).tolist()
+        if self.measurements.kind == "position":
+            document["tracker_pose"] = [*m_to_mm(tracker[:3, 3]).tolist(),
+                                        *rad_to_deg(angles(tracker[:3, :3])).tolist()]
+        if rig.point_names:
+            document["points_mm"] = {name: m_to_mm(point).tolist() for name, point
+                                     in zip(rig.point_names, rig.points_m, strict=True)}
+        return {
+            **document,
             "delta": dh_rows_to_display(self.delta, self.robot.is_length),
             "noise": self.noise,
             "joint_errors": {
@@ -173,40 +223,97 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
     seed = scenario.seed if seed is None else int(seed)
     rng = np.random.default_rng(seed)
     n = scenario.robot.n_joints
+    instrument = scenario.instrument
     delta = scenario.perturbation.draw(rng)
     true_robot = scenario.robot.perturbed(delta.ravel())
-    told_error = rng.normal(0.0, 1.0, 3) * scenario.port_error_m
-    port_nominal = scenario.port_told_m if scenario.port_told_m is not None \
-        else scenario.port_m + told_error
+    names = instrument.station_names or ("port",)
+    ports = instrument.stations_m if instrument.station_names \
+        else np.zeros((0, 3)) if scenario.port_m is None else scenario.port_m[None]
+    told_ports = np.array([port + rng.normal(0.0, 1.0, 3) * scenario.port_error_m
+                           for port in ports]).reshape(-1, 3)
+    if scenario.port_told_m is not None:
+        told_ports = scenario.port_told_m[None]
     phases = rng.uniform(0.0, 2.0 * np.pi, n)
     true_robot = true_inertia(true_robot, scenario.physics.mass_error, rng)
     joint_errors = scenario.joint_errors or JointErrors.none(n)
     if scenario.draw_phases:
         joint_errors = replace(joint_errors, phase_rad=phases)
-    twin = Twin.build(true_robot, scenario.port_m, scenario.physics, joint_errors)
+    kind = instrument.kind
+    rig = Rig(ports, names if len(ports) else (), instrument.attachment_m,
+              base_in_tracker=instrument.base_in_tracker, point_names=instrument.point_names,
+              points_m=instrument.points_m)
+    rig_told = Rig(told_ports, rig.port_names, instrument.attachment_told_m,
+                   distances=instrument.distances)
+    twins = [Twin.build(true_robot, port, scenario.physics, joint_errors, instrument.attachment_m)
+             for port in (ports if kind == "length" else [None])]
+    station = np.zeros(0, dtype=np.intp)
+    if kind == "point":
+        q, point = touch_poses(true_robot, twins[0], rig.points_m, instrument.touches,
+                               scenario.constraints, instrument.sigma_m, rng)
+        rest = AtRest(q, np.full(len(q), np.nan), true_robot.flange_positions(q),
+                      Model(true_robot, rig, get_kind("point"), ()).positions(
+                          np.zeros(0), Measurements(q, point=point)))
+        return _simulation(scenario, seed, true_robot, delta, joint_errors, 0.0, rest,
+                           Measurements(q, point=point, point_names=rig.point_names),
+                           np.zeros(0, dtype=np.intp), rig, rig_told)
+    q, station = _poses(scenario, twins, rng)
+    joint_sigma = scenario.noise.joint_sigma_rad(true_robot, q)
+    jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
+    rests = [twin.at_rest(q[station == k] + jitter[station == k],
+                          approach_directions(q)[station == k]) for k, twin in enumerate(twins)]
+    rest = AtRest(*(np.concatenate(parts) for parts in zip(*rests, strict=True)))
+    if kind == "position":
+        readings = tracker_readings(rest.point_m, rig.base_in_tracker, instrument.sigma_m, rng)
+        return _simulation(scenario, seed, true_robot, delta, joint_errors, joint_sigma, rest,
+                           Measurements(q, position_m=readings,
+                                        approach=approach_directions(q)),
+                           np.zeros(0, dtype=np.intp), rig, rig_told)
+    read = scenario.noise.read(rest.length_m, rng)
+    several = len(ports) > 1
+    data = Measurements(q, read.length_m, port=station if several else None,
+                        port_names=rig.port_names if several else (),
+                        approach=approach_directions(q))
+    return _simulation(scenario, seed, true_robot, delta, joint_errors, joint_sigma, rest, data,
+                       read.outlier_rows, rig, rig_told)
+
+
+def _poses(scenario: Scenario, twins: list[Twin], rng: np.random.Generator
+           ) -> tuple[Array, NDArray[np.intp]]:
+    """The poses, from the plan or drawn station after station (count shared out evenly, the
+    first stations taking the remainder), and each pose's station."""
     if scenario.pose_plan is not None:
-        q = read_pose_plan(scenario.pose_plan, twin, scenario.constraints)
+        q = read_pose_plan(scenario.pose_plan, twins[0], scenario.constraints)
         if scenario.pose_count > len(q):
             raise InputError(f"{len(q)} poses", f"at least [poses] count = {scenario.pose_count}",
                              source=scenario.pose_plan)
         q = q[: scenario.pose_count] if scenario.pose_count else q
-    else:
+        return q, np.zeros(len(q), dtype=np.intp)
+    share, extra = divmod(scenario.pose_count, len(twins))
+    drawn = []
+    for k, twin in enumerate(twins):
         try:
-            q = sample_poses(twin, scenario.pose_count, scenario.constraints, rng)
+            drawn.append(sample_poses(twin, share + (k < extra), scenario.constraints, rng))
         except InputError as exc:
             raise InputError(exc.found, exc.expected, source=scenario.source,
                              where="[port], [poses], [encoder] range_mm") from None
-    joint_sigma = scenario.noise.joint_sigma_rad(true_robot, q)
-    jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
-    rest = twin.at_rest(q + jitter, approach_directions(q))
-    readings = scenario.noise.read(rest.length_m, rng)
+    station = np.concatenate([np.full(len(part), k, dtype=np.intp)
+                              for k, part in enumerate(drawn)])
+    return np.concatenate(drawn), station
+
+
+def _simulation(scenario: Scenario, seed: int, true_robot: RobotModel, delta: Array,
+                joint_errors: JointErrors, joint_sigma: float, rest: AtRest,
+                measurements: Measurements, outliers: NDArray[np.intp], rig: Rig,
+                rig_told: Rig) -> Simulation:
+    first = len(rig.ports_m) > 0
     return Simulation(
         scenario=scenario, seed=seed, robot=scenario.robot, true_robot=true_robot, delta=delta,
-        port_m=scenario.port_m, port_nominal_m=np.asarray(port_nominal, dtype=np.float64),
+        port_m=rig.ports_m[0] if first else None,
+        port_nominal_m=rig_told.ports_m[0] if first else None,
         joint_errors=joint_errors, joint_sigma_rad=joint_sigma, q_actual_rad=rest.q_rad,
-        true_length_m=rest.length_m,
-        measurements=Measurements(q, readings.length_m, approach=approach_directions(q)),
-        outlier_rows=readings.outlier_rows, train_fraction=scenario.train_fraction,
+        true_length_m=rest.length_m, measurements=measurements, outlier_rows=outliers,
+        train_fraction=scenario.train_fraction, rig=rig, rig_told=rig_told,
+        true_points_m=rest.point_m,
     )
 
 
@@ -222,12 +329,22 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
     for name, text in robot_files(sim.robot, Path(ROBOT_FILE).stem).items():
         write_atomic(out / name, text)
     write_json(out / TRUTH_FILE, sim.truth)
+    scenario = sim.scenario
     settings = CalibrationSettings(
-        estimate_port=sim.scenario.estimate_port, estimate_offset=sim.scenario.estimate_offset,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION, stop=sim.scenario.stop,
-        max_iterations=sim.scenario.max_iterations, errors=sim.scenario.errors,
-        cable_tension_n=sim.scenario.physics.tension_n,
+        estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
+        train_fraction=sim.train_fraction or TRAIN_FRACTION, stop=scenario.stop,
+        max_iterations=scenario.max_iterations, errors=scenario.errors,
+        cable_tension_n=scenario.physics.tension_n,
+        estimate_attachment=scenario.estimate_attachment,
+        estimate_base=scenario.estimate_base, loss=scenario.loss,
+        loss_scale_mm=None if scenario.loss_scale_m is None
+        else float(m_to_mm(scenario.loss_scale_m)),
     )
-    write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, port_m=sim.port_nominal_m,
-                  measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings)
+    noise = {"sigma_mm": float(m_to_mm(scenario.noise.sigma_m)),
+             "resolution_mm": float(m_to_mm(scenario.noise.resolution_m))} \
+        if sim.measurements.kind == "length" \
+        else {"sigma_mm": float(m_to_mm(np.sqrt(np.mean(scenario.instrument.sigma_m**2))))}
+    write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, rig=sim.rig_told,
+                  measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings,
+                  encoder={key: value for key, value in noise.items() if value > 0})
     return out / CAPTURE_FILE

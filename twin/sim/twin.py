@@ -2,7 +2,9 @@
 
 ``Twin.lengths(q)`` is what an ideal encoder reads with the controller at joint angles q: the
 joint errors move the joints off q, the servos sag under gravity and the cable's tension, and
-the tendon ``cable`` is read at rest. Noise is added elsewhere (:mod:`twin.sim.noise`).
+the tendon ``cable`` is read at rest. ``Twin.at_rest(q).point_m`` is where the measured point
+(site ``point``, or the flange) is then: what a laser tracker sees. A twin without a port has
+no cable. Noise is added elsewhere (:mod:`twin.sim.noise`).
 
 A Twin owns mutable MuJoCo data: use one per thread.
 """
@@ -36,9 +38,11 @@ class AtRest(NamedTuple):
     q_rad: Array
     """Actual joint angles, shape (m, n), rad."""
     length_m: Array
-    """Cable lengths (``ten_length``), shape (m,), m."""
+    """Cable lengths (``ten_length``), shape (m,), m; NaN without a cable."""
     flange_m: Array
     """Flange centres in the base frame, shape (m, 3), m."""
+    point_m: Array
+    """The measured point in the base frame, shape (m, 3), m."""
 
 
 class Twin:
@@ -46,21 +50,24 @@ class Twin:
 
     Attributes:
         robot: The true robot (its table is the truth).
-        port_m: True port, shape (3,), m.
+        port_m: True port, shape (3,), m; None without a cable.
         physics: Servo stiffness, gravity and tension.
         joint_errors: Transmission error and backlash.
+        attachment_m: The measured point in the flange frame, shape (3,), m.
         model: Compiled model with a floor (contacts on), for collision checks.
         statics_model: The same model with contacts, constraints and control clamping off,
             for lengths and statics.
     """
 
-    def __init__(self, robot: RobotModel, port_m: ArrayLike, physics: Physics,
-                 joint_errors: JointErrors) -> None:
+    def __init__(self, robot: RobotModel, port_m: ArrayLike | None, physics: Physics,
+                 joint_errors: JointErrors, attachment_m: ArrayLike | None = None) -> None:
         self.robot = robot
-        self.port_m = np.array(port_m, dtype=np.float64)
+        self.port_m = None if port_m is None else np.array(port_m, dtype=np.float64)
         self.physics = physics
         self.joint_errors = joint_errors
-        spec = build_spec(robot, self.port_m, physics, floor=True)
+        self.attachment_m = np.zeros(3) if attachment_m is None \
+            else np.array(attachment_m, dtype=np.float64)
+        spec = build_spec(robot, self.port_m, physics, floor=True, attachment_m=attachment_m)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self.statics_model = spec.compile()
@@ -68,21 +75,25 @@ class Twin:
         if not physics.gravity:
             self.statics_model.opt.gravity[:] = 0.0
         self.statics_data = mujoco.MjData(self.statics_model)
-        if not physics.rigid:
+        if not physics.rigid and self.port_m is not None:
             self.statics_data.ctrl[self.statics_model.actuator("tension").id] = physics.tension_n
         self._flange = self.model.site("flange").id
-        self._cable = self.model.tendon("cable").id
+        self._point = self.model.site("point" if attachment_m is not None else "flange").id
+        self._cable = None if self.port_m is None else self.model.tendon("cable").id
         self._link6 = self.model.body(f"link{robot.n_joints}").id
 
     @classmethod
-    def build(cls, robot: RobotModel, port_m: ArrayLike, physics: Physics = RIGID,
-              joint_errors: JointErrors | None = None) -> Twin:
-        """The twin of ``robot`` with its port at ``port_m`` (base frame, m)."""
+    def build(cls, robot: RobotModel, port_m: ArrayLike | None, physics: Physics = RIGID,
+              joint_errors: JointErrors | None = None, attachment_m: ArrayLike | None = None
+              ) -> Twin:
+        """The twin of ``robot`` with its port at ``port_m`` (base frame, m; None: no cable)
+        and the measured point at ``attachment_m`` (flange frame, m; None: the flange)."""
         stiffness = physics.stiffness_nm_per_rad
         if stiffness is not None and stiffness.shape != (robot.n_joints,):
             raise ValueError("physics: one stiffness per joint expected")
         return cls(robot, port_m, physics,
-                   joint_errors if joint_errors is not None else JointErrors.none(robot.n_joints))
+                   joint_errors if joint_errors is not None else JointErrors.none(robot.n_joints),
+                   attachment_m)
 
     def joint_angles(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
         """Where the joints really are when the controller records q.
@@ -112,16 +123,19 @@ class Twin:
             approach: As in :meth:`joint_angles`.
         """
         q_actual = self.joint_angles(q_rad, approach)
-        lengths = np.empty(len(q_actual))
+        lengths = np.full(len(q_actual), np.nan)
         flanges = np.empty((len(q_actual), 3))
+        points = np.empty((len(q_actual), 3))
         model, data = self.statics_model, self.statics_data
         for row, q in enumerate(q_actual):
             data.qpos[:] = q
             mujoco.mj_kinematics(model, data)
-            mujoco.mj_tendon(model, data)
-            lengths[row] = data.ten_length[self._cable]
+            if self._cable is not None:
+                mujoco.mj_tendon(model, data)
+                lengths[row] = data.ten_length[self._cable]
             flanges[row] = data.site_xpos[self._flange]
-        return AtRest(q_actual, lengths, flanges)
+            points[row] = data.site_xpos[self._point]
+        return AtRest(q_actual, lengths, flanges, points)
 
     def lengths(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
         """Noise-free cable lengths, shape (m,), m, with the controller at q (m, n) rad."""
@@ -144,7 +158,8 @@ class Twin:
         return hits
 
     def cable_blocked(self, q_rad: ArrayLike, clearance_m: float = 0.0) -> NDArray[np.bool_]:
-        """Whether the straight cable from the port to the flange passes through a link.
+        """Whether the straight cable from the port to the measured point passes through a
+        link (never, without a cable).
 
         The last link, which the cable is attached to, is not counted.
 
@@ -157,12 +172,14 @@ class Twin:
         """
         model, data = self.model, self.data
         q = np.atleast_2d(np.asarray(q_rad, dtype=np.float64))
-        blocked = np.empty(len(q), dtype=bool)
+        blocked = np.zeros(len(q), dtype=bool)
+        if self.port_m is None:
+            return blocked
         geom = np.zeros(1, dtype=np.int32)
         for row, pose in enumerate(q):
             data.qpos[:] = pose
             mujoco.mj_kinematics(model, data)
-            ray = data.site_xpos[self._flange] - self.port_m
+            ray = data.site_xpos[self._point] - self.port_m
             length = float(np.linalg.norm(ray))
             hit = mujoco.mj_ray(model, data, self.port_m, ray / length, None, 1,
                                 self._link6, geom)

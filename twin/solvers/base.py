@@ -29,9 +29,10 @@ class IterationRecord(NamedTuple):
 
     iteration: int
     f_m2: float
-    """Objective f = mean r² on the training poses, m²."""
+    """Objective f = mean r² on the training poses (with a robust loss, the mean row cost), m².
+    """
     train_rmse_m: float
-    """RMSE on the training poses, m."""
+    """RMSE on the training poses, √f, m."""
     validation_rmse_m: float
     """RMSE on the validation poses, m."""
 
@@ -120,14 +121,22 @@ class Tracker:
         return self.problem.model.residuals(x, self.problem.train)
 
     def cost(self, x: ArrayLike) -> Array:
-        """Objective f = mean r² for unknowns of shape (..., p): shape (...,), m²."""
-        return np.mean(self.residuals(x) ** 2, axis=-1)
+        """Objective f = mean r² (with a robust loss, the mean row cost) for unknowns of shape
+        (..., p): shape (...,), m²."""
+        return np.mean(self.problem.loss.cost(self.residuals(x)), axis=-1)
 
     def jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
-        """Training residuals (m,) and Jacobian (m, p) at one x of shape (p,).
+        """The rows least squares iterates on at one x of shape (p,): the training residuals
+        (M,) and Jacobian (M, p), reweighted by the problem's loss (:meth:`twin.loss.Loss.rows`;
+        unchanged for least squares), so that mean(rows²) = f.
 
         Counts as one objective evaluation and one Jacobian evaluation.
         """
+        return self.problem.loss.rows(*self.model_jacobian(x))
+
+    def model_jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
+        """The training residuals (M,) and their Jacobian (M, p) at one x, as the model gives
+        them (no loss applied); counted as :meth:`jacobian`."""
         self.evaluations += 1
         self.jacobians += 1
         return self.problem.model.jacobian(x, self.problem.train)

@@ -57,6 +57,16 @@ class TrialRow(NamedTuple):
     """A convergence test (ftol, xtol, gtol) fired at the point returned."""
     stop_reason: str
     """The test that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``)."""
+    flange_error_gauge_free_mm: float
+    """The flange error modulo the motions the data cannot see (:mod:`twin.gauge`: a turn
+    about joint 1's axis with an estimated port…)."""
+    crlb_ratio_gauge_free: float
+    """Its ratio to the bound."""
+    point_error_mm: float
+    """The same for the measured point (eyelet, tracker target, ball: what an estimated
+    attachment identifies)."""
+    point_crlb_ratio: float
+    """Its ratio to that point's Cramér–Rao bound."""
 
     def number(self, column: str) -> float:
         """A numeric or boolean column (:data:`NUMERIC_COLUMNS`, :data:`BOOLEAN_COLUMNS`) as a

@@ -19,6 +19,9 @@ Against the truth, for each method:
   cable), averaged over the poses, from the fitted model's Jacobian (joint groups included).
   Outliers are not noise, nor are compliance and joint errors to a D-H-only model, so in those
   regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
+- **gauge-free errors**: the flange error modulo the motions the data cannot see, and the
+  measured point's (eyelet, tracker target, ball) error likewise, with its own Cramér–Rao bound
+  (:mod:`twin.accuracy`, :mod:`twin.gauge`);
 - **identifiable parameter error**: x̂ − x_true with its components along the null space of the
   cable Jacobian removed (:mod:`twin.identifiability`). The null space is taken at the nominal
   geometry, where it is exact (rank 19 of 24 for the IRB 120 with a known port): at the
@@ -29,23 +32,25 @@ Against the truth, for each method:
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import TRAIN_FRACTION, calibrate_many
+from twin.accuracy import truth_errors
+from twin.calibration import TRAIN_FRACTION, CalibrationResult, calibrate_many
 from twin.dataset import approach_directions
 from twin.identifiability import measurement_identifiability
 from twin.model import Model
-from twin.rig import Rig
+from twin.rigid import angles
 from twin.sim.scenario import Scenario
 from twin.sim.simulate import Simulation, simulate
 from twin.sim.twin import Twin
 from twin.study.rows import TrialRow
 from twin.study.store import TrialOutcome
 from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.units import m_to_mm, to_display
 from twin.unknowns import Stage
 
@@ -87,10 +92,20 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
         x[model.slice("backlash")] = 0.5 * sim.joint_errors.backlash_rad
     if model.has("compliance"):
         x[model.slice("compliance")] = sim.scenario.physics.compliance(sim.robot.n_joints)
+    rig = model.rig
     if model.has("port"):
-        x[model.slice("port")] = sim.port_m - sim.port_nominal_m
+        index = rig.estimated_port_index
+        x[model.slice("port")] = (sim.rig.ports_m[index] - rig.ports_m[index]).ravel()
     if model.has("offset"):
         x[model.slice("offset")] = sim.scenario.noise.offset_m
+    if model.has("attachment"):
+        x[model.slice("attachment")] = sim.rig.attachment_m - rig.attachment_m
+    if model.has("base"):
+        start, true = rig.base_in_tracker, sim.rig.base_in_tracker
+        turn = true[:3, :3] @ start[:3, :3].T
+        x[model.slice("base")] = np.r_[true[:3, 3] - turn @ start[:3, 3], angles(turn)]
+    if model.has("points"):
+        x[model.slice("points")] = (sim.rig.points_m - rig.points_m).ravel()
     return x
 
 
@@ -106,6 +121,8 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     n = sim.robot.n_joints
     dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, first in x
     jitter = sim.joint_sigma_rad**2 * float(np.mean(np.sum(dl_dq**2, axis=1)))
+    if sim.measurements.kind != "length":  # tracker noise or seating error, per axis
+        return float(np.sqrt(np.mean(sim.scenario.instrument.sigma_m**2) + jitter))
     return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
 
 
@@ -125,7 +142,8 @@ def has_joint_groups(model: Model) -> bool:
 def true_flange(sim: Simulation, q_workspace: Array) -> Array:
     """Where the twin's flange really is at the workspace poses, visited in order from home:
     MuJoCo at rest with joint errors and sag, shape (k, 3), m."""
-    twin = Twin.build(sim.true_robot, sim.port_m, sim.scenario.physics, sim.joint_errors)
+    twin = Twin.build(sim.true_robot, sim.port_m, sim.scenario.physics, sim.joint_errors,
+                      sim.rig.attachment_m)
     return twin.at_rest(q_workspace, approach_directions(q_workspace)).flange_m
 
 
@@ -134,12 +152,14 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     scenario = spec.scenario
     seed = trial_seed(scenario.seed, trial)
     sim = simulate(scenario, seed)
-    rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
+    rig = replace(sim.rig_told, tension_n=scenario.physics.tension_n)
     results = calibrate_many(
         sim.robot, sim.measurements, None, spec.methods, rig=rig, errors=scenario.errors,
         seed=seed, estimate_port=scenario.estimate_port,
         estimate_offset=scenario.estimate_offset,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION, budget=scenario.budget,
+        estimate_attachment=scenario.estimate_attachment, estimate_base=scenario.estimate_base,
+        loss=scenario.calibration_loss, train_fraction=sim.train_fraction or TRAIN_FRACTION,
+        budget=scenario.budget,
     )
     first = next(iter(results.values()))
     model = first.model
@@ -149,6 +169,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     _, jacobian = model.jacobian(x_true, train)
     sigma_m = noise_sigma_m(sim, jacobian)
     crlb_m = cramer_rao_flange_rms(model, x_true, train, sigma_m, q_workspace)
+    point_crlb_m = cramer_rao_point_rms(model, x_true, train, sigma_m, q_workspace)
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[TrialRow] = []
     methods: dict[str, Any] = {}
@@ -177,6 +198,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
             iterations=result.solver.iterations, evaluations=result.solver.evaluations,
             seconds=result.solver.seconds, converged=result.solver.converged,
             stop_reason=result.solver.stop_label,
+            **_truth_columns(result, sim, q_workspace, crlb_m, point_crlb_m),
         ))
         methods[name] = {
             "history_mm": m_to_mm([r.validation_rmse_m for r in result.solver.history]).tolist(),
@@ -192,6 +214,21 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         "methods": methods,
     }
     return TrialOutcome(case=case, trial=trial, seed=seed, rows=tuple(rows), detail=detail)
+
+
+def _truth_columns(result: CalibrationResult, sim: Simulation, q_workspace: Array,
+                   crlb_m: float, point_crlb_m: float) -> dict[str, float]:
+    """The gauge-free flange and measured-point errors against the truth, and their ratios to
+    the bounds (NaN where a bound is zero: no noise)."""
+    truth = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q_workspace)
+    return {
+        "flange_error_gauge_free_mm": _mm(truth.flange_gauge_free_m),
+        "crlb_ratio_gauge_free": truth.flange_gauge_free_m / crlb_m if crlb_m > 0
+        else float("nan"),
+        "point_error_mm": _mm(truth.point_gauge_free_m),
+        "point_crlb_ratio": truth.point_gauge_free_m / point_crlb_m if point_crlb_m > 0
+        else float("nan"),
+    }
 
 
 def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]

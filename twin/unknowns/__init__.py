@@ -11,7 +11,18 @@ from collections.abc import Callable
 from twin.errors import InputError, UnknownChoiceError
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.unknowns import backlash, compliance, dh, link_compliance, offset, port, transmission
+from twin.unknowns import (
+    attachment,
+    backlash,
+    compliance,
+    dh,
+    link_compliance,
+    offset,
+    points,
+    port,
+    tracker,
+    transmission,
+)
 from twin.unknowns.base import Group, Stage
 
 Factory = Callable[[RobotModel, Rig], Group]
@@ -24,6 +35,9 @@ GROUPS: dict[str, Factory] = {
     "link_compliance": link_compliance.make,
     "port": port.make,
     "offset": offset.make,
+    "attachment": attachment.make,
+    "base": tracker.make,
+    "points": points.make,
 }
 """Every unknown group, by name, in the order x lays them out."""
 ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")

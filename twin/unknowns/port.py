@@ -1,7 +1,9 @@
 """Port corrections: where the cable really leaves each encoder port, in the base frame.
 
-3 unknowns per port of the rig (``port_x``… for one port, ``port2_x``… for several), bounded
-to ±50 mm around the port the calibration is told. Distances from a port that is itself
+3 unknowns per estimated port of the rig (``port_x``… for one port, ``front_x``… for a port
+named ``front``; :attr:`twin.rig.Rig.estimated_ports` says which, every port by default), bounded
+to ±50 mm around the port the calibration is told. A port that is measured is left out: its
+rows pin the base frame that the estimated ones cannot. Distances from a port that is itself
 estimated cannot see a turn of the port about joint 1's axis or a shift along it: they trade
 with δθ1 and δd1 (docs/identifiability.md).
 """
@@ -21,10 +23,11 @@ RADIUS_M = float(mm_to_m(1.0))
 
 
 def make(robot: RobotModel, rig: Rig) -> Group:
-    """A correction of every port of ``rig``."""
+    """A correction of every estimated port of ``rig``."""
     if not len(rig.ports_m):
         raise ValueError("port: the rig has no port to correct")
-    names = tuple(f"{port}_{axis}" for port in rig.port_names for axis in "xyz")
+    names = tuple(f"{rig.port_names[j]}_{axis}" for j in rig.estimated_port_index
+                  for axis in "xyz")
     p = len(names)
     return Group(name="port", stage=Stage.MEASUREMENT, names=names, units=("m",) * p,
                  lower=np.full(p, -BOUND_M), upper=np.full(p, BOUND_M),

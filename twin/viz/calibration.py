@@ -10,30 +10,35 @@ bar charts in mm (δa, δd) and degrees (δα, δθ). The exact values under
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.calibration import CalibrationResult, make_model
+from twin.calibration import CalibrationResult
 from twin.dataset import Measurements
 from twin.io.results import MM2_PER_M2
+from twin.kinds import get_kind
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import dh_rows_to_display, m_to_mm
+from twin.unknowns import make_groups
 from twin.viz import entities
 from twin.viz.blueprint import calibration_blueprint
 from twin.viz.report import calibration_markdown
 from twin.viz.scene import (
     NOMINAL_COLOR,
     TRUE_COLOR,
-    log_port_and_cable,
+    log_measurement,
     log_robots,
     robot_color,
 )
 from twin.viz.writer import Writer
 
+REJECTED_COLOR = (230, 30, 30)
+"""Poses a robust loss rejected."""
 BAR_GROUP_WIDTH = 0.8
 """Width of one joint's group of bars (the truth, then each method), in joint-index units."""
 
@@ -94,9 +99,18 @@ def log_parameters(
     )
 
 
+def pose_residuals(model: Model, x: ArrayLike, measurements: Measurements) -> NDArray[np.float64]:
+    """One residual per pose, m: the signed row of a cable length, the length of the three rows
+    of a tracker position or a fixed point (rows of known distances left out); shape (m,)."""
+    rows = model.kind.rows_per_pose
+    residuals = model.residuals(np.asarray(x, dtype=np.float64), measurements)
+    per_pose = residuals[: rows * len(measurements)].reshape(len(measurements), rows)
+    return per_pose[:, 0] if rows == 1 else np.linalg.norm(per_pose, axis=1)
+
+
 def log_residuals_before(writer: Writer, model: Model, measurements: Measurements) -> None:
     """Per-pose residuals of the nominal model over all poses (``residuals/before``), mm."""
-    before = model.residuals(np.zeros(model.n_params), measurements)
+    before = pose_residuals(model, np.zeros(model.n_params), measurements)
     writer.once(entities.RESIDUALS_BEFORE, rr.SeriesPoints(colors=NOMINAL_COLOR, names="before"))
     writer.series(entities.RESIDUALS_BEFORE, entities.POSE_TIMELINE,
                   np.arange(len(measurements)), rr.Scalars.columns(scalars=m_to_mm(before)))
@@ -105,13 +119,21 @@ def log_residuals_before(writer: Writer, model: Model, measurements: Measurement
 def log_residuals_after(
     writer: Writer, result: CalibrationResult, measurements: Measurements, order: int
 ) -> None:
-    """Per-pose residuals of one method's model over all poses (``residuals/after/<m>``), mm."""
-    after = result.model.residuals(result.solver.x, measurements)
+    """Per-pose residuals of one method's model over all poses (``residuals/after/<m>``), mm,
+    and the poses its robust loss rejected (``residuals/rejected/<m>``, red crosses)."""
+    after = pose_residuals(result.model, result.solver.x, measurements)
     path = entities.residuals_after(result.method)
     writer.once(path, rr.SeriesPoints(colors=robot_color(result.method, order),
                                       names=f"after {result.method}"))
     writer.series(path, entities.POSE_TIMELINE, np.arange(len(measurements)),
                   rr.Scalars.columns(scalars=m_to_mm(after)))
+    rejected = result.rejected_rows
+    if rejected.size:
+        path = entities.residuals_rejected(result.method)
+        writer.once(path, rr.SeriesPoints(colors=REJECTED_COLOR, markers="cross",
+                                          names=f"rejected by {result.method}"))
+        writer.series(path, entities.POSE_TIMELINE, rejected,
+                      rr.Scalars.columns(scalars=m_to_mm(after[rejected])))
 
 
 def log_convergence(writer: Writer, method: str, result: CalibrationResult, order: int) -> None:
@@ -145,7 +167,7 @@ class CalibrationLog:
         writer: Where to log.
         methods: The methods' names, in the order they will run.
         robot: The nominal robot.
-        port_m: The port the calibration is told, shape (3,), m.
+        rig: The rig the calibration is told (ports, attachment, fixed points started).
         measurements: Every measured pose (train and validation).
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
     """
@@ -155,7 +177,7 @@ class CalibrationLog:
         writer: Writer,
         methods: Sequence[str],
         robot: RobotModel,
-        port_m: ArrayLike,
+        rig: Rig,
         measurements: Measurements,
         truth_delta: NDArray[np.float64] | None = None,
     ) -> None:
@@ -165,9 +187,9 @@ class CalibrationLog:
         self.methods = list(methods)
         self.measurements = measurements
         self.truth_delta = truth_delta
-        self.port_m = np.asarray(port_m, dtype=np.float64)
+        self.rig = rig
         self.sources = len(self.methods) + (truth_delta is not None)
-        nominal = make_model(robot, Rig.cable(self.port_m), measurements.kind)
+        nominal = Model(robot, rig, get_kind(measurements.kind), make_groups(["dh"], robot, rig))
         writer.stream.send_blueprint(calibration_blueprint(
             self.methods, truth_delta is not None, bar_keys(robot.is_length)))
         writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
@@ -183,15 +205,19 @@ class CalibrationLog:
         log_robots(writer, robots, measurements.q_rad)
         log_residuals_before(writer, nominal, measurements)
 
-    def _log_cable(self, robot: RobotModel) -> None:
-        flange_m = robot.flange_positions(self.measurements.q_rad)
-        log_port_and_cable(self.writer, self.port_m, flange_m, self.measurements.lengths)
+    def _log_cable(self, robot: RobotModel, rig: Rig | None = None) -> None:
+        rig = rig or self.rig
+        transforms = robot.flange_transforms(self.measurements.q_rad)
+        points_m = transforms[:, :3, :3] @ rig.attachment_m + transforms[:, :3, 3]
+        log_measurement(self.writer, rig, self.measurements, points_m)
 
     def add(self, result: CalibrationResult) -> None:
         """Log one method's identified robot, residuals, convergence and parameters."""
         order = self.methods.index(result.method)
         if order == 0 and self.truth_delta is None:
-            self._log_cable(result.identified_robot)
+            self._log_cable(result.identified_robot, replace(
+                self.rig, ports_m=result.ports_m, attachment_m=result.attachment_m,
+                points_m=result.points_m))
         log_robots(self.writer, {entities.identified_label(result.method):
                                  result.identified_robot}, self.measurements.q_rad, order)
         log_residuals_after(self.writer, result, self.measurements, order)
@@ -228,7 +254,7 @@ def log_calibration(
     if not results:
         raise ValueError("results: empty, expected at least one method")
     first = next(iter(results.values()))
-    log = CalibrationLog(writer, list(results), first.robot, first.model.rig.port_m, measurements,
+    log = CalibrationLog(writer, list(results), first.robot, first.model.rig, measurements,
                          truth_delta)
     for result in results.values():
         log.add(result)

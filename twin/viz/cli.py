@@ -14,12 +14,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from twin.dataset import Measurements
 from twin.viz.options import rerun_options
 
 if TYPE_CHECKING:
+    from twin.rig import Rig
     from twin.robot import RobotModel
     from twin.sim import Simulation
     from twin.viz.calibration import CalibrationLog
@@ -55,7 +56,7 @@ def calibration_log(
     args: argparse.Namespace,
     methods: Sequence[str],
     robot: RobotModel,
-    port_m: ArrayLike,
+    rig: Rig,
     measurements: Measurements,
     truth_delta: NDArray[np.float64] | None = None,
     *,
@@ -70,7 +71,7 @@ def calibration_log(
         args: The parsed arguments.
         methods: The methods' names, in the order they will run.
         robot: The nominal robot.
-        port_m: The port the calibration is told, shape (3,), m.
+        rig: The rig the calibration is told.
         measurements: Every measured pose (train and validation).
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
         fallback_dir: Where to save when the viewer cannot be spawned.
@@ -79,15 +80,16 @@ def calibration_log(
         if recording is None:
             yield None
             return
-        yield recording.start_calibration(methods, robot, port_m, measurements,
+        yield recording.start_calibration(methods, robot, rig, measurements,
                                           truth_delta=truth_delta)
 
 
 def record_simulation(args: argparse.Namespace, sim: Simulation) -> None:
     """What `twin simulate` calls: log the simulated capture if a ``--rerun-*`` flag asks.
 
-    Logs the nominal and the true robot in every recorded pose, the true port, the cable to
-    the true robot's flange and a short report; a spawn fallback file goes to ``args.out``.
+    Logs the nominal and the true robot in every recorded pose, the true ports and the cable to
+    the true robot's measured point (or the measured points) and a short report; a spawn
+    fallback file goes to ``args.out``.
     """
     with open_from_args(args, "simulate", args.out) as recording:
         if recording is None:
@@ -95,5 +97,5 @@ def record_simulation(args: argparse.Namespace, sim: Simulation) -> None:
         from twin.viz.report import scene_markdown
 
         recording.log_scene({"nominal": sim.robot, "true": sim.true_robot}, sim.measurements,
-                            sim.port_m, cable_to="true")
-        recording.log_report(scene_markdown(sim.robot, sim.measurements, sim.port_m, sim.delta))
+                            sim.rig, cable_to="true")
+        recording.log_report(scene_markdown(sim.robot, sim.measurements, sim.rig, sim.delta))

@@ -21,6 +21,9 @@ ITERATION_TIMELINE = "iteration"
 WORLD = "world"
 PORT = "world/port"
 CABLE = "world/cable"
+MEASURED = "world/measured"
+"""The measured points (tracker target, ball) of tracker and fixed-point data, base frame."""
+FIXED_POINTS = "world/fixed_points"
 RESIDUALS = "residuals"
 RESIDUALS_BEFORE = "residuals/before"
 CONVERGENCE = "convergence"
@@ -46,6 +49,11 @@ def identified_label(method: str) -> str:
 def residuals_after(method: str) -> str:
     """Per-pose residuals after calibration by ``method``."""
     return f"residuals/after/{method}"
+
+
+def residuals_rejected(method: str) -> str:
+    """The poses a method's robust loss rejected, at their residual."""
+    return f"residuals/rejected/{method}"
 
 
 def convergence(method: str, quantity: str) -> str:

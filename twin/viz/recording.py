@@ -13,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 import rerun as rr
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from twin.calibration import CalibrationResult
 from twin.dataset import Measurements
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.viz import entities
 from twin.viz.blueprint import scene_blueprint
@@ -67,28 +68,28 @@ class Recording:
         self,
         methods: Sequence[str],
         robot: RobotModel,
-        port_m: ArrayLike,
+        rig: Rig,
         measurements: Measurements,
         *,
         truth_delta: NDArray[np.float64] | None = None,
     ) -> CalibrationLog:
         """Log a calibration's setup now and return the log its methods are added to as they
         finish (see :class:`twin.viz.calibration.CalibrationLog`)."""
-        return CalibrationLog(Writer(self.stream), methods, robot, port_m, measurements,
+        return CalibrationLog(Writer(self.stream), methods, robot, rig, measurements,
                               truth_delta)
 
     def log_scene(
         self,
         robots: Mapping[str, RobotModel],
         measurements: Measurements,
-        port_m: ArrayLike,
+        rig: Rig,
         *,
         cable_to: str,
         times: Mapping[str, int] | None = None,
     ) -> None:
-        """Robots in every pose, the port and the cable (see :func:`twin.viz.scene.log_scene`)."""
+        """Robots in every pose and what was measured (see :func:`twin.viz.scene.log_scene`)."""
         self.stream.send_blueprint(scene_blueprint())
-        log_scene(Writer(self.stream, times), robots, measurements, port_m, cable_to)
+        log_scene(Writer(self.stream, times), robots, measurements, rig, cable_to)
 
     def log_histories(self, histories_mm: Mapping[str, Sequence[float]], trial: str) -> None:
         """One study trial's validation RMSE per iteration [mm] for each method, on the

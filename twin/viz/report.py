@@ -13,7 +13,8 @@ from numpy.typing import NDArray
 
 from twin.calibration import CalibrationResult
 from twin.dataset import Measurements
-from twin.report import format_comparison, format_result
+from twin.report import describe_rig, format_comparison, format_result
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.uncertainty import rms_distance
 from twin.units import m_to_mm
@@ -90,11 +91,11 @@ def calibration_markdown(
     """
     first = next(iter(results.values()))
     table = format_result(first, truth_delta) if len(results) == 1 else format_comparison(results)
-    port = ", ".join(f"{v:.3f}" for v in m_to_mm(first.model.rig.port_m))
     parts = [
         f"# Calibration of {first.robot.name}",
         f"{len(measurements)} poses ({first.train_rows.size} train, "
-        f"{first.validation_rows.size} validation), seed {first.seed}, port ({port}) mm. "
+        f"{first.validation_rows.size} validation), seed {first.seed}, "
+        f"{describe_rig(first.model.rig, measurements)}. "
         "Residuals and metrics in mm, angles in degrees.",
         "## Metrics",
         _fenced(table),
@@ -105,23 +106,22 @@ def calibration_markdown(
     return "\n\n".join(parts) + "\n"
 
 
-def scene_markdown(robot: RobotModel, measurements: Measurements, port_m: NDArray[np.float64],
+def scene_markdown(robot: RobotModel, measurements: Measurements, rig: Rig,
                    truth_delta: NDArray[np.float64] | None = None) -> str:
     """The report of a simulated or captured data set without calibration.
 
     Args:
         robot: The nominal robot.
-        measurements: The poses and lengths.
-        port_m: Encoder port, shape (3,), m.
+        measurements: The poses and readings.
+        rig: The rig (ports, attachment).
         truth_delta: True D-H errors, shape (4, n), m and rad, if known.
     """
-    port = ", ".join(f"{v:.3f}" for v in m_to_mm(port_m))
-    lengths = m_to_mm(measurements.lengths)
-    parts = [
-        f"# Measurements of {robot.name}",
-        f"{len(measurements)} poses, port ({port}) mm, cable lengths "
-        f"{lengths.min():.3f} … {lengths.max():.3f} mm.",
-    ]
+    parts = [f"# Measurements of {robot.name}",
+             f"{len(measurements)} poses, {describe_rig(rig, measurements)}."]
+    if measurements.kind == "length":
+        lengths = m_to_mm(measurements.lengths)
+        parts[-1] = parts[-1][:-1] + (f", cable lengths {lengths.min():.3f} … "
+                                      f"{lengths.max():.3f} mm.")
     if truth_delta is not None:
         rms = float(m_to_mm(rms_distance(
             robot.flange_positions(measurements.q_rad),

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
 from twin.kinematics import frames
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import m_to_mm
 from twin.viz import entities
@@ -83,22 +84,27 @@ def log_robots(
 
 
 def log_port_and_cable(
-    writer: Writer, port_m: ArrayLike, flange_m: ArrayLike, length_m: ArrayLike
+    writer: Writer, port_m: ArrayLike, flange_m: ArrayLike, length_m: ArrayLike,
+    port_names: tuple[str, ...] = ("port",), port_index: ArrayLike | None = None,
 ) -> None:
-    """The port (``world/port``) and, per pose, the cable from the port to a flange.
+    """The ports (``world/port``) and, per pose, the cable from its port to the measured point.
 
     Args:
         writer: Where to log.
-        port_m: Encoder port in the base frame, shape (3,), m.
-        flange_m: Flange centres the cable runs to, shape (m, 3), m.
+        port_m: Encoder port(s) in the base frame, shape (3,) or (k, 3), m.
+        flange_m: Points the cable runs to (flange or eyelet), shape (m, 3), m.
         length_m: Measured cable lengths, shape (m,), m, shown as each cable's label in mm.
+        port_names: Each port's name, length k.
+        port_index: Each pose's port, shape (m,); port 0 if None.
     """
-    port_m = np.asarray(port_m, dtype=np.float64)
+    ports = np.asarray(port_m, dtype=np.float64).reshape(-1, 3)
     flange_m = np.asarray(flange_m, dtype=np.float64)
     poses = np.arange(flange_m.shape[0])
-    writer.once(entities.PORT, rr.Points3D(port_m[None], radii=PORT_RADIUS_M,
-                                           colors=PORT_COLOR, labels="port"))
-    strips = np.stack([np.broadcast_to(port_m, flange_m.shape), flange_m], axis=1)  # (m, 2, 3)
+    index = np.zeros(poses.size, dtype=np.intp) if port_index is None \
+        else np.asarray(port_index, dtype=np.intp)
+    writer.once(entities.PORT, rr.Points3D(ports, radii=PORT_RADIUS_M, colors=PORT_COLOR,
+                                           labels=list(port_names)))
+    strips = np.stack([ports[index], flange_m], axis=1)  # (m, 2, 3)
     writer.series(
         entities.CABLE, entities.POSE_TIMELINE, poses,
         rr.LineStrips3D.columns(
@@ -110,24 +116,80 @@ def log_port_and_cable(
     )
 
 
+def log_measured_points(writer: Writer, points_m: ArrayLike, labels: list[str]) -> None:
+    """Per pose, the measured point (tracker target, ball) in the base frame,
+    ``world/measured``.
+
+    Args:
+        writer: Where to log.
+        points_m: The points, shape (m, 3), m.
+        labels: A label per pose (the reading, or the fixed point's name).
+    """
+    points = np.asarray(points_m, dtype=np.float64)
+    poses = np.arange(points.shape[0])
+    writer.series(
+        entities.MEASURED, entities.POSE_TIMELINE, poses,
+        rr.Points3D.columns(positions=points.astype(np.float32),
+                            colors=_colors(CABLE_COLOR, poses.size),
+                            radii=np.full(poses.size, PORT_RADIUS_M / 2, dtype=np.float32),
+                            labels=labels),
+    )
+
+
+def log_fixed_points(writer: Writer, points_m: ArrayLike, names: tuple[str, ...]) -> None:
+    """The fixed points (identified or true), ``world/fixed_points``."""
+    writer.once(entities.FIXED_POINTS, rr.Points3D(np.asarray(points_m, dtype=np.float64),
+                                                   radii=PORT_RADIUS_M / 2, colors=PORT_COLOR,
+                                                   labels=list(names)))
+
+
+def log_measurement(writer: Writer, rig: Rig, measurements: Measurements,
+                    points_m: ArrayLike) -> None:
+    """What was measured at every pose: the cable from its port to the measured point, or the
+    measured point itself (tracker positions, fixed points, with the fixed points).
+
+    Args:
+        writer: Where to log.
+        rig: The rig (ports, fixed points).
+        measurements: The poses and readings.
+        points_m: Where the measured point is drawn at each pose, shape (m, 3), m.
+    """
+    if measurements.kind == "length":
+        log_port_and_cable(writer, rig.ports_m, points_m, measurements.lengths,
+                           rig.port_names, measurements.port_index)
+        return
+    if measurements.kind == "position":
+        assert measurements.position_m is not None
+        labels = [f"({x:.3f}, {y:.3f}, {z:.3f}) mm" for x, y, z in
+                  m_to_mm(measurements.position_m)]
+    else:
+        assert measurements.point is not None
+        names = rig.point_names or measurements.point_names
+        labels = [names[j] if j < len(names) else str(j) for j in measurements.point]
+        if rig.point_names:
+            log_fixed_points(writer, rig.points_m, rig.point_names)
+    log_measured_points(writer, points_m, labels)
+
+
 def log_scene(
     writer: Writer,
     robots: Mapping[str, RobotModel],
     measurements: Measurements,
-    port_m: ArrayLike,
+    rig: Rig,
     cable_to: str,
 ) -> None:
-    """Robots, port and cable for every measured pose.
+    """Robots and what was measured (ports and cable, or measured points) for every pose.
 
     Args:
         writer: Where to log.
         robots: Label to model, see :func:`log_robots`.
-        measurements: The poses and measured lengths.
-        port_m: Encoder port, shape (3,), m.
-        cable_to: Label of the robot whose flange the cable is drawn to (the true one when
-            known: that is where the physical cable went).
+        measurements: The poses and readings.
+        rig: The rig (ports, the measured point in the flange frame, fixed points).
+        cable_to: Label of the robot whose measured point the cable is drawn to (the true one
+            when known: that is where the physical cable went).
     """
     writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
     log_robots(writer, robots, measurements.q_rad)
-    flange_m = robots[cable_to].flange_positions(measurements.q_rad)
-    log_port_and_cable(writer, port_m, flange_m, measurements.lengths)
+    transforms = robots[cable_to].flange_transforms(measurements.q_rad)
+    points_m = transforms[:, :3, :3] @ rig.attachment_m + transforms[:, :3, 3]
+    log_measurement(writer, rig, measurements, points_m)

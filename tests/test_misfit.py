@@ -1,0 +1,48 @@
+"""The misfit test: chi-square of the training residuals against the noise the data imply."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from twin.calibration import calibrate
+from twin.dataset import Measurements
+from twin.misfit import ALPHA, FAR, chi2_quantile, misfit_test, repeat_sigma
+from twin.robot import RobotModel
+from twin.synthetic import random_poses, synthesize
+
+
+@pytest.mark.parametrize("dof", [1, 7, 73, 1000])
+def test_the_quantile_is_scipys(dof: int) -> None:
+    """The χ² quantile equals scipy.stats.chi2.ppf."""
+    assert chi2_quantile(1 - ALPHA, dof) == pytest.approx(chi2.ppf(1 - ALPHA, dof), rel=1e-10)
+
+
+def test_noise_passes_and_a_model_error_does_not() -> None:
+    """Residuals of the stated noise pass; three times the noise fails; a noise 20 % above the
+    stated one on many rows rejects χ² but stays within 2σ, so it is no misfit."""
+    rng = np.random.default_rng(0)
+    sigma = 1e-5
+    assert not misfit_test(rng.normal(0, sigma, 100), 20, sigma).misfit
+    bad = misfit_test(rng.normal(0, 3 * sigma, 100), 20, sigma)
+    assert bad.misfit and bad.statistic > bad.threshold and bad.ratio > FAR
+    mild = misfit_test(rng.normal(0, 1.2 * sigma, 5000), 20, sigma)
+    assert mild.statistic > mild.threshold and not mild.misfit
+
+
+def test_repeat_readings_measure_the_noise(irb120: RobotModel, true_robot: RobotModel,
+                                           port_m: np.ndarray) -> None:
+    """Each of 40 poses read three times with σ = 0.05 mm: the pooled spread measures 0.05 mm,
+    and a calibration told σ = 0.01 mm tests against the measured noise — no misfit."""
+    rng = np.random.default_rng(1)
+    q = np.repeat(random_poses(irb120, 40, rng), 3, axis=0)
+    data = synthesize(true_robot, q, port_m, 5e-5, rng)
+    measured = repeat_sigma(data, data.lengths - np.repeat(
+        synthesize(true_robot, q[::3], port_m, 0.0, rng).lengths, 3), 1)
+    assert measured is not None and measured[1] == 80
+    assert measured[0] == pytest.approx(5e-5, rel=0.2)
+    result = calibrate(irb120, Measurements(q, data.lengths), port_m, sigma_m=1e-5)
+    assert result.misfit is not None and not result.misfit.misfit
+    assert result.misfit.noise_source.startswith("repeat readings")
+    assert result.misfit.noise_m == pytest.approx(5e-5, rel=0.3)

@@ -1,0 +1,72 @@
+"""How far an identified model is from the truth: raw, and modulo what the data cannot see.
+
+Over workspace poses, the RMS distance between the identified and the true flange centres, and
+between the identified and the true measured points (an eyelet, a tracker target, a ball), each
+both as it is (in the base frame the nominal robot defines) and after the unobservable motions
+of :mod:`twin.gauge` that bring the identified points closest to the true ones. When the rig
+pins the base frame (a measured port, no tracker frame estimated) the two agree; with an
+estimated port or tracker frame the raw error measures partly the frame, and the gauge-free
+one is what the Cramér–Rao bound bounds.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.calibration import CalibrationResult
+from twin.gauge import gauge_free_rms, unobservable_motions
+from twin.robot import RobotModel
+from twin.uncertainty import rms_distance
+
+Array = NDArray[np.float64]
+
+
+class TruthErrors(NamedTuple):
+    """RMS errors over the workspace poses against the truth, m."""
+
+    flange_m: float
+    """Flange centres, raw."""
+    flange_gauge_free_m: float
+    """Flange centres, modulo the unobservable motions of the flange."""
+    point_m: float
+    """Measured points, raw."""
+    point_gauge_free_m: float
+    """Measured points, modulo their unobservable motions."""
+    motions: tuple[str, ...]
+    """The unobservable motions of the flange."""
+    point_motions: tuple[str, ...]
+    """The unobservable motions of the measured point."""
+
+
+def truth_errors(result: CalibrationResult, true_robot: RobotModel, true_attachment_m: ArrayLike,
+                 q_rad: ArrayLike) -> TruthErrors:
+    """Compare a calibration with the truth over poses q.
+
+    Args:
+        result: The calibration.
+        true_robot: The true robot (nominal plus the true D-H errors).
+        true_attachment_m: The true measured point in the flange frame, shape (3,), m.
+        q_rad: Workspace poses, shape (k, n), rad.
+    """
+    model, x = result.model, result.solver.x
+    identifiability = result.identified_identifiability
+    null = identifiability.null_space if identifiability is not None \
+        else np.zeros((model.n_params, 0))
+    poses = model.poses(q_rad)
+    transforms = true_robot.flange_transforms(np.asarray(q_rad, dtype=np.float64))
+    true_flange = transforms[:, :3, 3]
+    true_point = transforms[:, :3, :3] @ np.asarray(true_attachment_m, dtype=np.float64) \
+        + true_flange
+    flange = unobservable_motions(model, x, null, q_rad)
+    point = unobservable_motions(model, x, null, q_rad, measured=True)
+    return TruthErrors(
+        flange_m=rms_distance(model.flange_positions(x, poses), true_flange),
+        flange_gauge_free_m=gauge_free_rms(flange, true_flange),
+        point_m=rms_distance(model.positions(x, poses), true_point),
+        point_gauge_free_m=gauge_free_rms(point, true_point),
+        motions=flange.names,
+        point_motions=point.names,
+    )

@@ -1,0 +1,221 @@
+"""Gauge freedoms: the motions of the predicted flange (or measured point) that the data cannot
+see, named, and the error against the truth modulo them.
+
+Distances from a port that is itself estimated cannot see a turn of everything about joint 1's
+axis or a shift along it (they trade with δθ1 and δd1); a tracker frame estimated freely absorbs
+the same; fixed points without a known distance cannot see the scale; an estimated attachment
+leaves the flange free to slide in its own frame under the measured point. Each is a direction
+of the null space of the measurement Jacobian that moves the predicted point: such data define
+the robot's positions only up to that motion, and a comparison with the truth in the base frame
+measures partly the frame, not the calibration.
+
+How the motions are found and named:
+
+1. The null space N (p, r) of the measurement Jacobian at the identified unknowns
+   (:mod:`twin.identifiability`) is carried to the predicted points over the workspace poses,
+   M = ∂p/∂x · N (3k, r). Columns that move nothing (θ6 of a flange centre, d2 − d3) drop out:
+   singular values of M below :data:`MOVES_RTOL` of the largest column norm of ∂p/∂x do not count.
+2. Each candidate motion (:data:`MOTIONS`: rotations about and shifts along joint 1's axis and
+   the other base axes, a scale about the base origin, shifts of the flange along its own axes) is
+   a vector field over the same points; it is *unobservable* when it lies in the span of M
+   (relative distance below :data:`MATCH_RTOL`). What no candidate explains is counted as
+   unnamed motion.
+
+The error modulo the motions (:func:`gauge_free_rms`) applies the named motions exactly (a
+finite rotation about an axis, not its linearisation) and the unnamed part linearly, with the
+parameters that bring the predicted points closest to the truth (scipy's least_squares).
+The Cramér–Rao bound (:mod:`twin.uncertainty`) leaves the same motions out, so it is the bound of
+this error.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from twin.kinematics import flange_transform
+from twin.model import Model
+
+Array = NDArray[np.float64]
+
+MOVES_RTOL = 1e-6
+"""A null direction moves the points when its motion's singular value exceeds this fraction of
+the largest column norm of ∂p/∂x (1e-6 m per metre or radian of an unknown: round-off is 1e-16)."""
+MATCH_RTOL = 1e-4
+"""A candidate motion is unobservable when its distance from the span of the null motions is
+below this fraction of its norm."""
+ROTATION, SHIFT, SCALE, FLANGE_SHIFT = "rotation", "shift", "scale", "flange shift"
+PIN_BASE = ("a reference in the base frame: a port or tracker frame measured in it (no "
+            "--estimate-port, or --estimate-port NAME for the others; no --estimate-base), or "
+            "θ1 and d1 held at the nominal (lm-base)")
+PIN_SCALE = "a known distance between two fixed points (--distance A,B=MM)"
+PIN_FLANGE = ("a measured attachment (--attachment X,Y,Z without --estimate-attachment); the "
+              "measured point itself is identified")
+
+
+class Motion(NamedTuple):
+    """A candidate motion of the predicted points."""
+
+    name: str
+    """What people read, e.g. ``rotation about joint 1's axis``."""
+    kind: str
+    """:data:`ROTATION`, :data:`SHIFT`, :data:`SCALE` or :data:`FLANGE_SHIFT`."""
+    axis: int
+    """The axis (0, 1, 2: x, y, z) of frame 0 or of the flange."""
+    pin: str
+    """How to pin it."""
+
+
+MOTIONS = (
+    Motion("rotation about joint 1's axis", ROTATION, 2, PIN_BASE),
+    Motion("shift along joint 1's axis", SHIFT, 2, PIN_BASE),
+    Motion("rotation about the base x axis", ROTATION, 0, PIN_BASE),
+    Motion("rotation about the base y axis", ROTATION, 1, PIN_BASE),
+    Motion("shift along the base x axis", SHIFT, 0, PIN_BASE),
+    Motion("shift along the base y axis", SHIFT, 1, PIN_BASE),
+    Motion("scale about the base origin", SCALE, 0, PIN_SCALE),
+    Motion("shift of the flange along its own x axis", FLANGE_SHIFT, 0, PIN_FLANGE),
+    Motion("shift of the flange along its own y axis", FLANGE_SHIFT, 1, PIN_FLANGE),
+    Motion("shift of the flange along its own z axis", FLANGE_SHIFT, 2, PIN_FLANGE),
+)
+"""Candidate motions, in the order they are named. Base axes are those of the chain's frame 0
+(joint 1 turns about its z axis)."""
+
+
+class Gauge(NamedTuple):
+    """The motions of the predicted points that the data cannot see."""
+
+    motions: tuple[Motion, ...]
+    """The named unobservable motions."""
+    unnamed: Array
+    """Unobservable motions no candidate explains, as fields over the points, shape (3k, u)."""
+    points_m: Array
+    """The predicted points the motions were found at, shape (k, 3), m."""
+    flange_rotations: Array
+    """The flange's rotation at each of those poses, shape (k, 3, 3)."""
+    origin_m: Array
+    """Frame 0's origin, shape (3,), m."""
+    axes: Array
+    """Frame 0's axes as columns, shape (3, 3)."""
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every unobservable motion, the unnamed ones counted."""
+        extra = self.unnamed.shape[1]
+        return tuple(motion.name for motion in self.motions) + (
+            (f"{extra} other motion{'s' if extra > 1 else ''}",) if extra else ())
+
+    @property
+    def pins(self) -> tuple[str, ...]:
+        """How to pin them, each way once."""
+        return tuple(dict.fromkeys(motion.pin for motion in self.motions))
+
+    def describe(self) -> str:
+        """One line: ``rotation about joint 1's axis, shift along joint 1's axis``, or ``none``.
+        """
+        return ", ".join(self.names) or "none"
+
+
+def _field(motion: Motion, points: Array, rotations: Array, origin: Array, axes: Array) -> Array:
+    """The motion's velocity at every point, shape (k, 3)."""
+    if motion.kind == ROTATION:
+        return np.cross(axes[:, motion.axis], points - origin)
+    if motion.kind == SHIFT:
+        return np.broadcast_to(axes[:, motion.axis], points.shape)
+    if motion.kind == SCALE:
+        return points - origin
+    return rotations[:, :, motion.axis]
+
+
+def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_rad: ArrayLike,
+                         *, measured: bool = False) -> Gauge:
+    """The motions of the flange centres (or measured points) at poses q that the data cannot
+    see.
+
+    Args:
+        model: The fitted model.
+        x: Identified unknowns, shape (p,).
+        null_space: Null directions of the measurement Jacobian at x, shape (p, r), in the units
+            of x (:attr:`twin.identifiability.Identifiability.null_space`).
+        q_rad: Poses the motions are evaluated at (the workspace), shape (k, n), rad.
+        measured: The measured point (attachment) instead of the flange centre.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    data = model.poses(q_rad)
+    jacobian = model.position_jacobian(x, data) if measured else model.flange_jacobian(x, data)
+    points = model.positions(x, data) if measured else model.flange_positions(x, data)
+    table = model.table(x)
+    rotations = flange_transform(model.robot.structure, table, model.joints(x, data))[..., :3, :3]
+    base = model.robot.structure.base
+    origin, axes = base[:3, 3], base[:3, :3]
+    gauge = Gauge((), np.zeros((points.size, 0)), points, rotations, origin, axes)
+    null = np.asarray(null_space, dtype=np.float64)
+    if not null.shape[1]:
+        return gauge
+    moves = (jacobian @ null).reshape(points.size, -1)
+    largest = float(np.max(np.linalg.norm(jacobian.reshape(points.size, -1), axis=0)))
+    u, s, _ = np.linalg.svd(moves, full_matrices=False)
+    span = u[:, s > MOVES_RTOL * largest]
+    if not span.shape[1]:
+        return gauge
+    named: list[Motion] = []
+    fields: list[Array] = []
+    for motion in MOTIONS:
+        vector = _field(motion, points, rotations, origin, axes).ravel()
+        norm = float(np.linalg.norm(vector))
+        outside = vector - span @ (span.T @ vector)
+        if np.linalg.norm(outside) < MATCH_RTOL * norm:
+            named.append(motion)
+            fields.append(vector)
+    explained = np.stack(fields, axis=1) if fields else np.zeros((points.size, 0))
+    rest = span - explained @ np.linalg.lstsq(explained, span, rcond=None)[0] if fields \
+        else span
+    u_rest, s_rest, _ = np.linalg.svd(rest, full_matrices=False)
+    unnamed = u_rest[:, s_rest > MATCH_RTOL]
+    return gauge._replace(motions=tuple(named), unnamed=unnamed)
+
+
+def _moved(gauge: Gauge, parameters: Array) -> Array:
+    """The predicted points moved by the gauge's motions with the given parameters (one per
+    named motion, then one per unnamed), shape (k, 3): named motions exactly, unnamed ones
+    linearly."""
+    points, origin, axes = gauge.points_m, gauge.origin_m, gauge.axes
+    rotation_vector, shift, scale = np.zeros(3), np.zeros(3), 0.0
+    flange_shift = np.zeros(3)
+    for motion, value in zip(gauge.motions, parameters, strict=False):
+        if motion.kind == ROTATION:
+            rotation_vector += value * axes[:, motion.axis]
+        elif motion.kind == SHIFT:
+            shift += value * axes[:, motion.axis]
+        elif motion.kind == SCALE:
+            scale = value
+        else:
+            flange_shift[motion.axis] = value
+    turned = (points - origin) @ Rotation.from_rotvec(rotation_vector).as_matrix().T
+    moved = origin + (1.0 + scale) * turned + shift + gauge.flange_rotations @ flange_shift
+    linear = gauge.unnamed @ parameters[len(gauge.motions):]
+    return moved + linear.reshape(points.shape)
+
+
+def gauge_free_rms(gauge: Gauge, true_points_m: ArrayLike) -> float:
+    """RMS distance between the predicted points and the true ones after the unobservable
+    motions that bring them closest, m (the plain RMS distance when there are none).
+
+    Args:
+        gauge: The motions, found at the predicted points (:func:`unobservable_motions`).
+        true_points_m: The true points at the same poses, shape (k, 3), m.
+    """
+    truth = np.asarray(true_points_m, dtype=np.float64)
+    count = len(gauge.motions) + gauge.unnamed.shape[1]
+
+    def distances(parameters: Array) -> Array:
+        return np.asarray((_moved(gauge, parameters) - truth).ravel(), dtype=np.float64)
+
+    best = least_squares(distances, np.zeros(count), method="lm", xtol=1e-15, ftol=1e-15) \
+        if count else None
+    difference = distances(best.x if best is not None else np.zeros(0))
+    return float(np.sqrt(np.mean(np.sum(difference.reshape(truth.shape) ** 2, axis=1))))

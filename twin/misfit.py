@@ -1,0 +1,127 @@
+"""Does the calibrated model fit the data? A chi-square test of the training residuals against
+the noise the data imply.
+
+After a fit, the training residuals of a model that can explain the data are the measurement
+noise: with N residual rows, rank L and noise σ, ``T = Σ r² / σ²`` follows χ²(N − L). The fit
+is called a **misfit** when both
+
+- T exceeds the χ² quantile of level 1 − :data:`ALPHA` (p < 0.001: not chance), and
+- the RMSE exceeds :data:`FAR` times σ (far above the noise: a slightly optimistic σ on 1000
+  rows is not worth a warning);
+
+the report and the result then say so in one line, with the likely causes (a wrong port or
+attachment, joint-level errors the robot model lacks, units). The command still succeeds.
+
+σ is the larger of the noise stated for the instrument (its rated σ with its resolution's
+res²/12 folded in, ``--sigma``) and the noise measured by repeat readings: rows with the same
+joint angles (and port or fixed point) should read the same, and their pooled spread is
+measured noise no model can remove. With a robust loss the rows it rejects are left out of
+the test (they are listed apart).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.special import gammaincinv
+
+from twin.dataset import Measurements
+
+Array = NDArray[np.float64]
+
+ALPHA = 1e-3
+"""Level of the chi-square test: a misfit is reported when p < ALPHA."""
+FAR = 2.0
+"""…and the RMSE exceeds this many times the noise."""
+REPEAT_RTOL_RAD = 1e-9
+"""Joint angles closer than this (rad) count as the same pose for repeat readings."""
+
+
+class Misfit(NamedTuple):
+    """The outcome of the fit test."""
+
+    rmse_m: float
+    """RMSE of the training rows tested, m."""
+    noise_m: float
+    """The noise the data imply, m."""
+    noise_source: str
+    """Where it comes from: ``stated σ`` or ``repeat readings``."""
+    statistic: float
+    """T = Σ r² / σ²."""
+    dof: int
+    """Degrees of freedom N − L."""
+    threshold: float
+    """The χ²(dof) quantile of level 1 − ALPHA."""
+    misfit: bool
+    """Whether the test rejects the model (T > threshold and RMSE > FAR · σ)."""
+
+    @property
+    def ratio(self) -> float:
+        """RMSE / noise."""
+        return self.rmse_m / self.noise_m
+
+    def describe(self) -> str:
+        """The test in words, e.g. ``χ² 5.3e+08 above its 0.999 quantile 116 (73 degrees of
+        freedom); RMSE 2.3e+03× the noise (stated σ)``."""
+        side = "above" if self.statistic > self.threshold else "within"
+        return (f"χ² {self.statistic:.3g} {side} its {1 - ALPHA:g} quantile "
+                f"{self.threshold:.3g} ({self.dof} degrees of freedom); RMSE "
+                f"{self.ratio:.3g}× the noise ({self.noise_source})")
+
+
+def chi2_quantile(level: float, dof: int) -> float:
+    """The χ²(dof) quantile of the given level (scipy.stats.chi2.ppf without scipy.stats)."""
+    return float(2.0 * gammaincinv(dof / 2.0, level))
+
+
+def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
+                 ) -> tuple[float, int] | None:
+    """The noise measured by repeat readings: pooled standard deviation of the residuals of
+    rows with the same joint angles (and port or fixed point), m, and its degrees of freedom;
+    None without repeats.
+
+    Args:
+        data: The poses.
+        residuals_m: Their residuals, shape (rows_per_pose · m + extra,); extra rows (known
+            distances) are not poses and are left out.
+        rows_per_pose: Residual rows per pose.
+    """
+    m = len(data)
+    r = np.asarray(residuals_m, dtype=np.float64)[: rows_per_pose * m].reshape(m, rows_per_pose)
+    label = data.port if data.port is not None else data.point
+    keys = np.round(data.q_rad / REPEAT_RTOL_RAD).astype(np.int64)
+    if label is not None:
+        keys = np.column_stack([keys, label])
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    group = np.ravel(group)
+    counts = np.bincount(group)
+    dof = int(np.sum(counts[counts > 1] - 1)) * rows_per_pose
+    if dof == 0:
+        return None
+    means = np.stack([np.bincount(group, r[:, k]) / counts for k in range(rows_per_pose)], axis=1)
+    spread = float(np.sum((r - means[group]) ** 2))
+    return float(np.sqrt(spread / dof)), dof
+
+
+def misfit_test(residuals_m: ArrayLike, rank: int, stated_sigma_m: float,
+                repeat: tuple[float, int] | None = None) -> Misfit:
+    """Test training residuals against the noise (see the module docstring).
+
+    Args:
+        residuals_m: The training residual rows tested, shape (N,), m.
+        rank: Identified combinations L.
+        stated_sigma_m: The instrument's stated noise 1σ, m (> 0).
+        repeat: The noise measured by repeat readings and its degrees of freedom, if any.
+    """
+    r = np.asarray(residuals_m, dtype=np.float64)
+    noise, source = stated_sigma_m, "stated σ"
+    if repeat is not None and repeat[0] > noise:
+        noise, source = repeat[0], f"repeat readings, {repeat[1]} degrees of freedom"
+    dof = max(r.size - rank, 1)
+    statistic = float(r @ r) / noise**2
+    threshold = chi2_quantile(1.0 - ALPHA, dof)
+    rmse = float(np.sqrt(np.mean(r**2)))
+    return Misfit(rmse, noise, source, statistic, dof, threshold,
+                  bool(statistic > threshold and rmse > FAR * noise))
