@@ -6,6 +6,7 @@ twin's truth)::
     prediction = twin.predict(result, q_rad, approach=None)   # or a load_result(...) model
     prediction.position_m    # (m, 3) measured point, base frame, m
     prediction.length_m      # (m,) cable length, m, when the rig has one port
+    prediction.tracker_m     # (m, 3) the point in the tracker frame, m, for tracker results
 
 The measured point is the rig's attachment point (the flange centre unless one is set), moved by
 every group of the model: the D-H table, the joints' transmission error, backlash (for each row's
@@ -47,6 +48,9 @@ class Prediction(NamedTuple):
     """The measured point in the base frame, shape (m, 3), m."""
     length_m: Array | None
     """The cable length from the port, shape (m,), m; None when there is no single port."""
+    tracker_m: Array | None = None
+    """The measured point in the tracker frame (what the tracker reads), shape (m, 3), m; None
+    unless the model is of tracker positions."""
 
 
 def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | None = None,
@@ -79,7 +83,9 @@ def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | N
     check_approach(model, approach)
     poses = model.poses(q, approach=approach)
     position = model.positions(x, poses)
-    length = None
+    length = tracker = None
     if model.kind.name == "length" and len(model.rig.ports_m) == 1:
         length = model.measure(x, q, approach=poses.approach).lengths
-    return Prediction(np.asarray(position, dtype=np.float64), length)
+    if model.kind.name == "position":
+        tracker = model.measure(x, q, approach=poses.approach).position_m
+    return Prediction(np.asarray(position, dtype=np.float64), length, tracker)

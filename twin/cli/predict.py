@@ -22,6 +22,7 @@ from twin.units import FILE_DEG_DECIMALS, RESULT_MM_DECIMALS, m_to_mm, rad_to_de
 
 POSITION_COLUMNS = ("x", "y", "z")
 LENGTH_COLUMN = "length"
+TRACKER_COLUMNS = ("tracker_x", "tracker_y", "tracker_z")
 
 
 def add_parser(subparsers: Any) -> None:
@@ -34,8 +35,10 @@ def add_parser(subparsers: Any) -> None:
         "point — the rig's attachment point, the flange centre unless one is set — as x,y,z "
         "in mm in the robot's base frame, with every identified group applied (D-H, "
         "transmission error, backlash for the row's approach, compliance at the pose), and "
-        "the cable length in mm when --port is given or the result has one port. Compare it "
-        "with anything else: a tracker, another capture, the twin's truth.",
+        "the cable length in mm when --port is given or the result has one port, and "
+        "tracker_x,tracker_y,tracker_z in mm in the tracker frame when the result is of "
+        "tracker positions. Compare it with anything else: a tracker, another capture, the "
+        "twin's truth.",
     )
     parser.add_argument("--identified", type=InputPath, required=True, metavar="RESULT.json",
                         help="calibration result written by `twin calibrate --json`")
@@ -66,22 +69,31 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(exc.found, exc.expected, source=args.joints) from None
     write_atomic(args.out, format_prediction(poses.q_rad, poses.approach, prediction))
     model = identified.model
-    columns = "x,y,z" + (",length" if prediction.length_m is not None else "")
-    point = "attachment point" if np.any(model.rig.attachment_m) else "flange centre"
+    estimated = model.has("attachment")
+    point = "identified attachment point" if estimated else "attachment point" \
+        if np.any(np.abs(model.rig.attachment_m) > 0) else "flange centre"
     groups = ", ".join(group.name for group in model.groups)
-    print(f"{len(poses.q_rad)} poses: {columns} (mm, base frame) of the {point}, by the "
+    extra = (", length" if prediction.length_m is not None else "") + (
+        ", tracker_x,tracker_y,tracker_z (mm, tracker frame)"
+        if prediction.tracker_m is not None else "")
+    print(f"{len(poses.q_rad)} poses: x,y,z (mm, base frame) of the {point}{extra}, by the "
           f"{identified.method} model ({groups})")
     print(f"wrote {args.out}")
     return 0
 
 
+def _value_columns(prediction: Prediction) -> tuple[str, ...]:
+    return (*POSITION_COLUMNS, *((LENGTH_COLUMN,) if prediction.length_m is not None else ()),
+            *(TRACKER_COLUMNS if prediction.tracker_m is not None else ()))
+
+
 def format_prediction(q_rad: NDArray[np.float64], approach: NDArray[np.int8] | None,
                       prediction: Prediction) -> str:
-    """CSV text: the poses as given (q in degrees, approach), then x,y,z and length in mm to
-    1e-6 mm."""
+    """CSV text: the poses as given (q in degrees, approach), then x,y,z, length and
+    tracker_x,tracker_y,tracker_z (those the prediction has) in mm to 1e-6 mm."""
     n = q_rad.shape[1]
     header = [*joint_columns(n), *(approach_columns(n) if approach is not None else ()),
-              *POSITION_COLUMNS, *((LENGTH_COLUMN,) if prediction.length_m is not None else ())]
+              *_value_columns(prediction)]
     columns: list[list[str]] = [[repr(v) for v in rounded(q, FILE_DEG_DECIMALS)]
                                 for q in rad_to_deg(q_rad)]
     if approach is not None:
@@ -89,9 +101,11 @@ def format_prediction(q_rad: NDArray[np.float64], approach: NDArray[np.int8] | N
                    for row, signs in zip(columns, approach, strict=True)]
     xyz = m_to_mm(prediction.position_m)
     length = None if prediction.length_m is None else m_to_mm(prediction.length_m)
+    tracker = None if prediction.tracker_m is None else m_to_mm(prediction.tracker_m)
     lines = [",".join(header)]
     for i, row in enumerate(columns):
         values = rounded(xyz[i], RESULT_MM_DECIMALS) + (
-            [] if length is None else rounded([length[i]], RESULT_MM_DECIMALS))
+            [] if length is None else rounded([length[i]], RESULT_MM_DECIMALS)) + (
+            [] if tracker is None else rounded(tracker[i], RESULT_MM_DECIMALS))
         lines.append(",".join([*row, *map(repr, values)]))
     return "\n".join(lines) + "\n"
