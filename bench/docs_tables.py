@@ -1,4 +1,4 @@
-"""Regenerate every table of figures in docs/methods.md and docs/studies.md from fresh runs.
+"""Regenerate every table of figures in docs/ from fresh runs.
 
 Run by hand after changing a solver, a model or a scenario: ``make docs`` (or
 ``.venv/bin/python bench/docs_tables.py [--skip-bench]``). It
@@ -617,6 +617,112 @@ def stations_table() -> str:
         "(Cramér–Rao over 1000 workspace poses) leave the unobservable motions out.")
 
 
+# --- twin.md, identifiability.md --------------------------------------------------------------
+
+PAPER_RIG_SEEDS = 10
+"""Seeds 0..9 of the paper scenario in docs/twin.md's comparison with the paper's rig."""
+
+
+def _residual_figures(metrics: Any) -> str:
+    return " / ".join(f"{float(m_to_mm(value)):.3f}" for value in (metrics.rmse, metrics.mae,
+                                                                     metrics.max))
+
+
+def paper_rig_table() -> str:
+    """The paper's real-robot figures (its text, :data:`PAPER_TABLE6`) beside LM on the twin's
+    paper scenario: the scenario's own seed and seeds 0..9 (mean ± sd)."""
+    from twin.study.statistics import PAPER_TABLE6
+
+    scenario = load_scenario(scenario_path("paper"))
+
+    def run(seed: int) -> Any:
+        sim = simulate(scenario, seed)
+        rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
+        # Split seed 0, as `twin calibrate` on the capture (its --seed default).
+        return calibrate(sim.robot, sim.measurements, rig=rig, method="lm", seed=0,
+                         budget=scenario.budget).metrics
+
+    paper = PAPER_TABLE6
+    before = " / ".join(f"{paper['before'][k]:g}" for k in ("rmse", "mae", "max"))
+    own = run(scenario.seed)
+    runs = [run(seed) for seed in range(PAPER_RIG_SEEDS)]
+
+    def spread(stage: str) -> str:
+        return " / ".join(
+            f"{statistics.fmean(values):.3f} ± {statistics.stdev(values):.3f}"
+            for values in ([float(m_to_mm(getattr(m[stage], key))) for m in runs]
+                           for key in ("rmse", "mae", "max")))
+
+    rows = [
+        ["paper, real IRB 120, M9 (AMLM-BIPSO)", before,
+         " / ".join(f"{paper['m9'][k]:g}" for k in ("rmse", "mae", "max"))],
+        ["paper, real IRB 120, M7 (AMLM)", before,
+         " / ".join(f"{paper['m7'][k]:g}" for k in ("rmse", "mae", "max"))],
+        [f"twin, `paper_irb120.toml`, seed {scenario.seed}, LM",
+         _residual_figures(own["before"]), _residual_figures(own["validation"])],
+        [f"twin, seeds 0–{PAPER_RIG_SEEDS - 1}, LM, mean ± sd", spread("before"),
+         spread("validation")],
+    ]
+    return markdown_table(["", "before: RMSE / MAE (\"STD\") / MAX [mm]",
+                           "after: RMSE / MAE / MAX [mm]"], rows) + "\n\n" + stamp(
+        "Validation residuals (20 % of the poses); the paper's figures are those its text "
+        "quotes (twin.study.statistics.PAPER_TABLE6); LM run to convergence.")
+
+
+UNKNOWN_SETS = (("24 D-H, port known", False, False), ("+ port (3)", True, False),
+                ("+ offset (1)", False, True), ("+ port + offset", True, True))
+RANK_POSES = 200
+
+
+def unknown_sets_table() -> str:
+    """Rank and unidentifiable combinations of the IRB 120's unknowns with and without the port
+    and the length offset, at the nominal geometry."""
+    from twin.calibration import make_model
+    from twin.identifiability import measurement_identifiability
+    from twin.robot import default_robot
+    from twin.synthetic import random_poses
+
+    robot = default_robot()
+    q = random_poses(robot, RANK_POSES, np.random.default_rng(0))
+    rows = []
+    for name, port, offset in UNKNOWN_SETS:
+        model = make_model(robot, Rig.cable([0.6, -0.4, 0.1]), estimate_port=port,
+                           estimate_offset=offset)
+        found = measurement_identifiability(model, np.zeros(model.n_params), model.poses(q))
+        rows.append([name, f"{found.rank} of {found.n_params}",
+                     ", ".join(f"`{combination}`" for combination in found.unidentifiable)])
+    return markdown_table(["unknowns", "rank", "not identifiable"], rows) + "\n\n" + stamp(
+        f"IRB 120, port (600, −400, 100) mm, {RANK_POSES} random poses within the joint limits, "
+        "nominal geometry.")
+
+
+TWIN_CHECKS = ("geometric", "paper")
+
+
+def twin_check_table(folder: Path) -> str:
+    """`twin identify` on simulated captures: its noise estimate and predicted flange error
+    beside the true one."""
+    import json
+
+    from twin.cli import main as twin_main
+
+    rows = []
+    for regime in TWIN_CHECKS:
+        capture, out = folder / regime, folder / f"{regime}.json"
+        if twin_main(["simulate", str(scenario_path(regime)), "--out", str(capture)]) != 0 \
+                or twin_main(["identify", str(capture / "capture.toml"), "--json",
+                              str(out)]) != 0:
+            raise SystemExit(f"docs: twin identify failed on {regime}")
+        found = json.loads(out.read_text(encoding="utf-8"))["calibration"]
+        rows.append([f"`scenarios/{regime}_irb120.toml`", f"{found['noise_sigma']:.4f}",
+                     f"{found['predicted_flange_rms']:.4f}",
+                     f"{found['truth']['flange_error']:.4f}"])
+    return markdown_table(["scenario", "noise estimate [mm]", "predicted flange RMS [mm]",
+                           "true flange RMS [mm]"], rows) + "\n\n" + stamp(
+        "`twin simulate` then `twin identify` (lm-base, 96 training poses, 1000 workspace "
+        "poses), the scenario's seed.")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "docs",
@@ -638,6 +744,9 @@ def main() -> None:
         "robots.md": {"parametrisation": parametrisation_table()},
         "measurements.md": {"rigs": rigs_table(studies / "rigs"),
                             "stations": stations_table()},
+        "twin.md": {"paper-rig": paper_rig_table()},
+        "identifiability.md": {"unknown-sets": unknown_sets_table(),
+                               "twin-check": twin_check_table(args.out / "identify")},
     }
     if not args.skip_bench:
         blocks["methods.md"]["bench-solvers"] = bench_output(
@@ -645,6 +754,7 @@ def main() -> None:
         blocks["methods.md"]["bench-calibration"] = bench_output("bench_calibration.py")
         blocks["methods.md"]["bench-extended"] = bench_output("bench_extended.py")
         blocks["studies.md"]["bench-study"] = bench_output("bench_study.py")
+        blocks["identifiability.md"]["bench-design"] = bench_output("bench_design.py")
     for name, generated in blocks.items():
         path = DOCS / name
         text = path.read_text(encoding="utf-8")
