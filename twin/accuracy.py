@@ -14,14 +14,12 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from twin.calibration import CalibrationResult
 from twin.gauge import gauge_free_rms, unobservable_motions
 from twin.robot import RobotModel
 from twin.uncertainty import rms_distance
-
-Array = NDArray[np.float64]
 
 
 class TruthErrors(NamedTuple):

@@ -20,6 +20,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.gauge import Gauge, unobservable_motions
@@ -38,8 +39,6 @@ from twin.stopping import Budget, at_bounds
 from twin.synthetic import random_poses
 from twin.uncertainty import CalibrationUncertainty, calibration_uncertainty
 from twin.unknowns import make_groups
-
-Array = NDArray[np.float64]
 
 TRAIN_FRACTION = 0.8
 """Share of the poses used for identification (paper: 80 / 20)."""

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from twin.arrays import Array
 from twin.dataset import approach_directions
 from twin.kinematics import flange_jacobian
 from twin.metrics import Metrics, metrics
@@ -50,7 +51,6 @@ from twin.model import Model
 from twin.robot import RobotModel
 from twin.unknowns import Stage
 
-Array = NDArray[np.float64]
 _T = TypeVar("_T", bound=np.generic)
 
 TOLERANCE_M = 1e-10

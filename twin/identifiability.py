@@ -38,13 +38,12 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import NULL_RTOL, Model
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 from twin.unknowns import Stage
-
-Array = NDArray[np.float64]
 
 RANK_RTOL = NULL_RTOL
 """Singular values below this fraction of the largest are treated as zero."""

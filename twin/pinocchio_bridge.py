@@ -15,12 +15,10 @@ from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.kinematics import fixed_transforms
 from twin.robot import RobotModel
-
-Array = NDArray[np.float64]
 
 FLANGE_FRAME = "flange"
 """Name of the flange frame in the Pinocchio model."""

@@ -34,14 +34,12 @@ import xml.etree.ElementTree as ET
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.kinematics import fixed_transforms, rigid_transform, xyz_rpy
 from twin.parametrisation import joint_frames
 from twin.robot import RobotModel
 from twin.urdf import REVOLUTE, axis_alignment, find_chain
-
-Array = NDArray[np.float64]
 
 SCREW_TOLERANCE = 1e-12
 """How far (m, rad) the flange may move other than about and along the last axis when the

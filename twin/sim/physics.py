@@ -19,11 +19,10 @@ from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.arrays import Array
 from twin.robot import RobotModel
-
-Array = NDArray[np.float64]
 
 EQUILIBRIUM_TOL_RAD = 1e-13
 """Stop the fixed point when no joint moves by more than this, rad."""

@@ -14,12 +14,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.errors import InputError
 from twin.io.measurements import load_plan
 from twin.sim.twin import Twin
 from twin.units import m_to_mm
-
-Array = NDArray[np.float64]
 
 MAX_DRAWS_PER_POSE = 500
 """Give up when this many candidates per wanted pose were not enough."""

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.arrays import frozen_array
+from twin.arrays import Array, frozen_array
 from twin.compensation import solve_ik
 from twin.dataset import KINDS
 from twin.errors import InputError
@@ -28,8 +28,6 @@ from twin.rig import Distance
 from twin.robot import RobotModel
 from twin.sim.poses import PoseConstraints
 from twin.sim.twin import Twin
-
-Array = NDArray[np.float64]
 
 IK_STARTS_PER_TOUCH = 40
 """Random starts tried per wanted configuration before a socket counts as unreachable."""

@@ -102,8 +102,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.dataset import KINDS, MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_toml
@@ -123,7 +123,6 @@ from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import ERRORS
 
-Array = NDArray[np.float64]
 ARCSEC_PER_DEG = 3600.0
 
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.calibration import TRAIN_FRACTION, tracker_start, with_fixed_points
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
@@ -39,8 +40,6 @@ from twin.sim.rigs import touch_poses, tracker_readings
 from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
 from twin.sim.twin import AtRest, Twin
 from twin.units import COMPLIANCE_UNIT, dh_rows_to_display, m_to_mm, rad_to_deg, to_display
-
-Array = NDArray[np.float64]
 
 MEASUREMENTS_FILE = "measurements.csv"
 ROBOT_FILE = "robot.toml"

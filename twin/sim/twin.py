@@ -17,13 +17,12 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import approach_directions
 from twin.robot import RobotModel
 from twin.sim.builder import build_spec
 from twin.sim.joint_errors import JointErrors
 from twin.sim.physics import RIGID, Physics, static_equilibrium
-
-Array = NDArray[np.float64]
 
 _STATICS_OFF = (
     mujoco.mjtDisableBit.mjDSBL_CONTACT
