@@ -31,7 +31,8 @@ from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
 from twin.pinocchio_bridge import urdf_flange
 from twin.predict import predict
-from twin.sim import Simulation, Twin, load_scenario, simulate
+from twin.scenario import load_scenario
+from twin.sim import Simulation, Twin, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance

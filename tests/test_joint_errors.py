@@ -189,7 +189,8 @@ def test_predict_reproduces_the_twins_flange(capture: Path, tmp_path: Path) -> N
     some ten times further off."""
     from twin.io.measurements import load_measurements
     from twin.io.robot_file import load_robot
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     scenario = load_scenario(scenario_with_joint_errors(tmp_path))
     sim = simulate(scenario)
@@ -315,7 +316,8 @@ def test_compensation_puts_the_twins_robot_on_its_targets(tmp_path: Path) -> Non
     millimetre off."""
     from twin.calibration import calibrate
     from twin.compensation import compensate_targets, reachable_targets, solve_in_order
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     scenario = load_scenario(scenario_with_joint_errors(tmp_path, poses=300))
     sim = simulate(scenario)
@@ -412,7 +414,8 @@ def test_link_compliance_holds_masses_off_link_by_link(tmp_path: Path) -> None:
     """Soft servos (the compliance regime) with the masses 20 % off link by link: compliance
     split by link predicts the twin's physical flange within 3× its predicted accuracy, closer
     than one compliance per joint, which cannot follow how the torque's shape changed."""
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     text = (ROOT / "scenarios" / "compliance_irb120.toml").read_text(encoding="utf-8")
     robot = (ROOT / "models" / "irb120.toml").as_posix()

@@ -103,7 +103,8 @@ def run(args: argparse.Namespace) -> int:
         if args.scenario is None:
             raise InputError("no --scenario", "the scenario the virtual encoder serves "
                              "(--robot-source sim)", source="command line")
-        from twin.sim import load_scenario, simulate
+        from twin.scenario import load_scenario
+        from twin.sim import simulate
         from twin.units import dh_rows_to_display, m_to_mm
 
         sim = simulate(load_scenario(args.scenario), args.seed)

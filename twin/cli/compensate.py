@@ -186,7 +186,8 @@ def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
 def _verify(args: argparse.Namespace) -> int:
     """Simulate, calibrate, and compare true flange errors with and without compensation."""
     from twin.calibration import calibrate
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     scenario = load_scenario(args.verify)
     sim = simulate(scenario, seed=args.seed)

@@ -98,8 +98,9 @@ def _feasible_sampler(
     robot: RobotModel, rng: np.random.Generator
 ) -> Callable[[NDArray[np.float64], int], NDArray[np.float64]]:
     """``draw(port_m, count)``: poses the MuJoCo twin with that port can measure."""
-    from twin.sim.poses import PoseConstraints, sample_poses
-    from twin.sim.twin import Twin
+    from twin.scenario import PoseConstraints
+    from twin.sim.mujoco_twin import Twin
+    from twin.sim.poses import sample_poses
 
     constraints = PoseConstraints()
 

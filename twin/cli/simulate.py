@@ -33,7 +33,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     import numpy as np
 
-    from twin.sim import load_scenario, simulate, write_simulation
+    from twin.scenario import load_scenario
+    from twin.sim import simulate, write_simulation
     from twin.units import m_to_mm
 
     scenario = load_scenario(args.scenario)

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike
 from twin.arrays import Array
 from twin.kinematics import fixed_transforms, joint_placements
 from twin.robot import RobotModel
-from twin.sim.physics import RIGID, Physics
+from twin.scenario.physics import RIGID, Physics
 from twin.statics import GRAVITY_M_S2
 from twin.units import rad_to_deg
 

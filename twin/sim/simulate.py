@@ -33,13 +33,21 @@ from twin.model import Model
 from twin.rig import Rig
 from twin.rigid import angles
 from twin.robot import RobotModel, robot_files
-from twin.sim.joint_errors import JointErrors
-from twin.sim.physics import true_inertia
+from twin.scenario.description import Scenario
+from twin.scenario.instrument import tracker_readings
+from twin.scenario.joint_errors import JointErrors
+from twin.scenario.physics import true_inertia
+from twin.sim.mujoco_twin import AtRest, Twin
 from twin.sim.poses import read_pose_plan, sample_poses
-from twin.sim.rigs import touch_poses, tracker_readings
-from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
-from twin.sim.twin import AtRest, Twin
-from twin.units import COMPLIANCE_UNIT, dh_rows_to_display, m_to_mm, rad_to_deg, to_display
+from twin.sim.touches import touch_poses
+from twin.units import (
+    ARCSEC_PER_DEG,
+    COMPLIANCE_UNIT,
+    dh_rows_to_display,
+    m_to_mm,
+    rad_to_deg,
+    to_display,
+)
 
 MEASUREMENTS_FILE = "measurements.csv"
 ROBOT_FILE = "robot.toml"

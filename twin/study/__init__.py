@@ -1,6 +1,6 @@
 """Monte-Carlo studies with known ground truth, and the paper's experiment replicated.
 
-A study is a scenario (:mod:`twin.sim.scenario`) with a ``[study]`` table; each trial is one
+A study is a scenario (:mod:`twin.scenario`) with a ``[study]`` table; each trial is one
 seeded simulation on which every method runs on the same split. Trials run on local processes
 or a Dask cluster, are appended durably to the study folder as they finish (so a run can be
 interrupted and resumed), and end in the paper's Tables 6 and 7, a truth table and figures.

@@ -25,7 +25,7 @@ from typing import Any
 from twin.errors import InputError
 from twin.io.paths import read_bytes, read_toml
 from twin.robot import robot_files
-from twin.sim.scenario import Scenario, parse_scenario
+from twin.scenario import Scenario, parse_scenario
 from twin.solvers import SOLVERS, get_solver
 
 STUDY_KEYS = ("trials", "methods", "workspace_poses", "sweep")

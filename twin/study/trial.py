@@ -44,9 +44,9 @@ from twin.dataset import approach_directions
 from twin.identifiability import measurement_identifiability
 from twin.model import Model
 from twin.rigid import angles
-from twin.sim.scenario import Scenario
+from twin.scenario import Scenario
+from twin.sim.mujoco_twin import Twin
 from twin.sim.simulate import Simulation, simulate
-from twin.sim.twin import Twin
 from twin.study.rows import TrialRow
 from twin.study.store import TrialOutcome
 from twin.synthetic import random_poses

@@ -23,7 +23,7 @@ joint errors), paths relative to the scenario file::
     attachment_mm = [0.0, 0.0, 0.0]        # true eyelet in the flange frame
     told_attachment_mm = [0.0, 0.0, 0.0]   # what the calibration is told (default: the truth)
 
-    [measurement]                          # another instrument than the cable (twin.sim.rigs)
+    [measurement]                          # another instrument than the cable (see instrument.py)
     kind = "length"                        # "position": laser tracker; "point": fixed points
     sigma_mm = 0.01                        # tracker noise / ball seating, number or [x, y, z]
     tracker_pose = [2000.0, 0.0, 0.0, 0.0, 0.0, 180.0]  # base in the tracker: mm, deg (x y z)
@@ -58,7 +58,7 @@ joint errors), paths relative to the scenario file::
     outlier_mm = 0.0                       # its typical size (random sign, ×U(0.5, 1.5))
     offset_mm = 0.0                        # unknown constant offset of the readings
 
-    [joints]                               # joint-level errors (see twin.sim.joint_errors)
+    [joints]                               # joint-level errors (see twin.scenario.joint_errors)
     repeatability_mm = 0.0                 # RMS flange jitter from the joints
     transmission_arcsec = 0.0              # amplitude, number or one per joint
     transmission_harmonic = 1              # cycles per joint revolution
@@ -97,7 +97,6 @@ and what was expected.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -108,22 +107,20 @@ from twin.dataset import KINDS, MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
-from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
-from twin.problem import DEFAULT_SIGMA_M
+from twin.loss import LOSSES
 from twin.rig import MAX_TENSION_N
 from twin.rigid import transform
-from twin.robot import RobotModel, default_robot
-from twin.sim.joint_errors import JointErrors
-from twin.sim.noise import NoiseModel
-from twin.sim.perturbation import DISTRIBUTIONS, Perturbation
-from twin.sim.physics import Physics
-from twin.sim.poses import PoseConstraints
-from twin.sim.rigs import Instrument
-from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
-from twin.units import deg_to_rad, mm_to_m, rad_to_deg
+from twin.robot import default_robot
+from twin.scenario.constraints import PoseConstraints
+from twin.scenario.description import Scenario
+from twin.scenario.instrument import Instrument
+from twin.scenario.joint_errors import JointErrors
+from twin.scenario.noise import NoiseModel
+from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation
+from twin.scenario.physics import Physics
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS
+from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import ERRORS
-
-ARCSEC_PER_DEG = 3600.0
 
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
         "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
@@ -147,116 +144,6 @@ _TABLES = {
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
 """Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A validated scenario (SI inside).
-
-    Attributes:
-        name: Short name.
-        description: What the scenario is for.
-        seed: Default seed of every random draw.
-        robot: The nominal robot (what the calibration is told).
-        port_m: True port, shape (3,), m (the first station's with several); None without a
-            cable.
-        port_told_m: The port the calibration is told, shape (3,), m; None means the true port
-            plus an N(0, ``port_error_m``²) draw per axis.
-        port_error_m: 1σ per axis of the told port's error, m.
-        perturbation: How the true D-H errors are drawn.
-        pose_count: Number of poses; with a plan, its first rows (0: all of them).
-        pose_plan: Plan CSV of poses, or None to sample.
-        constraints: What a pose must satisfy.
-        noise: Encoder noise and repeatability.
-        joint_errors: Joint-level errors (phases as given, or zeros when drawn).
-        draw_phases: Whether transmission phases are drawn uniformly per seed.
-        physics: Servo stiffness, gravity and tension.
-        train_fraction: Share of poses for identification, or None (the core's 80 %).
-        estimate_port: Hint: calibrate with a port correction.
-        estimate_offset: Hint: calibrate with a length offset.
-        instrument: Stations, attachment, tracker or fixture (:mod:`twin.sim.rigs`).
-        estimate_attachment: Hint: calibrate with the attachment point unknown.
-        estimate_base: Hint: calibrate with the tracker frame unknown.
-        loss: Hint: the loss of the calibration (:data:`twin.loss.LOSSES`).
-        loss_scale_m: Hint: its scale, m, or None for 3 σ of the noise.
-        stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
-        max_iterations: Iteration limit of every method and stage, or None (the protocol's).
-        errors: The robot's error groups the calibration fits (:data:`twin.unknowns.ERRORS`).
-        study: The ``[study]`` table as written, for twin.study.
-        expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
-        source: The file, or None.
-    """
-
-    name: str
-    seed: int
-    robot: RobotModel
-    port_m: Array | None
-    perturbation: Perturbation
-    pose_count: int
-    description: str = ""
-    port_told_m: Array | None = None
-    port_error_m: float = 0.0
-    pose_plan: Path | None = None
-    constraints: PoseConstraints = field(default_factory=PoseConstraints)
-    noise: NoiseModel = field(default_factory=NoiseModel)
-    joint_errors: JointErrors | None = None
-    draw_phases: bool = True
-    physics: Physics = field(default_factory=Physics)
-    train_fraction: float | None = None
-    estimate_port: bool = False
-    estimate_offset: bool = False
-    stop: str = PROTOCOLS[0]
-    max_iterations: int | None = None
-    errors: tuple[str, ...] = ("dh",)
-    study: dict[str, Any] = field(default_factory=dict)
-    expect: dict[str, Any] = field(default_factory=dict)
-    source: Path | None = None
-    instrument: Instrument = field(default_factory=Instrument)
-    estimate_attachment: bool = False
-    estimate_base: bool = False
-    loss: str = LOSSES[0]
-    loss_scale_m: float | None = None
-
-    @property
-    def budget(self) -> Budget:
-        """The iteration limits and stopping tests the calibration runs with."""
-        return Budget.named(self.stop, self.max_iterations)
-
-    @property
-    def calibration_loss(self) -> Loss:
-        """The loss ``[calibration]`` asks for, its scale defaulting to
-        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the simulated noise (without jitter)."""
-        if self.loss_scale_m is not None:
-            return Loss(self.loss, self.loss_scale_m)
-        sigma = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
-            if self.instrument.kind != "length" \
-            else float(np.hypot(self.noise.sigma_m, self.noise.resolution_m / np.sqrt(12.0)))
-        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * (sigma if sigma > 0 else DEFAULT_SIGMA_M))
-
-    def __post_init__(self) -> None:
-        n = self.robot.n_joints
-        if self.port_m is not None:
-            port = np.array(self.port_m, dtype=np.float64)
-            if port.shape != (3,) or not np.all(np.isfinite(port)):
-                raise ValueError("port_m: expected 3 finite values")
-            port.setflags(write=False)
-            object.__setattr__(self, "port_m", port)
-        elif self.instrument.kind == "length":
-            raise ValueError("port_m: cable lengths need a port")
-        if self.port_told_m is not None:
-            told = np.array(self.port_told_m, dtype=np.float64)
-            told.setflags(write=False)
-            object.__setattr__(self, "port_told_m", told)
-        if self.joint_errors is None:
-            object.__setattr__(self, "joint_errors", JointErrors.none(n))
-        if self.pose_count < (0 if self.pose_plan is not None else 1):
-            raise ValueError("pose_count: expected >= 1 (>= 0 with a plan)")
-        if self.perturbation.scale.shape != (4, n):
-            raise ValueError(f"perturbation scale: expected shape (4, {n})")
-        if self.train_fraction is not None and not 0 < self.train_fraction < 1:
-            raise ValueError("train_fraction: expected in (0, 1)")
-        if self.stop not in PROTOCOLS:
-            raise ValueError(f"stop: expected one of {', '.join(PROTOCOLS)}")
 
 
 class _Table:
