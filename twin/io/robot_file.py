@@ -19,8 +19,9 @@ from typing import Any
 
 from twin.errors import InputError
 from twin.io.paths import read_toml
+from twin.io.table import Table
 from twin.parametrisation import AUTO
-from twin.robot import ModelDocument, RobotModel, parse_robot
+from twin.robot import RobotModel, parametrisation_request, parse_robot
 from twin.urdf import load_urdf
 
 URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
@@ -29,15 +30,12 @@ URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
 
 def _urdf_reference(document: dict[str, Any], source: str | Path) -> RobotModel:
     """A model file that names a URDF: read the URDF with the file's links and parametrisation."""
-    doc = ModelDocument(document, source)
-    unknown = sorted(set(document) - set(URDF_KEYS))
-    if unknown:
-        raise doc.error(f"unknown key {unknown[0]!r} beside 'urdf'", "only " + ", ".join(URDF_KEYS))
-    links = {key: doc.text(key) if key in document else None
-             for key in ("base_link", "tip_link")}
+    doc = Table(document, source, allowed=URDF_KEYS, kind="a model file that names a URDF")
+    links = {key: doc.text(key) if doc.has(key) else None for key in ("base_link", "tip_link")}
     robot = load_urdf(Path(source).parent / doc.text("urdf"), base_link=links["base_link"],
-                      tip_link=links["tip_link"], parametrisation=doc.request(AUTO))
-    return replace(robot, name=doc.text("name")) if "name" in document else robot
+                      tip_link=links["tip_link"],
+                      parametrisation=parametrisation_request(doc, AUTO))
+    return replace(robot, name=doc.text("name")) if doc.has("name") else robot
 
 
 def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None

@@ -96,7 +96,6 @@ and what was expected.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -104,9 +103,9 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.dataset import KINDS, MAX_POSES
-from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
+from twin.io.table import Table
 from twin.loss import LOSSES
 from twin.rig import MAX_TENSION_N
 from twin.rigid import transform
@@ -144,89 +143,8 @@ _TABLES = {
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
 """Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
-
-
-class _Table:
-    """Typed access to one TOML table with errors that name the file and key."""
-
-    def __init__(self, document: dict[str, Any], name: str, source: Path, allowed: tuple[str, ...]):
-        self.name, self.source = name, source
-        value = document.get(name, {}) if name else document
-        if not isinstance(value, dict):
-            raise InputError(f"{value!r}", "a table", source=source, where=f"[{name}]")
-        self.values: dict[str, Any] = value
-        unknown = sorted(set(value) - set(allowed))
-        if unknown:
-            raise InputError(f"unknown key {unknown[0]!r}", "one of " + ", ".join(allowed),
-                             source=source, where=self._where(None))
-
-    def _where(self, key: str | None) -> str:
-        if not self.name:
-            return key or ""
-        return f"[{self.name}]" + (f" {key}" if key else "")
-
-    def error(self, key: str, found: str, expected: str) -> InputError:
-        return InputError(found, expected, source=self.source, where=self._where(key))
-
-    def has(self, key: str) -> bool:
-        return key in self.values
-
-    def required(self, key: str, expected: str) -> Any:
-        if key not in self.values:
-            raise self.error(key, "nothing", expected)
-        return self.values[key]
-
-    def number(self, key: str, default: float | None = None, *, minimum: float | None = None,
-               maximum: float | None = None, strict_minimum: bool = False) -> float:
-        value = self.values.get(key, default)
-        expected = "a number" + (f" {'>' if strict_minimum else '>='} {minimum:g}"
-                                 if minimum is not None else "") \
-            + (f" <= {maximum:g}" if maximum is not None else "")
-        if value is None:
-            raise self.error(key, "nothing", expected)
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value) \
-                or (minimum is not None and (value <= minimum if strict_minimum
-                                             else value < minimum)) \
-                or (maximum is not None and value > maximum):
-            raise self.error(key, repr(value), expected)
-        return float(value)
-
-    def integer(self, key: str, default: int | None = None, *, minimum: int = 0,
-                maximum: int | None = None) -> int:
-        value = self.values.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum \
-                or (maximum is not None and value > maximum):
-            within = f"in {minimum}..{maximum}" if maximum is not None else f">= {minimum}"
-            raise self.error(key, repr(value), f"an integer {within}")
-        return int(value)
-
-    def boolean(self, key: str, default: bool) -> bool:
-        value = self.values.get(key, default)
-        if not isinstance(value, bool):
-            raise self.error(key, repr(value), "true or false")
-        return value
-
-    def text(self, key: str, default: str | None = None) -> str:
-        value = self.values.get(key, default)
-        if not isinstance(value, str):
-            raise self.error(key, repr(value), "a string")
-        return value
-
-    def vector(self, key: str, length: int, *, per_joint: bool = False, minimum: float | None
-               = None, default: float | list[float] | None = None) -> Array:
-        """A list of ``length`` numbers (or one number for all, when ``per_joint``)."""
-        value = self.values.get(key, default)
-        what = f"{length} numbers" + (" (or one for all joints)" if per_joint else "") \
-            + (f" >= {minimum:g}" if minimum is not None else "")
-        if per_joint and isinstance(value, int | float) and not isinstance(value, bool):
-            value = [value] * length
-        if not isinstance(value, list) or len(value) != length or any(
-            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-            or (minimum is not None and v < minimum) for v in value
-        ):
-            raise self.error(key, repr(value), what)
-        return np.array(value, dtype=np.float64)
+POSE = "[x, y, z, rx, ry, rz] in mm and degrees"
+"""How a placement is written: position (mm) and fixed-axis angles (deg, R = Rz Ry Rx)."""
 
 
 def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
@@ -235,8 +153,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     Raises:
         InputError: naming the key that is wrong.
     """
-    top = _Table(document, "", source, _TOP)
-    tables = {name: _Table(document, name, source, keys) for name, keys in _TABLES.items()}
+    top = Table(document, source, allowed=_TOP)
+    tables = {name: top.table(name, allowed=keys) for name, keys in _TABLES.items()}
     name = top.text("name") if top.has("name") else top.required("name", "a scenario name")
     folder = source.parent
     links = {key: top.text(f"robot_{key}") if top.has(f"robot_{key}") else None
@@ -249,15 +167,10 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     n = robot.n_joints
     if not top.has("seed"):
         top.required("seed", "an integer seed")
-    passed_through = {}
-    for key in ("study", "expect"):
-        value = document.get(key, {})
-        if not isinstance(value, dict):
-            raise InputError(f"{value!r}", "a table (read by twin.study)", source=source,
-                             where=f"[{key}]")
-        passed_through[key] = value
+    passed_through = {key: dict(top.table(key, expected="a table (read by twin.study)").values)
+                      for key in ("study", "expect")}
 
-    instrument = _instrument(document, tables, source)
+    instrument = _instrument(tables)
     port = tables["port"]
     port_m, port_told_m, port_error_m = None, None, 0.0
     if instrument.kind == "length":
@@ -277,9 +190,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
                          "no [port] table (only cable lengths have ports)")
 
     pert = tables["perturbation"]
-    distribution = pert.text("distribution", "uniform")
-    if distribution not in DISTRIBUTIONS:
-        raise pert.error("distribution", repr(distribution), "one of " + ", ".join(DISTRIBUTIONS))
+    distribution = pert.text("distribution", "uniform", choices=DISTRIBUTIONS)
     alpha_rad = deg_to_rad(pert.vector("alpha_deg", n, per_joint=True, minimum=0.0,
                                        default=0.0))
     # The second slot is d (m) on D-H joints and β (rad) on Hayati joints: each its own scale.
@@ -362,22 +273,16 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         if calibration.has("train_fraction") else None
     if train_fraction == 1.0:
         raise calibration.error("train_fraction", "1.0", "a share below 1 (some poses held out)")
-    stop = calibration.text("stop", PROTOCOLS[0])
-    if stop not in PROTOCOLS:
-        raise calibration.error("stop", repr(stop), "one of " + ", ".join(PROTOCOLS))
-    loss = calibration.text("loss", LOSSES[0])
-    if loss not in LOSSES:
-        raise calibration.error("loss", repr(loss), "one of " + ", ".join(LOSSES))
+    stop = calibration.text("stop", PROTOCOLS[0], choices=PROTOCOLS)
+    loss = calibration.text("loss", LOSSES[0], choices=LOSSES)
     max_iterations = calibration.integer("max_iterations", minimum=1) \
         if calibration.has("max_iterations") else None
     if max_iterations is not None and max_iterations > MAX_ITERATIONS:
         raise calibration.error("max_iterations", repr(max_iterations),
                                 f"an integer from 1 to {MAX_ITERATIONS}")
-    errors = calibration.values.get("errors", ["dh"])
-    expected_errors = "a non-empty list of distinct error groups among " + ", ".join(ERRORS)
-    if not isinstance(errors, list) or not errors or len(set(map(str, errors))) != len(errors) \
-            or not all(isinstance(name, str) and name in ERRORS for name in errors):
-        raise calibration.error("errors", repr(errors), expected_errors)
+    errors = calibration.strings("errors", ["dh"], choices=ERRORS, distinct=True,
+                                 expected="a non-empty list of distinct error groups among "
+                                 + ", ".join(ERRORS))
     if {"compliance", "link_compliance"} <= set(errors):
         raise calibration.error("errors", repr(errors), "compliance or link_compliance, not "
                                 "both (link_compliance holds each joint's compliance)")
@@ -385,7 +290,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     return Scenario(
         name=name,
         description=top.text("description", ""),
-        seed=top.integer("seed"),
+        seed=top.integer("seed", minimum=0),
         robot=robot,
         port_m=port_m,
         port_told_m=port_told_m,
@@ -431,33 +336,15 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     )
 
 
-def _points(table: _Table, key: str, default: list[list[float]] | None = None) -> Array:
-    """A list of [x, y, z] (mm) as an array (k, 3), m."""
-    value = table.values.get(key, default)
-    if not isinstance(value, list) or not value or any(
-            not isinstance(row, list) or len(row) != 3 or any(
-                isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-                for v in row) for row in value):
-        raise table.error(key, repr(value), "a list of [x, y, z] in mm")
-    return mm_to_m(value)
-
-
-def _pose(table: _Table, key: str, value: Any) -> Array:
+def _pose(values: Array) -> Array:
     """``[x, y, z, rx, ry, rz]`` (mm, deg; R = Rz Ry Rx) as a 4×4 transform, m."""
-    if not isinstance(value, list) or len(value) != 6 or any(
-            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-            for v in value):
-        raise table.error(key, repr(value), "[x, y, z, rx, ry, rz] in mm and degrees")
-    return transform(mm_to_m(value[:3]), deg_to_rad(value[3:]))
+    return transform(mm_to_m(values[:3]), deg_to_rad(values[3:]))
 
 
-def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Path
-                ) -> Instrument:
+def _instrument(tables: dict[str, Table]) -> Instrument:
     """The ``[cable]``, ``[measurement]``, ``[fixture]`` tables and ``[port.stations_mm]``."""
     measurement, cable, fixture = tables["measurement"], tables["cable"], tables["fixture"]
-    kind = measurement.text("kind", "length")
-    if kind not in KINDS:
-        raise measurement.error("kind", repr(kind), "one of " + ", ".join(KINDS))
+    kind = measurement.text("kind", "length", choices=KINDS)
     if kind == "length":
         for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
             if measurement.has(key):
@@ -480,15 +367,13 @@ def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Pat
         if kind != "length" or port.has("position_mm"):
             raise port.error("stations_mm", "stations with position_mm or without cable "
                              "lengths", "either position_mm or [port.stations_mm]")
-        block = _Table(port.values, "stations_mm", source, tuple(port.values["stations_mm"])
-                       if isinstance(port.values["stations_mm"], dict) else ())
-        block.name = "port.stations_mm"
+        block = port.table("stations_mm")
         names = tuple(str(name) for name in block.values)
         if not names:
             raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
         stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
     sigma = measurement.vector("sigma_mm", 3, per_joint=True, minimum=0.0, default=0.0)
-    tracker = _pose(measurement, "tracker_pose", measurement.values["tracker_pose"]) \
+    tracker = _pose(measurement.vector("tracker_pose", 6, expected=POSE)) \
         if measurement.has("tracker_pose") else np.eye(4)
     if kind != "position" and measurement.has("tracker_pose"):
         raise measurement.error("tracker_pose", f"a tracker with {kind} measurements",
@@ -499,11 +384,9 @@ def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Pat
                             "[fixture] with fixed points (kind = \"point\") only")
     sockets, placements, touches = np.zeros((0, 3)), np.zeros((0, 4, 4)), 0
     if kind == "point":
-        sockets = _points(fixture, "sockets_mm")
-        placed = fixture.required("placements", "a list of [x, y, z, rx, ry, rz]")
-        if not isinstance(placed, list) or not placed:
-            raise fixture.error("placements", repr(placed), "a list of [x, y, z, rx, ry, rz]")
-        placements = np.stack([_pose(fixture, "placements", value) for value in placed])
+        sockets = mm_to_m(fixture.rows("sockets_mm", 3, expected="a list of [x, y, z] in mm"))
+        placements = np.stack([_pose(row) for row in fixture.rows(
+            "placements", 6, expected=f"a list of {POSE}")])
         touches = fixture.integer("touches", 12, minimum=1, maximum=MAX_POSES)
     return Instrument(kind=kind, attachment_m=attachment, attachment_told_m=told,
                       station_names=names, stations_m=stations, sigma_m=mm_to_m(sigma),
