@@ -24,20 +24,16 @@ from numpy.typing import NDArray
 
 from twin.cli.arguments import add_robot_flags, integer, number, robot_from_flags, seed
 from twin.compensation import (
-    STATUS_OK,
-    STATUS_UNREACHABLE,
-    CompensationCheck,
     InOrder,
-    check_compensation,
     compensate_program,
     compensate_targets,
     identified_arm,
-    nominal_ik,
-    reachable_targets,
     solve_in_order,
 )
+from twin.compensation_check import CompensationCheck, check_compensation
 from twin.dataset import MAX_POSES, approach_directions
 from twin.errors import InputError
+from twin.ik import STATUS_OK, STATUS_UNREACHABLE, nominal_ik
 from twin.io.atomic import write_atomic
 from twin.io.identified import load_result
 from twin.io.measurements import approach_columns, joint_columns, load_poses, read_table
@@ -46,6 +42,7 @@ from twin.metrics import Metrics
 from twin.plots import pyplot, save_png
 from twin.rig import MAX_TENSION_N
 from twin.robot import default_robot
+from twin.targets import reachable_targets
 from twin.units import FILE_DEG_DECIMALS, MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg, rounded
 from twin.unknowns import Stage
 
