@@ -15,9 +15,10 @@ PACKAGE = Path(__file__).resolve().parents[1] / "twin"
 
 ADAPTERS = {
     # MuJoCo: the digital twin (poses and touches are found on it, with its collisions and line
-    # of sight), and the MJCF export built from it.
+    # of sight; compensation is verified on it), and the MJCF export built from it.
     "twin.sim", "twin.sim.builder", "twin.sim.equilibrium", "twin.sim.mujoco_twin",
-    "twin.sim.poses", "twin.sim.touches", "twin.sim.simulate", "twin.export.mjcf",
+    "twin.sim.poses", "twin.sim.touches", "twin.sim.simulate", "twin.sim.verification",
+    "twin.export.mjcf",
     # Pinocchio.
     "twin.pinocchio_bridge", "twin.export.urdf",
     # Rerun: the recording and what it logs.

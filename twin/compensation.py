@@ -34,7 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 from twin.dataset import approach_directions
-from twin.ik import FULL_POSE_JOINTS, IKResult, solve_ik
+from twin.ik import FULL_POSE_JOINTS, IKResult, nominal_ik, solve_ik
 from twin.model import Model
 from twin.robot import RobotModel
 from twin.unknowns import Stage
@@ -179,3 +179,48 @@ def identified_arm(model: Model, x: ArrayLike, approach: ArrayLike | None
     return robot, ActualJoints(model, x, approach) if has_joints else None
 
 
+
+
+def compensate_program_rows(model: Model, x: ArrayLike, nominal: RobotModel, q_rad: ArrayLike,
+                            approach: ArrayLike | None = None) -> InOrder:
+    """A program's corrected commands, for the whole identified model (:func:`solve_in_order`).
+
+    Args:
+        model: The identified measurement model.
+        x: Its unknowns, shape (p,).
+        nominal: The robot the program was written against, SI.
+        q_rad: The program, in visiting order, shape (m, n), rad.
+        approach: The side each joint comes from at each row, shape (m, n), ±1, when the
+            program states it (its ``approach1..N`` columns win over the visiting order).
+    """
+    q = np.asarray(q_rad, dtype=np.float64)
+    if approach is None:
+        return solve_in_order(model, x, lambda arm, joints: compensate_program(
+            nominal, arm, q, joints), q)
+    arm, joints = identified_arm(model, x, approach)
+    solved = compensate_program(nominal, arm, q, joints)
+    return InOrder(solved, np.asarray(approach, dtype=np.int8) if model.needs_approach
+                   else None, np.zeros(len(q), dtype=bool))
+
+
+def compensate_target_rows(model: Model, x: ArrayLike, nominal: RobotModel,
+                           base_p_target: ArrayLike, rng: np.random.Generator
+                           ) -> tuple[InOrder, Array]:
+    """Cartesian targets' corrected commands, for the whole identified model: nominal solutions
+    first (:func:`twin.ik.nominal_ik`), then :func:`solve_in_order` from them.
+
+    Args:
+        model: The identified measurement model.
+        x: Its unknowns, shape (p,).
+        nominal: The nominal robot, SI.
+        base_p_target: Flange position targets, in visiting order, shape (m, 3), m.
+        rng: Generator of the nominal solutions' random starts.
+
+    Returns:
+        ``(ordered, q_nominal_rad)``: the corrected commands, and the nominal solutions (m, n),
+        rad.
+    """
+    target_m = np.asarray(base_p_target, dtype=np.float64)
+    q_nominal = nominal_ik(nominal, target_m, rng).q_rad
+    return solve_in_order(model, x, lambda arm, joints: compensate_targets(
+        arm, target_m, q_nominal, joints), q_nominal), q_nominal

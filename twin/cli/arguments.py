@@ -131,23 +131,19 @@ def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") 
                         "link (default: tool0, else flange, else the one leaf link)")
 
 
-def robot_from_flags(args: argparse.Namespace) -> RobotModel | None:
-    """The robot ``--robot`` names (with its links), or None without ``--robot``.
+def robot_from_flags(args: argparse.Namespace) -> RobotModel:
+    """The robot ``--robot`` names (with its links), or the packaged IRB 120 without it.
 
     Raises:
         InputError: for --base-link or --tip-link without a URDF --robot, or a bad file.
     """
     from twin.errors import InputError
-    from twin.io.robot_file import load_robot
+    from twin.io.robot_file import load_robot_or_default
 
-    links = {"base_link": args.base_link, "tip_link": args.tip_link}
-    if args.robot is None:
-        if any(links.values()):
-            flag = "--base-link" if args.base_link else "--tip-link"
-            raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it",
-                             source=flag)
-        return None
-    return load_robot(args.robot, **links)
+    if args.robot is None and (args.base_link or args.tip_link):
+        flag = "--base-link" if args.base_link else "--tip-link"
+        raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it", source=flag)
+    return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link)
 
 
 AUTO = "auto"

@@ -87,8 +87,8 @@ def run(args: argparse.Namespace) -> int:
     from twin.io.capture_file import parse_port_mm, write_capture
     from twin.io.measurements import load_plan
     from twin.io.results import write_json
-    from twin.io.robot_file import load_robot
-    from twin.robot import default_robot, robot_to_toml
+    from twin.io.robot_file import load_robot_or_default
+    from twin.robot import robot_to_toml
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
                  "delta": dh_rows_to_display(sim.delta, sim.robot.is_length),
                  "port": m_to_mm(sim.port_m).tolist(), "port_told": m_to_mm(port_m).tolist()}
     else:
-        robot = load_robot(args.robot) if args.robot else default_robot()
+        robot = load_robot_or_default(args.robot)
         if args.port is None:
             raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
                              source="command line")

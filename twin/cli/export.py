@@ -13,7 +13,6 @@ from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
 from twin.io.identified import ResultWarning, load_result_delta, result_groups
 from twin.io.paths import InputPath, OutputFile
-from twin.robot import default_robot
 from twin.unknowns import ERRORS
 
 
@@ -41,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
-    robot = robot_from_flags(args) or default_robot()
+    robot = robot_from_flags(args)
     delta = load_result_delta(args.result, robot, args.method)
     joint_level = [name for name in result_groups(args.result, args.method)
                    if name in ERRORS and name != "dh"]

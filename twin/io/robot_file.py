@@ -21,7 +21,7 @@ from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.parametrisation import AUTO
-from twin.robot import RobotModel, parametrisation_request, parse_robot
+from twin.robot import RobotModel, default_robot, parametrisation_request, parse_robot
 from twin.urdf import load_urdf
 
 URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
@@ -61,3 +61,15 @@ def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str 
     if "urdf" in document:
         return _urdf_reference(document, path)
     return parse_robot(document, path)
+
+
+def load_robot_or_default(path: str | Path | None, *, base_link: str | None = None,
+                          tip_link: str | None = None) -> RobotModel:
+    """The robot of a file (:func:`load_robot`), or the packaged ABB IRB 120 without one.
+
+    Raises:
+        InputError: as :func:`load_robot`.
+    """
+    if path is None:
+        return default_robot()
+    return load_robot(path, base_link=base_link, tip_link=tip_link)

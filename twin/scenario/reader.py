@@ -104,12 +104,11 @@ import numpy as np
 from twin.arrays import Array
 from twin.dataset import KINDS, MAX_POSES
 from twin.io.paths import read_toml
-from twin.io.robot_file import load_robot
+from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
 from twin.loss import LOSSES
 from twin.rig import MAX_TENSION_N
 from twin.rigid import transform
-from twin.robot import default_robot
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
 from twin.scenario.instrument import Instrument
@@ -162,8 +161,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     if not top.has("robot") and any(links.values()):
         raise top.error("robot_base_link", "robot_base_link or robot_tip_link without robot",
                         "robot = \"arm.urdf\" beside them")
-    robot = load_robot(folder / top.text("robot"), **links) if top.has("robot") \
-        else default_robot()
+    robot = load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
+                                  **links)
     n = robot.n_joints
     if not top.has("seed"):
         top.required("seed", "an integer seed")
