@@ -86,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
     from twin.hardware.robot_sources.base import RobotSource
     from twin.io.capture_file import parse_port_mm, write_capture
     from twin.io.measurements import load_plan
-    from twin.io.results import write_json
     from twin.io.robot_file import load_robot_or_default
+    from twin.io.truth import TRUTH_FILE, write_truth
     from twin.robot import robot_to_toml
     from twin.units import mm_to_m
 
@@ -105,17 +105,13 @@ def run(args: argparse.Namespace) -> int:
                              "(--robot-source sim)", source="command line")
         from twin.scenario import load_scenario
         from twin.sim import simulate
-        from twin.units import dh_rows_to_display, m_to_mm
 
         sim = simulate(load_scenario(args.scenario), args.seed)
         if sim.port_m is None or sim.port_nominal_m is None or len(sim.rig.ports_m) > 1:
             raise InputError(f"a {sim.measurements.kind} scenario with "
                              f"{len(sim.rig.ports_m)} ports", "a scenario of one cable port "
                              "(the virtual encoder serves one cable)", source=args.scenario)
-        robot, port_m = sim.robot, sim.port_nominal_m
-        truth = {"scenario": sim.scenario.name, "seed": sim.seed,
-                 "delta": dh_rows_to_display(sim.delta, sim.robot.is_length),
-                 "port": m_to_mm(sim.port_m).tolist(), "port_told": m_to_mm(port_m).tolist()}
+        robot, port_m, truth = sim.robot, sim.port_nominal_m, sim.capture_truth
     else:
         robot = load_robot_or_default(args.robot)
         if args.port is None:
@@ -153,10 +149,10 @@ def run(args: argparse.Namespace) -> int:
     with locked(out), open_encoder(config) as encoder:
         prepare(out, args.plan, plan_q_rad, robot_text)
         if truth is not None:
-            write_json(out / "truth.json", truth)
+            write_truth(out / TRUTH_FILE, truth)
         write_capture(out / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,
                       measurements=MEASUREMENTS_NAME,
-                      truth="truth.json" if truth is not None else None,
+                      truth=TRUTH_FILE if truth is not None else None,
                       encoder={"url": config.to_url()})
         measured = capture(plan_q_rad, out / MEASUREMENTS_NAME, encoder, source, rule,
                            reconnect_s=args.reconnect,

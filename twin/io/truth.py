@@ -1,4 +1,6 @@
-"""Ground-truth files (`truth.json`) written by the twin beside a simulated capture.
+"""Ground-truth files (`truth.json`) written by the twin beside a simulated capture (`twin
+simulate`), or beside a capture measured with the virtual encoder (`twin capture
+--robot-source sim`): :func:`write_truth` writes both.
 
 The D-H error block ``"delta"`` is the same in a truth file and in a calibration result
 (`twin calibrate --json`); :func:`parse_delta` reads it for both.
@@ -6,7 +8,9 @@ The D-H error block ``"delta"`` is the same in a truth file and in a calibration
 
 from __future__ import annotations
 
+import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -14,8 +18,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.errors import InputError
+from twin.io.atomic import write_atomic
 from twin.io.paths import read_json
 from twin.units import DH_KEYS, dh_rows_from_display, mm_to_m
+
+TRUTH_FILE = "truth.json"
+"""The truth file's name beside a capture."""
+
+
+def write_truth(path: str | Path, document: Mapping[str, Any]) -> None:
+    """Write a truth document (mm, degrees, arc-seconds; :attr:`twin.sim.Simulation.truth`)
+    atomically as JSON."""
+    write_atomic(path, json.dumps(dict(document), indent=2) + "\n")
 
 
 def parse_delta(
