@@ -45,8 +45,8 @@ from twin.solvers.amlm import amlm
 from twin.solvers.base import Tracker
 from twin.solvers.bipso import bipso
 from twin.stopping import Budget
+from twin.study.definition import load_study
 from twin.study.executors.local import LocalProcesses
-from twin.study.plan import load_study
 from twin.study.runner import run_study
 from twin.study.trial import (
     TrialSpec,

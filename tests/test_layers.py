@@ -22,7 +22,7 @@ ADAPTERS = {
     # Pinocchio.
     "twin.pinocchio_bridge", "twin.export.urdf",
     # Rerun: the recording and what it logs.
-    "twin.viz.recording", "twin.viz.sinks", "twin.viz.scene", "twin.viz.calibration",
+    "twin.viz.recording", "twin.viz.sinks", "twin.viz.scene", "twin.viz.calibration_log",
     "twin.viz.blueprint", "twin.viz.writer",
     # pyserial, minimalmodbus: the encoder drivers.
     "twin.hardware.encoders.ascii", "twin.hardware.encoders.modbus",

@@ -32,7 +32,7 @@ that link's centre of mass in its own frame i, which turns with joint i; needs `
 unknowns' gravity torques; ``velocity`` (angle unit per second) and ``effort`` (N·m), the
 joint's rated limits, for exported URDFs.
 
-A model file may instead name a URDF (:mod:`twin.urdf`, through Pinocchio)::
+A model file may instead name a URDF (:mod:`twin.io.urdf_reader`, through Pinocchio)::
 
     urdf = "ur5e.urdf"               # relative to this file
     base_link = "base_link"          # optional: the URDF's root link

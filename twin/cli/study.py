@@ -92,8 +92,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.study.definition import load_study
     from twin.study.markdown import summary_markdown, trial_markdown
-    from twin.study.plan import load_study
     from twin.study.runner import run_study
     from twin.study.store import TrialOutcome
 

@@ -1,5 +1,5 @@
 """Reading a robot from its file: a D-H model TOML (:func:`twin.robot.parse_robot`), a URDF
-(:mod:`twin.urdf`, through Pinocchio), or a model TOML that names a URDF::
+(:mod:`twin.io.urdf_reader`, through Pinocchio), or a model TOML that names a URDF::
 
     urdf = "ur5e.urdf"               # relative to this file
     base_link = "base_link"          # optional
@@ -8,7 +8,7 @@
     name = "my UR5e"                 # optional
 
 This is the one place that knows both formats; :mod:`twin.robot` holds the model and its D-H
-file alone, and :mod:`twin.urdf` the URDF adapter.
+file alone, and :mod:`twin.io.urdf_reader` the URDF adapter.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from typing import Any
 from twin.errors import InputError
 from twin.io.paths import read_toml
 from twin.io.table import Table
+from twin.io.urdf_reader import load_urdf
 from twin.parametrisation import AUTO
 from twin.robot import RobotModel, default_robot, parametrisation_request, parse_robot
-from twin.urdf import load_urdf
 
 URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
 """The keys of a model file that names a URDF."""

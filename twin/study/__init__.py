@@ -10,7 +10,7 @@ scenario's ``[expect]`` table and, optionally, to a baseline study.
 This package imports nothing on its own, so that its pure modules (the store, the statistics,
 the expectations) load without the MuJoCo twin that running trials needs::
 
-    from twin.study.plan import load_study          # StudyPlan; InputError if invalid
+    from twin.study.definition import load_study          # StudyPlan; InputError if invalid
     from twin.study.runner import run_study         # run_trials, then write_report
     from twin.study.store import StudyStore         # the folder: results.csv, trials.jsonl
 """
