@@ -1,6 +1,7 @@
 """The `twin` command line. Each subcommand is a module named after it, ``twin/cli/<command>.py``
-(``virtual-encoder``: ``virtual_encoder.py``), with ``add_parser(subparsers)`` and ``run(args)``:
-it parses, calls the library and prints. Where the library function a command calls has the
+(``virtual-encoder``: ``virtual_encoder.py``), which states its ``NAME``, ``HELP`` and
+``DESCRIPTION``, its arguments (``add_arguments(parser)``) and ``run(args)``: it parses, calls
+the library and prints. Where the library function a command calls has the
 command's name, its module may too (`twin simulate` calls :func:`twin.sim.simulate.simulate`,
 `twin predict` :func:`twin.predict.predict`, `twin check` :func:`twin.study.check.check`,
 `twin virtual-encoder` :mod:`twin.hardware.virtual_encoder`): a module of ``twin/cli/`` is the
@@ -62,7 +63,10 @@ def build_parser() -> ArgumentParser:
                         version=f"{distribution.NAME} {distribution.version()}")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in SUBCOMMANDS:
-        module.add_parser(subparsers)
+        command = subparsers.add_parser(module.NAME, help=module.HELP,
+                                        description=module.DESCRIPTION)
+        module.add_arguments(command)
+        command.set_defaults(func=module.run)
     return parser
 
 

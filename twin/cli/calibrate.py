@@ -8,71 +8,64 @@ compliance beside it), or ``auto`` fits nested choices and keeps the one the dat
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
-from twin.calibration import (
-    solve_many,
-)
+from twin.calibration import solve_many
 from twin.cli.arguments import (
     AUTO,
-    add_robot_flags,
-    error_groups,
+    add_output,
+    add_seed,
     integer,
-    number,
-    seed,
     share,
     sigma_mm,
 )
-from twin.cli.inputs import Inputs, add_rig_flags, make_split, resolve_inputs, truth_of
+from twin.cli.inputs import (
+    Inputs,
+    add_input_flags,
+    make_split,
+    resolve_inputs,
+    truth_of,
+)
 from twin.dataset import Measurements
 from twin.diagnosis import likely_causes
 from twin.errors import InputError
 from twin.identifiability import measurement_identifiability, warn_rank_deficient
 from twin.io.measurements import load_measurements
-from twin.io.paths import InputPath, OutputFile
 from twin.io.results import choice_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES
 from twin.report import format_choice, format_comparison, format_result
-from twin.rig import MAX_TENSION_N
 from twin.selection import choose_errors, warn_few_poses
 from twin.solvers import SOLVERS, get_solver, solver_choices
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.unknowns import ERRORS
 from twin.viz import add_rerun_flags, calibration_log
 
+NAME = "calibrate"
+HELP = "identify the robot's errors from cable, tracker or fixed-point measurements"
+DESCRIPTION = (
+    "Identify the errors of a robot (and the rig's unknowns) from "
+    "measurements. INPUT is a measurement CSV (q1..qN in degrees and one of: length in mm, "
+    "with --port; x,y,z in mm from a laser tracker; point, the name of a fixed place) or a "
+    "capture.toml written by `twin simulate` or `twin capture`. docs/measurements.md shows "
+    "each rig."
+)
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "calibrate",
-        help="identify the robot's errors from cable, tracker or fixed-point measurements",
-        description="Identify the errors of a robot (and the rig's unknowns) from "
-        "measurements. INPUT is a measurement CSV (q1..qN in degrees and one of: length in mm, "
-        "with --port; x,y,z in mm from a laser tracker; point, the name of a fixed place) or a "
-        "capture.toml written by `twin simulate` or `twin capture`. docs/measurements.md shows "
-        "each rig.",
-    )
-    parser.add_argument("input", type=InputPath, metavar="INPUT",
-                        help="MEASUREMENTS.csv (- for standard input) or capture.toml")
-    add_robot_flags(parser)
-    add_rig_flags(parser)
-    parser.add_argument("--errors", type=error_groups(auto=True), metavar="GROUPS",
-                        help="the robot's error groups to identify, comma-separated: "
-                        + ", ".join(ERRORS) + " (compliance or link_compliance); or auto: "
-                        "fit dh, then add compliance, backlash, transmission one at a time, "
-                        "then all with link_compliance, and keep the lowest BIC (default: the "
-                        "capture's, else dh)")
-    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
-                        help="the cable's pull towards the port in newtons (the encoder's "
-                        "spring force; loads the joints for the compliance group); default: "
-                        "the capture's, else 0")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_input_flags(
+        parser, input_help="MEASUREMENTS.csv (- for standard input) or capture.toml",
+        errors_help="the robot's error groups to identify, comma-separated: "
+        + ", ".join(ERRORS) + " (compliance or link_compliance); or auto: fit dh, then add "
+        "compliance, backlash, transmission one at a time, then all with link_compliance, and "
+        "keep the lowest BIC (default: the capture's, else dh)", auto=True,
+        tension_help="the cable's pull towards the port in newtons (the encoder's spring "
+        "force; loads the joints for the compliance group); default: the capture's, else 0")
     parser.add_argument(
         "--method", default="lm",
         help="method name or paper alias, or 'all': " + ", ".join(solver_choices()),
     )
-    parser.add_argument("--seed", type=seed, default=0,
-                        help="seed of the split and of the method")
+    add_seed(parser, "seed of the split and of the method", default=0)
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
     parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
@@ -96,10 +89,8 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--train-fraction", type=share, metavar="SHARE",
                         help="share of the poses used for identification (default: the "
                         "capture's, else 0.8)")
-    parser.add_argument("--json", type=OutputFile, metavar="OUT.json",
-                        help="write the result as JSON")
+    add_output(parser, "OUT.json", "write the result as JSON", flag="--json", required=False)
     add_rerun_flags(parser)
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,10 +5,16 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
-from twin.cli.arguments import integer, number, pause, seconds, seed
-from twin.io.paths import InputPath, OutputFile, OutputFolder
+from twin.cli.arguments import (
+    add_output,
+    add_seed,
+    integer,
+    number,
+    pause,
+    seconds,
+)
+from twin.io.paths import InputPath
 
 ROBOT_SOURCES = ("sim", "manual", "file")
 CAPTURE_JOINTS = 6
@@ -17,16 +23,18 @@ MAX_READINGS = 1000
 """Most readings --settle-k and --max-failures may ask for."""
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "capture",
-        help="measure a pose plan with the drawstring encoder",
-        description="Bring the robot to each pose of a plan, read the encoder until the length "
-        "settles, and append the pose to OUT/measurements.csv (fsync-ed before the next pose). "
-        "Also writes OUT/capture.toml for `twin calibrate`. Interrupted, it keeps every "
-        "measured pose; the same command again resumes at the first missing one.",
-    )
+NAME = "capture"
+HELP = "measure a pose plan with the drawstring encoder"
+DESCRIPTION = (
+    "Bring the robot to each pose of a plan, read the encoder until the length "
+    "settles, and append the pose to OUT/measurements.csv (fsync-ed before the next pose). "
+    "Also writes OUT/capture.toml for `twin calibrate`. Interrupted, it keeps every "
+    "measured pose; the same command again resumes at the first missing one."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     parser.add_argument("--plan", type=InputPath, required=True, metavar="PLAN.csv",
                         help="poses to measure: CSV with q1..q6 in degrees")
     parser.add_argument("--encoder", required=True, metavar="URL|DEVICE.toml",
@@ -35,17 +43,16 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--robot-source", choices=ROBOT_SOURCES, required=True,
                         help="sim: the twin moves (with twin virtual-encoder); manual: the "
                         "operator jogs and confirms; file: joint angles logged by the controller")
-    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
-                        help="output folder")
+    add_output(parser, "DIR", "output folder", folder=True)
     parser.add_argument("--robot", type=InputPath, help="6-joint robot model TOML (default: "
                         "the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")
     parser.add_argument("--scenario", type=InputPath, metavar="SCENARIO.toml",
                         help="sim: the scenario the virtual encoder serves")
-    parser.add_argument("--seed", type=seed, help="sim: the virtual encoder's --seed")
-    parser.add_argument("--pose-file", type=OutputFile, metavar="FILE",
-                        help="sim: the virtual encoder's --pose-file")
+    add_seed(parser, "sim: the virtual encoder's --seed")
+    add_output(parser, "FILE", "sim: the virtual encoder's --pose-file", flag="--pose-file",
+               required=False)
     parser.add_argument("--joint-log", type=InputPath, metavar="LOG.csv",
                         help="file: the controller's log, columns pose,q1..q6 (deg)")
     parser.add_argument("--joint-log-wait", type=seconds(zero=True), default=60.0, metavar="S",
@@ -66,7 +73,6 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--reconnect", type=seconds(zero=True), default=5.0, metavar="S",
                         help="how long to try reopening a lost port, or none to keep trying "
                         "(default: 5 s)")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -16,12 +16,19 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.cli.arguments import add_robot_flags, integer, number, robot_from_flags, seed
+from twin.cli.arguments import (
+    add_cable_tension,
+    add_output,
+    add_result,
+    add_robot_flags,
+    add_seed,
+    integer,
+    robot_from_flags,
+)
 from twin.compensation import InOrder, compensate_program_rows, compensate_target_rows
 from twin.compensation_check import CompensationCheck
 from twin.dataset import MAX_POSES
@@ -29,31 +36,31 @@ from twin.errors import InputError
 from twin.ik import STATUS_OK
 from twin.io.identified import load_result
 from twin.io.measurements import load_poses
-from twin.io.paths import InputPath, OutputFile
+from twin.io.paths import InputPath
 from twin.io.pose_tables import load_targets, write_corrected
 from twin.metrics import Metrics
 from twin.plots import compensation_histogram
-from twin.rig import MAX_TENSION_N
 from twin.units import m_to_mm, rad_to_deg
 
 VERIFY_TARGETS = 1000
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "compensate",
-        help="correct joint angles with an identified model, or verify compensation in the twin",
-        description="Compute the joint angles to command so that the real (identified) robot "
-        "reaches Cartesian flange targets (--targets x,y,z in mm, base frame) or the flange "
-        "poses a program written against the nominal model meant (--joints q1..qN in degrees). "
-        "Writes q1..qN (deg), a status (ok, unreachable, joint_limit) and the remaining flange "
-        "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
-        "calibrate and compare the true flange error with and without compensation.",
-    )
+NAME = "compensate"
+HELP = "correct joint angles with an identified model, or verify compensation in the twin"
+DESCRIPTION = (
+    "Compute the joint angles to command so that the real (identified) robot "
+    "reaches Cartesian flange targets (--targets x,y,z in mm, base frame) or the flange "
+    "poses a program written against the nominal model meant (--joints q1..qN in degrees). "
+    "Writes q1..qN (deg), a status (ok, unreachable, joint_limit) and the remaining flange "
+    "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
+    "calibrate and compare the true flange error with and without compensation."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     add_robot_flags(parser, "nominal robot model")
-    parser.add_argument("--identified", type=InputPath, metavar="RESULT.json",
-                        help="calibration result written by `twin calibrate --json`")
+    add_result(parser, required=False)
     parser.add_argument("--method", help="result to use from a `--method all` result file; "
                         "with --verify, the calibration method (default lm)")
     request = parser.add_mutually_exclusive_group(required=True)
@@ -64,19 +71,17 @@ def add_parser(subparsers: Any) -> None:
                          "standard input)")
     request.add_argument("--verify", type=InputPath, metavar="SCENARIO.toml",
                          help="measure compensation in the twin for a scenario")
-    parser.add_argument("--out", type=OutputFile, metavar="CORRECTED.csv",
-                        help="corrected joint angles (with --targets or --joints)")
-    parser.add_argument("--seed", type=seed, help="seed of the random IK starts (default 0) or "
-                        "of the simulation (default: the scenario's)")
+    add_output(parser, "CORRECTED.csv", "corrected joint angles (with --targets or --joints)",
+               required=False)
+    add_seed(parser, "seed of the random IK starts (default 0) or of the simulation (default: "
+             "the scenario's)")
     parser.add_argument("--count", type=integer(1, MAX_POSES), default=VERIFY_TARGETS,
                         help=f"targets for --verify (default {VERIFY_TARGETS})")
-    parser.add_argument("--figure", type=OutputFile, metavar="OUT.png",
-                        help="with --verify: histogram of the true flange errors")
-    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
-                        help="the cable's pull while the robot runs, N, for the compliance "
-                        "the result identified (default: the calibration's; 0 when the encoder "
-                        "is unhooked)")
-    parser.set_defaults(func=run)
+    add_output(parser, "OUT.png", "with --verify: histogram of the true flange errors",
+               flag="--figure", required=False)
+    add_cable_tension(parser, "the cable's pull while the robot runs, N, for the compliance the "
+                      "result identified (default: the calibration's; 0 when the encoder is "
+                      "unhooked)")
 
 
 def run(args: argparse.Namespace) -> int:

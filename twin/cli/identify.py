@@ -3,59 +3,54 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.assessment import assess, flange_error_map
 from twin.calibration import WORKSPACE_POSES
-from twin.cli.arguments import add_robot_flags, error_groups, number, seed, sigma_mm
-from twin.cli.inputs import add_rig_flags, make_split, resolve_inputs, truth_of
+from twin.cli.arguments import (
+    add_output,
+    add_seed,
+    sigma_mm,
+)
+from twin.cli.inputs import add_input_flags, make_split, resolve_inputs, truth_of
 from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.io.measurements import load_measurements
-from twin.io.paths import InputPath, OutputFile
 from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
 from twin.plots import accuracy_map
 from twin.report import describe_rig, format_fit, format_joint_groups, format_truth, has_point
-from twin.rig import MAX_TENSION_N
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, mm_to_m, slot_label
 from twin.unknowns import ERRORS
 
+NAME = "identify"
+HELP = "report what a measurement set identifies, and how well"
+DESCRIPTION = (
+    "Identifiability of a measurement set: rank, condition number and the "
+    "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
+    "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
+    "and the same at the identified geometry, with per-parameter standard deviations."
+)
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "identify",
-        help="report what a measurement set identifies, and how well",
-        description="Identifiability of a measurement set: rank, condition number and the "
-        "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
-        "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
-        "and the same at the identified geometry, with per-parameter standard deviations.",
-    )
-    parser.add_argument("input", type=InputPath, metavar="INPUT",
-                        help="MEASUREMENTS.csv (needs --port; - for standard input) or "
-                        "capture.toml")
-    add_robot_flags(parser)
-    add_rig_flags(parser)
-    parser.add_argument("--errors", type=error_groups(auto=False), metavar="GROUPS",
-                        help="the robot's error groups, comma-separated: " + ", ".join(ERRORS)
-                        + " (default: the capture's, else dh)")
-    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
-                        help="the cable's pull in N, for the compliance group (default: the "
-                        "capture's, else 0)")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_input_flags(
+        parser, input_help="MEASUREMENTS.csv (needs --port; - for standard input) or "
+        "capture.toml", errors_help="the robot's error groups, comma-separated: "
+        + ", ".join(ERRORS) + " (default: the capture's, else dh)",
+        tension_help="the cable's pull in N, for the compliance group (default: the capture's, "
+        "else 0)")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
-    parser.add_argument("--seed", type=seed, default=0,
-                        help="seed of the split, of the calibration and of the workspace poses")
-    parser.add_argument("--map", type=OutputFile, metavar="OUT.png",
-                        help="write a map of the predicted flange error over joints 2 and 3")
-    parser.add_argument("--json", type=OutputFile, metavar="OUT.json",
-                        help="write the report as JSON")
-    parser.set_defaults(func=run)
+    add_seed(parser, "seed of the split, of the calibration and of the workspace poses",
+             default=0)
+    add_output(parser, "OUT.png", "write a map of the predicted flange error over joints 2 and 3",
+               flag="--map", required=False)
+    add_output(parser, "OUT.json", "write the report as JSON", flag="--json", required=False)
 
 
 def _identifiability_lines(ident: Identifiability) -> list[str]:

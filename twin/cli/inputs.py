@@ -16,7 +16,14 @@ from numpy.typing import NDArray
 
 from twin.accuracy import TruthErrors, workspace_truth_errors
 from twin.calibration import TRAIN_FRACTION, CalibrationResult, SplitProblem, make_problem
-from twin.cli.arguments import AUTO, robot_from_flags
+from twin.cli.arguments import (
+    AUTO,
+    add_cable_tension,
+    add_error_groups,
+    add_input,
+    add_robot_flags,
+    robot_from_flags,
+)
 from twin.dataset import Measurements
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.capture_file import (
@@ -33,6 +40,17 @@ from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.stopping import PROTOCOLS
 from twin.units import mm_to_m
+
+
+def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
+                    tension_help: str, auto: bool = False) -> None:
+    """INPUT, the robot and rig flags, ``--errors`` (with ``auto`` when asked) and
+    ``--cable-tension``: what `twin calibrate` and `twin identify` read alike."""
+    add_input(parser, input_help)
+    add_robot_flags(parser)
+    add_rig_flags(parser)
+    add_error_groups(parser, errors_help, auto=auto)
+    add_cable_tension(parser, tension_help)
 
 
 def add_rig_flags(parser: argparse.ArgumentParser) -> None:

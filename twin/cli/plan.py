@@ -10,30 +10,29 @@ the sides of visiting it in order, as `twin capture` does.
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import WORKSPACE_POSES, make_model
 from twin.cli.arguments import (
+    add_cable_tension,
+    add_error_groups,
+    add_output,
     add_robot_flags,
-    error_groups,
+    add_seed,
     integer,
-    number,
     robot_from_flags,
-    seed,
     sigma_mm,
 )
 from twin.dataset import MAX_POSES
 from twin.design import DesignScore
 from twin.errors import InputError
 from twin.io.capture_file import parse_named_port
-from twin.io.paths import OutputFile
 from twin.io.pose_tables import write_plan
 from twin.model import Model
 from twin.planning import PortPlan, StationsPlan, plan_for_ports, plan_for_stations
-from twin.rig import MAX_TENSION_N, Rig
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import m_to_mm, mm_to_m
 from twin.unknowns import ERRORS
@@ -42,17 +41,19 @@ DEFAULT_CANDIDATES = 2000
 """Candidate poses drawn within the joint limits."""
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "plan",
-        help="choose the poses (and the port) that measure the D-H errors best",
-        description="Pick N poses among random candidates the rig can measure that "
-        "maximise det(JᵀJ) of the base parameters at the nominal geometry (D-optimal: greedy, "
-        "then exchanges), write them as a plan CSV (q1..qN in degrees) and compare the plan "
-        "with N random poses. Given several --port, plan for each and keep the port whose "
-        "plan predicts the smallest flange error over the workspace.",
-    )
+NAME = "plan"
+HELP = "choose the poses (and the port) that measure the D-H errors best"
+DESCRIPTION = (
+    "Pick N poses among random candidates the rig can measure that "
+    "maximise det(JᵀJ) of the base parameters at the nominal geometry (D-optimal: greedy, "
+    "then exchanges), write them as a plan CSV (q1..qN in degrees) and compare the plan "
+    "with N random poses. Given several --port, plan for each and keep the port whose "
+    "plan predicts the smallest flange error over the workspace."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     add_robot_flags(parser)
     parser.add_argument("--port", action="append", required=True, metavar="[NAME=]X,Y,Z",
                         help="encoder port in mm, robot base frame; repeat X,Y,Z to choose "
@@ -63,27 +64,23 @@ def add_parser(subparsers: Any) -> None:
                         help="poses to plan")
     parser.add_argument("--candidates", type=integer(1, MAX_POSES), default=DEFAULT_CANDIDATES,
                         metavar="M", help=f"random candidate poses (default {DEFAULT_CANDIDATES})")
-    parser.add_argument("--seed", type=seed, default=0, help="seed of every random draw")
+    add_seed(parser, "seed of every random draw", default=0)
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the predicted accuracy (default 0.01)")
     parser.add_argument("--estimate-port", action="store_true",
                         help="plan for a calibration that also identifies the port")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="plan for a calibration that also identifies a length offset")
-    parser.add_argument("--errors", type=error_groups(auto=False), default=("dh",),
-                        metavar="GROUPS", help="the robot's error groups the calibration will "
-                        "fit, comma-separated: " + ", ".join(ERRORS) + " (default: dh)")
-    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), default=0.0,
-                        metavar="N", help="the cable's pull, N, which loads the joints for the "
-                        "compliance group (default 0: gravity alone)")
+    add_error_groups(parser, "the robot's error groups the calibration will fit, "
+                     "comma-separated: " + ", ".join(ERRORS) + " (default: dh)", default=("dh",))
+    add_cable_tension(parser, "the cable's pull, N, which loads the joints for the compliance "
+                      "group (default 0: gravity alone)", default=0.0)
     parser.add_argument("--joint-limits-only", dest="feasible", action="store_false",
                         help="draw candidate (and random) poses within the joint limits only; "
                         "by default they are poses the rig can measure: flange above the "
                         "floor, no collision, cable in range and clear of the links (the MuJoCo "
                         "twin's default constraints, per port)")
-    parser.add_argument("--out", type=OutputFile, required=True, metavar="plan.csv",
-                        help="where to write the plan")
-    parser.set_defaults(func=run)
+    add_output(parser, "plan.csv", "where to write the plan")
 
 
 def _score_row(label: str, score: DesignScore) -> str:

@@ -4,37 +4,41 @@ at joint angles of one's choosing."""
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 import numpy as np
 
-from twin.cli.arguments import add_robot_flags, robot_from_flags
+from twin.cli.arguments import (
+    add_output,
+    add_result,
+    add_robot_flags,
+    robot_from_flags,
+)
 from twin.errors import InputError
 from twin.io.capture_file import parse_port_mm
 from twin.io.identified import load_result
 from twin.io.measurements import joint_columns, load_poses
-from twin.io.paths import InputPath, OutputFile
+from twin.io.paths import InputPath
 from twin.io.pose_tables import write_prediction
 from twin.predict import predict
 
+NAME = "predict"
+HELP = "predict the measured point (and cable length) with an identified model"
+DESCRIPTION = (
+    "For each row of joint angles (q1..q6 in degrees; approach1..approach6 "
+    "when the model has backlash), write where the identified model puts the measured "
+    "point — the rig's attachment point, the flange centre unless one is set — as x,y,z "
+    "in mm in the robot's base frame, with every identified group applied (D-H, "
+    "transmission error, backlash for the row's approach, compliance at the pose), and "
+    "the cable length in mm when --port is given or the result has one port, and "
+    "tracker_x,tracker_y,tracker_z in mm in the tracker frame when the result is of "
+    "tracker positions. Compare it with anything else: a tracker, another capture, the "
+    "twin's truth."
+)
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "predict",
-        help="predict the measured point (and cable length) with an identified model",
-        description="For each row of joint angles (q1..q6 in degrees; approach1..approach6 "
-        "when the model has backlash), write where the identified model puts the measured "
-        "point — the rig's attachment point, the flange centre unless one is set — as x,y,z "
-        "in mm in the robot's base frame, with every identified group applied (D-H, "
-        "transmission error, backlash for the row's approach, compliance at the pose), and "
-        "the cable length in mm when --port is given or the result has one port, and "
-        "tracker_x,tracker_y,tracker_z in mm in the tracker frame when the result is of "
-        "tracker positions. Compare it with anything else: a tracker, another capture, the "
-        "twin's truth.",
-    )
-    parser.add_argument("--identified", type=InputPath, required=True, metavar="RESULT.json",
-                        help="calibration result written by `twin calibrate --json`")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_result(parser)
     parser.add_argument("--joints", type=InputPath, required=True, metavar="POSES.csv",
                         help="joint angles q1..qN in degrees (and approach1..approachN: +1 "
                         "or -1), one row per pose (- for standard input)")
@@ -44,9 +48,7 @@ def add_parser(subparsers: Any) -> None:
                         "the length column is the distance from it, the cable pulling "
                         "towards it (default: the result's port, with its identified "
                         "correction and offset, when it has one)")
-    parser.add_argument("--out", type=OutputFile, required=True, metavar="PRED.csv",
-                        help="where to write the predictions")
-    parser.set_defaults(func=run)
+    add_output(parser, "PRED.csv", "where to write the predictions")
 
 
 def run(args: argparse.Namespace) -> int:
