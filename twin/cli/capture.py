@@ -78,23 +78,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.errors import InputError
-    from twin.hardware.capture_session import (
-        CAPTURE_NAME,
-        MEASUREMENTS_NAME,
-        ROBOT_NAME,
-        capture,
-        check_folder,
-        locked,
-        prepare,
-    )
-    from twin.hardware.encoders import open_encoder, resolve
+    from twin.hardware.capture_session import CAPTURE_NAME, MEASUREMENTS_NAME, capture_folder
+    from twin.hardware.encoders import resolve
     from twin.hardware.encoders.settle import SettleRule
     from twin.hardware.robot_sources.base import RobotSource
-    from twin.io.capture_file import parse_port_mm, write_capture
+    from twin.io.capture_file import parse_port_mm
     from twin.io.measurements import load_plan
     from twin.io.robot_file import load_robot_or_default
-    from twin.io.truth import TRUTH_FILE, write_truth
-    from twin.robot import robot_to_toml
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
@@ -150,19 +140,9 @@ def run(args: argparse.Namespace) -> int:
         source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
 
     out: Path = args.out
-    robot_text = robot_to_toml(robot)
-    check_folder(out, args.plan, plan_q_rad, robot_text)
-    with locked(out), open_encoder(config) as encoder:
-        prepare(out, args.plan, plan_q_rad, robot_text)
-        if truth is not None:
-            write_truth(out / TRUTH_FILE, truth)
-        write_capture(out / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,
-                      measurements=MEASUREMENTS_NAME,
-                      truth=TRUTH_FILE if truth is not None else None,
-                      encoder={"url": config.to_url()})
-        measured = capture(plan_q_rad, out / MEASUREMENTS_NAME, encoder, source, rule,
-                           reconnect_s=args.reconnect,
-                           report=lambda line: print(line, flush=True))
+    measured = capture_folder(out, args.plan, plan_q_rad, robot, port_m, config, source, rule,
+                              truth=truth, reconnect_s=args.reconnect,
+                              report=lambda line: print(line, flush=True))
     print(f"measured {measured} poses; all {len(plan_q_rad)} are in {out / MEASUREMENTS_NAME}")
     print(f"calibrate with: twin calibrate {out / CAPTURE_NAME}")
     return 0
