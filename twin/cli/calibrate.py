@@ -28,13 +28,12 @@ from twin.cli.inputs import (
 from twin.dataset import Measurements
 from twin.diagnosis import likely_causes
 from twin.errors import InputError
-from twin.identifiability import measurement_identifiability, warn_rank_deficient
 from twin.io.measurements import load_measurements
 from twin.io.results import choice_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES
 from twin.report import format_choice, format_comparison, format_result
-from twin.selection import choose_errors, warn_few_poses
+from twin.selection import choose_errors, warn_weak_data
 from twin.solvers import SOLVERS, get_solver, solver_choices
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.unknowns import ERRORS
@@ -106,13 +105,7 @@ def run(args: argparse.Namespace) -> int:
                              "error models with", source="--errors")
         return _run_auto(args, inputs, measurements)
     split = make_split(inputs, measurements, args.seed)
-    if measurements.kind != "point":  # random poses reach no common point: no reference rank
-        warn_rank_deficient(robot, split.problem.model, split.problem.x0, split.problem.train,
-                            measurements_path, args.seed)
-    rank = measurement_identifiability(split.problem.model, split.problem.x0,
-                                       split.problem.train).rank
-    warn_few_poses(len(split.train_rows), rank, inputs.calibration.errors,
-                   split.problem.model.kind.rows_per_pose)
+    warn_weak_data(robot, split, inputs.calibration.errors, measurements_path, args.seed)
     truth = None
     if inputs.truth_path is not None and inputs.truth_path.exists():
         truth = load_truth_delta(inputs.truth_path, robot.n_joints, robot.is_length)
