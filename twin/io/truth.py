@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_json
+from twin.io.table import Table
 from twin.units import DH_KEYS, dh_rows_from_display, mm_to_m
 
 TRUTH_FILE = "truth.json"
@@ -99,12 +100,6 @@ def load_truth_attachment(path: str | Path) -> NDArray[np.float64]:
     Raises:
         InputError: if the file is not JSON or ``attachment_mm`` is not three numbers.
     """
-    document = read_json(path, "a truth JSON file")
-    value = document.get("attachment_mm", [0.0, 0.0, 0.0]) if isinstance(document, dict) \
-        else None
-    if not isinstance(value, list) or len(value) != 3 or not all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value):
-        raise InputError(f"{value!r}", "attachment_mm: three numbers in mm", source=path,
-                         where="attachment_mm")
-    return mm_to_m(value)
+    truth = Table(read_json(path, "a truth JSON file"), path)
+    return mm_to_m(truth.vector("attachment_mm", 3, default=[0.0, 0.0, 0.0],
+                                expected="three numbers in mm"))
