@@ -39,13 +39,14 @@ import numpy as np
 from twin.calibration import calibrate, make_problem
 from twin.errors import InputError
 from twin.rig import Rig
-from twin.sim import Scenario, load_scenario, parse_scenario, simulate
+from twin.scenario import Scenario, load_scenario, parse_scenario
+from twin.sim import simulate
 from twin.solvers.amlm import amlm
 from twin.solvers.base import Tracker
 from twin.solvers.bipso import bipso
 from twin.stopping import Budget
+from twin.study.definition import load_study
 from twin.study.executors.local import LocalProcesses
-from twin.study.plan import load_study
 from twin.study.runner import run_study
 from twin.study.trial import (
     TrialSpec,
@@ -569,8 +570,9 @@ def stations_table() -> str:
     from twin.identifiability import measurement_identifiability
     from twin.rig import Rig
     from twin.robot import default_robot
-    from twin.sim.poses import PoseConstraints, sample_poses
-    from twin.sim.twin import Twin
+    from twin.scenario import PoseConstraints
+    from twin.sim.mujoco_twin import Twin
+    from twin.sim.poses import sample_poses
     from twin.synthetic import random_poses
     from twin.uncertainty import base_covariance, parameter_sigma
     from twin.units import mm_to_m

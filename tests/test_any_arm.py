@@ -18,12 +18,8 @@ from scipy.optimize import least_squares
 
 from twin.calibration import CalibrationResult, calibrate
 from twin.cli import main
-from twin.compensation import (
-    check_compensation,
-    compensate_program,
-    compensate_targets,
-    reachable_targets,
-)
+from twin.compensation import compensate_program, compensate_targets
+from twin.compensation_check import check_compensation
 from twin.dataset import Measurements
 from twin.io.capture_file import load_capture
 from twin.io.identified import load_result
@@ -31,9 +27,11 @@ from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
 from twin.pinocchio_bridge import urdf_flange
 from twin.predict import predict
-from twin.sim import Simulation, Twin, load_scenario, simulate
+from twin.scenario import load_scenario
+from twin.sim import Simulation, Twin, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
 from twin.synthetic import random_poses
+from twin.targets import reachable_targets
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -112,7 +112,9 @@ def devices(folder: Path) -> dict[str, Device]:
 @pytest.fixture(scope="module")
 def true_lengths_mm(folder: Path) -> np.ndarray:
     """The twin's noise-free lengths of the long plan visited in order, shape (N_LONG,), mm."""
-    from twin.sim import Twin, approach_directions, load_scenario, simulate
+    from twin.dataset import approach_directions
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     scenario = load_scenario(folder / "scenario.toml")
     sim = simulate(scenario)

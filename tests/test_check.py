@@ -158,7 +158,8 @@ def test_user_errors_are_one_line_and_run_nothing(tmp_path: Path,
         (["check", str(bad)], f"{bad}: [expect] lm: found 'flange_error_mm p95 <= tiny': the "
          "value 'tiny'"),
         (["check", str(without)], f"{without}: found no [expect] table"),
-        (["check", str(bad), "--expect", str(other)], f"{other}: found the key 'name'"),
+        (["check", str(bad), "--expect", str(other)],
+         f"{other}: found unknown key 'name', expected only expect"),
         (["check", str(good), "--methods", "ekf"], "found method 'lm', which is not in this "
          "study, expected one of the study's methods (ekf)"),
     ]

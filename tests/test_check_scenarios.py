@@ -13,7 +13,7 @@ import pytest
 
 from twin.cli import main
 from twin.study.check import load_expectations
-from twin.study.plan import load_study
+from twin.study.definition import load_study
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 TRIALS = 3

@@ -62,7 +62,7 @@ def _write(tmp_path: Path, name: str, content: str | bytes) -> Path:
         (["calibrate", "{csv}", "--port", PORT, "--method", "newton"],
          "found unknown method 'newton', expected one of ekf (m1), lm (m2)"),
         (["calibrate", "{csv}", "--port", PORT, "--robot", "{tmp}/bad_robot.toml"],
-         "bad_robot.toml: found no 'length_unit'"),
+         "bad_robot.toml: length_unit: found nothing, expected one of mm, m"),
         (["calibrate", "{short}", "--port", PORT],
          "short.csv: found 20 poses, expected at least 30"),
         (["calibrate", "{limits}", "--port", PORT], "column q2: found 130 deg"),
@@ -130,12 +130,12 @@ def test_capture_calibration_table_sets_unknowns_and_split(
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ("[calibration]\ntrain_fraction = 1.5\n", "calibration.train_fraction: found 1.5"),
+        ("[calibration]\ntrain_fraction = 1.5\n", "[calibration] train_fraction: found 1.5"),
         ("[calibration]\nestimate_port = 1\n", "expected true or false"),
         ("[calibration]\nsplit = 0.8\n", "found unknown key 'split'"),
-        ("[calibration]\nstop = \"fast\"\n", "calibration.stop: found 'fast', expected one of "
+        ("[calibration]\nstop = \"fast\"\n", "[calibration] stop: found 'fast', expected one of "
          "converge, paper"),
-        ("[calibration]\nmax_iterations = 0\n", "calibration.max_iterations: found 0"),
+        ("[calibration]\nmax_iterations = 0\n", "[calibration] max_iterations: found 0"),
     ],
 )
 def test_bad_capture_calibration_table(

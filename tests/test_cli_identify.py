@@ -154,8 +154,9 @@ def test_feasible_plan_passes_the_twins_own_pose_check(
 ) -> None:
     """`twin plan` draws candidates with the MuJoCo twin's constraints by default: the plan it
     writes is accepted by the twin's plan reader (floor, collisions, cable range and path)."""
-    from twin.sim import PoseConstraints, read_pose_plan
-    from twin.sim.twin import Twin
+    from twin.scenario import PoseConstraints
+    from twin.sim import read_pose_plan
+    from twin.sim.mujoco_twin import Twin
 
     out = tmp_path / "plan.csv"
     assert main(["plan", "--port", PORT, "--poses", "30", "--candidates", "400",

@@ -10,23 +10,16 @@ import pytest
 
 from twin.calibration import calibrate
 from twin.cli import main
-from twin.compensation import (
-    STATUS_JOINT_LIMIT,
-    STATUS_OK,
-    STATUS_UNREACHABLE,
-    check_compensation,
-    compensate_program,
-    compensate_targets,
-    nominal_ik,
-    reachable_targets,
-    solve_ik,
-)
+from twin.compensation import compensate_program, compensate_targets
+from twin.compensation_check import check_compensation
 from twin.dataset import Measurements
 from twin.errors import InputError
+from twin.ik import STATUS_JOINT_LIMIT, STATUS_OK, STATUS_UNREACHABLE, nominal_ik, solve_ik
 from twin.io.identified import load_result_delta
 from twin.io.results import result_to_dict, write_json
 from twin.kinematics import flange_jacobian
 from twin.robot import RobotModel
+from twin.targets import reachable_targets
 from twin.uncertainty import rms_distance
 
 
@@ -231,7 +224,7 @@ def test_cli_verify_geometric_scenario(capsys: pytest.CaptureFixture[str]) -> No
 def test_home_pose_is_the_irb120s_and_within_any_arms_limits() -> None:
     """The reference posture of nominal IK: the IRB 120's (q5 = 30°, the rest 0); for the FR3,
     whose joints 4 and 6 exclude 0, within the limits."""
-    from twin.compensation import home_pose
+    from twin.ik import home_pose
     from twin.io.robot_file import load_robot
     from twin.robot import default_robot
 

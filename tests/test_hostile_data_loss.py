@@ -20,8 +20,8 @@ from twin.dataset import Measurements
 from twin.io.capture_file import write_capture
 from twin.io.results import result_to_dict, write_json
 from twin.robot import RobotModel, robot_to_toml
+from twin.scenario import parse_scenario
 from twin.sim import simulate, write_simulation
-from twin.sim.scenario import parse_scenario
 
 PORT = "600,-400,100"
 PROGRAM = "q1,q2,q3,q4,q5,q6\n10,20,-30,40,50,60\n-90,45,30,-100,-60,200\n"

@@ -169,11 +169,11 @@ ROBOT = (ROOT / "models" / "irb120.toml").read_text()
     ("text", "match"),
     [
         (ROBOT.replace('length_unit = "mm"', 'length_unit = ["mm"]'),
-         "length_unit: found ['mm'], expected a string"),
+         "length_unit: found ['mm'], expected one of mm, m"),
         (ROBOT.replace('angle_unit = "deg"', "angle_unit = { deg = 1 }"),
-         "angle_unit: found {'deg': 1}, expected a string"),
+         "angle_unit: found {'deg': 1}, expected one of deg, rad"),
         (ROBOT.replace("d = 290.0", "d = 1e300", 1),
-         "joint 1: found d = 1e+300, expected a number within ±1e+06 mm"),
+         "joint 1 d: found 1e+300, expected a number within ±1e+06 mm"),
         ("a = " + "[" * 5000 + "]" * 5000 + "\n",
          f"found arrays or tables nested 5000 deep, expected a robot model TOML file nested at "
          f"most {MAX_NESTING} deep"),

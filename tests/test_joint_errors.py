@@ -189,7 +189,8 @@ def test_predict_reproduces_the_twins_flange(capture: Path, tmp_path: Path) -> N
     some ten times further off."""
     from twin.io.measurements import load_measurements
     from twin.io.robot_file import load_robot
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     scenario = load_scenario(scenario_with_joint_errors(tmp_path))
     sim = simulate(scenario)
@@ -288,7 +289,8 @@ def test_compensation_solves_on_the_whole_model(
     the move's from the row before, except where a joint moves less than its backlash: no side
     is then consistent, and the row is flagged for an approach move from the side stated. Solved
     on the identified table alone, the commands miss by the joint-level errors."""
-    from twin.compensation import compensate_targets, reachable_targets, solve_in_order
+    from twin.compensation import compensate_targets, solve_in_order
+    from twin.targets import reachable_targets
 
     model, x_true, _ = core_case
     q, targets = reachable_targets(irb120, 60, np.random.default_rng(4))
@@ -314,8 +316,10 @@ def test_compensation_puts_the_twins_robot_on_its_targets(tmp_path: Path) -> Non
     predicted flange accuracy of its targets; with the D-H table alone it stays tenths of a
     millimetre off."""
     from twin.calibration import calibrate
-    from twin.compensation import compensate_targets, reachable_targets, solve_in_order
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.compensation import compensate_targets, solve_in_order
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
+    from twin.targets import reachable_targets
 
     scenario = load_scenario(scenario_with_joint_errors(tmp_path, poses=300))
     sim = simulate(scenario)
@@ -341,8 +345,8 @@ def test_compensate_cli_uses_the_whole_model(capture: Path, tmp_path: Path,
     """`twin compensate --joints` with an extended result corrects by more than the table
     alone would; the cable unhooked (--cable-tension 0) changes the correction; a program's
     approach columns are used as given."""
-    from twin.compensation import reachable_targets
     from twin.io.robot_file import load_robot
+    from twin.targets import reachable_targets
 
     robot = load_robot(capture / "robot.toml")
     q_deg = np.rad2deg(reachable_targets(robot, 20, np.random.default_rng(6))[0])
@@ -412,7 +416,8 @@ def test_link_compliance_holds_masses_off_link_by_link(tmp_path: Path) -> None:
     """Soft servos (the compliance regime) with the masses 20 % off link by link: compliance
     split by link predicts the twin's physical flange within 3× its predicted accuracy, closer
     than one compliance per joint, which cannot follow how the torque's shape changed."""
-    from twin.sim import Twin, load_scenario, simulate
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     text = (ROOT / "scenarios" / "compliance_irb120.toml").read_text(encoding="utf-8")
     robot = (ROOT / "models" / "irb120.toml").as_posix()

@@ -14,13 +14,15 @@ from twin.distribution import EXTRAS
 PACKAGE = Path(__file__).resolve().parents[1] / "twin"
 
 ADAPTERS = {
-    # MuJoCo: the digital twin, and the MJCF export built from it.
-    "twin.sim", "twin.sim.builder", "twin.sim.physics", "twin.sim.twin", "twin.sim.simulate",
+    # MuJoCo: the digital twin (poses and touches are found on it, with its collisions and line
+    # of sight; compensation is verified on it), and the MJCF export built from it.
+    "twin.sim", "twin.sim.builder", "twin.sim.equilibrium", "twin.sim.mujoco_twin",
+    "twin.sim.poses", "twin.sim.touches", "twin.sim.simulate", "twin.sim.verification",
     "twin.export.mjcf",
     # Pinocchio.
     "twin.pinocchio_bridge", "twin.export.urdf",
     # Rerun: the recording and what it logs.
-    "twin.viz.recording", "twin.viz.sinks", "twin.viz.scene", "twin.viz.calibration",
+    "twin.viz.recording", "twin.viz.sinks", "twin.viz.scene", "twin.viz.calibration_log",
     "twin.viz.blueprint", "twin.viz.writer",
     # pyserial, minimalmodbus: the encoder drivers.
     "twin.hardware.encoders.ascii", "twin.hardware.encoders.modbus",
@@ -29,15 +31,6 @@ ADAPTERS = {
 TOP = {"twin.study.trial", "twin.study.runner", "twin.study.check", "twin.study.junit",
        "twin.testing", "twin.__main__"}
 """Modules that wire the twin into studies and checks (and run them): they import MuJoCo."""
-KNOWN_LEAKS = {
-    # phase 2: the scenario's pure parts live in twin/sim/, whose __init__ imports MuJoCo; they
-    # move to twin/scenario/, and the study plan with them.
-    "twin.sim.scenario", "twin.sim.noise", "twin.sim.perturbation", "twin.sim.joint_errors",
-    "twin.sim.poses", "twin.study.plan",
-    # the instrument a scenario describes (pure) sits beside the touch poses (MuJoCo).
-    "twin.sim.rigs",
-}
-"""Pure modules that still import MuJoCo; each must still leak, so that this list shrinks."""
 
 
 def modules() -> dict[str, Path]:
@@ -51,8 +44,7 @@ def modules() -> dict[str, Path]:
 
 def test_pure_modules_import_without_the_adapters_libraries() -> None:
     """In an interpreter where mujoco, pinocchio, rerun, serial, minimalmodbus, pymodbus and
-    dask cannot be imported, every module but the adapters and the top imports; the known
-    leaks of phase 2 still fail (remove them here when they stop)."""
+    dask cannot be imported, every module but the adapters and the top imports."""
     pure = [name for name in modules() if name not in ADAPTERS | TOP]
     code = (
         "import importlib, json, sys\n"
@@ -66,9 +58,8 @@ def test_pure_modules_import_without_the_adapters_libraries() -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
     failed = json.loads(done.stdout)
-    assert {name: library for name, library in failed.items() if name not in KNOWN_LEAKS} == {}
-    assert set(KNOWN_LEAKS) - set(failed) == set(), "no longer leaks: drop it from KNOWN_LEAKS"
-    assert set(KNOWN_LEAKS | ADAPTERS | TOP) <= set(modules()), "a listed module is gone"
+    assert failed == {}
+    assert set(ADAPTERS | TOP) <= set(modules()), "a listed module is gone"
 
 
 def _imports(name: str, path: Path, modules: set[str]) -> set[str]:

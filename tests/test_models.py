@@ -12,7 +12,7 @@ import pytest
 from twin.io.robot_file import load_robot
 from twin.kinematics import frames
 from twin.robot import MAX_JOINTS, MIN_JOINTS
-from twin.sim import load_scenario
+from twin.scenario import load_scenario
 from twin.sim.builder import build_spec
 from twin.synthetic import random_poses
 

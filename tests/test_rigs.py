@@ -28,8 +28,9 @@ from twin.cli import main
 from twin.gauge import gauge_free_rms, unobservable_motions
 from twin.loss import Loss
 from twin.model import Model
+from twin.scenario import load_scenario
 from twin.selection import FewPosesWarning, warn_few_poses
-from twin.sim import Simulation, load_scenario, simulate
+from twin.sim import Simulation, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.sim import load_scenario, parse_scenario, simulate
+from twin.scenario import load_scenario, parse_scenario
+from twin.sim import simulate
 
 SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper_irb120.toml"

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.sim import JointErrors, approach_directions
+from twin.dataset import approach_directions
+from twin.scenario import JointErrors
 
 
 def test_approach_directions_follow_the_motion() -> None:

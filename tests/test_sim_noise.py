@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from twin.robot import default_robot
-from twin.sim import NoiseModel
+from twin.scenario import NoiseModel
 from twin.synthetic import random_poses
 
 

@@ -8,7 +8,8 @@ import pytest
 
 from twin.kinds.length import cable_length
 from twin.robot import default_robot
-from twin.sim import Physics, Twin, static_equilibrium
+from twin.scenario import Physics
+from twin.sim import Twin, static_equilibrium
 from twin.synthetic import random_poses
 
 PORT_M = np.array([0.6, -0.4, 0.1])

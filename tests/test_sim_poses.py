@@ -9,7 +9,8 @@ import pytest
 
 from twin.errors import InputError, TwinError
 from twin.robot import default_robot
-from twin.sim import PoseConstraints, Twin, read_pose_plan, sample_poses
+from twin.scenario import PoseConstraints
+from twin.sim import Twin, read_pose_plan, sample_poses
 from twin.synthetic import random_poses
 from twin.units import deg_to_rad
 

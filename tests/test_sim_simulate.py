@@ -18,7 +18,8 @@ from twin.io.robot_file import load_robot
 from twin.io.truth import load_truth_delta
 from twin.kinds.length import cable_length
 from twin.rig import Rig
-from twin.sim import load_scenario, parse_scenario, simulate, write_simulation
+from twin.scenario import load_scenario, parse_scenario
+from twin.sim import simulate, write_simulation
 from twin.stopping import Budget
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance

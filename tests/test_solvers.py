@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from twin.calibration import CalibrationResult, calibrate_many, make_problem
-from twin.sim import Simulation, load_scenario, simulate
+from twin.scenario import load_scenario
+from twin.sim import Simulation, simulate
 from twin.solvers import SOLVERS, get_solver
 from twin.solvers.amlm import GAMMA_MAX, AdaptiveMomentum
 from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES

@@ -13,7 +13,8 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.calibration import make_problem
-from twin.sim import Simulation, parse_scenario, simulate
+from twin.scenario import parse_scenario
+from twin.sim import Simulation, simulate
 from twin.solvers import get_solver
 from twin.stopping import Budget
 from twin.synthetic import random_poses

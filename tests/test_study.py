@@ -15,7 +15,7 @@ import pytest
 
 from twin.cli import main
 from twin.errors import InputError
-from twin.study.plan import load_study
+from twin.study.definition import load_study
 from twin.study.progress import Progress, format_duration
 from twin.study.rows import COLUMNS, TrialRow
 from twin.study.runner import open_store

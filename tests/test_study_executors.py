@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from test_study import recorded, with_study, write_scenario
 
+from twin.study.definition import StudyPlan, load_study
 from twin.study.executors import make_batches
 from twin.study.executors.cluster import DaskCluster
 from twin.study.executors.local import LocalProcesses
-from twin.study.plan import StudyPlan, load_study
 from twin.study.runner import run_trials
 from twin.study.store import TrialOutcome
 

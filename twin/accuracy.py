@@ -14,14 +14,13 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from twin.calibration import CalibrationResult
+from twin.calibration import WORKSPACE_POSES, CalibrationResult
 from twin.gauge import gauge_free_rms, unobservable_motions
 from twin.robot import RobotModel
+from twin.synthetic import random_poses
 from twin.uncertainty import rms_distance
-
-Array = NDArray[np.float64]
 
 
 class TruthErrors(NamedTuple):
@@ -70,3 +69,11 @@ def truth_errors(result: CalibrationResult, true_robot: RobotModel, true_attachm
         motions=flange.names,
         point_motions=point.names,
     )
+
+
+def workspace_truth_errors(result: CalibrationResult, true_robot: RobotModel,
+                           true_attachment_m: ArrayLike) -> TruthErrors:
+    """:func:`truth_errors` over :data:`twin.calibration.WORKSPACE_POSES` random poses drawn
+    with the calibration's seed."""
+    q_workspace = random_poses(result.robot, WORKSPACE_POSES, np.random.default_rng(result.seed))
+    return truth_errors(result, true_robot, true_attachment_m, q_workspace)

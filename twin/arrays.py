@@ -1,4 +1,5 @@
-"""Validation of the arrays held by frozen value objects."""
+"""The float array type every module annotates with, and the validation of the arrays held by
+frozen value objects."""
 
 from __future__ import annotations
 
@@ -7,10 +8,13 @@ import contextlib
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+Array = NDArray[np.float64]
+"""A float64 array; each use states its shape and unit in its docstring."""
+
 
 def frozen_array(
     values: ArrayLike, shape: tuple[int, ...], what: str, *, broadcast: bool = False
-) -> NDArray[np.float64]:
+) -> Array:
     """A read-only float64 copy of ``values`` with the given shape and only finite entries.
 
     Args:

@@ -15,11 +15,12 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from math import ceil
-from typing import NamedTuple
+from typing import NamedTuple, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.gauge import Gauge, unobservable_motions
@@ -38,8 +39,6 @@ from twin.stopping import Budget, at_bounds
 from twin.synthetic import random_poses
 from twin.uncertainty import CalibrationUncertainty, calibration_uncertainty
 from twin.unknowns import make_groups
-
-Array = NDArray[np.float64]
 
 TRAIN_FRACTION = 0.8
 """Share of the poses used for identification (paper: 80 / 20)."""
@@ -320,6 +319,21 @@ def tracker_start(model: Model, train: Measurements) -> Model:
     return replace(model, rig=replace(model.rig, base_in_tracker=fit.transform))
 
 
+class ProblemOptions(TypedDict, total=False):
+    """The keywords :func:`calibrate` and :func:`calibrate_many` pass on to
+    :func:`make_problem`, which describes each (and gives its default)."""
+
+    rig: Rig | None
+    errors: Sequence[str]
+    estimate_port: bool
+    estimate_offset: bool
+    estimate_attachment: bool
+    estimate_base: bool
+    sigma_m: float
+    loss: Loss
+    train_fraction: float
+
+
 def make_problem(
     robot: RobotModel,
     measurements: Measurements,
@@ -338,9 +352,29 @@ def make_problem(
 ) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
-    Takes the arguments of :func:`calibrate`. Tracker data with ``estimate_base`` start the
-    tracker frame at a rigid fit of the nominal model's points to the training readings;
-    fixed-point data start their points at the nominal model's mean point of each name.
+    Tracker data with ``estimate_base`` start the tracker frame at a rigid fit of the nominal
+    model's points to the training readings; fixed-point data start their points at the
+    nominal model's mean point of each name.
+
+    Args:
+        robot: Nominal robot.
+        measurements: Joint angles (rad) and what was read (lengths, tracker positions in m,
+            or fixed-point names).
+        port_m: Encoder port in the base frame, shape (3,), m — shorthand for
+            ``rig=Rig.cable(port_m)``; cable lengths need one of the two.
+        rig: The nominal rig (ports, attachment point, tracker frame, known distances).
+        errors: The robot's error groups (:data:`twin.unknowns.GROUPS`); the paper's D-H
+            errors by default.
+        seed: Seed of the train/validation split.
+        estimate_port: Also identify a correction to the (estimated) port positions.
+        estimate_offset: Also identify an unknown cable-length offset.
+        estimate_attachment: Also identify the measured point in the flange frame.
+        estimate_base: Also identify the tracker frame (tracker positions), started at a rigid
+            fit of the nominal model's points.
+        sigma_m: The instrument's noise 1σ, m: the filters' measurement noise and the misfit
+            test's reference (:mod:`twin.misfit`).
+        loss: How residual rows count (:mod:`twin.loss`); least squares by default.
+        train_fraction: Share of the poses used for identification (paper: 0.8).
 
     Raises:
         InputError: if there are fewer poses than the unknowns need, the measurements lack
@@ -390,18 +424,10 @@ def calibrate_many(
     port_m: ArrayLike | None,
     methods: Sequence[str],
     *,
-    rig: Rig | None = None,
-    errors: Sequence[str] = ("dh",),
     seed: int = 0,
-    estimate_port: bool = False,
-    estimate_offset: bool = False,
-    estimate_attachment: bool = False,
-    estimate_base: bool = False,
-    sigma_m: float = DEFAULT_SIGMA_M,
-    loss: Loss = LEAST_SQUARES,
     budget: Budget | None = None,
-    train_fraction: float = TRAIN_FRACTION,
     on_result: Callable[[CalibrationResult], None] | None = None,
+    **options: Unpack[ProblemOptions],
 ) -> dict[str, CalibrationResult]:
     """Run several methods on the same split, each with a generator seeded from ``seed``.
 
@@ -411,12 +437,7 @@ def calibrate_many(
     Returns:
         Results keyed by each method's name, in the order given.
     """
-    split = make_problem(
-        robot, measurements, port_m, rig=rig, errors=errors, seed=seed,
-        estimate_port=estimate_port, estimate_offset=estimate_offset,
-        estimate_attachment=estimate_attachment, estimate_base=estimate_base, sigma_m=sigma_m,
-        loss=loss, train_fraction=train_fraction,
-    )
+    split = make_problem(robot, measurements, port_m, seed=seed, **options)
     return solve_many(robot, split, methods, seed=seed, budget=budget, on_result=on_result)
 
 
@@ -498,47 +519,23 @@ def calibrate(
     measurements: Measurements,
     port_m: ArrayLike | None = None,
     *,
-    rig: Rig | None = None,
-    errors: Sequence[str] = ("dh",),
     method: str = "lm",
     seed: int = 0,
-    estimate_port: bool = False,
-    estimate_offset: bool = False,
-    estimate_attachment: bool = False,
-    estimate_base: bool = False,
-    sigma_m: float = DEFAULT_SIGMA_M,
-    loss: Loss = LEAST_SQUARES,
     budget: Budget | None = None,
-    train_fraction: float = TRAIN_FRACTION,
+    **options: Unpack[ProblemOptions],
 ) -> CalibrationResult:
     """Identify the errors of ``robot`` (and the rig's unknowns) from measurements.
 
+    ``robot``, ``measurements`` and ``port_m`` (or ``rig``) are those of :func:`make_problem`.
+
     Args:
-        robot: Nominal robot.
-        measurements: Joint angles (rad) and what was read (lengths, tracker positions in m,
-            or fixed-point names).
-        port_m: Encoder port in the base frame, shape (3,), m — shorthand for
-            ``rig=Rig.cable(port_m)``; cable lengths need one of the two.
-        rig: The nominal rig (ports, attachment point, tracker frame, known distances).
-        errors: The robot's error groups (:data:`twin.unknowns.GROUPS`); the paper's D-H
-            errors by default.
         method: A method name or paper alias (``lm``, ``m2``, …).
         seed: Seed of the train/validation split and of any random draw of the method.
-        estimate_port: Also identify a correction to the (estimated) port positions.
-        estimate_offset: Also identify an unknown cable-length offset.
-        estimate_attachment: Also identify the measured point in the flange frame.
-        estimate_base: Also identify the tracker frame (tracker positions), started at a rigid
-            fit of the nominal model's points.
-        sigma_m: The instrument's noise 1σ, m: the filters' measurement noise and the misfit
-            test's reference (:mod:`twin.misfit`).
-        loss: How residual rows count (:mod:`twin.loss`); least squares by default.
         budget: Iteration limits and stopping tests; by default ``Budget()``, run to
             convergence (``Budget.paper()`` is the paper's protocol).
-        train_fraction: Share of the poses used for identification (paper: 0.8).
+        **options: How the problem is made (:class:`ProblemOptions`: the rig, the error
+            groups, which rig unknowns to estimate, the noise, the loss, the split), as
+            :func:`make_problem` takes them.
     """
-    return calibrate_many(
-        robot, measurements, port_m, [method], rig=rig, errors=errors, seed=seed,
-        estimate_port=estimate_port, estimate_offset=estimate_offset,
-        estimate_attachment=estimate_attachment, estimate_base=estimate_base, sigma_m=sigma_m,
-        loss=loss, budget=budget, train_fraction=train_fraction,
-    )[get_solver(method).name]
+    return calibrate_many(robot, measurements, port_m, [method], seed=seed, budget=budget,
+                          **options)[get_solver(method).name]

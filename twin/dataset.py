@@ -19,9 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import frozen_array
+from twin.arrays import Array, frozen_array
 
-Array = NDArray[np.float64]
 KINDS = ("length", "position", "point")
 """Measurement kinds, by what a row holds."""
 MAX_POSES = 100_000

@@ -23,11 +23,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.identifiability import Observability, identifiability, observability
 from twin.model import Model
 from twin.uncertainty import cramer_rao_flange_rms
-
-Array = NDArray[np.float64]
 
 RIDGE = 1e-9
 """Greedy start F = δI, δ this fraction of the mean squared entry of the candidate rows."""

@@ -15,7 +15,6 @@ from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
 from twin.calibration import CalibrationResult, SplitProblem, make_model
 from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
@@ -24,8 +23,6 @@ from twin.problem import Problem
 from twin.solvers import get_solver
 from twin.stopping import Budget
 from twin.units import m_to_mm
-
-Array = NDArray[np.float64]
 
 REFITS = {
     "port": ("the port positions", "--estimate-port"),

@@ -33,14 +33,13 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from twin.arrays import Array
 from twin.kinematics import flange_transform
 from twin.model import Model
-
-Array = NDArray[np.float64]
 
 MOVES_RTOL = 1e-6
 """A null direction moves the points when its motion's singular value exceeds this fraction of

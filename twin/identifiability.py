@@ -31,20 +31,21 @@ How it is computed, and why:
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import NULL_RTOL, Model
 from twin.robot import RobotModel
 from twin.synthetic import random_poses
 from twin.unknowns import Stage
-
-Array = NDArray[np.float64]
 
 RANK_RTOL = NULL_RTOL
 """Singular values below this fraction of the largest are treated as zero."""
@@ -241,6 +242,22 @@ def spread_rank(model: Model, robot: RobotModel, rng: np.random.Generator,
     x0 = np.zeros(model.n_params)
     spread = model.measure(x0, random_poses(robot, n_poses, rng))
     return measurement_identifiability(model, x0, spread).rank
+
+
+def warn_rank_deficient(robot: RobotModel, model: Model, x0: ArrayLike, train: Measurements,
+                        source: str | Path, seed: int) -> None:
+    """Warn, before anything is calibrated, when the training poses identify fewer directions
+    than the same unknowns on well-spread poses: the result is then arbitrary along the
+    directions these poses miss (all rows alike give rank 1)."""
+    found = measurement_identifiability(model, x0, train).rank
+    reachable = spread_rank(model, robot, np.random.default_rng(seed))
+    if found < reachable:
+        warnings.warn(
+            f"{source}: the {len(train)} training poses identify {found} of the "
+            f"{reachable} directions well-spread poses identify ({model.n_params} "
+            "unknowns); the calibration below is arbitrary along the other "
+            f"{reachable - found}: measure more varied poses (twin plan)",
+            RankWarning, stacklevel=2)
 
 
 class Observability(NamedTuple):

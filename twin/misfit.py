@@ -24,12 +24,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.special import gammaincinv
 
 from twin.dataset import Measurements
-
-Array = NDArray[np.float64]
 
 ALPHA = 1e-3
 """Level of the chi-square test: a misfit is reported when p < ALPHA."""

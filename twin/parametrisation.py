@@ -47,11 +47,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.arrays import Array
 from twin.kinematics import PARAMETRISATIONS, Structure, flange_transform
-
-Array = NDArray[np.float64]
 
 PARALLEL_THRESHOLD_DEG = 10.0
 """Consecutive axes closer than this to parallel (or antiparallel) get a Hayati joint."""

@@ -2,7 +2,7 @@
 forward kinematics of a URDF, the referee of the robots read from and written back to URDFs.
 
 An adapter: it imports Pinocchio, and nothing in the core imports it. (Reading a URDF is
-:mod:`twin.urdf`; writing one is :mod:`twin.export.urdf`.)
+:mod:`twin.io.urdf_reader`; writing one is :mod:`twin.export.urdf`.)
 
 A robot of any parametrisation is its fixed transforms (:func:`twin.kinematics.fixed_transforms`):
 joint i is a revolute about z placed at T_{i−1} in joint i − 1's frame, and a frame named
@@ -15,12 +15,10 @@ from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.kinematics import fixed_transforms
 from twin.robot import RobotModel
-
-Array = NDArray[np.float64]
 
 FLANGE_FRAME = "flange"
 """Name of the flange frame in the Pinocchio model."""

@@ -19,12 +19,11 @@ from dataclasses import replace
 from typing import NamedTuple, Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.arrays import Array
 from twin.calibration import check_approach
 from twin.model import Model
-
-Array = NDArray[np.float64]
 
 
 class Identified(Protocol):

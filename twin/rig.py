@@ -20,9 +20,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import frozen_array
-
-Array = NDArray[np.float64]
+from twin.arrays import Array, frozen_array
 
 MAX_TENSION_N = 1000.0
 """Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would

@@ -11,9 +11,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-Array = NDArray[np.float64]
+from twin.arrays import Array
 
 
 def _axis_rotations(angles_rad: ArrayLike) -> tuple[Array, Array, Array, Array, Array, Array]:

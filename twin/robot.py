@@ -32,7 +32,7 @@ that link's centre of mass in its own frame i, which turns with joint i; needs `
 unknowns' gravity torques; ``velocity`` (angle unit per second) and ``effort`` (N·m), the
 joint's rated limits, for exported URDFs.
 
-A model file may instead name a URDF (:mod:`twin.urdf`, through Pinocchio)::
+A model file may instead name a URDF (:mod:`twin.io.urdf_reader`, through Pinocchio)::
 
     urdf = "ur5e.urdf"               # relative to this file
     base_link = "base_link"          # optional: the URDF's root link
@@ -58,6 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import frozen_array
 from twin.errors import InputError
+from twin.io.table import Table
 from twin.kinematics import (
     PARAMETRISATIONS,
     SLOT_IS_LENGTH,
@@ -244,68 +245,41 @@ class RobotModel:
         return replace(self, dh=table, structure=structure, urdf=urdf)
 
 
-class ModelDocument:
-    """Typed access to a model file's keys, with errors that name the file and the key."""
-
-    def __init__(self, document: dict[str, Any], source: str | Path) -> None:
-        self.document, self.source = document, source
-
-    def error(self, found: str, expected: str, where: str | None = None) -> InputError:
-        return InputError(found, expected, source=self.source, where=where)
-
-    def text(self, key: str) -> str:
-        value = self.document[key]
-        if not isinstance(value, str):
-            raise self.error(f"{value!r}", "a string", key)
+def parametrisation_request(table: Table, default: str) -> str | tuple[str, ...]:
+    """The ``parametrisation`` key (or the older ``convention``) of a model file: one of
+    :data:`twin.parametrisation.REQUESTS`, or one parametrisation per joint."""
+    if table.has("parametrisation") and table.has("convention"):
+        raise table.error("convention", "both 'parametrisation' and 'convention'",
+                          "'parametrisation' alone ('convention' is its older name)")
+    key = "convention" if table.has("convention") else "parametrisation"
+    value = table.values.get(key, default)
+    if key == "convention" and value != "dh":
+        raise table.error(key, f"convention {value!r}", "'dh' (standard D-H; other "
+                          "parametrisations are named by 'parametrisation')")
+    if isinstance(value, str) and value in REQUESTS:
         return value
-
-    def request(self, default: str) -> str | tuple[str, ...]:
-        """The ``parametrisation`` (or the older ``convention``) key."""
-        if "parametrisation" in self.document and "convention" in self.document:
-            raise self.error("both 'parametrisation' and 'convention'",
-                             "'parametrisation' alone ('convention' is its older name)")
-        key = "convention" if "convention" in self.document else "parametrisation"
-        value = self.document.get(key, default)
-        expected = ("one of " + ", ".join(REQUESTS) + ", or a list of "
-                    + ", ".join(PARAMETRISATIONS) + " per joint")
-        if key == "convention" and value != "dh":
-            raise self.error(f"convention {value!r}", "'dh' (standard D-H; other "
-                             "parametrisations are named by 'parametrisation')", key)
-        if isinstance(value, str) and value in REQUESTS:
-            return value
-        if isinstance(value, list) and value and all(v in PARAMETRISATIONS for v in value):
-            return tuple(value)
-        raise self.error(f"{key} = {value!r}", expected, key)
+    if isinstance(value, list) and value and all(v in PARAMETRISATIONS for v in value):
+        return tuple(value)
+    raise table.error(key, f"{key} = {value!r}", "one of " + ", ".join(REQUESTS)
+                      + ", or a list of " + ", ".join(PARAMETRISATIONS) + " per joint")
 
 
-def _number(value: object, key: str, where: str, document: ModelDocument, factor: float,
-            largest: float, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise document.error(f"{key} = {value!r}", "a number", where)
-    if not math.isfinite(value):
-        raise document.error(f"{key} = {value}", "a finite number", where)
-    if abs(value * factor) > largest:
-        raise document.error(f"{key} = {value}", f"a number within ±{largest / factor:g} "
-                             f"{unit}", where)
-    return float(value) * factor
+def _within(unit: str, largest: float) -> str:
+    return f"a number within ±{largest:g} {unit}"
 
 
-def _end_transform(document: ModelDocument, key: str, to_m: float, to_rad: float,
+def _end_transform(doc: Table, key: str, to_m: float, to_rad: float,
                    units: tuple[str, str]) -> NDArray[np.float64]:
     """The optional ``base`` / ``tool`` table: {xyz = [3 lengths], rpy = [3 angles]}."""
-    value = document.document.get(key)
-    if value is None:
+    if not doc.has(key):
         return np.eye(4)
-    expected = f"{{ xyz = [x, y, z] ({units[0]}), rpy = [roll, pitch, yaw] ({units[1]}) }}"
-    if not isinstance(value, dict) or set(value) - {"xyz", "rpy"}:
-        raise document.error(f"{value!r}", expected, key)
-    parts = []
-    for part, factor, largest, unit in (("xyz", to_m, MAX_LENGTH_M, units[0]),
-                                        ("rpy", to_rad, MAX_ANGLE_RAD, units[1])):
-        items = value.get(part, [0.0, 0.0, 0.0])
-        if not isinstance(items, list) or len(items) != 3:
-            raise document.error(f"{part} = {items!r}", expected, key)
-        parts.append([_number(v, part, key, document, factor, largest, unit) for v in items])
+    end = doc.table(key, allowed=("xyz", "rpy"), expected=f"{{ xyz = [x, y, z] ({units[0]}), "
+                    f"rpy = [roll, pitch, yaw] ({units[1]}) }}")
+    parts = [end.vector(part, 3, within=largest / factor, default=[0.0, 0.0, 0.0],
+                        expected=f"[x, y, z]: three numbers in {unit}, each within "
+                        f"±{largest / factor:g}") * factor
+             for part, factor, largest, unit in (("xyz", to_m, MAX_LENGTH_M, units[0]),
+                                                 ("rpy", to_rad, MAX_ANGLE_RAD, units[1]))]
     return rigid_transform(parts[0], parts[1])
 
 
@@ -315,84 +289,78 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     Raises:
         InputError: naming the key or joint that is wrong and what was expected.
     """
-    doc = ModelDocument(document, source)
     if "urdf" in document:
-        raise doc.error("a 'urdf' reference", "a D-H model file here (twin.io.robot_file."
-                        "load_robot reads the files that name a URDF)")
-    unknown = sorted(set(document) - set(_TOP_KEYS))
-    if unknown:
-        raise doc.error(f"unknown key {unknown[0]!r}", "only " + ", ".join(_TOP_KEYS)
-                        + " (or a 'urdf' reference)")
-    for key in ("name", "length_unit", "angle_unit", "joints"):
-        if key not in document:
-            raise doc.error(f"no {key!r}", f"a {key!r} key")
-    name, length_unit, angle_unit = (doc.text(k) for k in ("name", "length_unit", "angle_unit"))
-    if length_unit not in LENGTH_FACTORS:
-        raise doc.error(f"{length_unit!r}", "one of " + ", ".join(LENGTH_FACTORS), "length_unit")
-    if angle_unit not in ANGLE_FACTORS:
-        raise doc.error(f"{angle_unit!r}", "one of " + ", ".join(ANGLE_FACTORS), "angle_unit")
-    request = doc.request("dh")
-    joints = document["joints"]
+        raise InputError("a 'urdf' reference", "a D-H model file here (twin.io.robot_file."
+                         "load_robot reads the files that name a URDF)", source=source)
+    doc = Table(document, source, allowed=_TOP_KEYS, kind="or a 'urdf' reference")
+    name = doc.text("name")
+    length_unit = doc.text("length_unit", choices=tuple(LENGTH_FACTORS))
+    angle_unit = doc.text("angle_unit", choices=tuple(ANGLE_FACTORS))
+    request = parametrisation_request(doc, "dh")
+    joints = doc.required("joints", f"a list of {MIN_JOINTS} to {MAX_JOINTS} joint tables")
     if not isinstance(joints, list) or not MIN_JOINTS <= len(joints) <= MAX_JOINTS:
         count = len(joints) if isinstance(joints, list) else type(joints).__name__
-        raise doc.error(f"{count} joints", f"a list of {MIN_JOINTS} to {MAX_JOINTS} joint "
-                        "tables", "joints")
+        raise doc.error("joints", f"{count} joints", f"a list of {MIN_JOINTS} to {MAX_JOINTS} "
+                        "joint tables")
     n = len(joints)
     if isinstance(request, tuple) and len(request) != n:
-        raise doc.error(f"{len(request)} parametrisations for {n} joints",
-                        "one per joint", "parametrisation")
+        raise doc.error("parametrisation", f"{len(request)} parametrisations for {n} joints",
+                        "one per joint")
     # "auto" rows are standard D-H: the geometry the conversion starts from.
     kinds = request if isinstance(request, tuple) else \
         ("dh",) * n if request == AUTO else (request,) * n
     to_m, to_rad = LENGTH_FACTORS[length_unit], ANGLE_FACTORS[angle_unit]
-    per_unit = {"mass": (1.0, MAX_MASS_KG, "kg"), "radius": (to_m, MAX_LENGTH_M, length_unit),
-                "velocity": (to_rad, MAX_VELOCITY_RAD_S, f"{angle_unit}/s"),
-                "effort": (1.0, MAX_EFFORT_NM, "N·m"),
-                "lower": (to_rad, MAX_ANGLE_RAD, angle_unit),
-                "upper": (to_rad, MAX_ANGLE_RAD, angle_unit)}
+    # key: (factor to SI, largest magnitude in SI, unit as written, smallest value in SI)
+    per_unit = {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
+                "radius": (to_m, MAX_LENGTH_M, length_unit, 0.0),
+                "velocity": (to_rad, MAX_VELOCITY_RAD_S, f"{angle_unit}/s", 0.0),
+                "effort": (1.0, MAX_EFFORT_NM, "N·m", 0.0),
+                "lower": (to_rad, MAX_ANGLE_RAD, angle_unit, None),
+                "upper": (to_rad, MAX_ANGLE_RAD, angle_unit, None)}
     table = np.zeros((4, n))
     columns: dict[str, list[float]] = {key: [] for key in per_unit}
-    coms: list[list[float]] = []
-    for index, (joint, kind) in enumerate(zip(joints, kinds, strict=True)):
-        where = f"joint {index + 1}"
+    coms: list[NDArray[np.float64]] = []
+    for index, (values, kind) in enumerate(zip(joints, kinds, strict=True)):
         slots = SLOT_NAMES[kind]
-        allowed = (*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY)
-        if not isinstance(joint, dict):
-            raise doc.error(f"{joint!r}", "an inline table", where)
-        extra = sorted(set(joint) - set(allowed))
-        if extra:
-            raise doc.error(f"unknown key {extra[0]!r}", f"only {', '.join(allowed)} (a "
-                            f"{kind} joint)", where)
-        if _COM_KEY in joint:
-            coms.append(_parse_com(joint[_COM_KEY], to_m, length_unit, doc, where))
-        for key in (*slots, *_LIMIT_KEYS):
-            if key not in joint:
-                raise doc.error(f"no {key!r}", f"a number for {key!r}", where)
+        joint = Table(values, source, f"joint {index + 1}",
+                      allowed=(*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY),
+                      kind=f"a {kind} joint")
+        if joint.has(_COM_KEY):
+            largest = MAX_LENGTH_M / to_m
+            coms.append(joint.vector(_COM_KEY, 3, within=largest, expected=(
+                f"[x, y, z]: three numbers in {length_unit}, each within ±{largest:g}")) * to_m)
         for slot, (key, is_length) in enumerate(zip(slots, SLOT_IS_LENGTH[kind], strict=True)):
             factor, largest = (to_m, MAX_LENGTH_M) if is_length else (to_rad, MAX_ANGLE_RAD)
-            table[slot, index] = _number(joint[key], key, where, doc, factor, largest,
-                                         length_unit if is_length else angle_unit)
-        for key, (factor, largest, unit) in per_unit.items():
-            if key in joint:
-                value = _number(joint[key], key, where, doc, factor, largest, unit)
-                if key not in _LIMIT_KEYS and value < 0:
-                    raise doc.error(f"{key} = {joint[key]}", "a value >= 0", where)
-                columns[key].append(value)
+            unit = length_unit if is_length else angle_unit
+            joint.required(key, _within(unit, largest / factor))
+            table[slot, index] = joint.number(key, minimum=-largest / factor,
+                                              maximum=largest / factor,
+                                              expected=_within(unit, largest / factor)) * factor
+        for key, (factor, largest, unit, smallest) in per_unit.items():
+            if key in _LIMIT_KEYS:
+                joint.required(key, _within(unit, largest / factor))
+            if joint.has(key):
+                expected = _within(unit, largest / factor) if smallest is None \
+                    else f"a number from 0 to {largest / factor:g} {unit}"
+                columns[key].append(joint.number(
+                    key, minimum=-largest / factor if smallest is None else smallest,
+                    maximum=largest / factor, expected=expected) * factor)
         if columns["lower"][-1] >= columns["upper"][-1]:
-            raise doc.error(f"lower = {joint['lower']} >= upper = {joint['upper']}",
-                            "lower < upper", where)
+            raise joint.error("lower", f"{values['lower']} >= upper = {values['upper']}",
+                              "lower < upper")
     optional: dict[str, NDArray[np.float64] | None] = {}
     for key in _OPTIONAL_JOINT_KEYS:
         given = len(columns[key])
         if given not in (0, n):
-            raise doc.error(f"{key!r} on {given} of {n} joints",
+            raise doc.error("joints", f"{key!r} on {given} of {n} joints",
                             f"{key!r} on every joint or on none")
         optional[key] = np.array(columns[key]) if given else None
     if len(coms) not in (0, n):
-        raise doc.error(f"{_COM_KEY!r} on {len(coms)} of {n} joints",
+        raise doc.error("joints", f"{_COM_KEY!r} on {len(coms)} of {n} joints",
                         f"{_COM_KEY!r} on every joint or on none")
     if coms and optional["mass"] is None:
-        raise doc.error(f"{_COM_KEY!r} without 'mass'", "a 'mass' beside every centre of mass")
+        raise doc.error("joints", f"{_COM_KEY!r} without 'mass'",
+                        "a 'mass' beside every centre of mass")
     units = (length_unit, angle_unit)
     try:
         structure = Structure(kinds, base=_end_transform(doc, "base", to_m, to_rad, units),
@@ -402,8 +370,8 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
         else:
             check_mix(kinds)
     except ValueError as exc:
-        raise doc.error(str(exc), "a chain the parametrisation can hold",
-                        "parametrisation") from None
+        raise doc.error("parametrisation", str(exc),
+                        "a chain the parametrisation can hold") from None
     return RobotModel(
         name=name, dh=table, structure=structure,
         lower_rad=np.array(columns["lower"]), upper_rad=np.array(columns["upper"]),
@@ -411,18 +379,6 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
         velocity_rad_s=optional["velocity"], effort_nm=optional["effort"],
         com_m=np.array(coms) if coms else None,
     )
-
-
-def _parse_com(value: Any, to_m: float, length_unit: str, doc: ModelDocument,
-               where: str) -> list[float]:
-    """A centre of mass ``[x, y, z]`` in the file's length unit, in m."""
-    expected = (f"[x, y, z]: three finite numbers in {length_unit}, each within "
-                f"±{MAX_LENGTH_M / to_m:g}")
-    if not isinstance(value, list) or len(value) != 3 or any(
-            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-            or abs(v * to_m) > MAX_LENGTH_M for v in value):
-        raise doc.error(f"{_COM_KEY} = {value!r}", expected, where)
-    return [float(v) * to_m for v in value]
 
 
 def default_robot() -> RobotModel:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -35,11 +36,13 @@ import numpy as np
 from twin.calibration import (
     TRAIN_FRACTION,
     CalibrationResult,
+    SplitProblem,
     calibrate,
     make_model,
     required_poses,
 )
 from twin.dataset import Measurements
+from twin.identifiability import measurement_identifiability, warn_rank_deficient
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.stopping import Budget
@@ -102,6 +105,19 @@ def warn_few_poses(n_train: int, rank: int, errors: Sequence[str], rows_per_pose
             f"({'+'.join(errors)} and the rig's): fewer than {POSES_PER_UNKNOWN} readings per "
             f"unknown, so the fit follows the noise; measure at least {needed} (twin plan "
             f"--errors {','.join(errors)})", FewPosesWarning, stacklevel=3)
+
+
+def warn_weak_data(robot: RobotModel, split: SplitProblem, errors: Sequence[str],
+                   source: str | Path, seed: int) -> None:
+    """Before a calibration, warn when its training poses identify fewer directions than
+    well-spread poses would (:func:`twin.identifiability.warn_rank_deficient`; not for fixed
+    points, where random poses reach no common point to compare with) and when they are too few
+    for the unknowns they identify (:func:`warn_few_poses`, naming the error groups ``errors``)."""
+    problem = split.problem
+    if problem.train.kind != "point":
+        warn_rank_deficient(robot, problem.model, problem.x0, problem.train, source, seed)
+    rank = measurement_identifiability(problem.model, problem.x0, problem.train).rank
+    warn_few_poses(len(split.train_rows), rank, errors, problem.model.kind.rows_per_pose)
 
 
 def nested_errors(has_approach: bool) -> list[tuple[str, ...]]:

@@ -18,14 +18,13 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.identifiability import RANK_RTOL
 from twin.model import Model
 from twin.robot import RobotModel
-
-Array = NDArray[np.float64]
 
 
 def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK_RTOL) -> Array:

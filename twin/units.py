@@ -39,9 +39,12 @@ def rad_to_deg(value_rad: ArrayLike) -> NDArray[np.float64]:
     return np.rad2deg(np.asarray(value_rad, dtype=np.float64))
 
 
+ARCSEC_PER_DEG = 3600.0
+
+
 def rad_to_arcsec(value_rad: ArrayLike) -> NDArray[np.float64]:
     """Radians to arc-seconds: how reports show joint-level errors (gear makers' unit)."""
-    return rad_to_deg(value_rad) * 3600.0
+    return rad_to_deg(value_rad) * ARCSEC_PER_DEG
 
 
 DH_KEYS = ("a", "d", "alpha", "theta")

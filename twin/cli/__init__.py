@@ -1,4 +1,13 @@
-"""The `twin` command line. Each subcommand is a module with ``add_parser(subparsers)``.
+"""The `twin` command line. Each subcommand is a module named after it, ``twin/cli/<command>.py``
+(``virtual-encoder``: ``virtual_encoder.py``), which states its ``NAME``, ``HELP`` and
+``DESCRIPTION``, its arguments (``add_arguments(parser)``) and ``run(args)``: it parses, calls
+the library and prints. Where the library function a command calls has the
+command's name, its module may too (`twin simulate` calls :func:`twin.sim.simulate.simulate`,
+`twin predict` :func:`twin.predict.predict`, `twin check` :func:`twin.study.check.check`,
+`twin virtual-encoder` :mod:`twin.hardware.virtual_encoder`): a module of ``twin/cli/`` is the
+command, the other the thing it runs. What several commands parse alike is in
+:mod:`twin.cli.arguments` (flag types and shared flag sets) and :mod:`twin.cli.inputs` (what a
+calibration's INPUT and rig flags resolve to).
 
 User mistakes (:class:`~twin.errors.InputError`, a bad flag, an ``OSError`` on a named file,
 an adapter library whose extra is not installed) print one line on stderr and exit with code 2;
@@ -54,7 +63,10 @@ def build_parser() -> ArgumentParser:
                         version=f"{distribution.NAME} {distribution.version()}")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in SUBCOMMANDS:
-        module.add_parser(subparsers)
+        command = subparsers.add_parser(module.NAME, help=module.HELP,
+                                        description=module.DESCRIPTION)
+        module.add_arguments(command)
+        command.set_defaults(func=module.run)
     return parser
 
 

@@ -1,4 +1,5 @@
-"""The parser every subcommand shares, and the types of its numeric flags.
+"""The parser every subcommand shares, the types of its numeric flags, and the arguments several
+subcommands take alike.
 
 A bad flag is one line on stderr, like any other user mistake::
 
@@ -18,6 +19,8 @@ import math
 import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NoReturn
+
+from twin.io.paths import InputPath, OutputFile, OutputFolder
 
 if TYPE_CHECKING:
     from twin.robot import RobotModel
@@ -119,10 +122,60 @@ pause = number(0.0, MAX_SECONDS)
 """An argparse type: a pause in s, finite, at most :data:`MAX_SECONDS`."""
 
 
+def add_scenario(parser: argparse.ArgumentParser, help: str = "scenario file") -> None:
+    """The positional ``SCENARIO.toml``, read."""
+    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml", help=help)
+
+
+def add_input(parser: argparse.ArgumentParser, help: str) -> None:
+    """The positional ``INPUT`` of a calibration: a measurement CSV or a capture.toml."""
+    parser.add_argument("input", type=InputPath, metavar="INPUT", help=help)
+
+
+RESULT_HELP = "calibration result written by `twin calibrate --json`"
+
+
+def add_result(parser: argparse.ArgumentParser, *, positional: bool = False,
+               required: bool = True) -> None:
+    """The calibration result a command applies: positional ``RESULT.json``, or
+    ``--identified RESULT.json``."""
+    if positional:
+        parser.add_argument("result", type=InputPath, metavar="RESULT.json", help=RESULT_HELP)
+    else:
+        parser.add_argument("--identified", type=InputPath, required=required,
+                            metavar="RESULT.json", help=RESULT_HELP)
+
+
+def add_output(parser: argparse.ArgumentParser, metavar: str, help: str, *,
+               folder: bool = False, flag: str = "--out", required: bool = True) -> None:
+    """An output file (or folder) the CLI checks before any work."""
+    parser.add_argument(flag, type=OutputFolder if folder else OutputFile, required=required,
+                        metavar=metavar, help=help)
+
+
+def add_seed(parser: argparse.ArgumentParser, help: str, default: int | None = None) -> None:
+    """``--seed``, a non-negative integer."""
+    parser.add_argument("--seed", type=seed, default=default, help=help)
+
+
+def add_error_groups(parser: argparse.ArgumentParser, help: str, *, auto: bool = False,
+                     default: tuple[str, ...] | None = None) -> None:
+    """``--errors``: the robot's error groups, comma-separated (or ``auto`` when ``auto``)."""
+    parser.add_argument("--errors", type=error_groups(auto=auto), default=default,
+                        metavar="GROUPS", help=help)
+
+
+def add_cable_tension(parser: argparse.ArgumentParser, help: str,
+                      default: float | None = None) -> None:
+    """``--cable-tension``: the cable's pull in N, from 0 to :data:`twin.rig.MAX_TENSION_N`."""
+    from twin.rig import MAX_TENSION_N
+
+    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), default=default,
+                        metavar="N", help=help)
+
+
 def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") -> None:
     """``--robot`` (a model TOML or a URDF) and, for a URDF, ``--base-link`` / ``--tip-link``."""
-    from twin.io.paths import InputPath
-
     parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file or a "
                         ".urdf, 4 to 7 revolute joints (default: the ABB IRB 120)")
     parser.add_argument("--base-link", metavar="LINK", help="with a URDF --robot: the link "
@@ -131,23 +184,19 @@ def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") 
                         "link (default: tool0, else flange, else the one leaf link)")
 
 
-def robot_from_flags(args: argparse.Namespace) -> RobotModel | None:
-    """The robot ``--robot`` names (with its links), or None without ``--robot``.
+def robot_from_flags(args: argparse.Namespace) -> RobotModel:
+    """The robot ``--robot`` names (with its links), or the packaged IRB 120 without it.
 
     Raises:
         InputError: for --base-link or --tip-link without a URDF --robot, or a bad file.
     """
     from twin.errors import InputError
-    from twin.io.robot_file import load_robot
+    from twin.io.robot_file import load_robot_or_default
 
-    links = {"base_link": args.base_link, "tip_link": args.tip_link}
-    if args.robot is None:
-        if any(links.values()):
-            flag = "--base-link" if args.base_link else "--tip-link"
-            raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it",
-                             source=flag)
-        return None
-    return load_robot(args.robot, **links)
+    if args.robot is None and (args.base_link or args.tip_link):
+        flag = "--base-link" if args.base_link else "--tip-link"
+        raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it", source=flag)
+    return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link)
 
 
 AUTO = "auto"

@@ -5,10 +5,16 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
-from twin.cli.arguments import integer, number, pause, seconds, seed
-from twin.io.paths import InputPath, OutputFile, OutputFolder
+from twin.cli.arguments import (
+    add_output,
+    add_seed,
+    integer,
+    number,
+    pause,
+    seconds,
+)
+from twin.io.paths import InputPath
 
 ROBOT_SOURCES = ("sim", "manual", "file")
 CAPTURE_JOINTS = 6
@@ -17,16 +23,18 @@ MAX_READINGS = 1000
 """Most readings --settle-k and --max-failures may ask for."""
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "capture",
-        help="measure a pose plan with the drawstring encoder",
-        description="Bring the robot to each pose of a plan, read the encoder until the length "
-        "settles, and append the pose to OUT/measurements.csv (fsync-ed before the next pose). "
-        "Also writes OUT/capture.toml for `twin calibrate`. Interrupted, it keeps every "
-        "measured pose; the same command again resumes at the first missing one.",
-    )
+NAME = "capture"
+HELP = "measure a pose plan with the drawstring encoder"
+DESCRIPTION = (
+    "Bring the robot to each pose of a plan, read the encoder until the length "
+    "settles, and append the pose to OUT/measurements.csv (fsync-ed before the next pose). "
+    "Also writes OUT/capture.toml for `twin calibrate`. Interrupted, it keeps every "
+    "measured pose; the same command again resumes at the first missing one."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     parser.add_argument("--plan", type=InputPath, required=True, metavar="PLAN.csv",
                         help="poses to measure: CSV with q1..q6 in degrees")
     parser.add_argument("--encoder", required=True, metavar="URL|DEVICE.toml",
@@ -35,17 +43,16 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--robot-source", choices=ROBOT_SOURCES, required=True,
                         help="sim: the twin moves (with twin virtual-encoder); manual: the "
                         "operator jogs and confirms; file: joint angles logged by the controller")
-    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
-                        help="output folder")
+    add_output(parser, "DIR", "output folder", folder=True)
     parser.add_argument("--robot", type=InputPath, help="6-joint robot model TOML (default: "
                         "the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")
     parser.add_argument("--scenario", type=InputPath, metavar="SCENARIO.toml",
                         help="sim: the scenario the virtual encoder serves")
-    parser.add_argument("--seed", type=seed, help="sim: the virtual encoder's --seed")
-    parser.add_argument("--pose-file", type=OutputFile, metavar="FILE",
-                        help="sim: the virtual encoder's --pose-file")
+    add_seed(parser, "sim: the virtual encoder's --seed")
+    add_output(parser, "FILE", "sim: the virtual encoder's --pose-file", flag="--pose-file",
+               required=False)
     parser.add_argument("--joint-log", type=InputPath, metavar="LOG.csv",
                         help="file: the controller's log, columns pose,q1..q6 (deg)")
     parser.add_argument("--joint-log-wait", type=seconds(zero=True), default=60.0, metavar="S",
@@ -66,29 +73,18 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--reconnect", type=seconds(zero=True), default=5.0, metavar="S",
                         help="how long to try reopening a lost port, or none to keep trying "
                         "(default: 5 s)")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.errors import InputError
-    from twin.hardware.capture_session import (
-        CAPTURE_NAME,
-        MEASUREMENTS_NAME,
-        ROBOT_NAME,
-        capture,
-        check_folder,
-        locked,
-        prepare,
-    )
-    from twin.hardware.encoders import open_encoder, resolve
+    from twin.hardware.capture_session import CAPTURE_NAME, MEASUREMENTS_NAME, capture_folder
+    from twin.hardware.encoders import resolve
     from twin.hardware.encoders.settle import SettleRule
     from twin.hardware.robot_sources.base import RobotSource
-    from twin.io.capture_file import parse_port_mm, write_capture
+    from twin.io.capture_file import parse_port_mm
     from twin.io.measurements import load_plan
-    from twin.io.results import write_json
-    from twin.io.robot_file import load_robot
-    from twin.robot import default_robot, robot_to_toml
+    from twin.io.robot_file import load_robot_or_default
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
@@ -103,20 +99,17 @@ def run(args: argparse.Namespace) -> int:
         if args.scenario is None:
             raise InputError("no --scenario", "the scenario the virtual encoder serves "
                              "(--robot-source sim)", source="command line")
-        from twin.sim import load_scenario, simulate
-        from twin.units import dh_rows_to_display, m_to_mm
+        from twin.scenario import load_scenario
+        from twin.sim import simulate
 
         sim = simulate(load_scenario(args.scenario), args.seed)
         if sim.port_m is None or sim.port_nominal_m is None or len(sim.rig.ports_m) > 1:
             raise InputError(f"a {sim.measurements.kind} scenario with "
                              f"{len(sim.rig.ports_m)} ports", "a scenario of one cable port "
                              "(the virtual encoder serves one cable)", source=args.scenario)
-        robot, port_m = sim.robot, sim.port_nominal_m
-        truth = {"scenario": sim.scenario.name, "seed": sim.seed,
-                 "delta": dh_rows_to_display(sim.delta, sim.robot.is_length),
-                 "port": m_to_mm(sim.port_m).tolist(), "port_told": m_to_mm(port_m).tolist()}
+        robot, port_m, truth = sim.robot, sim.port_nominal_m, sim.capture_truth
     else:
-        robot = load_robot(args.robot) if args.robot else default_robot()
+        robot = load_robot_or_default(args.robot)
         if args.port is None:
             raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
                              source="command line")
@@ -147,19 +140,9 @@ def run(args: argparse.Namespace) -> int:
         source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
 
     out: Path = args.out
-    robot_text = robot_to_toml(robot)
-    check_folder(out, args.plan, plan_q_rad, robot_text)
-    with locked(out), open_encoder(config) as encoder:
-        prepare(out, args.plan, plan_q_rad, robot_text)
-        if truth is not None:
-            write_json(out / "truth.json", truth)
-        write_capture(out / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,
-                      measurements=MEASUREMENTS_NAME,
-                      truth="truth.json" if truth is not None else None,
-                      encoder={"url": config.to_url()})
-        measured = capture(plan_q_rad, out / MEASUREMENTS_NAME, encoder, source, rule,
-                           reconnect_s=args.reconnect,
-                           report=lambda line: print(line, flush=True))
+    measured = capture_folder(out, args.plan, plan_q_rad, robot, port_m, config, source, rule,
+                              truth=truth, reconnect_s=args.reconnect,
+                              report=lambda line: print(line, flush=True))
     print(f"measured {measured} poses; all {len(plan_q_rad)} are in {out / MEASUREMENTS_NAME}")
     print(f"calibrate with: twin calibrate {out / CAPTURE_NAME}")
     return 0

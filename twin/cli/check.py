@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any
 
 from twin.cli.study import add_study_arguments, executor_from_args, methods_from_args
 from twin.errors import InputError
@@ -29,18 +28,20 @@ def _tolerance(text: str) -> float:
     return value
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "check",
-        help="regression test against the truth: a study held to the scenario's [expect] table",
-        description="Run (or resume) the study of SCENARIO into DIR exactly as `twin study` does, "
-        "then evaluate every expectation of its [expect] table (or of --expect FILE), e.g. "
-        "lm = [\"flange_error_mm p95 <= 0.03\"]: one line per expectation and a total line. "
-        "With --baseline, compare every metric the expectations name with an earlier study of "
-        "the same seeds, trial by trial (one-sided Wilcoxon signed-rank). Exit code 0 when all "
-        "pass, 1 when one fails or regressed, 2 on a user error. See docs/studies.md, Checks.",
-    )
+NAME = "check"
+HELP = "regression test against the truth: a study held to the scenario's [expect] table"
+DESCRIPTION = (
+    "Run (or resume) the study of SCENARIO into DIR exactly as `twin study` does, "
+    "then evaluate every expectation of its [expect] table (or of --expect FILE), e.g. "
+    "lm = [\"flange_error_mm p95 <= 0.03\"]: one line per expectation and a total line. "
+    "With --baseline, compare every metric the expectations name with an earlier study of "
+    "the same seeds, trial by trial (one-sided Wilcoxon signed-rank). Exit code 0 when all "
+    "pass, 1 when one fails or regressed, 2 on a user error. See docs/studies.md, Checks."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     add_study_arguments(parser, "scenario file, with an [expect] table (unless --expect) and "
                         "an optional [study] table")
     parser.add_argument("--expect", type=InputPath, metavar="FILE.toml",
@@ -55,7 +56,6 @@ def add_parser(subparsers: Any) -> None:
     parser.add_argument("--tolerance", type=_tolerance, default=0.05, metavar="5%",
                         help="relative worsening a significant change may have without being "
                         "a regression (default 5%%)")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

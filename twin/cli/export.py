@@ -5,43 +5,43 @@ from __future__ import annotations
 import argparse
 import warnings
 from dataclasses import replace
-from typing import Any
 
-from twin.cli.arguments import add_robot_flags, robot_from_flags
+from twin.cli.arguments import (
+    add_output,
+    add_result,
+    add_robot_flags,
+    robot_from_flags,
+)
 from twin.errors import UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
 from twin.io.identified import ResultWarning, load_result_delta, result_groups
-from twin.io.paths import InputPath, OutputFile
-from twin.robot import default_robot
 from twin.unknowns import ERRORS
 
+NAME = "export"
+HELP = "write the identified robot as a D-H model, URDF or MJCF"
+DESCRIPTION = (
+    "Add the D-H errors of a calibration result to the nominal robot and write "
+    "the identified robot as a model TOML (dh: mm and degrees, usable with --robot), a "
+    "URDF (ROS, Pinocchio; link 'flange') or an MJCF (MuJoCo; site 'flange')."
+)
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "export",
-        help="write the identified robot as a D-H model, URDF or MJCF",
-        description="Add the D-H errors of a calibration result to the nominal robot and write "
-        "the identified robot as a model TOML (dh: mm and degrees, usable with --robot), a "
-        "URDF (ROS, Pinocchio; link 'flange') or an MJCF (MuJoCo; site 'flange').",
-    )
-    parser.add_argument("result", type=InputPath, metavar="RESULT.json",
-                        help="calibration result written by `twin calibrate --json`")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_result(parser, positional=True)
     add_robot_flags(parser, "the nominal robot the result was identified for")
     parser.add_argument("--method", help="result to use from a `--method all` result file")
     parser.add_argument("--format", required=True, dest="format_name",
                         help="one of " + ", ".join(FORMATS))
-    parser.add_argument("--out", type=OutputFile, required=True, metavar="FILE",
-                        help="output file")
-    parser.set_defaults(func=run)
+    add_output(parser, "FILE", "output file")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
-    robot = robot_from_flags(args) or default_robot()
+    robot = robot_from_flags(args)
     delta = load_result_delta(args.result, robot, args.method)
     joint_level = [name for name in result_groups(args.result, args.method)
                    if name in ERRORS and name != "dh"]

@@ -3,73 +3,54 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import WORKSPACE_POSES, match_ports, solve_many
-from twin.cli.arguments import add_robot_flags, error_groups, number, seed, sigma_mm
-from twin.cli.calibrate import add_rig_flags, make_split, resolve_inputs, truth_of
-from twin.design import score_poses
-from twin.identifiability import WEAK_RTOL, Identifiability, measurement_identifiability
-from twin.io.measurements import load_measurements
-from twin.io.paths import InputPath, OutputFile
-from twin.io.results import identifiability_to_dict, result_to_dict, write_json
-from twin.model import Model
-from twin.plots import pyplot, save_png
-from twin.report import describe_rig, format_fit, format_joint_groups, format_truth, has_point
-from twin.rig import MAX_TENSION_N
-from twin.synthetic import random_poses
-from twin.uncertainty import flange_sigma, workspace_grid
-from twin.units import (
-    DH_KEYS,
-    RESULT_MM_DECIMALS,
-    dh_rows_to_display,
-    m_to_mm,
-    mm_to_m,
-    rounded,
-    slot_label,
+from twin.assessment import assess, flange_error_map
+from twin.calibration import WORKSPACE_POSES
+from twin.cli.arguments import (
+    add_output,
+    add_seed,
+    sigma_mm,
 )
+from twin.cli.inputs import add_input_flags, make_split, resolve_inputs, truth_of
+from twin.identifiability import WEAK_RTOL, Identifiability
+from twin.io.measurements import load_measurements
+from twin.io.results import assessment_to_dict, write_json
+from twin.model import Model
+from twin.plots import accuracy_map
+from twin.report import describe_rig, format_fit, format_joint_groups, format_truth, has_point
+from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, mm_to_m, slot_label
 from twin.unknowns import ERRORS
 
-MAP_GRID = 41
-"""Grid points per axis of the accuracy map over joints 2 and 3."""
+NAME = "identify"
+HELP = "report what a measurement set identifies, and how well"
+DESCRIPTION = (
+    "Identifiability of a measurement set: rank, condition number and the "
+    "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
+    "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
+    "and the same at the identified geometry, with per-parameter standard deviations."
+)
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "identify",
-        help="report what a measurement set identifies, and how well",
-        description="Identifiability of a measurement set: rank, condition number and the "
-        "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
-        "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
-        "and the same at the identified geometry, with per-parameter standard deviations.",
-    )
-    parser.add_argument("input", type=InputPath, metavar="INPUT",
-                        help="MEASUREMENTS.csv (needs --port; - for standard input) or "
-                        "capture.toml")
-    add_robot_flags(parser)
-    add_rig_flags(parser)
-    parser.add_argument("--errors", type=error_groups(auto=False), metavar="GROUPS",
-                        help="the robot's error groups, comma-separated: " + ", ".join(ERRORS)
-                        + " (default: the capture's, else dh)")
-    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), metavar="N",
-                        help="the cable's pull in N, for the compliance group (default: the "
-                        "capture's, else 0)")
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_input_flags(
+        parser, input_help="MEASUREMENTS.csv (needs --port; - for standard input) or "
+        "capture.toml", errors_help="the robot's error groups, comma-separated: "
+        + ", ".join(ERRORS) + " (default: the capture's, else dh)",
+        tension_help="the cable's pull in N, for the compliance group (default: the capture's, "
+        "else 0)")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
-    parser.add_argument("--seed", type=seed, default=0,
-                        help="seed of the split, of the calibration and of the workspace poses")
-    parser.add_argument("--map", type=OutputFile, metavar="OUT.png",
-                        help="write a map of the predicted flange error over joints 2 and 3")
-    parser.add_argument("--json", type=OutputFile, metavar="OUT.json",
-                        help="write the report as JSON")
-    parser.set_defaults(func=run)
+    add_seed(parser, "seed of the split, of the calibration and of the workspace poses",
+             default=0)
+    add_output(parser, "OUT.png", "write a map of the predicted flange error over joints 2 and 3",
+               flag="--map", required=False)
+    add_output(parser, "OUT.json", "write the report as JSON", flag="--json", required=False)
 
 
 def _identifiability_lines(ident: Identifiability) -> list[str]:
@@ -104,36 +85,16 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     return lines
 
 
-def _write_map(path: Path, model: Model, x: NDArray[np.float64],
-               covariance: NDArray[np.float64], title: str) -> None:
-    """PNG of the predicted flange error over the (q2, q3) grid, the other joints at 0."""
-    plt = pyplot()
-    q2, q3, q = workspace_grid(model.robot, MAP_GRID)
-    jacobian = model.flange_jacobian(x, model.poses(q))
-    error_mm = m_to_mm(flange_sigma(jacobian, covariance)).reshape(q2.size, q3.size)
-    figure, axes = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
-    image = axes.pcolormesh(np.rad2deg(q3), np.rad2deg(q2), error_mm, shading="auto",
-                            cmap="viridis")
-    figure.colorbar(image, ax=axes, label="predicted flange position error, RMS [mm]")
-    axes.set_xlabel("q3 [deg]")
-    axes.set_ylabel("q2 [deg]")
-    axes.set_title(title, fontsize=9)
-    save_png(figure, path)
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     inputs = resolve_inputs(args)
     robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)
     split = make_split(inputs, data, args.seed)
+    assessment = assess(robot, split, data, float(mm_to_m(args.sigma)), seed=args.seed,
+                        budget=inputs.calibration.budget)
+    data, nominal, score, result = assessment
     model = split.problem.model
-    data = match_ports(data, model.rig)
-    x0 = np.zeros(model.n_params)
-    sigma_m = float(mm_to_m(args.sigma))
-    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(args.seed))
-    nominal = measurement_identifiability(model, x0, data)
-    score = score_poses(model, x0, data.q_rad, nominal.base_mask, sigma_m, q_workspace)
     indices = score.observability
     lines = [
         f"{robot.name} — {len(data)} poses from {measurements_path}, "
@@ -148,8 +109,6 @@ def run(args: argparse.Namespace) -> int:
         f"  Cramér–Rao bound at σ = {args.sigma:g} mm: flange RMS error over "
         f"{WORKSPACE_POSES} workspace poses {float(m_to_mm(score.flange_rms_m)):.4f} mm",
     ]
-    result = solve_many(robot, split, ["lm-base"], seed=args.seed,
-                        budget=inputs.calibration.budget)["lm-base"]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
     lines += [
@@ -178,20 +137,11 @@ def run(args: argparse.Namespace) -> int:
     ]
     print("\n".join(lines))
     if args.map:
-        _write_map(args.map, result.model, result.solver.x, uncertainty.covariance,
-                   f"{robot.name}: predicted flange error after lm-base, {len(data)} poses "
-                   "(q1 = q4 = q5 = q6 = 0)")
+        accuracy_map(args.map, *flange_error_map(result.model, result.solver.x,
+                                                 uncertainty.covariance),
+                     f"{robot.name}: predicted flange error after lm-base, {len(data)} poses "
+                     "(q1 = q4 = q5 = q6 = 0)")
         print(f"map: {args.map}")
     if args.json:
-        write_json(args.json, {
-            "poses": len(data),
-            "nominal": {
-                **identifiability_to_dict(nominal, "nominal"),
-                "observability": indices._asdict(),
-                "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
-                                                 RESULT_MM_DECIMALS)[0],
-                "sigma_assumed": args.sigma,
-            },
-            "calibration": result_to_dict(result, truth=truth),
-        })
+        write_json(args.json, assessment_to_dict(assessment, args.sigma, truth))
     return 0

@@ -1,7 +1,7 @@
 """`twin plan`: a D-optimal pose plan for a cable calibration, and where to put the port.
 
-Candidates come from the MuJoCo twin's feasibility sampler (imported lazily in `run`), unless
-``--joint-limits-only``: the design itself (:mod:`twin.design`) is pure numpy. ``--errors``
+Candidates come from the MuJoCo twin's feasibility sampler, unless ``--joint-limits-only``
+(:mod:`twin.planning`); the design itself (:mod:`twin.design`) is pure numpy. ``--errors``
 plans for the error groups the calibration will fit; with backlash, each candidate is taken as
 approached from the one before it (random candidates: random sides) and the plan is scored for
 the sides of visiting it in order, as `twin capture` does.
@@ -10,51 +10,50 @@ the sides of visiting it in order, as `twin capture` does.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration import WORKSPACE_POSES, make_model
 from twin.cli.arguments import (
+    add_cable_tension,
+    add_error_groups,
+    add_output,
     add_robot_flags,
-    error_groups,
+    add_seed,
     integer,
-    number,
     robot_from_flags,
-    seed,
     sigma_mm,
 )
 from twin.dataset import MAX_POSES
-from twin.design import DesignScore, choose_port, plan_stations, score_poses
+from twin.design import DesignScore
 from twin.errors import InputError
-from twin.io.atomic import write_atomic
 from twin.io.capture_file import parse_named_port
-from twin.io.measurements import PORT_COLUMN, joint_columns
-from twin.io.paths import OutputFile
+from twin.io.pose_tables import write_plan
 from twin.model import Model
-from twin.rig import MAX_TENSION_N, Rig
-from twin.robot import RobotModel, default_robot
-from twin.synthetic import random_poses
-from twin.units import FILE_DEG_DECIMALS, m_to_mm, mm_to_m, rad_to_deg, rounded
+from twin.planning import PortPlan, StationsPlan, plan_for_ports, plan_for_stations
+from twin.rig import Rig
+from twin.robot import RobotModel
+from twin.units import m_to_mm, mm_to_m
 from twin.unknowns import ERRORS
 
 DEFAULT_CANDIDATES = 2000
 """Candidate poses drawn within the joint limits."""
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "plan",
-        help="choose the poses (and the port) that measure the D-H errors best",
-        description="Pick N poses among random candidates the rig can measure that "
-        "maximise det(JᵀJ) of the base parameters at the nominal geometry (D-optimal: greedy, "
-        "then exchanges), write them as a plan CSV (q1..qN in degrees) and compare the plan "
-        "with N random poses. Given several --port, plan for each and keep the port whose "
-        "plan predicts the smallest flange error over the workspace.",
-    )
+NAME = "plan"
+HELP = "choose the poses (and the port) that measure the D-H errors best"
+DESCRIPTION = (
+    "Pick N poses among random candidates the rig can measure that "
+    "maximise det(JᵀJ) of the base parameters at the nominal geometry (D-optimal: greedy, "
+    "then exchanges), write them as a plan CSV (q1..qN in degrees) and compare the plan "
+    "with N random poses. Given several --port, plan for each and keep the port whose "
+    "plan predicts the smallest flange error over the workspace."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     add_robot_flags(parser)
     parser.add_argument("--port", action="append", required=True, metavar="[NAME=]X,Y,Z",
                         help="encoder port in mm, robot base frame; repeat X,Y,Z to choose "
@@ -65,27 +64,23 @@ def add_parser(subparsers: Any) -> None:
                         help="poses to plan")
     parser.add_argument("--candidates", type=integer(1, MAX_POSES), default=DEFAULT_CANDIDATES,
                         metavar="M", help=f"random candidate poses (default {DEFAULT_CANDIDATES})")
-    parser.add_argument("--seed", type=seed, default=0, help="seed of every random draw")
+    add_seed(parser, "seed of every random draw", default=0)
     parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
                         help="length noise 1σ in mm for the predicted accuracy (default 0.01)")
     parser.add_argument("--estimate-port", action="store_true",
                         help="plan for a calibration that also identifies the port")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="plan for a calibration that also identifies a length offset")
-    parser.add_argument("--errors", type=error_groups(auto=False), default=("dh",),
-                        metavar="GROUPS", help="the robot's error groups the calibration will "
-                        "fit, comma-separated: " + ", ".join(ERRORS) + " (default: dh)")
-    parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), default=0.0,
-                        metavar="N", help="the cable's pull, N, which loads the joints for the "
-                        "compliance group (default 0: gravity alone)")
+    add_error_groups(parser, "the robot's error groups the calibration will fit, "
+                     "comma-separated: " + ", ".join(ERRORS) + " (default: dh)", default=("dh",))
+    add_cable_tension(parser, "the cable's pull, N, which loads the joints for the compliance "
+                      "group (default 0: gravity alone)", default=0.0)
     parser.add_argument("--joint-limits-only", dest="feasible", action="store_false",
                         help="draw candidate (and random) poses within the joint limits only; "
                         "by default they are poses the rig can measure: flange above the "
                         "floor, no collision, cable in range and clear of the links (the MuJoCo "
                         "twin's default constraints, per port)")
-    parser.add_argument("--out", type=OutputFile, required=True, metavar="plan.csv",
-                        help="where to write the plan")
-    parser.set_defaults(func=run)
+    add_output(parser, "plan.csv", "where to write the plan")
 
 
 def _score_row(label: str, score: DesignScore) -> str:
@@ -94,67 +89,57 @@ def _score_row(label: str, score: DesignScore) -> str:
             f"{float(m_to_mm(score.flange_rms_m)):>14.4f}")
 
 
-def _feasible_sampler(
-    robot: RobotModel, rng: np.random.Generator
-) -> Callable[[NDArray[np.float64], int], NDArray[np.float64]]:
-    """``draw(port_m, count)``: poses the MuJoCo twin with that port can measure."""
-    from twin.sim.poses import PoseConstraints, sample_poses
-    from twin.sim.twin import Twin
-
-    constraints = PoseConstraints()
-
-    def draw(port_m: NDArray[np.float64], count: int) -> NDArray[np.float64]:
-        try:
-            return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
-        except InputError as exc:
-            port = ",".join(f"{v:g}" for v in m_to_mm(port_m))
-            raise InputError(exc.found, exc.expected + " (or --joint-limits-only)",
-                             source=f"--port {port}") from None
-
-    return draw
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    robot = robot_from_flags(args) or default_robot()
+    robot = robot_from_flags(args)
     parsed = [parse_named_port(value, "--port", "") for value in args.port]
     names = [name for name, _ in parsed if name is not None]
+    sigma_m = float(mm_to_m(args.sigma))
     if names:
         if len(names) != len(parsed) or len(set(names)) != len(names):
             raise InputError("named and unnamed ports, or a name twice", "NAME=X,Y,Z for every "
                              "station (planned together), or X,Y,Z candidates (one is chosen)",
                              source="--port")
-        return _run_stations(args, robot, Rig(np.stack([port for _, port in parsed]),
-                                              tuple(names), tension_n=args.cable_tension))
+        rig = Rig(np.stack([port for _, port in parsed]), tuple(names),
+                  tension_n=args.cable_tension)
+        model = _model(args, robot, rig)
+        _check_poses(args, model, len(rig.ports_m), " per station")
+        stations = plan_for_stations(model, rig, args.poses, args.candidates, sigma_m,
+                                     seed=args.seed, feasible=args.feasible)
+        write_plan(args.out, stations.q_rad, rig.port_names, stations.port)
+        print(_stations_report(args, robot, model, rig, stations))
+        return 0
     ports_m = np.stack([port for _, port in parsed])
 
     def model_at(port_m: NDArray[np.float64]) -> Model:
-        return make_model(robot, Rig.cable(port_m, tension_n=args.cable_tension),
-                          errors=args.errors, estimate_port=args.estimate_port,
-                          estimate_offset=args.estimate_offset)
+        return _model(args, robot, Rig.cable(port_m, tension_n=args.cable_tension))
 
     model = model_at(ports_m[0])
-    if not model.n_params <= args.poses <= args.candidates:
-        raise InputError(f"{args.poses} poses from {args.candidates} candidates",
+    _check_poses(args, model, 1, "")
+    plan = plan_for_ports(model_at, ports_m, args.poses, args.candidates, sigma_m,
+                          seed=args.seed, feasible=args.feasible)
+    write_plan(args.out, plan.q_rad)
+    print(_ports_report(args, robot, model, ports_m, plan))
+    return 0
+
+
+def _model(args: argparse.Namespace, robot: RobotModel, rig: Rig) -> Model:
+    """The model the calibration will fit, as the flags say."""
+    return make_model(robot, rig, errors=args.errors, estimate_port=args.estimate_port,
+                      estimate_offset=args.estimate_offset)
+
+
+def _check_poses(args: argparse.Namespace, model: Model, stations: int, per: str) -> None:
+    """At least as many poses as unknowns, and no more than the candidates."""
+    if not model.n_params <= args.poses <= args.candidates * stations:
+        raise InputError(f"{args.poses} poses from {args.candidates} candidates{per}",
                          f"at least {model.n_params} poses (the unknowns) and no more than "
                          "the candidates", source="--poses")
-    rng = np.random.default_rng(args.seed)
-    draw = _feasible_sampler(robot, rng) if args.feasible else (
-        lambda port_m, count: random_poses(robot, count, rng))
-    q_workspace = random_poses(robot, WORKSPACE_POSES, rng)
-    candidates = np.stack([draw(port, args.candidates) for port in ports_m])
-    sigma_m = float(mm_to_m(args.sigma))
-    choice = choose_port(model, ports_m, candidates, args.poses, sigma_m, q_workspace)
-    port_m = ports_m[choice.best]
-    plan = choice.plans[choice.best]
-    q_random = draw(port_m, args.poses)
-    at_port = model_at(port_m)
-    x0 = np.zeros(model.n_params)
-    planned = score_poses(at_port, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace)
-    drawn = score_poses(at_port, x0, q_random, plan.base_mask, sigma_m, q_workspace)
-    rows = [",".join(joint_columns(robot.n_joints))]
-    rows += [",".join(map(repr, rounded(q, FILE_DEG_DECIMALS))) for q in rad_to_deg(plan.q_rad)]
-    write_atomic(args.out, "\n".join(rows) + "\n")
+
+
+def _ports_report(args: argparse.Namespace, robot: RobotModel, model: Model,
+                  ports_m: NDArray[np.float64], plan: PortPlan) -> str:
+    choice, chosen = plan.choice, plan.choice.plans[plan.choice.best]
     lines = []
     if len(ports_m) > 1:
         lines.append("port candidates [mm]        predicted flange RMS [mm]")
@@ -162,69 +147,40 @@ def run(args: argparse.Namespace) -> int:
             text = ", ".join(f"{v:g}" for v in m_to_mm(port))
             lines.append(f"  ({text}){'':<{max(1, 24 - len(text))}}{float(m_to_mm(rms)):.4f}"
                          + ("   <- chosen" if k == choice.best else ""))
-    port_text = ", ".join(f"{v:g}" for v in m_to_mm(port_m))
+    port_text = ", ".join(f"{v:g}" for v in m_to_mm(plan.port_m))
     lines += [
         f"{robot.name}: {args.poses} D-optimal poses of {args.candidates} "
         f"{'feasible ' if args.feasible else ''}candidates "
-        f"({plan.selection.exchanges} exchanges), port ({port_text}) mm, "
-        f"{plan.base_mask.sum()} base parameters of {model.n_params} unknowns",
-        "  poses           O1         O3         O4  condition  flange RMS [mm]",
-        _score_row("planned", planned),
-        _score_row("random", drawn),
+        f"({chosen.selection.exchanges} exchanges), port ({port_text}) mm, "
+        f"{chosen.base_mask.sum()} base parameters of {model.n_params} unknowns",
+        *_score_lines(plan.planned, plan.random),
         f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {args.sigma:g} mm "
         f"over {WORKSPACE_POSES} workspace poses; random: {args.poses} poses drawn with the "
         "same seed and constraints)",
         f"plan: {args.out}",
     ]
-    print("\n".join(lines))
-    return 0
+    return "\n".join(lines)
 
 
-def _run_stations(args: argparse.Namespace, robot: RobotModel, rig: Rig) -> int:
-    """Plan poses and stations together for an encoder moved between named ports."""
-    model = make_model(robot, rig, errors=args.errors, estimate_port=args.estimate_port,
-                       estimate_offset=args.estimate_offset)
-    if not model.n_params <= args.poses <= args.candidates * len(rig.ports_m):
-        raise InputError(f"{args.poses} poses from {args.candidates} candidates per station",
-                         f"at least {model.n_params} poses (the unknowns) and no more than "
-                         "the candidates", source="--poses")
-    rng = np.random.default_rng(args.seed)
-    draw = _feasible_sampler(robot, rng) if args.feasible else (
-        lambda port_m, count: random_poses(robot, count, rng))
-    q_workspace = random_poses(robot, WORKSPACE_POSES, rng)
-    candidates = np.stack([draw(port, args.candidates) for port in rig.ports_m])
-    sigma_m = float(mm_to_m(args.sigma))
-    x0 = np.zeros(model.n_params)
-    plan = plan_stations(model, x0, candidates, args.poses)
-    share, extra = divmod(args.poses, len(rig.ports_m))
-    counts = [share + (k < extra) for k in range(len(rig.ports_m))]
-    q_random = np.concatenate([draw(port, count) for port, count
-                               in zip(rig.ports_m, counts, strict=True)])
-    port_random = np.repeat(np.arange(len(rig.ports_m)), counts)
-    planned = score_poses(model, x0, plan.q_rad, plan.base_mask, sigma_m, q_workspace,
-                          plan.port)
-    drawn = score_poses(model, x0, q_random, plan.base_mask, sigma_m, q_workspace,
-                        port_random)
-    rows = [",".join((*joint_columns(robot.n_joints), PORT_COLUMN))]
-    rows += [",".join([*map(repr, rounded(q, FILE_DEG_DECIMALS)), rig.port_names[j]])
-             for q, j in zip(rad_to_deg(plan.q_rad), plan.port, strict=True)]
-    write_atomic(args.out, "\n".join(rows) + "\n")
+def _stations_report(args: argparse.Namespace, robot: RobotModel, model: Model, rig: Rig,
+                     plan: StationsPlan) -> str:
     used = np.bincount(plan.port, minlength=len(rig.ports_m))
-    lines = [
+    return "\n".join([
         f"{robot.name}: {args.poses} D-optimal (pose, station) pairs of "
         f"{args.candidates} {'feasible ' if args.feasible else ''}candidates per station "
-        f"({plan.selection.exchanges} exchanges), {plan.base_mask.sum()} base parameters of "
+        f"({plan.exchanges} exchanges), {plan.base_parameters} base parameters of "
         f"{model.n_params} unknowns",
         "  stations: " + ", ".join(f"{name} {int(count)} poses" for name, count
                                    in zip(rig.port_names, used, strict=True)),
-        "  poses           O1         O3         O4  condition  flange RMS [mm]",
-        _score_row("planned", planned),
-        _score_row("random", drawn),
+        *_score_lines(plan.planned, plan.random),
         f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {args.sigma:g} mm "
         f"over {WORKSPACE_POSES} workspace poses, modulo what the data cannot see; random: "
         f"{args.poses} poses shared evenly between the stations, drawn with the same seed and "
         "constraints)",
         f"plan: {args.out} (column port: the station of each pose)",
-    ]
-    print("\n".join(lines))
-    return 0
+    ])
+
+
+def _score_lines(planned: DesignScore, drawn: DesignScore) -> list[str]:
+    return ["  poses           O1         O3         O4  condition  flange RMS [mm]",
+            _score_row("planned", planned), _score_row("random", drawn)]

@@ -4,44 +4,41 @@ at joint angles of one's choosing."""
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-from twin.cli.arguments import add_robot_flags, robot_from_flags
+from twin.cli.arguments import (
+    add_output,
+    add_result,
+    add_robot_flags,
+    robot_from_flags,
+)
 from twin.errors import InputError
-from twin.io.atomic import write_atomic
 from twin.io.capture_file import parse_port_mm
 from twin.io.identified import load_result
-from twin.io.measurements import approach_columns, joint_columns, load_poses
-from twin.io.paths import InputPath, OutputFile
-from twin.predict import Prediction, predict
-from twin.robot import default_robot
-from twin.units import FILE_DEG_DECIMALS, RESULT_MM_DECIMALS, m_to_mm, rad_to_deg, rounded
+from twin.io.measurements import joint_columns, load_poses
+from twin.io.paths import InputPath
+from twin.io.pose_tables import write_prediction
+from twin.predict import predict
 
-POSITION_COLUMNS = ("x", "y", "z")
-LENGTH_COLUMN = "length"
-TRACKER_COLUMNS = ("tracker_x", "tracker_y", "tracker_z")
+NAME = "predict"
+HELP = "predict the measured point (and cable length) with an identified model"
+DESCRIPTION = (
+    "For each row of joint angles (q1..q6 in degrees; approach1..approach6 "
+    "when the model has backlash), write where the identified model puts the measured "
+    "point — the rig's attachment point, the flange centre unless one is set — as x,y,z "
+    "in mm in the robot's base frame, with every identified group applied (D-H, "
+    "transmission error, backlash for the row's approach, compliance at the pose), and "
+    "the cable length in mm when --port is given or the result has one port, and "
+    "tracker_x,tracker_y,tracker_z in mm in the tracker frame when the result is of "
+    "tracker positions. Compare it with anything else: a tracker, another capture, the "
+    "twin's truth."
+)
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "predict",
-        help="predict the measured point (and cable length) with an identified model",
-        description="For each row of joint angles (q1..q6 in degrees; approach1..approach6 "
-        "when the model has backlash), write where the identified model puts the measured "
-        "point — the rig's attachment point, the flange centre unless one is set — as x,y,z "
-        "in mm in the robot's base frame, with every identified group applied (D-H, "
-        "transmission error, backlash for the row's approach, compliance at the pose), and "
-        "the cable length in mm when --port is given or the result has one port, and "
-        "tracker_x,tracker_y,tracker_z in mm in the tracker frame when the result is of "
-        "tracker positions. Compare it with anything else: a tracker, another capture, the "
-        "twin's truth.",
-    )
-    parser.add_argument("--identified", type=InputPath, required=True, metavar="RESULT.json",
-                        help="calibration result written by `twin calibrate --json`")
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_result(parser)
     parser.add_argument("--joints", type=InputPath, required=True, metavar="POSES.csv",
                         help="joint angles q1..qN in degrees (and approach1..approachN: +1 "
                         "or -1), one row per pose (- for standard input)")
@@ -51,14 +48,12 @@ def add_parser(subparsers: Any) -> None:
                         "the length column is the distance from it, the cable pulling "
                         "towards it (default: the result's port, with its identified "
                         "correction and offset, when it has one)")
-    parser.add_argument("--out", type=OutputFile, required=True, metavar="PRED.csv",
-                        help="where to write the predictions")
-    parser.set_defaults(func=run)
+    add_output(parser, "PRED.csv", "where to write the predictions")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    robot = robot_from_flags(args) or default_robot()
+    robot = robot_from_flags(args)
     identified = load_result(args.identified, robot, args.method)
     port_m = None if args.port is None else parse_port_mm(args.port, "--port", "")
     poses = load_poses(args.joints, robot, f"a pose CSV ({','.join(joint_columns(1))}.."
@@ -67,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         prediction = predict(identified, poses.q_rad, approach=poses.approach, port_m=port_m)
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=args.joints) from None
-    write_atomic(args.out, format_prediction(poses.q_rad, poses.approach, prediction))
+    write_prediction(args.out, poses.q_rad, poses.approach, prediction)
     model = identified.model
     estimated = model.has("attachment")
     point = "identified attachment point" if estimated else "attachment point" \
@@ -80,32 +75,3 @@ def run(args: argparse.Namespace) -> int:
           f"{identified.method} model ({groups})")
     print(f"wrote {args.out}")
     return 0
-
-
-def _value_columns(prediction: Prediction) -> tuple[str, ...]:
-    return (*POSITION_COLUMNS, *((LENGTH_COLUMN,) if prediction.length_m is not None else ()),
-            *(TRACKER_COLUMNS if prediction.tracker_m is not None else ()))
-
-
-def format_prediction(q_rad: NDArray[np.float64], approach: NDArray[np.int8] | None,
-                      prediction: Prediction) -> str:
-    """CSV text: the poses as given (q in degrees, approach), then x,y,z, length and
-    tracker_x,tracker_y,tracker_z (those the prediction has) in mm to 1e-6 mm."""
-    n = q_rad.shape[1]
-    header = [*joint_columns(n), *(approach_columns(n) if approach is not None else ()),
-              *_value_columns(prediction)]
-    columns: list[list[str]] = [[repr(v) for v in rounded(q, FILE_DEG_DECIMALS)]
-                                for q in rad_to_deg(q_rad)]
-    if approach is not None:
-        columns = [[*row, *(f"{int(v):+d}" for v in signs)]
-                   for row, signs in zip(columns, approach, strict=True)]
-    xyz = m_to_mm(prediction.position_m)
-    length = None if prediction.length_m is None else m_to_mm(prediction.length_m)
-    tracker = None if prediction.tracker_m is None else m_to_mm(prediction.tracker_m)
-    lines = [",".join(header)]
-    for i, row in enumerate(columns):
-        values = rounded(xyz[i], RESULT_MM_DECIMALS) + (
-            [] if length is None else rounded([length[i]], RESULT_MM_DECIMALS)) + (
-            [] if tracker is None else rounded(tracker[i], RESULT_MM_DECIMALS))
-        lines.append(",".join([*row, *map(repr, values)]))
-    return "\n".join(lines) + "\n"

@@ -3,37 +3,37 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
-from twin.cli.arguments import seed
-from twin.io.paths import InputPath, OutputFolder
+from twin.cli.arguments import (
+    add_output,
+    add_scenario,
+    add_seed,
+)
 from twin.viz import add_rerun_flags, record_simulation
 
+NAME = "simulate"
+HELP = "simulate a capture with the MuJoCo digital twin"
+DESCRIPTION = (
+    "Simulate a drawstring-encoder capture of a perturbed robot as described by "
+    "a scenario TOML, and write measurements.csv, robot.toml (nominal model), truth.json "
+    "and capture.toml to --out; `twin calibrate OUT/capture.toml` then needs nothing else."
+)
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "simulate",
-        help="simulate a capture with the MuJoCo digital twin",
-        description="Simulate a drawstring-encoder capture of a perturbed robot as described by "
-        "a scenario TOML, and write measurements.csv, robot.toml (nominal model), truth.json "
-        "and capture.toml to --out; `twin calibrate OUT/capture.toml` then needs nothing else.",
-    )
-    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml",
-                        help="scenario file")
-    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
-                        help="output folder")
-    parser.add_argument("--seed", type=seed, help="seed of every random draw (default: the "
-                        "scenario's)")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_scenario(parser)
+    add_output(parser, "DIR", "output folder", folder=True)
+    add_seed(parser, "seed of every random draw (default: the scenario's)")
     add_rerun_flags(parser)
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     import numpy as np
 
-    from twin.sim import load_scenario, simulate, write_simulation
+    from twin.scenario import load_scenario
+    from twin.sim import simulate, write_simulation
     from twin.units import m_to_mm
 
     scenario = load_scenario(args.scenario)

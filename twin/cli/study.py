@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from twin.cli.arguments import integer
+from twin.cli.arguments import (
+    add_output,
+    add_scenario,
+    integer,
+)
 from twin.errors import InputError
-from twin.io.paths import InputPath, OutputFolder
 from twin.solvers import solver_choices
 from twin.stopping import PROTOCOLS
 from twin.study.executors.cluster import reach_scheduler
@@ -30,9 +33,9 @@ def add_study_arguments(parser: argparse.ArgumentParser,
                         ) -> None:
     """The scenario, the study folder, trials, methods, the stopping protocol and where trials
     run (also `twin check`)."""
-    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml", help=scenario_help)
-    parser.add_argument("--out", type=OutputFolder, required=True, metavar="DIR",
-                        help="study folder (created; resumed if it holds this study)")
+    add_scenario(parser, scenario_help)
+    add_output(parser, "DIR", "study folder (created; resumed if it holds this study)",
+               folder=True)
     parser.add_argument("--trials", type=integer(1, MAX_TRIALS), metavar="N",
                         help="trials per case (default: [study] trials, else 10)")
     parser.add_argument("--methods", metavar="M1,M2,…|all",
@@ -74,26 +77,27 @@ def executor_from_args(args: argparse.Namespace) -> Executor:
     return LocalProcesses()
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "study",
-        help="Monte-Carlo study of a scenario: every method on the same seeded trials",
-        description="Simulate N seeded trials of SCENARIO (perturbation, poses, noise), run every "
-        "method on each trial's same data and split, append the results to DIR/results.csv as "
-        "trials finish, then write DIR/summary.md, DIR/summary.json (the paper's Tables 6 and 7 "
-        "and the errors against the truth) and PNG figures. Running again with the same DIR "
-        "resumes. See docs/studies.md.",
-    )
+NAME = "study"
+HELP = "Monte-Carlo study of a scenario: every method on the same seeded trials"
+DESCRIPTION = (
+    "Simulate N seeded trials of SCENARIO (perturbation, poses, noise), run every "
+    "method on each trial's same data and split, append the results to DIR/results.csv as "
+    "trials finish, then write DIR/summary.md, DIR/summary.json (the paper's Tables 6 and 7 "
+    "and the errors against the truth) and PNG figures. Running again with the same DIR "
+    "resumes. See docs/studies.md."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
     add_study_arguments(parser)
     add_rerun_flags(parser)
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.study.definition import load_study
     from twin.study.markdown import summary_markdown, trial_markdown
-    from twin.study.plan import load_study
     from twin.study.runner import run_study
     from twin.study.store import TrialOutcome
 

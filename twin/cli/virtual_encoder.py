@@ -4,32 +4,34 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
-from twin.cli.arguments import integer, seed
+from twin.cli.arguments import (
+    add_scenario,
+    add_seed,
+    integer,
+)
 from twin.hardware.encoders.url import PROTOCOLS
-from twin.io.paths import InputPath
 
 URL_QUERY = {"ascii": "protocol=ascii", "modbus": "protocol=modbus&scale=0.001"}
 """What the driver needs besides the path: the Modbus device counts µm in registers 0–1."""
 
 
-def add_parser(subparsers: Any) -> None:
-    """Register the subcommand."""
-    parser = subparsers.add_parser(
-        "virtual-encoder",
-        help="serve a simulated encoder on a pseudo-terminal",
-        description="Open a pseudo-terminal and answer on it as the real encoder would, with "
-        "the twin's cable length at the pose the simulated robot was last sent to (see "
-        "`twin capture --robot-source sim`). Prints the device path as its first line and a "
-        "serial URL for `twin capture --encoder` as its second, then serves until stopped.",
-    )
-    parser.add_argument("scenario", type=InputPath, metavar="SCENARIO.toml",
-                        help="scenario file")
+NAME = "virtual-encoder"
+HELP = "serve a simulated encoder on a pseudo-terminal"
+DESCRIPTION = (
+    "Open a pseudo-terminal and answer on it as the real encoder would, with "
+    "the twin's cable length at the pose the simulated robot was last sent to (see "
+    "`twin capture --robot-source sim`). Prints the device path as its first line and a "
+    "serial URL for `twin capture --encoder` as its second, then serves until stopped."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The subcommand's arguments."""
+    add_scenario(parser)
     parser.add_argument("--protocol", choices=PROTOCOLS, default="ascii",
                         help="ASCII line protocol or Modbus RTU (default: ascii)")
-    parser.add_argument("--seed", type=seed, help="seed of the truth and of the noise "
-                        "(default: the scenario's)")
+    add_seed(parser, "seed of the truth and of the noise (default: the scenario's)")
     parser.add_argument("--pose-file", type=Path, metavar="FILE",
                         help="where the simulated robot publishes its pose (default: a file in "
                         "the temporary folder, the same as twin capture's)")
@@ -37,7 +39,6 @@ def add_parser(subparsers: Any) -> None:
                         help="Modbus slave id (default: 1)")
     parser.add_argument("--garbage-every", type=integer(0, 1_000_000), default=0, metavar="N",
                         help="corrupt every N-th answer, to test fault handling (default: never)")
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:

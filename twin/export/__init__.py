@@ -1,6 +1,7 @@
 """Export a robot model (typically the identified one) to the formats other tools read.
 
-Each format is a module here with ``export(robot) -> str``; a format's heavy
+Each format is a module here named after its ``--format`` value, with ``export(robot) -> str``
+(so ``export/urdf.py`` writes URDFs, :mod:`twin.io.urdf_reader` reads them); a format's heavy
 dependency (MuJoCo) is imported only when that format is asked for.
 
 - ``dh``: the `models/` TOML format (:func:`twin.robot.robot_to_toml`), mm and degrees, in the

@@ -1,9 +1,9 @@
 """URDF for ROS, MoveIt and Pinocchio, with the robot's own names.
 
-- **A robot read from a URDF** (:mod:`twin.urdf`): the source document written back with the
-  calibrated joint origins and nothing else changed — every link, joint, mesh, inertial, limit,
-  comment and name (``tool0``, ``flange``, the base link…) is kept, so robot_state_publisher,
-  MoveIt configurations and drivers keep working with it.
+- **A robot read from a URDF** (:mod:`twin.io.urdf_reader`): the source document written back
+  with the calibrated joint origins and nothing else changed — every link, joint, mesh,
+  inertial, limit, comment and name (``tool0``, ``flange``, the base link…) is kept, so
+  robot_state_publisher, MoveIt configurations and drivers keep working with it.
 - **A robot from a model TOML file**: a URDF with the ROS-Industrial names — ``base_link``,
   ``joint_1``…``joint_n`` (revolute, about z), ``link_1``…``link_n``, and the flange frame as
   ``tool0`` on a fixed joint ``link_n-tool0`` — and the file's limits.
@@ -34,14 +34,12 @@ import xml.etree.ElementTree as ET
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
+from twin.io.urdf_reader import REVOLUTE, axis_alignment, find_chain
 from twin.kinematics import fixed_transforms, rigid_transform, xyz_rpy
 from twin.parametrisation import joint_frames
 from twin.robot import RobotModel
-from twin.urdf import REVOLUTE, axis_alignment, find_chain
-
-Array = NDArray[np.float64]
 
 SCREW_TOLERANCE = 1e-12
 """How far (m, rad) the flange may move other than about and along the last axis when the

@@ -27,18 +27,21 @@ import fcntl
 import math
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, TwinError
+from twin.hardware.encoders import EncoderConfig, open_encoder
 from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
 from twin.hardware.encoders.settle import Settled, SettleRule, settle
 from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
+from twin.io.capture_file import write_capture
 from twin.io.journal import Journal
 from twin.io.measurements import (
     COLUMNS,
@@ -50,7 +53,8 @@ from twin.io.measurements import (
 )
 from twin.io.paths import os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot
-from twin.robot import robot_files
+from twin.io.truth import TRUTH_FILE, write_truth
+from twin.robot import RobotModel, robot_files, robot_to_toml
 from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
@@ -268,6 +272,58 @@ def capture(
         report(f"interrupted at pose {pose}/{n_poses}. {_saved(done, n_poses)}")
         raise
     return len(todo)
+
+
+def capture_folder(
+    folder: Path,
+    plan_path: Path,
+    plan_q_rad: NDArray[np.float64],
+    robot: RobotModel,
+    port_m: NDArray[np.float64],
+    config: EncoderConfig,
+    source: RobotSource,
+    rule: SettleRule,
+    *,
+    truth: Mapping[str, Any] | None = None,
+    reconnect_s: float | None = 5.0,
+    report: Callable[[str], None] = print,
+) -> int:
+    """Measure a plan into a capture folder, resuming what is there: check the folder, lock it,
+    copy the plan and write the robot, the truth (when the virtual encoder serves a scenario)
+    and ``capture.toml``, open the encoder, then :func:`capture` every pose not yet measured.
+
+    Args:
+        folder: The capture folder (created).
+        plan_path: The plan CSV, copied into the folder.
+        plan_q_rad: Its poses, shape (N, 6), rad.
+        robot: The nominal robot (a 6-joint model file).
+        port_m: The encoder port, base frame, shape (3,), m.
+        config: How to talk to the encoder.
+        source: Where the joint angles come from.
+        rule: When a reading counts as settled.
+        truth: The twin's truth, written as truth.json, or None.
+        reconnect_s: As in :func:`capture`.
+        report: Receives progress and fault lines.
+
+    Returns:
+        The number of poses measured by this call.
+
+    Raises:
+        InputError: if the folder holds another plan or robot, or another capture runs in it.
+        CaptureError: as :func:`capture`.
+    """
+    robot_text = robot_to_toml(robot)
+    check_folder(folder, plan_path, plan_q_rad, robot_text)
+    with locked(folder), open_encoder(config) as encoder:
+        prepare(folder, plan_path, plan_q_rad, robot_text)
+        if truth is not None:
+            write_truth(folder / TRUTH_FILE, truth)
+        write_capture(folder / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,
+                      measurements=MEASUREMENTS_NAME,
+                      truth=TRUTH_FILE if truth is not None else None,
+                      encoder={"url": config.to_url()})
+        return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,
+                       reconnect_s=reconnect_s, report=report)
 
 
 def _saved(done: set[int], n_poses: int) -> str:

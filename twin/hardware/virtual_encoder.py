@@ -110,7 +110,9 @@ def scenario_instrument(scenario_path: str | Path, pose_file: str | Path,
     scenario and seed, so ``twin capture --robot-source sim`` writes the matching nominal robot,
     told port and truth.
     """
-    from twin.sim import Twin, approach_directions, load_scenario, simulate
+    from twin.dataset import approach_directions
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
 
     scenario = load_scenario(scenario_path)
     sim = simulate(scenario, seed)

@@ -46,6 +46,7 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
+from twin.io.table import Table
 from twin.loss import LOSSES
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import MAX_TENSION_N, Distance, Rig
@@ -116,53 +117,33 @@ class CalibrationSettings:
         return Budget.named(self.stop, self.max_iterations)
 
 
-def _parse_calibration(table: object, source: Path) -> CalibrationSettings:
-    if not isinstance(table, dict):
-        raise InputError(f"{table!r}", "a table", source=source, where="calibration")
-    known = [field.name for field in fields(CalibrationSettings)]
-    for key, value in table.items():
-        where = f"calibration.{key}"
-        if key not in known:
-            raise InputError(f"unknown key {key!r}", "only " + ", ".join(known), source=source,
-                             where="calibration")
-        if key == "train_fraction":
-            if isinstance(value, bool) or not isinstance(value, int | float) \
-                    or not 0 < value < 1:
-                raise InputError(f"{value!r}", "a share in (0, 1)", source=source, where=where)
-        elif key == "stop":
-            if value not in PROTOCOLS:
-                raise InputError(f"{value!r}", "one of " + ", ".join(PROTOCOLS), source=source,
-                                 where=where)
-        elif key == "max_iterations":
-            if isinstance(value, bool) or not isinstance(value, int) \
-                    or not 1 <= value <= MAX_ITERATIONS:
-                raise InputError(f"{value!r}", f"an integer from 1 to {MAX_ITERATIONS}",
-                                 source=source, where=where)
-        elif key == "errors":
-            if not isinstance(value, list) or not value \
-                    or not all(isinstance(name, str) and name in ERRORS for name in value):
-                raise InputError(f"{value!r}", "a non-empty list of error groups among "
-                                 + ", ".join(ERRORS), source=source, where=where)
-        elif key == "cable_tension_n":
-            if isinstance(value, bool) or not isinstance(value, int | float) \
-                    or not 0 <= value <= MAX_TENSION_N:
-                raise InputError(f"{value!r}", f"a tension in N from 0 to {MAX_TENSION_N:g}",
-                                 source=source, where=where)
-        elif key == "loss":
-            if value not in LOSSES:
-                raise InputError(f"{value!r}", "one of " + ", ".join(LOSSES), source=source,
-                                 where=where)
-        elif key == "loss_scale_mm":
-            if isinstance(value, bool) or not isinstance(value, int | float) \
-                    or not (math.isfinite(value) and value > 0):
-                raise InputError(f"{value!r}", "a scale in mm > 0", source=source, where=where)
-        elif not isinstance(value, bool):
-            raise InputError(f"{value!r}", "true or false", source=source, where=where)
-    settings = dict(table)
-    if "errors" in settings:
-        settings["errors"] = tuple(name for name in ERRORS if name in settings["errors"])
-    if "cable_tension_n" in settings:
-        settings["cable_tension_n"] = float(settings["cable_tension_n"])
+def _parse_calibration(table: Table) -> CalibrationSettings:
+    """The ``[calibration]`` table (every key optional)."""
+    flags = ("estimate_port", "estimate_offset", "estimate_attachment", "estimate_base")
+    settings: dict[str, Any] = {key: table.boolean(key) for key in flags if table.has(key)}
+    if table.has("train_fraction"):
+        settings["train_fraction"] = table.number(
+            "train_fraction", minimum=0.0, maximum=1.0, strict_minimum=True, strict_maximum=True,
+            expected="a share in (0, 1)")
+    if table.has("stop"):
+        settings["stop"] = table.text("stop", choices=PROTOCOLS)
+    if table.has("max_iterations"):
+        settings["max_iterations"] = table.integer(
+            "max_iterations", minimum=1, maximum=MAX_ITERATIONS,
+            expected=f"an integer from 1 to {MAX_ITERATIONS}")
+    if table.has("errors"):
+        names = table.strings("errors", choices=ERRORS, expected="a non-empty list of error "
+                              "groups among " + ", ".join(ERRORS))
+        settings["errors"] = tuple(name for name in ERRORS if name in names)
+    if table.has("cable_tension_n"):
+        settings["cable_tension_n"] = table.number(
+            "cable_tension_n", minimum=0.0, maximum=MAX_TENSION_N,
+            expected=f"a tension in N from 0 to {MAX_TENSION_N:g}")
+    if table.has("loss"):
+        settings["loss"] = table.text("loss", choices=LOSSES)
+    if table.has("loss_scale_mm"):
+        settings["loss_scale_mm"] = table.number("loss_scale_mm", minimum=0.0,
+                                                 strict_minimum=True, expected="a scale in mm > 0")
     return CalibrationSettings(**settings)
 
 
@@ -231,35 +212,24 @@ def load_capture(path: str | Path) -> Capture:
         InputError: naming the key that is wrong.
     """
     path = Path(path)
-    document = read_toml(path, "a capture TOML file")
-    unknown = sorted(set(document) - set(_KEYS))
-    if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(_KEYS), source=path)
-    for key in ("robot", "measurements"):
-        if key not in document:
-            raise InputError(f"no {key!r}", f"a {key!r} key", source=path)
-    for key in ("robot", "measurements", "truth"):
-        if key in document and not isinstance(document[key], str):
-            raise InputError(f"{document[key]!r}", "a path string", source=path, where=key)
-    encoder = document.get("encoder", {})
-    if not isinstance(encoder, dict):
-        raise InputError(f"{encoder!r}", "a table", source=path, where="encoder")
+    document = Table(read_toml(path, "a capture TOML file"), path, allowed=_KEYS)
+    files = {key: document.text(key, expected="a path, relative to the capture file")
+             for key in ("robot", "measurements", "truth")
+             if key != "truth" or document.has(key)}
+    encoder = document.table("encoder")
     for key in ("sigma_mm", "resolution_mm"):
-        value = encoder.get(key, 0.0)
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not (math.isfinite(value) and value >= 0):
-            raise InputError(f"{value!r}", "a noise in mm >= 0", source=path,
-                             where=f"encoder.{key}")
+        encoder.number(key, 0.0, minimum=0.0, expected="a noise in mm >= 0")
     folder = path.parent
-    rig = _parse_rig(document, path)
+    rig = _parse_rig(document)
     return Capture(
         path=path,
-        robot=load_robot(folder / document["robot"]),
+        robot=load_robot(folder / files["robot"]),
         port_m=rig.ports_m[0] if len(rig.ports_m) else None,
-        measurements=folder / document["measurements"],
-        truth=folder / document["truth"] if "truth" in document else None,
-        calibration=_parse_calibration(document.get("calibration", {}), path),
-        encoder=encoder,
+        measurements=folder / files["measurements"],
+        truth=folder / files["truth"] if "truth" in files else None,
+        calibration=_parse_calibration(document.table(
+            "calibration", allowed=[field.name for field in fields(CalibrationSettings)])),
+        encoder=dict(encoder.values),
         rig=rig,
     )
 
@@ -291,33 +261,27 @@ def parse_named_port(value: str, source: str | Path, where: str
     return name.strip(), parse_port_mm(coordinates, source, where)
 
 
-def _parse_rig(document: dict[str, Any], path: Path) -> Rig:
+def _parse_rig(document: Table) -> Rig:
     """The rig of ``port_mm`` or ``[ports]``, and ``[rig]``."""
-    ports = document.get("ports", {})
-    if not isinstance(ports, dict):
-        raise InputError(f"{ports!r}", "a table of name = [x, y, z] in mm", source=path,
-                         where="ports")
-    if "port_mm" in document and ports:
-        raise InputError("both port_mm and [ports]", "one of them", source=path)
-    names = tuple(str(name) for name in ports)
-    values = [parse_port_mm(value, path, f"ports.{name}") for name, value in ports.items()]
-    if "port_mm" in document:
-        names, values = ("port",), [parse_port_mm(document["port_mm"], path, "port_mm")]
-    table = document.get("rig", {})
-    if not isinstance(table, dict):
-        raise InputError(f"{table!r}", "a table", source=path, where="rig")
-    unknown = sorted(set(table) - set(_RIG_KEYS))
-    if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(_RIG_KEYS),
-                         source=path, where="rig")
-    attachment = parse_port_mm(table.get("attachment_mm", [0.0, 0.0, 0.0]), path,
-                               "rig.attachment_mm")
-    distances = table.get("distances", [])
+    ports = document.table("ports", expected="a table of name = [x, y, z] in mm")
+    if document.has("port_mm") and ports.values:
+        raise document.error("port_mm", "both port_mm and [ports]", "one of them")
+    names = tuple(str(name) for name in ports.values)
+    values = [parse_port_mm(value, document.source or "", ports.where(name))
+              for name, value in ports.values.items()]
+    if document.has("port_mm"):
+        names = ("port",)
+        values = [parse_port_mm(document.values["port_mm"], document.source or "",
+                                document.where("port_mm"))]
+    table = document.table("rig", allowed=_RIG_KEYS)
+    attachment = parse_port_mm(table.values.get("attachment_mm", [0.0, 0.0, 0.0]),
+                               document.source or "", table.where("attachment_mm"))
+    distances = table.values.get("distances", [])
     if not isinstance(distances, list):
-        raise InputError(f"{distances!r}", 'a list of "A,B=MM"', source=path,
-                         where="rig.distances")
+        raise table.error("distances", f"{distances!r}", 'a list of "A,B=MM"')
     return Rig(np.reshape(values, (-1, 3)), names, attachment,
-               distances=tuple(parse_distance(value, path, f"rig.distances[{k}]")
+               distances=tuple(parse_distance(value, document.source or "",
+                                              table.where(f"distances[{k}]"))
                                for k, value in enumerate(distances)))
 
 

@@ -37,6 +37,7 @@ from twin.units import (
 
 if TYPE_CHECKING:
     from twin.accuracy import TruthErrors
+    from twin.assessment import Assessment
     from twin.diagnosis import Cause
 
 MM2_PER_M2 = float(m_to_mm(1.0)) ** 2
@@ -289,6 +290,24 @@ def choice_to_dict(choice: ErrorChoice) -> dict[str, Any]:
              "chosen": k == choice.chosen}
             for k, candidate in enumerate(choice.candidates)],
         "skipped": list(choice.skipped),
+    }
+
+
+def assessment_to_dict(assessment: Assessment, sigma_mm: float,
+                       truth: TruthErrors | None = None) -> dict[str, Any]:
+    """The JSON document of `twin identify`: the nominal identifiability and observability, the
+    Cramér–Rao bound at the noise assumed (``sigma_mm``), and the lm-base calibration."""
+    nominal, score = assessment.nominal, assessment.score
+    return {
+        "poses": len(assessment.data),
+        "nominal": {
+            **identifiability_to_dict(nominal, "nominal"),
+            "observability": score.observability._asdict(),
+            "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
+                                             RESULT_MM_DECIMALS)[0],
+            "sigma_assumed": sigma_mm,
+        },
+        "calibration": result_to_dict(assessment.result, truth=truth),
     }
 
 

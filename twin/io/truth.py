@@ -1,4 +1,6 @@
-"""Ground-truth files (`truth.json`) written by the twin beside a simulated capture.
+"""Ground-truth files (`truth.json`) written by the twin beside a simulated capture (`twin
+simulate`), or beside a capture measured with the virtual encoder (`twin capture
+--robot-source sim`): :func:`write_truth` writes both.
 
 The D-H error block ``"delta"`` is the same in a truth file and in a calibration result
 (`twin calibrate --json`); :func:`parse_delta` reads it for both.
@@ -6,7 +8,9 @@ The D-H error block ``"delta"`` is the same in a truth file and in a calibration
 
 from __future__ import annotations
 
+import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -14,8 +18,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.errors import InputError
+from twin.io.atomic import write_atomic
 from twin.io.paths import read_json
+from twin.io.table import Table
 from twin.units import DH_KEYS, dh_rows_from_display, mm_to_m
+
+TRUTH_FILE = "truth.json"
+"""The truth file's name beside a capture."""
+
+
+def write_truth(path: str | Path, document: Mapping[str, Any]) -> None:
+    """Write a truth document (mm, degrees, arc-seconds; :attr:`twin.sim.Simulation.truth`)
+    atomically as JSON."""
+    write_atomic(path, json.dumps(dict(document), indent=2) + "\n")
 
 
 def parse_delta(
@@ -85,12 +100,6 @@ def load_truth_attachment(path: str | Path) -> NDArray[np.float64]:
     Raises:
         InputError: if the file is not JSON or ``attachment_mm`` is not three numbers.
     """
-    document = read_json(path, "a truth JSON file")
-    value = document.get("attachment_mm", [0.0, 0.0, 0.0]) if isinstance(document, dict) \
-        else None
-    if not isinstance(value, list) or len(value) != 3 or not all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value):
-        raise InputError(f"{value!r}", "attachment_mm: three numbers in mm", source=path,
-                         where="attachment_mm")
-    return mm_to_m(value)
+    truth = Table(read_json(path, "a truth JSON file"), path)
+    return mm_to_m(truth.vector("attachment_mm", 3, default=[0.0, 0.0, 0.0],
+                                expected="three numbers in mm"))

@@ -1,17 +1,19 @@
-"""The MuJoCo digital twin: synthetic cable data from an independent physical model.
+"""The MuJoCo digital twin: synthetic measurements from an independent physical model.
 
 The calibration core fits ``‖P(D + X, q) − P_E‖`` to measured lengths; this package produces
 those lengths from a MuJoCo model of a perturbed robot (built with ``mujoco.MjSpec``), with a
 spatial tendon as the drawstring, optional joint servos of finite stiffness loaded by gravity
 and the cable's tension, joint-level errors (transmission error, backlash), the arm's
-repeatability and the encoder's noise, resolution, outliers and offset. Everything random is
-drawn from one generator seeded by the scenario or the caller.
+repeatability and the encoder's noise, resolution, outliers and offset, as a scenario
+(:mod:`twin.scenario`) describes them. Everything random is drawn from one generator seeded by
+the scenario or the caller.
 
 Public API (SI inside: m, rad)::
 
-    from twin.sim import load_scenario, simulate, write_simulation, Twin, build_spec
+    from twin.scenario import load_scenario
+    from twin.sim import simulate, write_simulation, Twin, build_spec
 
-    scenario = load_scenario("scenarios/paper_irb120.toml")  # Scenario; InputError if invalid
+    scenario = load_scenario("scenarios/paper_irb120.toml")
     sim = simulate(scenario, seed=None)      # Simulation; seed None -> scenario.seed
     sim.robot, sim.true_robot                # nominal and true RobotModel
     sim.delta                                # (4, n) true D-H errors, m and rad
@@ -28,39 +30,28 @@ Public API (SI inside: m, rad)::
     twin.at_rest(q_rad)                      # actual joints, lengths, flange positions
     spec = build_spec(robot, port_m=None)    # mujoco.MjSpec of any 6-joint D-H arm
 
-Importing this package imports MuJoCo; the calibration core never imports it.
+Importing this package imports MuJoCo; the calibration core and the scenario never import it.
 """
 
-from twin.dataset import approach_directions
 from twin.sim.builder import build_spec, model_xml
-from twin.sim.joint_errors import JointErrors
-from twin.sim.noise import NoiseModel
-from twin.sim.perturbation import Perturbation
-from twin.sim.physics import RIGID, Physics, static_equilibrium
-from twin.sim.poses import PoseConstraints, read_pose_plan, sample_poses
-from twin.sim.scenario import Scenario, load_scenario, parse_scenario
+from twin.sim.equilibrium import static_equilibrium
+from twin.sim.mujoco_twin import AtRest, Twin
+from twin.sim.poses import read_pose_plan, sample_poses, usable, violations
 from twin.sim.simulate import Simulation, simulate, write_simulation
-from twin.sim.twin import AtRest, Twin
+from twin.sim.touches import touch_poses
 
 __all__ = [
-    "RIGID",
     "AtRest",
-    "JointErrors",
-    "NoiseModel",
-    "Perturbation",
-    "Physics",
-    "PoseConstraints",
-    "Scenario",
     "Simulation",
     "Twin",
-    "approach_directions",
     "build_spec",
-    "load_scenario",
     "model_xml",
-    "parse_scenario",
     "read_pose_plan",
     "sample_poses",
     "simulate",
     "static_equilibrium",
+    "touch_poses",
+    "usable",
+    "violations",
     "write_simulation",
 ]

@@ -28,15 +28,14 @@ import xml.etree.ElementTree as ET
 
 import mujoco
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.arrays import Array
 from twin.kinematics import fixed_transforms, joint_placements
 from twin.robot import RobotModel
-from twin.sim.physics import RIGID, Physics
+from twin.scenario.physics import RIGID, Physics
 from twin.statics import GRAVITY_M_S2
 from twin.units import rad_to_deg
-
-Array = NDArray[np.float64]
 
 DEFAULT_RADIUS_M = 0.04
 """Capsule radius when the model file gives none, m."""

@@ -8,74 +8,55 @@ passing through a link (a MuJoCo ray cast).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.errors import InputError
 from twin.io.measurements import load_plan
-from twin.sim.twin import Twin
+from twin.scenario.constraints import PoseConstraints
+from twin.sim.mujoco_twin import Twin
 from twin.units import m_to_mm
-
-Array = NDArray[np.float64]
 
 MAX_DRAWS_PER_POSE = 500
 """Give up when this many candidates per wanted pose were not enough."""
 
 
-@dataclass(frozen=True)
-class PoseConstraints:
-    """What a measured pose must satisfy.
+def violations(constraints: PoseConstraints, twin: Twin, q_rad: Array
+               ) -> list[tuple[str, NDArray[np.bool_]]]:
+    """Each constraint's name and where it fails, each mask of shape (m,); the cable's only
+    when the twin has one."""
+    flange = twin.robot.flange_positions(q_rad)
+    inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
+    found = [
+        ("outside the joint limits", ~np.all(inside, axis=1)),
+        (f"flange below {m_to_mm(constraints.min_flange_height_m):g} mm",
+         flange[:, 2] < constraints.min_flange_height_m),
+        ("links in collision", twin.in_collision(q_rad)),
+    ]
+    if twin.port_m is None:
+        return found
+    transforms = twin.robot.flange_transforms(q_rad)
+    point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
+    length = np.linalg.norm(point - twin.port_m, axis=-1)
+    return [
+        *found[:2],
+        (f"cable length outside [{m_to_mm(constraints.cable_min_m):g}, "
+         f"{m_to_mm(constraints.cable_max_m):g}] mm",
+         (length < constraints.cable_min_m) | (length > constraints.cable_max_m)),
+        found[2],
+        ("cable through a link", twin.cable_blocked(q_rad, constraints.cable_clearance_m)),
+    ]
 
-    Attributes:
-        min_flange_height_m: Lowest flange centre above the floor (z = 0), m.
-        cable_min_m: Shortest cable the encoder reads, m.
-        cable_max_m: Longest cable the encoder reads, m.
-        cable_clearance_m: Gap the cable must keep from every link but the last, m.
-    """
 
-    min_flange_height_m: float = 0.05
-    cable_min_m: float = 0.05
-    cable_max_m: float = 1.5
-    cable_clearance_m: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not 0 <= self.cable_min_m < self.cable_max_m:
-            raise ValueError("cable range: expected 0 <= min < max")
-
-    def violations(self, twin: Twin, q_rad: Array) -> list[tuple[str, NDArray[np.bool_]]]:
-        """Each constraint's name and where it fails, each mask of shape (m,); the cable's only
-        when the twin has one."""
-        flange = twin.robot.flange_positions(q_rad)
-        inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
-        found = [
-            ("outside the joint limits", ~np.all(inside, axis=1)),
-            (f"flange below {m_to_mm(self.min_flange_height_m):g} mm",
-             flange[:, 2] < self.min_flange_height_m),
-            ("links in collision", twin.in_collision(q_rad)),
-        ]
-        if twin.port_m is None:
-            return found
-        transforms = twin.robot.flange_transforms(q_rad)
-        point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
-        length = np.linalg.norm(point - twin.port_m, axis=-1)
-        return [
-            *found[:2],
-            (f"cable length outside [{m_to_mm(self.cable_min_m):g}, "
-             f"{m_to_mm(self.cable_max_m):g}] mm",
-             (length < self.cable_min_m) | (length > self.cable_max_m)),
-            found[2],
-            ("cable through a link", twin.cable_blocked(q_rad, self.cable_clearance_m)),
-        ]
-
-    def usable(self, twin: Twin, q_rad: Array) -> NDArray[np.bool_]:
-        """Mask of the usable poses, shape (m,)."""
-        ok = np.ones(len(q_rad), dtype=bool)
-        for _, failed in self.violations(twin, q_rad):
-            ok &= ~failed
-        return ok
+def usable(constraints: PoseConstraints, twin: Twin, q_rad: Array) -> NDArray[np.bool_]:
+    """Mask of the usable poses, shape (m,)."""
+    ok = np.ones(len(q_rad), dtype=bool)
+    for _, failed in violations(constraints, twin, q_rad):
+        ok &= ~failed
+    return ok
 
 
 def sample_poses(
@@ -101,7 +82,7 @@ def sample_poses(
             )
         batch = rng.uniform(robot.lower_rad, robot.upper_rad, size=(2 * count, robot.n_joints))
         drawn += len(batch)
-        good = batch[constraints.usable(twin, batch)]
+        good = batch[usable(constraints, twin, batch)]
         accepted.append(good)
         found += len(good)
     return np.concatenate(accepted)[:count]
@@ -117,7 +98,7 @@ def read_pose_plan(path: str | Path, twin: Twin, constraints: PoseConstraints) -
         InputError: naming the line of the first pose outside the limits or the constraints.
     """
     q_rad, lines = load_plan(path, twin.robot)
-    for name, failed in constraints.violations(twin, q_rad):
+    for name, failed in violations(constraints, twin, q_rad):
         if np.any(failed):
             row = int(np.flatnonzero(failed)[0])
             raise InputError(f"a pose with {name}", "poses the rig can measure",

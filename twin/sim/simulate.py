@@ -19,32 +19,38 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.calibration import TRAIN_FRACTION, tracker_start, with_fixed_points
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.capture_file import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
-from twin.io.results import write_json
+from twin.io.truth import TRUTH_FILE, write_truth
 from twin.kinds import get_kind
 from twin.metrics import metrics
 from twin.model import Model
 from twin.rig import Rig
 from twin.rigid import angles
 from twin.robot import RobotModel, robot_files
-from twin.sim.joint_errors import JointErrors
-from twin.sim.physics import true_inertia
+from twin.scenario.description import Scenario
+from twin.scenario.instrument import tracker_readings
+from twin.scenario.joint_errors import JointErrors
+from twin.scenario.physics import true_inertia
+from twin.sim.mujoco_twin import AtRest, Twin
 from twin.sim.poses import read_pose_plan, sample_poses
-from twin.sim.rigs import touch_poses, tracker_readings
-from twin.sim.scenario import ARCSEC_PER_DEG, Scenario
-from twin.sim.twin import AtRest, Twin
-from twin.units import COMPLIANCE_UNIT, dh_rows_to_display, m_to_mm, rad_to_deg, to_display
-
-Array = NDArray[np.float64]
+from twin.sim.touches import touch_poses
+from twin.units import (
+    ARCSEC_PER_DEG,
+    COMPLIANCE_UNIT,
+    dh_rows_to_display,
+    m_to_mm,
+    rad_to_deg,
+    to_display,
+)
 
 MEASUREMENTS_FILE = "measurements.csv"
 ROBOT_FILE = "robot.toml"
-TRUTH_FILE = "truth.json"
 CAPTURE_FILE = "capture.toml"
 
 
@@ -154,6 +160,17 @@ class Simulation:
             "backlash": rad_to_deg(0.5 * self.joint_errors.backlash_rad).tolist(),
             "compliance": to_display(compliance, [COMPLIANCE_UNIT] * n)[0],
         }
+
+    @property
+    def capture_truth(self) -> dict[str, Any]:
+        """The truth a capture records when the virtual encoder serves this scenario and seed
+        (`twin capture --robot-source sim`): the table errors and the port, which do not depend
+        on the poses (the capture's are its plan's, not these)."""
+        assert self.port_m is not None and self.port_nominal_m is not None  # one cable port
+        return {"scenario": self.scenario.name, "seed": self.seed,
+                "delta": dh_rows_to_display(self.delta, self.robot.is_length),
+                "port": m_to_mm(self.port_m).tolist(),
+                "port_told": m_to_mm(self.port_nominal_m).tolist()}
 
     @property
     def truth(self) -> dict[str, Any]:
@@ -328,7 +345,7 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
     write_measurements(out / MEASUREMENTS_FILE, sim.measurements)
     for name, text in robot_files(sim.robot, Path(ROBOT_FILE).stem).items():
         write_atomic(out / name, text)
-    write_json(out / TRUTH_FILE, sim.truth)
+    write_truth(out / TRUTH_FILE, sim.truth)
     scenario = sim.scenario
     settings = CalibrationSettings(
         estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,

@@ -31,9 +31,9 @@ from twin.study.baseline import (
     paired_keys,
     require_methods,
 )
+from twin.study.definition import StudyPlan, load_study
 from twin.study.executors import Executor
 from twin.study.expect import Expectation, measure, parse_expect_table, read_expect_file
-from twin.study.plan import StudyPlan, load_study
 from twin.study.rows import TrialRow
 from twin.study.runner import run_trials, write_report
 from twin.study.statistics import SIGNIFICANCE

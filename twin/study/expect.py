@@ -26,7 +26,6 @@ expectation nobody can measure must not pass.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +34,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.errors import InputError, UnknownChoiceError
-from twin.io.measurements import read_text
+from twin.io.paths import read_toml
+from twin.io.table import Table
 from twin.solvers import get_solver
 from twin.study.rows import BOOLEAN_COLUMNS, NUMERIC_COLUMNS
 
@@ -197,16 +197,16 @@ def parse_expect_table(table: Any, methods: Sequence[str], source: str | Path
     Raises:
         InputError: naming the file, the method and the string that are wrong.
     """
+    expected = ('a table of method names to lists of expectations, e.g. '
+                'lm = ["flange_error_mm p95 <= 0.03"]')
     if not isinstance(table, Mapping) or not table:
-        raise InputError(f"{table!r}", 'a table of method names to lists of expectations, e.g. '
-                         'lm = ["flange_error_mm p95 <= 0.03"]', source=source, where="[expect]")
+        raise InputError(f"{table!r}", expected, source=source, where="[expect]")
+    expect = Table(table, source, "[expect]")
     pairs: list[tuple[str, Expectation]] = []
-    for key, texts in table.items():
-        where = f"[expect] {key}"
+    for key, texts in expect.values.items():
         if not isinstance(texts, list) or not texts:
-            raise InputError(f"{texts!r}", f"a non-empty list of {GRAMMAR}", source=source,
-                             where=where)
-        parsed = [parse_expectation(text, source, where) for text in texts]
+            raise expect.error(key, f"{texts!r}", f"a non-empty list of {GRAMMAR}")
+        parsed = [parse_expectation(text, source, expect.where(key)) for text in texts]
         names = methods if key.strip() == ALL_METHODS else tuple(dict.fromkeys(
             _method_name(name.strip(), methods, source) for name in key.split(",")))
         pairs += [(name, expectation) for name in names for expectation in parsed]
@@ -220,16 +220,9 @@ def read_expect_file(path: str | Path) -> dict[str, Any]:
         InputError: naming the file, if it is missing, not TOML, or holds anything else.
     """
     path = Path(path)
-    try:
-        document = tomllib.loads(read_text(path, "a TOML file with an [expect] table"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"invalid TOML ({exc})", "a TOML file with an [expect] table",
-                         source=path) from None
-    other = sorted(set(document) - {"expect"})
-    if other:
-        raise InputError(f"the key {other[0]!r}", "an [expect] table and nothing else",
-                         source=path)
-    if "expect" not in document:
+    document = Table(read_toml(path, "a TOML file with an [expect] table"), path,
+                     allowed=("expect",), kind="an [expect] table and nothing else")
+    if not document.has("expect"):
         raise InputError("no [expect] table", "an [expect] table", source=path)
-    table: dict[str, Any] = document["expect"]
+    table: dict[str, Any] = document.values["expect"]
     return table

@@ -2,7 +2,7 @@
 
 ::
 
-    from twin.study.plan import load_study
+    from twin.study.definition import load_study
     from twin.study.runner import run_study
     from twin.study.executors.local import LocalProcesses
 
@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from twin.io.atomic import write_atomic
+from twin.study.definition import StudyPlan
 from twin.study.executors import Executor, make_batches
 from twin.study.figures import write_figures
 from twin.study.markdown import summary_markdown
-from twin.study.plan import StudyPlan
 from twin.study.progress import Progress
 from twin.study.statistics import summarize
 from twin.study.store import StudyStore, TrialOutcome

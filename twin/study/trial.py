@@ -36,25 +36,23 @@ from dataclasses import replace
 from typing import Any, NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
 from twin.accuracy import truth_errors
+from twin.arrays import Array
 from twin.calibration import TRAIN_FRACTION, CalibrationResult, calibrate_many
 from twin.dataset import approach_directions
 from twin.identifiability import measurement_identifiability
 from twin.model import Model
 from twin.rigid import angles
-from twin.sim.scenario import Scenario
+from twin.scenario import Scenario
+from twin.sim.mujoco_twin import Twin
 from twin.sim.simulate import Simulation, simulate
-from twin.sim.twin import Twin
 from twin.study.rows import TrialRow
 from twin.study.store import TrialOutcome
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.units import m_to_mm, to_display
 from twin.unknowns import Stage
-
-Array = NDArray[np.float64]
 
 WORKSPACE_STREAM = 0x5EED
 """Second word of the workspace poses' seed sequence, apart from every trial's."""

@@ -64,7 +64,7 @@ def calibration_blueprint(methods: Sequence[str], has_truth: bool,
     Args:
         methods: The methods logged, in order.
         has_truth: Whether ``parameters/true`` and ``world/robot/true`` are logged.
-        keys: The parameter rows shown (:func:`twin.viz.calibration.bar_keys`).
+        keys: The parameter rows shown (:func:`twin.viz.calibration_log.bar_keys`).
     """
     scene = rrb.Vertical(
         _scene_view(),

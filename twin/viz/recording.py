@@ -21,7 +21,7 @@ from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.viz import entities
 from twin.viz.blueprint import scene_blueprint
-from twin.viz.calibration import CalibrationLog, log_calibration
+from twin.viz.calibration_log import CalibrationLog, log_calibration
 from twin.viz.options import RerunOptions
 from twin.viz.scene import log_scene, robot_color
 from twin.viz.sinks import open_sinks
@@ -74,7 +74,7 @@ class Recording:
         truth_delta: NDArray[np.float64] | None = None,
     ) -> CalibrationLog:
         """Log a calibration's setup now and return the log its methods are added to as they
-        finish (see :class:`twin.viz.calibration.CalibrationLog`)."""
+        finish (see :class:`twin.viz.calibration_log.CalibrationLog`)."""
         return CalibrationLog(Writer(self.stream), methods, robot, rig, measurements,
                               truth_delta)
 

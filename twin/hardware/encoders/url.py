@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -27,6 +28,7 @@ from urllib.parse import parse_qsl, quote, urlsplit
 
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.paths import read_toml
+from twin.io.table import Table
 from twin.units import LENGTH_FACTORS
 
 PROTOCOLS = ("ascii", "modbus")
@@ -137,38 +139,30 @@ class EncoderConfig:
 
 
 KEYS = tuple(f.name for f in fields(EncoderConfig))
-_TYPES: dict[str, type] = {
-    f.name: {"int": int, "float": float, "str": str}[str(f.type)] for f in fields(EncoderConfig)
-}
-
-
-def _typed(key: str, value: Any, source: str) -> Any:
-    """A raw URL or TOML value converted to the field's type, or an InputError."""
-    kind = _TYPES[key]
-    if kind is str:
-        if not isinstance(value, str):
-            raise InputError(f"{value!r}", "a string", source=source, where=key)
-        return value.upper() if key == "parity" else value.lower() if key in (
-            "protocol", "word_order", "type", "unit") else value
-    try:
-        if isinstance(value, bool):
-            raise ValueError
-        number = kind(value) if kind is float else int(str(value), 0)
-    except (TypeError, ValueError):
-        expected = "an integer" if kind is int else "a number"
-        raise InputError(f"{value!r}", expected, source=source, where=key) from None
-    return number
+TEXT_KEYS: dict[str, Callable[[str], str]] = {
+    "port": str, "protocol": str.lower, "parity": str.upper, "query": str, "pattern": str,
+    "word_order": str.lower, "type": str.lower, "unit": str.lower}
+"""The keys whose value is text, each with the case it is read in."""
+INTEGER_KEYS = ("baud", "bytesize", "slave", "register", "function")
+NUMBER_KEYS = {"stopbits": "1, 1.5 or 2", "timeout": f"a time in (0, {MAX_TIMEOUT_S:g}] s",
+               "scale": "a finite non-zero scale", "min": "a finite number",
+               "max": "a finite number"}
+"""The keys whose value is a number, each with what a non-number is told to be."""
 
 
 def config_from_mapping(values: dict[str, Any], source: str) -> EncoderConfig:
-    """Build a config from ``{key: value}`` as given in a URL query or a TOML file."""
-    unknown = sorted(set(values) - set(KEYS))
-    if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}", "only " + ", ".join(KEYS),
-                         source=source)
-    if "port" not in values:
-        raise InputError("no 'port'", "the serial device path", source=source)
-    typed = {key: _typed(key, value, source) for key, value in values.items()}
+    """Build a config from ``{key: value}`` as given in a URL query or a TOML file (numbers may
+    be written as text in either)."""
+    table = Table(values, source, allowed=KEYS, numbers_as_text=True)
+    table.required("port", "the serial device path")
+    typed: dict[str, Any] = {}
+    for key in table.values:
+        if key in TEXT_KEYS:
+            typed[key] = TEXT_KEYS[key](table.text(key))
+        elif key in INTEGER_KEYS:
+            typed[key] = table.integer(key)
+        else:
+            typed[key] = table.number(key, expected=NUMBER_KEYS[key])
     try:
         return EncoderConfig(**typed)
     except InputError as exc:

@@ -16,11 +16,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.kinematics import point_jacobian
 from twin.robot import RobotModel
 from twin.units import m_to_mm
-
-Array = NDArray[np.float64]
 
 
 class Readings(NamedTuple):

@@ -1,38 +1,24 @@
-"""Rigs beyond one cable from one port: what the twin measures with, and how.
+"""The instrument a scenario measures with, beyond one cable from one port (pure values).
 
 - **Stations**: one drawstring encoder moved between several ports; each station's poses are
   drawn for that station (its cable range and line of sight), its rows name it.
-- **Laser tracker**: the measured point (site ``point``) at rest, carried into the tracker's
-  frame by the true ``base_in_tracker`` and read with Gaussian noise of σ per axis.
+- **Laser tracker**: the measured point at rest, carried into the tracker's frame by the true
+  ``base_in_tracker`` and read with Gaussian noise of σ per axis (:func:`tracker_readings`).
 - **Fixed points**: a fixture with sockets (a ball bar) set down at several placements; for each
   socket the arm brings the ball (the measured point) into it from ``touches`` different
-  configurations — position-only inverse kinematics of the *true* robot, from random starts,
-  kept when within the limits, above the floor and free of collisions. The ball seats with an
-  error of σ per axis (the IK target is the socket plus that error); the recorded joint angles
-  are those the arm then stands at.
+  configurations, found on the twin (:mod:`twin.sim.touches`). The ball seats with an error of
+  σ per axis.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
-from twin.arrays import frozen_array
-from twin.compensation import solve_ik
+from twin.arrays import Array, frozen_array
 from twin.dataset import KINDS
-from twin.errors import InputError
-from twin.kinematics import Structure
 from twin.rig import Distance
-from twin.robot import RobotModel
-from twin.sim.poses import PoseConstraints
-from twin.sim.twin import Twin
-
-Array = NDArray[np.float64]
-
-IK_STARTS_PER_TOUCH = 40
-"""Random starts tried per wanted configuration before a socket counts as unreachable."""
 
 
 def _identity() -> Array:
@@ -124,51 +110,3 @@ def tracker_readings(points_m: Array, base_in_tracker: Array, sigma_m: Array,
     shape (m, 3), m."""
     seen = points_m @ base_in_tracker[:3, :3].T + base_in_tracker[:3, 3]
     return np.asarray(seen + rng.normal(0.0, 1.0, seen.shape) * sigma_m, dtype=np.float64)
-
-
-def touch_poses(robot: RobotModel, twin: Twin, points_m: Array, touches: int,
-                constraints: PoseConstraints, sigma_m: Array, rng: np.random.Generator
-                ) -> tuple[Array, NDArray[np.intp]]:
-    """Configurations of the true robot that bring its measured point into each fixed point.
-
-    Args:
-        robot: The true robot.
-        twin: Its twin (no cable), with the true measured point: checks floor and collisions.
-        points_m: The fixed points, base frame, shape (f, 3), m.
-        touches: Configurations per fixed point.
-        constraints: What a configuration must satisfy (the cable's part does not apply).
-        sigma_m: The seating error 1σ per axis, shape (3,), m.
-        rng: Draws the starts and the seating errors.
-
-    Returns:
-        ``(q_rad, point)``: joint angles (f · touches, n), rad, point after point, and each
-        row's fixed point.
-
-    Raises:
-        InputError: if a fixed point cannot be reached ``touches`` times.
-    """
-    tool = np.eye(4)
-    tool[:3, 3] = twin.attachment_m
-    structure = robot.structure
-    pointer = replace(robot, structure=Structure(structure.parametrisation, structure.base,
-                                                 structure.tool @ tool))
-    rows, index = [], []
-    for j, point in enumerate(points_m):
-        found: list[Array] = []
-        tried = 0
-        while len(found) < touches:
-            if tried >= IK_STARTS_PER_TOUCH * touches:
-                raise InputError(f"{len(found)} configurations reaching fixed point {j + 1} at "
-                                 f"{np.round(point * 1e3, 1).tolist()} mm",
-                                 f"{touches}: a placement the arm can reach")
-            batch = 2 * touches
-            tried += batch
-            seeds = rng.uniform(robot.lower_rad, robot.upper_rad, (batch, robot.n_joints))
-            targets = point + rng.normal(0.0, 1.0, (batch, 3)) * sigma_m
-            solved = solve_ik(pointer, targets, seeds)
-            good = solved.q_rad[solved.ok]
-            good = good[constraints.usable(twin, good)] if len(good) else good
-            found.extend(good[: touches - len(found)])
-        rows.append(np.stack(found))
-        index.append(np.full(touches, j, dtype=np.intp))
-    return np.concatenate(rows), np.concatenate(index)

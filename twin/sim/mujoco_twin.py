@@ -4,7 +4,7 @@
 joint errors move the joints off q, the servos sag under gravity and the cable's tension, and
 the tendon ``cable`` is read at rest. ``Twin.at_rest(q).point_m`` is where the measured point
 (site ``point``, or the flange) is then: what a laser tracker sees. A twin without a port has
-no cable. Noise is added elsewhere (:mod:`twin.sim.noise`).
+no cable. Noise is added elsewhere (:mod:`twin.scenario.noise`).
 
 A Twin owns mutable MuJoCo data: use one per thread.
 """
@@ -17,13 +17,13 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import approach_directions
 from twin.robot import RobotModel
+from twin.scenario.joint_errors import JointErrors
+from twin.scenario.physics import RIGID, Physics
 from twin.sim.builder import build_spec
-from twin.sim.joint_errors import JointErrors
-from twin.sim.physics import RIGID, Physics, static_equilibrium
-
-Array = NDArray[np.float64]
+from twin.sim.equilibrium import static_equilibrium
 
 _STATICS_OFF = (
     mujoco.mjtDisableBit.mjDSBL_CONTACT

@@ -27,7 +27,7 @@ from twin.units import dh_rows_to_display, m_to_mm
 from twin.unknowns import make_groups
 from twin.viz import entities
 from twin.viz.blueprint import calibration_blueprint
-from twin.viz.report import calibration_markdown
+from twin.viz.recording_report import calibration_markdown
 from twin.viz.scene import (
     NOMINAL_COLOR,
     TRUE_COLOR,

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from twin.rig import Rig
     from twin.robot import RobotModel
     from twin.sim import Simulation
-    from twin.viz.calibration import CalibrationLog
+    from twin.viz.calibration_log import CalibrationLog
     from twin.viz.recording import Recording
 
 
@@ -94,7 +94,7 @@ def record_simulation(args: argparse.Namespace, sim: Simulation) -> None:
     with open_from_args(args, "simulate", args.out) as recording:
         if recording is None:
             return
-        from twin.viz.report import scene_markdown
+        from twin.viz.recording_report import scene_markdown
 
         recording.log_scene({"nominal": sim.robot, "true": sim.true_robot}, sim.measurements,
                             sim.rig, cable_to="true")

@@ -34,8 +34,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.errors import InputError
 from twin.io.paths import read_text
 from twin.kinematics import fixed_transforms
@@ -45,7 +45,6 @@ from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
 if TYPE_CHECKING:
     import pinocchio as pin
 
-Array = NDArray[np.float64]
 
 TIP_NAMES = ("tool0", "flange")
 """Tip links looked for, in this order, when none is named."""

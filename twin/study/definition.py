@@ -24,8 +24,9 @@ from typing import Any
 
 from twin.errors import InputError
 from twin.io.paths import read_bytes, read_toml
+from twin.io.table import Table
 from twin.robot import robot_files
-from twin.sim.scenario import Scenario, parse_scenario
+from twin.scenario import Scenario, parse_scenario
 from twin.solvers import SOLVERS, get_solver
 
 STUDY_KEYS = ("trials", "methods", "workspace_poses", "sweep")
@@ -103,35 +104,24 @@ def _replace(document: dict[str, Any], dotted: str, value: Any, source: Path) ->
     node[key] = value
 
 
-def _sweep_points(study: dict[str, Any], source: Path) -> list[dict[str, Any]]:
-    sweep = study.get("sweep", {})
-    where = "[study] sweep"
-    if not isinstance(sweep, dict):
-        raise InputError(f"{sweep!r}", 'a table of dotted keys to lists, e.g. '
-                         '{ "encoder.sigma_mm" = [0.005, 0.01] }', source=source, where=where)
-    if not sweep:
+def _sweep_points(study: Table) -> list[dict[str, Any]]:
+    sweep = study.table("sweep", expected='a table of dotted keys to lists, e.g. '
+                        '{ "encoder.sigma_mm" = [0.005, 0.01] }')
+    if not sweep.values:
         return [{}]
-    lengths = {len(v) if isinstance(v, list) else -1 for v in sweep.values()}
+    lengths = {len(v) if isinstance(v, list) else -1 for v in sweep.values.values()}
     if len(lengths) != 1 or min(lengths) < 1:
-        raise InputError(f"{sweep!r}", "non-empty lists of equal length", source=source,
-                         where=where)
+        raise study.error("sweep", f"{dict(sweep.values)!r}", "non-empty lists of equal length")
     count = lengths.pop()
-    for key in sweep:
+    for key in sweep.values:
         if key.split(".")[0] == "study" or key == "seed":
-            raise InputError(f"sweep key {key!r}", "a key of the simulated scenario (not "
-                             "[study] or the seed)", source=source, where=where)
-    return [{key: values[i] for key, values in sweep.items()} for i in range(count)]
+            raise study.error("sweep", f"sweep key {key!r}", "a key of the simulated scenario "
+                              "(not [study] or the seed)")
+    return [{key: values[i] for key, values in sweep.values.items()} for i in range(count)]
 
 
 def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
-
-
-def _positive(study: dict[str, Any], key: str, default: int, source: Path) -> int:
-    value = study.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise InputError(f"{value!r}", "an integer >= 1", source=source, where=f"[study] {key}")
-    return value
 
 
 def load_study(path: str | Path, *, trials: int | None = None,
@@ -155,25 +145,19 @@ def load_study(path: str | Path, *, trials: int | None = None,
         if isinstance(calibration, dict):
             calibration["stop"] = stop
     base = parse_scenario(document, path)
-    study = dict(base.study)
-    unknown = sorted(set(study) - set(STUDY_KEYS))
-    if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}", "one of " + ", ".join(STUDY_KEYS),
-                         source=path, where="[study]")
+    study = Table(base.study, path, "[study]", allowed=STUDY_KEYS)
     if trials is not None and trials < 1:
         raise InputError(f"{trials}", "an integer >= 1", source="--trials")
-    n_trials = trials if trials is not None else _positive(study, "trials", DEFAULT_TRIALS, path)
-    workspace = _positive(study, "workspace_poses", DEFAULT_WORKSPACE_POSES, path)
+    n_trials = trials if trials is not None else study.integer("trials", DEFAULT_TRIALS,
+                                                               minimum=1)
+    workspace = study.integer("workspace_poses", DEFAULT_WORKSPACE_POSES, minimum=1)
     if methods is None:
-        listed = study.get("methods", ["all"])
-        if not isinstance(listed, list) or not all(isinstance(m, str) for m in listed):
-            raise InputError(f"{listed!r}", 'a list of method names, e.g. ["lm", "m9"]',
-                             source=path, where="[study] methods")
-        chosen = resolve_methods(listed, path)
+        chosen = resolve_methods(study.strings(
+            "methods", ["all"], expected='a list of method names, e.g. ["lm", "m9"]'), path)
     else:
         chosen = resolve_methods(methods, "--methods")
     cases = []
-    for point in _sweep_points(study, path):
+    for point in _sweep_points(study):
         if not point:
             cases.append(Case("", base))
             continue

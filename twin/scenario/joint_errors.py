@@ -15,11 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from twin.arrays import frozen_array
-
-Array = NDArray[np.float64]
+from twin.arrays import Array, frozen_array
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ joint errors), paths relative to the scenario file::
     attachment_mm = [0.0, 0.0, 0.0]        # true eyelet in the flange frame
     told_attachment_mm = [0.0, 0.0, 0.0]   # what the calibration is told (default: the truth)
 
-    [measurement]                          # another instrument than the cable (twin.sim.rigs)
+    [measurement]                          # another instrument than the cable (see instrument.py)
     kind = "length"                        # "position": laser tracker; "point": fixed points
     sigma_mm = 0.01                        # tracker noise / ball seating, number or [x, y, z]
     tracker_pose = [2000.0, 0.0, 0.0, 0.0, 0.0, 180.0]  # base in the tracker: mm, deg (x y z)
@@ -58,7 +58,7 @@ joint errors), paths relative to the scenario file::
     outlier_mm = 0.0                       # its typical size (random sign, ×U(0.5, 1.5))
     offset_mm = 0.0                        # unknown constant offset of the readings
 
-    [joints]                               # joint-level errors (see twin.sim.joint_errors)
+    [joints]                               # joint-level errors (see twin.scenario.joint_errors)
     repeatability_mm = 0.0                 # RMS flange jitter from the joints
     transmission_arcsec = 0.0              # amplitude, number or one per joint
     transmission_harmonic = 1              # cycles per joint revolution
@@ -96,35 +96,29 @@ and what was expected.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.dataset import KINDS, MAX_POSES
-from twin.errors import InputError
 from twin.io.paths import read_toml
-from twin.io.robot_file import load_robot
-from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
-from twin.problem import DEFAULT_SIGMA_M
+from twin.io.robot_file import load_robot_or_default
+from twin.io.table import Table
+from twin.loss import LOSSES
 from twin.rig import MAX_TENSION_N
 from twin.rigid import transform
-from twin.robot import RobotModel, default_robot
-from twin.sim.joint_errors import JointErrors
-from twin.sim.noise import NoiseModel
-from twin.sim.perturbation import DISTRIBUTIONS, Perturbation
-from twin.sim.physics import Physics
-from twin.sim.poses import PoseConstraints
-from twin.sim.rigs import Instrument
-from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
-from twin.units import deg_to_rad, mm_to_m, rad_to_deg
+from twin.scenario.constraints import PoseConstraints
+from twin.scenario.description import Scenario
+from twin.scenario.instrument import Instrument
+from twin.scenario.joint_errors import JointErrors
+from twin.scenario.noise import NoiseModel
+from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation
+from twin.scenario.physics import Physics
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS
+from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import ERRORS
-
-Array = NDArray[np.float64]
-ARCSEC_PER_DEG = 3600.0
 
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
         "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
@@ -148,199 +142,8 @@ _TABLES = {
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
 """Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A validated scenario (SI inside).
-
-    Attributes:
-        name: Short name.
-        description: What the scenario is for.
-        seed: Default seed of every random draw.
-        robot: The nominal robot (what the calibration is told).
-        port_m: True port, shape (3,), m (the first station's with several); None without a
-            cable.
-        port_told_m: The port the calibration is told, shape (3,), m; None means the true port
-            plus an N(0, ``port_error_m``²) draw per axis.
-        port_error_m: 1σ per axis of the told port's error, m.
-        perturbation: How the true D-H errors are drawn.
-        pose_count: Number of poses; with a plan, its first rows (0: all of them).
-        pose_plan: Plan CSV of poses, or None to sample.
-        constraints: What a pose must satisfy.
-        noise: Encoder noise and repeatability.
-        joint_errors: Joint-level errors (phases as given, or zeros when drawn).
-        draw_phases: Whether transmission phases are drawn uniformly per seed.
-        physics: Servo stiffness, gravity and tension.
-        train_fraction: Share of poses for identification, or None (the core's 80 %).
-        estimate_port: Hint: calibrate with a port correction.
-        estimate_offset: Hint: calibrate with a length offset.
-        instrument: Stations, attachment, tracker or fixture (:mod:`twin.sim.rigs`).
-        estimate_attachment: Hint: calibrate with the attachment point unknown.
-        estimate_base: Hint: calibrate with the tracker frame unknown.
-        loss: Hint: the loss of the calibration (:data:`twin.loss.LOSSES`).
-        loss_scale_m: Hint: its scale, m, or None for 3 σ of the noise.
-        stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
-        max_iterations: Iteration limit of every method and stage, or None (the protocol's).
-        errors: The robot's error groups the calibration fits (:data:`twin.unknowns.ERRORS`).
-        study: The ``[study]`` table as written, for twin.study.
-        expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
-        source: The file, or None.
-    """
-
-    name: str
-    seed: int
-    robot: RobotModel
-    port_m: Array | None
-    perturbation: Perturbation
-    pose_count: int
-    description: str = ""
-    port_told_m: Array | None = None
-    port_error_m: float = 0.0
-    pose_plan: Path | None = None
-    constraints: PoseConstraints = field(default_factory=PoseConstraints)
-    noise: NoiseModel = field(default_factory=NoiseModel)
-    joint_errors: JointErrors | None = None
-    draw_phases: bool = True
-    physics: Physics = field(default_factory=Physics)
-    train_fraction: float | None = None
-    estimate_port: bool = False
-    estimate_offset: bool = False
-    stop: str = PROTOCOLS[0]
-    max_iterations: int | None = None
-    errors: tuple[str, ...] = ("dh",)
-    study: dict[str, Any] = field(default_factory=dict)
-    expect: dict[str, Any] = field(default_factory=dict)
-    source: Path | None = None
-    instrument: Instrument = field(default_factory=Instrument)
-    estimate_attachment: bool = False
-    estimate_base: bool = False
-    loss: str = LOSSES[0]
-    loss_scale_m: float | None = None
-
-    @property
-    def budget(self) -> Budget:
-        """The iteration limits and stopping tests the calibration runs with."""
-        return Budget.named(self.stop, self.max_iterations)
-
-    @property
-    def calibration_loss(self) -> Loss:
-        """The loss ``[calibration]`` asks for, its scale defaulting to
-        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the simulated noise (without jitter)."""
-        if self.loss_scale_m is not None:
-            return Loss(self.loss, self.loss_scale_m)
-        sigma = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
-            if self.instrument.kind != "length" \
-            else float(np.hypot(self.noise.sigma_m, self.noise.resolution_m / np.sqrt(12.0)))
-        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * (sigma if sigma > 0 else DEFAULT_SIGMA_M))
-
-    def __post_init__(self) -> None:
-        n = self.robot.n_joints
-        if self.port_m is not None:
-            port = np.array(self.port_m, dtype=np.float64)
-            if port.shape != (3,) or not np.all(np.isfinite(port)):
-                raise ValueError("port_m: expected 3 finite values")
-            port.setflags(write=False)
-            object.__setattr__(self, "port_m", port)
-        elif self.instrument.kind == "length":
-            raise ValueError("port_m: cable lengths need a port")
-        if self.port_told_m is not None:
-            told = np.array(self.port_told_m, dtype=np.float64)
-            told.setflags(write=False)
-            object.__setattr__(self, "port_told_m", told)
-        if self.joint_errors is None:
-            object.__setattr__(self, "joint_errors", JointErrors.none(n))
-        if self.pose_count < (0 if self.pose_plan is not None else 1):
-            raise ValueError("pose_count: expected >= 1 (>= 0 with a plan)")
-        if self.perturbation.scale.shape != (4, n):
-            raise ValueError(f"perturbation scale: expected shape (4, {n})")
-        if self.train_fraction is not None and not 0 < self.train_fraction < 1:
-            raise ValueError("train_fraction: expected in (0, 1)")
-        if self.stop not in PROTOCOLS:
-            raise ValueError(f"stop: expected one of {', '.join(PROTOCOLS)}")
-
-
-class _Table:
-    """Typed access to one TOML table with errors that name the file and key."""
-
-    def __init__(self, document: dict[str, Any], name: str, source: Path, allowed: tuple[str, ...]):
-        self.name, self.source = name, source
-        value = document.get(name, {}) if name else document
-        if not isinstance(value, dict):
-            raise InputError(f"{value!r}", "a table", source=source, where=f"[{name}]")
-        self.values: dict[str, Any] = value
-        unknown = sorted(set(value) - set(allowed))
-        if unknown:
-            raise InputError(f"unknown key {unknown[0]!r}", "one of " + ", ".join(allowed),
-                             source=source, where=self._where(None))
-
-    def _where(self, key: str | None) -> str:
-        if not self.name:
-            return key or ""
-        return f"[{self.name}]" + (f" {key}" if key else "")
-
-    def error(self, key: str, found: str, expected: str) -> InputError:
-        return InputError(found, expected, source=self.source, where=self._where(key))
-
-    def has(self, key: str) -> bool:
-        return key in self.values
-
-    def required(self, key: str, expected: str) -> Any:
-        if key not in self.values:
-            raise self.error(key, "nothing", expected)
-        return self.values[key]
-
-    def number(self, key: str, default: float | None = None, *, minimum: float | None = None,
-               maximum: float | None = None, strict_minimum: bool = False) -> float:
-        value = self.values.get(key, default)
-        expected = "a number" + (f" {'>' if strict_minimum else '>='} {minimum:g}"
-                                 if minimum is not None else "") \
-            + (f" <= {maximum:g}" if maximum is not None else "")
-        if value is None:
-            raise self.error(key, "nothing", expected)
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value) \
-                or (minimum is not None and (value <= minimum if strict_minimum
-                                             else value < minimum)) \
-                or (maximum is not None and value > maximum):
-            raise self.error(key, repr(value), expected)
-        return float(value)
-
-    def integer(self, key: str, default: int | None = None, *, minimum: int = 0,
-                maximum: int | None = None) -> int:
-        value = self.values.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum \
-                or (maximum is not None and value > maximum):
-            within = f"in {minimum}..{maximum}" if maximum is not None else f">= {minimum}"
-            raise self.error(key, repr(value), f"an integer {within}")
-        return int(value)
-
-    def boolean(self, key: str, default: bool) -> bool:
-        value = self.values.get(key, default)
-        if not isinstance(value, bool):
-            raise self.error(key, repr(value), "true or false")
-        return value
-
-    def text(self, key: str, default: str | None = None) -> str:
-        value = self.values.get(key, default)
-        if not isinstance(value, str):
-            raise self.error(key, repr(value), "a string")
-        return value
-
-    def vector(self, key: str, length: int, *, per_joint: bool = False, minimum: float | None
-               = None, default: float | list[float] | None = None) -> Array:
-        """A list of ``length`` numbers (or one number for all, when ``per_joint``)."""
-        value = self.values.get(key, default)
-        what = f"{length} numbers" + (" (or one for all joints)" if per_joint else "") \
-            + (f" >= {minimum:g}" if minimum is not None else "")
-        if per_joint and isinstance(value, int | float) and not isinstance(value, bool):
-            value = [value] * length
-        if not isinstance(value, list) or len(value) != length or any(
-            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-            or (minimum is not None and v < minimum) for v in value
-        ):
-            raise self.error(key, repr(value), what)
-        return np.array(value, dtype=np.float64)
+POSE = "[x, y, z, rx, ry, rz] in mm and degrees"
+"""How a placement is written: position (mm) and fixed-axis angles (deg, R = Rz Ry Rx)."""
 
 
 def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
@@ -349,8 +152,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     Raises:
         InputError: naming the key that is wrong.
     """
-    top = _Table(document, "", source, _TOP)
-    tables = {name: _Table(document, name, source, keys) for name, keys in _TABLES.items()}
+    top = Table(document, source, allowed=_TOP)
+    tables = {name: top.table(name, allowed=keys) for name, keys in _TABLES.items()}
     name = top.text("name") if top.has("name") else top.required("name", "a scenario name")
     folder = source.parent
     links = {key: top.text(f"robot_{key}") if top.has(f"robot_{key}") else None
@@ -358,20 +161,15 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     if not top.has("robot") and any(links.values()):
         raise top.error("robot_base_link", "robot_base_link or robot_tip_link without robot",
                         "robot = \"arm.urdf\" beside them")
-    robot = load_robot(folder / top.text("robot"), **links) if top.has("robot") \
-        else default_robot()
+    robot = load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
+                                  **links)
     n = robot.n_joints
     if not top.has("seed"):
         top.required("seed", "an integer seed")
-    passed_through = {}
-    for key in ("study", "expect"):
-        value = document.get(key, {})
-        if not isinstance(value, dict):
-            raise InputError(f"{value!r}", "a table (read by twin.study)", source=source,
-                             where=f"[{key}]")
-        passed_through[key] = value
+    passed_through = {key: dict(top.table(key, expected="a table (read by twin.study)").values)
+                      for key in ("study", "expect")}
 
-    instrument = _instrument(document, tables, source)
+    instrument = _instrument(tables)
     port = tables["port"]
     port_m, port_told_m, port_error_m = None, None, 0.0
     if instrument.kind == "length":
@@ -391,9 +189,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
                          "no [port] table (only cable lengths have ports)")
 
     pert = tables["perturbation"]
-    distribution = pert.text("distribution", "uniform")
-    if distribution not in DISTRIBUTIONS:
-        raise pert.error("distribution", repr(distribution), "one of " + ", ".join(DISTRIBUTIONS))
+    distribution = pert.text("distribution", "uniform", choices=DISTRIBUTIONS)
     alpha_rad = deg_to_rad(pert.vector("alpha_deg", n, per_joint=True, minimum=0.0,
                                        default=0.0))
     # The second slot is d (m) on D-H joints and β (rad) on Hayati joints: each its own scale.
@@ -476,22 +272,16 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         if calibration.has("train_fraction") else None
     if train_fraction == 1.0:
         raise calibration.error("train_fraction", "1.0", "a share below 1 (some poses held out)")
-    stop = calibration.text("stop", PROTOCOLS[0])
-    if stop not in PROTOCOLS:
-        raise calibration.error("stop", repr(stop), "one of " + ", ".join(PROTOCOLS))
-    loss = calibration.text("loss", LOSSES[0])
-    if loss not in LOSSES:
-        raise calibration.error("loss", repr(loss), "one of " + ", ".join(LOSSES))
+    stop = calibration.text("stop", PROTOCOLS[0], choices=PROTOCOLS)
+    loss = calibration.text("loss", LOSSES[0], choices=LOSSES)
     max_iterations = calibration.integer("max_iterations", minimum=1) \
         if calibration.has("max_iterations") else None
     if max_iterations is not None and max_iterations > MAX_ITERATIONS:
         raise calibration.error("max_iterations", repr(max_iterations),
                                 f"an integer from 1 to {MAX_ITERATIONS}")
-    errors = calibration.values.get("errors", ["dh"])
-    expected_errors = "a non-empty list of distinct error groups among " + ", ".join(ERRORS)
-    if not isinstance(errors, list) or not errors or len(set(map(str, errors))) != len(errors) \
-            or not all(isinstance(name, str) and name in ERRORS for name in errors):
-        raise calibration.error("errors", repr(errors), expected_errors)
+    errors = calibration.strings("errors", ["dh"], choices=ERRORS, distinct=True,
+                                 expected="a non-empty list of distinct error groups among "
+                                 + ", ".join(ERRORS))
     if {"compliance", "link_compliance"} <= set(errors):
         raise calibration.error("errors", repr(errors), "compliance or link_compliance, not "
                                 "both (link_compliance holds each joint's compliance)")
@@ -499,7 +289,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     return Scenario(
         name=name,
         description=top.text("description", ""),
-        seed=top.integer("seed"),
+        seed=top.integer("seed", minimum=0),
         robot=robot,
         port_m=port_m,
         port_told_m=port_told_m,
@@ -545,33 +335,15 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     )
 
 
-def _points(table: _Table, key: str, default: list[list[float]] | None = None) -> Array:
-    """A list of [x, y, z] (mm) as an array (k, 3), m."""
-    value = table.values.get(key, default)
-    if not isinstance(value, list) or not value or any(
-            not isinstance(row, list) or len(row) != 3 or any(
-                isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-                for v in row) for row in value):
-        raise table.error(key, repr(value), "a list of [x, y, z] in mm")
-    return mm_to_m(value)
-
-
-def _pose(table: _Table, key: str, value: Any) -> Array:
+def _pose(values: Array) -> Array:
     """``[x, y, z, rx, ry, rz]`` (mm, deg; R = Rz Ry Rx) as a 4×4 transform, m."""
-    if not isinstance(value, list) or len(value) != 6 or any(
-            isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)
-            for v in value):
-        raise table.error(key, repr(value), "[x, y, z, rx, ry, rz] in mm and degrees")
-    return transform(mm_to_m(value[:3]), deg_to_rad(value[3:]))
+    return transform(mm_to_m(values[:3]), deg_to_rad(values[3:]))
 
 
-def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Path
-                ) -> Instrument:
+def _instrument(tables: dict[str, Table]) -> Instrument:
     """The ``[cable]``, ``[measurement]``, ``[fixture]`` tables and ``[port.stations_mm]``."""
     measurement, cable, fixture = tables["measurement"], tables["cable"], tables["fixture"]
-    kind = measurement.text("kind", "length")
-    if kind not in KINDS:
-        raise measurement.error("kind", repr(kind), "one of " + ", ".join(KINDS))
+    kind = measurement.text("kind", "length", choices=KINDS)
     if kind == "length":
         for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
             if measurement.has(key):
@@ -594,15 +366,13 @@ def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Pat
         if kind != "length" or port.has("position_mm"):
             raise port.error("stations_mm", "stations with position_mm or without cable "
                              "lengths", "either position_mm or [port.stations_mm]")
-        block = _Table(port.values, "stations_mm", source, tuple(port.values["stations_mm"])
-                       if isinstance(port.values["stations_mm"], dict) else ())
-        block.name = "port.stations_mm"
+        block = port.table("stations_mm")
         names = tuple(str(name) for name in block.values)
         if not names:
             raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
         stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
     sigma = measurement.vector("sigma_mm", 3, per_joint=True, minimum=0.0, default=0.0)
-    tracker = _pose(measurement, "tracker_pose", measurement.values["tracker_pose"]) \
+    tracker = _pose(measurement.vector("tracker_pose", 6, expected=POSE)) \
         if measurement.has("tracker_pose") else np.eye(4)
     if kind != "position" and measurement.has("tracker_pose"):
         raise measurement.error("tracker_pose", f"a tracker with {kind} measurements",
@@ -613,11 +383,9 @@ def _instrument(document: dict[str, Any], tables: dict[str, _Table], source: Pat
                             "[fixture] with fixed points (kind = \"point\") only")
     sockets, placements, touches = np.zeros((0, 3)), np.zeros((0, 4, 4)), 0
     if kind == "point":
-        sockets = _points(fixture, "sockets_mm")
-        placed = fixture.required("placements", "a list of [x, y, z, rx, ry, rz]")
-        if not isinstance(placed, list) or not placed:
-            raise fixture.error("placements", repr(placed), "a list of [x, y, z, rx, ry, rz]")
-        placements = np.stack([_pose(fixture, "placements", value) for value in placed])
+        sockets = mm_to_m(fixture.rows("sockets_mm", 3, expected="a list of [x, y, z] in mm"))
+        placements = np.stack([_pose(row) for row in fixture.rows(
+            "placements", 6, expected=f"a list of {POSE}")])
         touches = fixture.integer("touches", 12, minimum=1, maximum=MAX_POSES)
     return Instrument(kind=kind, attachment_m=attachment, attachment_told_m=told,
                       station_names=names, stations_m=stations, sigma_m=mm_to_m(sigma),

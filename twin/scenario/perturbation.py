@@ -13,11 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.units import DH_IS_LENGTH
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
-
-Array = NDArray[np.float64]
 
 DISTRIBUTIONS = ("uniform", "normal")
 

@@ -1,0 +1,90 @@
+"""What a measurement set identifies, and how well (`twin identify`).
+
+At the nominal geometry: rank, condition and the unidentifiable combinations of the unknowns,
+observability indices and the Cramér–Rao bound on the flange position over the workspace. Then
+an ``lm-base`` calibration, and the same at the identified geometry, with per-parameter standard
+deviations and a map of the predicted flange error over joints 2 and 3.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.arrays import Array
+from twin.calibration import (
+    WORKSPACE_POSES,
+    CalibrationResult,
+    SplitProblem,
+    match_ports,
+    solve_many,
+)
+from twin.dataset import Measurements
+from twin.design import DesignScore, score_poses
+from twin.identifiability import Identifiability, measurement_identifiability
+from twin.model import Model
+from twin.robot import RobotModel
+from twin.stopping import Budget
+from twin.synthetic import random_poses
+from twin.uncertainty import flange_sigma, workspace_grid
+
+METHOD = "lm-base"
+"""The calibration an assessment runs: LM on the base parameters, with their uncertainty."""
+MAP_GRID = 41
+"""Grid points per axis of the accuracy map over joints 2 and 3."""
+
+
+class Assessment(NamedTuple):
+    """What a measurement set identifies (:func:`assess`)."""
+
+    data: Measurements
+    """The measurements, their ports matched to the model's rig."""
+    nominal: Identifiability
+    """Identifiability at the nominal geometry, all poses."""
+    score: DesignScore
+    """Observability and the Cramér–Rao flange RMS over the workspace, nominal geometry."""
+    result: CalibrationResult
+    """The lm-base calibration (its identifiability and uncertainty at the identified
+    geometry)."""
+
+
+def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, sigma_m: float,
+           *, seed: int, budget: Budget) -> Assessment:
+    """Identifiability at the nominal geometry, then an lm-base calibration.
+
+    Args:
+        robot: The nominal robot.
+        split: The calibration problem of the measurements, split into training and validation.
+        measurements: Every pose measured.
+        sigma_m: Noise 1σ of the Cramér–Rao bound, m.
+        seed: Seed of the workspace poses and of the calibration.
+        budget: Iteration limits of the calibration.
+    """
+    model = split.problem.model
+    data = match_ports(measurements, model.rig)
+    x0 = np.zeros(model.n_params)
+    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
+    nominal = measurement_identifiability(model, x0, data)
+    score = score_poses(model, x0, data.q_rad, nominal.base_mask, sigma_m, q_workspace)
+    result = solve_many(robot, split, [METHOD], seed=seed, budget=budget)[METHOD]
+    return Assessment(data, nominal, score, result)
+
+
+def flange_error_map(model: Model, x: Array, covariance: Array, n_per_axis: int = MAP_GRID
+                     ) -> tuple[Array, Array, Array]:
+    """The predicted flange error over a grid of joints 2 and 3, the other joints at 0.
+
+    Args:
+        model: The calibrated model.
+        x: Its unknowns, shape (p,).
+        covariance: Their covariance, shape (p, p).
+        n_per_axis: Grid points per joint.
+
+    Returns:
+        ``(q2_rad, q3_rad, error_m)``: the grid's axes (a,) and (b,), rad, and the predicted
+        RMS flange position error, shape (a, b), m.
+    """
+    q2, q3, q = workspace_grid(model.robot, n_per_axis)
+    jacobian = model.flange_jacobian(x, model.poses(q))
+    return q2, q3, flange_sigma(jacobian, covariance).reshape(q2.size, q3.size)

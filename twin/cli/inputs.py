@@ -1,0 +1,222 @@
+"""What INPUT and the rig flags of `twin calibrate` and `twin identify` resolve to.
+
+INPUT is a measurement CSV or a capture.toml; the flags say how the data were measured (ports,
+attachment, known distances) and win over the capture's tables.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.accuracy import TruthErrors, workspace_truth_errors
+from twin.calibration import TRAIN_FRACTION, CalibrationResult, SplitProblem, make_problem
+from twin.cli.arguments import (
+    AUTO,
+    add_cable_tension,
+    add_error_groups,
+    add_input,
+    add_robot_flags,
+    robot_from_flags,
+)
+from twin.dataset import Measurements
+from twin.errors import InputError, UnknownChoiceError
+from twin.io.capture_file import (
+    CalibrationSettings,
+    load_capture,
+    parse_distance,
+    parse_named_port,
+    parse_port_mm,
+)
+from twin.io.truth import load_truth_attachment, load_truth_delta
+from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.problem import DEFAULT_SIGMA_M
+from twin.rig import Rig
+from twin.robot import RobotModel
+from twin.stopping import PROTOCOLS
+from twin.units import mm_to_m
+
+
+def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
+                    tension_help: str, auto: bool = False) -> None:
+    """INPUT, the robot and rig flags, ``--errors`` (with ``auto`` when asked) and
+    ``--cable-tension``: what `twin calibrate` and `twin identify` read alike."""
+    add_input(parser, input_help)
+    add_robot_flags(parser)
+    add_rig_flags(parser)
+    add_error_groups(parser, errors_help, auto=auto)
+    add_cable_tension(parser, tension_help)
+
+
+def add_rig_flags(parser: argparse.ArgumentParser) -> None:
+    """The flags that tell the rig and which of its unknowns to identify (calibrate, identify).
+    """
+    parser.add_argument("--port", action="append", metavar="[NAME=]X,Y,Z",
+                        help="encoder port in mm, robot base frame; NAME=X,Y,Z, repeated, for "
+                        "an encoder moved between ports (the CSV's port column names each "
+                        "row's)")
+    parser.add_argument("--estimate-port", action="append", nargs="?", const=ALL_PORTS,
+                        metavar="NAME", help="also identify a correction of the ports (of the "
+                        "named one, repeated for several; the others stay as measured)")
+    parser.add_argument("--attachment", metavar="X,Y,Z",
+                        help="the measured point (cable eyelet, tracker target, ball) in the "
+                        "flange frame, mm (default 0,0,0: the flange centre)")
+    parser.add_argument("--estimate-attachment", action="store_true",
+                        help="also identify the measured point in the flange frame")
+    parser.add_argument("--estimate-base", action="store_true",
+                        help="tracker positions: also identify the tracker-to-base transform, "
+                        "started at a rigid fit of the nominal model's points")
+    parser.add_argument("--distance", action="append", metavar="A,B=MM",
+                        help="fixed points: a known distance between the points named A and B, "
+                        "mm (a ball fixture's socket spacing); repeat for several")
+
+
+ALL_PORTS = ""
+"""What a bare --estimate-port stands for: every port."""
+
+
+class Inputs(NamedTuple):
+    """What INPUT and the flags resolve to."""
+
+    robot: RobotModel
+    rig: Rig
+    """The rig as told: ports (with those to estimate), attachment, known distances."""
+    measurements_path: Path
+    truth_path: Path | None
+    calibration: CalibrationSettings
+    sigma_m: float
+    """The instrument's noise 1σ, m."""
+
+    @property
+    def port_m(self) -> NDArray[np.float64] | None:
+        """The first port, shape (3,), m; None without one."""
+        return self.rig.ports_m[0] if len(self.rig.ports_m) else None
+
+    @property
+    def loss(self) -> Loss:
+        """The loss the settings ask for, its scale defaulting to 3 σ."""
+        settings = self.calibration
+        scale = float(mm_to_m(settings.loss_scale_mm)) if settings.loss_scale_mm is not None \
+            else DEFAULT_SCALE_SIGMAS * self.sigma_m
+        return Loss(settings.loss, scale)
+
+
+def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
+    """The rig of the capture (or none) with the flags' ports, attachment and distances."""
+    rig = base
+    ports = getattr(args, "port", None)
+    if ports:
+        parsed = [parse_named_port(value, "--port", "") for value in ports]
+        named = [name for name, _ in parsed if name is not None]
+        if len(named) != len(parsed) and len(parsed) > 1:
+            raise InputError(f"{len(parsed)} ports, {len(parsed) - len(named)} without a name",
+                             "one X,Y,Z, or NAME=X,Y,Z for every port", source="--port")
+        if len(set(named)) != len(named):
+            raise InputError("a port name twice", "distinct NAME=X,Y,Z", source="--port")
+        rig = replace(rig, ports_m=np.stack([port for _, port in parsed]),
+                      port_names=tuple(named) if named else ("port",), estimated_ports=())
+    if getattr(args, "attachment", None) is not None:
+        rig = replace(rig, attachment_m=parse_port_mm(args.attachment, "--attachment", ""))
+    if getattr(args, "distance", None):
+        rig = replace(rig, distances=tuple(parse_distance(value, "--distance", "")
+                                           for value in args.distance))
+    estimated = [name for name in (getattr(args, "estimate_port", None) or [])
+                 if name != ALL_PORTS]
+    for name in estimated:
+        if name not in rig.port_names:
+            raise UnknownChoiceError("port", name, rig.port_names, source="--estimate-port")
+    return replace(rig, estimated_ports=tuple(dict.fromkeys(estimated)))
+
+
+def resolve_inputs(args: argparse.Namespace) -> Inputs:
+    """The robot, rig, files and calibration settings named by a capture.toml or a CSV and
+    the flags; flags win over the capture's tables.
+
+    Raises:
+        InputError: if a file or flag is wrong (cable lengths without a port are refused when
+            the data are read).
+    """
+    input_path = args.input
+    flag_robot = robot_from_flags(args)  # the IRB 120 without --robot
+    fraction = getattr(args, "train_fraction", None)
+    stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
+    loss, scale = getattr(args, "loss", None), getattr(args, "loss_scale", None)
+    flags = {"estimate_port": bool(getattr(args, "estimate_port", None)),
+             "estimate_offset": getattr(args, "estimate_offset", False),
+             "estimate_attachment": args.estimate_attachment,
+             "estimate_base": args.estimate_base}
+    sigma = getattr(args, "sigma", None)
+    errors = getattr(args, "errors", None)
+    errors = None if errors == (AUTO,) else errors
+    tension = getattr(args, "cable_tension", None)
+    if input_path.suffix == ".toml":
+        capture = load_capture(input_path)
+        settings = capture.calibration
+        settings = replace(
+            settings, **{key: value or getattr(settings, key) for key, value in flags.items()},
+            train_fraction=fraction or settings.train_fraction, stop=stop or settings.stop,
+            max_iterations=limit or settings.max_iterations, loss=loss or settings.loss,
+            loss_scale_mm=scale or settings.loss_scale_mm, errors=errors or settings.errors,
+            cable_tension_n=settings.cable_tension_n if tension is None else tension)
+        return Inputs(
+            robot=capture.robot if args.robot is None else flag_robot,
+            rig=replace(_flag_rig(args, capture.rig), tension_n=settings.cable_tension_n),
+            measurements_path=capture.measurements,
+            truth_path=capture.truth,
+            calibration=settings,
+            sigma_m=float(mm_to_m(sigma)) if sigma else capture.sigma_m,
+        )
+    settings = CalibrationSettings(
+        **flags, train_fraction=fraction or TRAIN_FRACTION, stop=stop or PROTOCOLS[0],
+        max_iterations=limit, loss=loss or LOSSES[0], loss_scale_mm=scale,
+        errors=errors or ("dh",), cable_tension_n=tension or 0.0)
+    return Inputs(
+        robot=flag_robot,
+        rig=replace(_flag_rig(args, Rig()), tension_n=settings.cable_tension_n),
+        measurements_path=input_path,
+        truth_path=None,
+        calibration=settings,
+        sigma_m=float(mm_to_m(sigma)) if sigma else DEFAULT_SIGMA_M,
+    )
+
+
+def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
+        NDArray[np.float64] | None, TruthErrors | None]:
+    """The true D-H errors and the errors against the truth over the workspace, when the
+    capture has a truth file and the model is the D-H table alone (joint-level errors are
+    held to the twin's physical flange in studies, docs/studies.md)."""
+    path = inputs.truth_path
+    if path is None or not path.exists() or inputs.calibration.errors != ("dh",):
+        return None, None
+    robot = inputs.robot
+    delta = load_truth_delta(path, robot.n_joints, robot.is_length)
+    return delta, workspace_truth_errors(result, robot.perturbed(delta),
+                                         load_truth_attachment(path))
+
+
+def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitProblem:
+    """The problem of the resolved inputs, its errors naming the measurement file."""
+    settings = inputs.calibration
+    if measurements.kind == "length" and not len(inputs.rig.ports_m):
+        raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
+                         "NAME=X,Y,Z per port, or a capture.toml as INPUT)",
+                         source=inputs.measurements_path)
+    try:
+        return make_problem(
+            inputs.robot, measurements, rig=inputs.rig, errors=settings.errors, seed=seed,
+            estimate_port=settings.estimate_port, estimate_offset=settings.estimate_offset,
+            estimate_attachment=settings.estimate_attachment,
+            estimate_base=settings.estimate_base, sigma_m=inputs.sigma_m, loss=inputs.loss,
+            train_fraction=settings.train_fraction,
+        )
+    except InputError as exc:
+        if exc.source is not None:
+            raise
+        raise InputError(exc.found, exc.expected, source=inputs.measurements_path) from None
+
+

@@ -1,0 +1,278 @@
+"""Inverse kinematics of a serial arm: joint angles that put the flange at targets.
+
+One batched damped-least-squares Newton iteration solves all rows at once (no loop over rows):
+each step is ``Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e`` with e the position error (m) and, for full poses, the
+rotation error ``log(R_target Rᵀ)`` (rad, base frame); λ is adapted per row (Levenberg–
+Marquardt: a step is taken only if it lowers ‖e‖). With 3 equations and 4 to 7 joints (flange
+positions only) the step is the minimum-norm one, so the solution stays next to its seed.
+
+Targets that come without joint angles are solved on the nominal model from a few joint-space
+starts (:func:`nominal_ik`). The robot may stand elsewhere than it is commanded (joint-level
+errors): ``joints`` maps commands to the actual angles, and the Jacobian is the table's at those
+angles, leaving out ∂Δq/∂q (some 1e-3 of the identity): each step then shrinks the error by
+about that factor instead of quadratically — a step or two more, the same solution.
+
+Solutions are never clipped: a row that does not converge is *unreachable*, a converged row
+whose angles (after choosing among the equivalent angles q + 2πk the one closest to the seed)
+leave the joint limits is reported as a *joint-limit* violation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple, TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from twin.arrays import Array
+from twin.kinematics import flange_jacobian
+from twin.robot import RobotModel
+
+_T = TypeVar("_T", bound=np.generic)
+
+ActualAngles = Callable[[Array, NDArray[np.intp]], Array]
+"""Where the joints stand for commands q (k, n) at target rows (k,): actual angles (k, n), rad
+(:class:`twin.compensation.ActualJoints`)."""
+
+TOLERANCE_M = 1e-10
+"""Position error below which a row has converged, m."""
+TOLERANCE_RAD = 1e-10
+"""Rotation error below which a full-pose row has converged, rad."""
+MAX_ITERATIONS = 100
+INITIAL_DAMPING = 1e-6
+"""Initial λ of the damped step, in units of J Jᵀ (m²/rad²): small beside J Jᵀ for an arm whose
+links are tenths of a metre (J of that order, m/rad); it adapts per row from there."""
+MIN_DAMPING = 1e-12
+"""Floor of λ: keeps J Jᵀ + λ I invertible at a singular pose."""
+MAX_DAMPING = 1e8
+"""A row whose λ grows past this is stuck at a local minimum of ‖e‖: unreachable."""
+
+STATUS_OK = "ok"
+STATUS_UNREACHABLE = "unreachable"
+STATUS_JOINT_LIMIT = "joint_limit"
+
+NOMINAL_STARTS = (16, 256)
+"""Joint-space starts per target in each round of :func:`nominal_ik`."""
+HOME_WRIST_RAD = np.deg2rad(30.0)
+"""The second-to-last joint's angle in the reference posture (:func:`home_pose`): off the
+singularity where the last two axes of a wrist align."""
+FULL_POSE_JOINTS = 6
+"""Joints an arm needs to take any flange pose: fewer, and a program is compensated for the
+flange position alone."""
+
+
+class IKResult(NamedTuple):
+    """Joint angles solved for a batch of targets.
+
+    Attributes:
+        q_rad: Solved joint angles, shape (m, n), rad; not clipped.
+        position_error_m: Remaining flange position error, shape (m,), m.
+        rotation_error_rad: Remaining flange rotation error, shape (m,), rad; zeros when only
+            positions were asked for.
+        converged: Whether the error is within tolerance, shape (m,).
+        within_limits: Whether q_rad is within the joint limits, shape (m,).
+        iterations: Newton iterations run (the batch stops when every row is done).
+    """
+
+    q_rad: Array
+    position_error_m: Array
+    rotation_error_rad: Array
+    converged: NDArray[np.bool_]
+    within_limits: NDArray[np.bool_]
+    iterations: int
+
+    @property
+    def status(self) -> NDArray[np.str_]:
+        """Per row ``ok``, ``unreachable`` or ``joint_limit``, shape (m,)."""
+        return np.where(
+            ~self.converged, STATUS_UNREACHABLE,
+            np.where(self.within_limits, STATUS_OK, STATUS_JOINT_LIMIT),
+        )
+
+    @property
+    def ok(self) -> NDArray[np.bool_]:
+        """Converged and within limits, shape (m,)."""
+        return self.converged & self.within_limits
+
+
+def home_pose(robot: RobotModel) -> Array:
+    """Reference posture of :func:`nominal_ik`, shape (n,), rad: every joint at 0 but the
+    second-to-last at :data:`HOME_WRIST_RAD` (off the aligned-wrist singularity of a 6-axis arm),
+    each brought within its limits."""
+    home = np.zeros(robot.n_joints)
+    home[-2] = HOME_WRIST_RAD
+    return np.asarray(np.clip(home, robot.lower_rad, robot.upper_rad), dtype=np.float64)
+
+
+def _errors(
+    robot: RobotModel, q_rad: Array, base_p_target: Array, base_R_target: Array | None,
+    actual: Array | None = None,
+) -> tuple[Array, Array]:
+    """Stacked error e (m, k) and Jacobian J (m, k, n), k = 3 or 6, with the joints at the
+    commands or, if given, at ``actual`` (m, n)."""
+    base_T_flange, jacobian = flange_jacobian(robot.structure, robot.dh,
+                                              q_rad if actual is None else actual)
+    error = base_p_target - base_T_flange[:, :3, 3]
+    if base_R_target is None:
+        return error, jacobian[:, :3, :]
+    rotation = Rotation.from_matrix(
+        base_R_target @ np.swapaxes(base_T_flange[:, :3, :3], -1, -2)
+    ).as_rotvec()
+    return np.concatenate([error, rotation], axis=-1), jacobian
+
+
+def _into_limits(robot: RobotModel, q_rad: Array, q_seed: Array) -> tuple[Array, NDArray[np.bool_]]:
+    """Per joint, the angle q + 2πk inside the limits closest to the seed (if any)."""
+    turns = np.arange(-2, 3)
+    candidates = q_rad[..., None] + 2 * np.pi * turns  # (m, n, 5)
+    inside = (candidates >= robot.lower_rad[:, None]) & (candidates <= robot.upper_rad[:, None])
+    distance = np.abs(candidates - q_seed[..., None]) + np.where(inside, 0.0, 1e3)
+    best = np.take_along_axis(candidates, np.argmin(distance, axis=-1)[..., None], -1)[..., 0]
+    return best, np.all(np.any(inside, axis=-1), axis=-1)
+
+
+def solve_ik(
+    robot: RobotModel,
+    base_p_target: ArrayLike,
+    q_seed: ArrayLike,
+    base_R_target: ArrayLike | None = None,
+    *,
+    tolerance_m: float = TOLERANCE_M,
+    tolerance_rad: float = TOLERANCE_RAD,
+    max_iterations: int = MAX_ITERATIONS,
+    joints: ActualAngles | None = None,
+) -> IKResult:
+    """Joint angles to command so that the robot's flange reaches the targets, all rows at once.
+
+    Args:
+        robot: The robot to solve on (nominal or identified table), SI.
+        base_p_target: Flange position targets, shape (m, 3), m, base frame.
+        q_seed: Starting joint angles, shape (m, n), rad.
+        base_R_target: Flange orientation targets, shape (m, 3, 3), or None for position only.
+        tolerance_m: Position convergence tolerance, m.
+        tolerance_rad: Rotation convergence tolerance, rad.
+        max_iterations: Newton iterations at most.
+        joints: Where the joints stand for a command (the identified joint-level errors,
+            :class:`twin.compensation.ActualJoints`), or None: exactly at it.
+
+    Returns:
+        The solved commands and per-row convergence and limit flags.
+    """
+    p_target = np.asarray(base_p_target, dtype=np.float64)
+    q = np.array(q_seed, dtype=np.float64)
+    R_target = None if base_R_target is None else np.asarray(base_R_target, dtype=np.float64)
+    if p_target.ndim != 2 or p_target.shape[1] != 3:
+        raise ValueError(f"base_p_target: shape {p_target.shape}, expected (m, 3)")
+    if q.shape != (len(p_target), robot.n_joints):
+        raise ValueError(f"q_seed: shape {q.shape}, expected ({len(p_target)}, {robot.n_joints})")
+    if R_target is not None and R_target.shape != (len(p_target), 3, 3):
+        raise ValueError(f"base_R_target: shape {R_target.shape}, expected ({len(p_target)}, 3, 3)")
+
+    def norms(error: Array) -> tuple[Array, Array]:
+        rotation = np.linalg.norm(error[:, 3:], axis=-1) if R_target is not None else np.zeros(
+            len(error))
+        return np.linalg.norm(error[:, :3], axis=-1), rotation
+
+    def evaluate(q_rows: Array, rows: NDArray[np.intp]) -> tuple[Array, Array]:
+        actual = None if joints is None else joints(q_rows, rows)
+        return _errors(robot, q_rows, p_target[rows],
+                       None if R_target is None else R_target[rows], actual)
+
+    error, jacobian = evaluate(q, np.arange(len(q)))
+    damping = np.full(len(q), INITIAL_DAMPING)
+    identity = np.eye(error.shape[1])
+    iterations = 0
+    while iterations < max_iterations:
+        position_m, rotation_rad = norms(error)
+        active = ((position_m > tolerance_m) | (rotation_rad > tolerance_rad)) & (
+            damping < MAX_DAMPING
+        )
+        if not np.any(active):
+            break
+        iterations += 1
+        J, e = jacobian[active], error[active]
+        JJt = J @ np.swapaxes(J, -1, -2) + damping[active, None, None] * identity
+        step = (np.swapaxes(J, -1, -2) @ np.linalg.solve(JJt, e[..., None]))[..., 0]
+        q_try = q[active] + step
+        rows = np.flatnonzero(active)
+        error_try, jacobian_try = evaluate(q_try, rows)
+        better = np.linalg.norm(error_try, axis=-1) < np.linalg.norm(e, axis=-1)
+        taken = rows[better]
+        q[taken], error[taken], jacobian[taken] = (
+            q_try[better], error_try[better], jacobian_try[better],
+        )
+        damping[taken] = np.maximum(damping[taken] / 3.0, MIN_DAMPING)
+        damping[rows[~better]] *= 10.0
+    position_m, rotation_rad = norms(error)
+    converged = (position_m <= tolerance_m) & (rotation_rad <= tolerance_rad)
+    q, within = _into_limits(robot, q, np.asarray(q_seed, dtype=np.float64))
+    return IKResult(q, position_m, rotation_rad, converged, within, iterations)
+
+
+def _best_of_starts(
+    robot: RobotModel, base_p_target: Array, rng: np.random.Generator, n_starts: int
+) -> IKResult:
+    """Position-only IK from the home posture and n_starts − 1 random ones; per target the ok
+    solution closest to home (the home-start result when none is ok)."""
+    m = len(base_p_target)
+    home = home_pose(robot)
+    starts = rng.uniform(robot.lower_rad, robot.upper_rad, (n_starts, m, robot.n_joints))
+    starts[0] = home
+    solved = solve_ik(robot, np.tile(base_p_target, (n_starts, 1)),
+                      starts.reshape(-1, robot.n_joints))
+    ok = solved.ok.reshape(n_starts, m)
+    distance = np.linalg.norm(solved.q_rad.reshape(n_starts, m, -1) - home, axis=-1)
+    pick = np.argmin(np.where(ok, distance, np.inf), axis=0)
+    rows = pick * m + np.arange(m)
+    return IKResult(
+        solved.q_rad[rows], solved.position_error_m[rows], solved.rotation_error_rad[rows],
+        solved.converged[rows], solved.within_limits[rows], solved.iterations,
+    )
+
+
+def _replace_rows(values: NDArray[_T], rows: NDArray[np.intp], new: NDArray[_T]) -> NDArray[_T]:
+    merged = np.array(values)
+    merged[rows] = new
+    return merged
+
+
+def nominal_ik(
+    robot: RobotModel, base_p_target: ArrayLike, rng: np.random.Generator,
+    starts: tuple[int, ...] = NOMINAL_STARTS,
+) -> IKResult:
+    """Position-only IK on the nominal model, for targets that come without joint angles.
+
+    Orientation is free, so there is no closed form; the batched solver runs from the home
+    posture and random postures within the limits, and keeps per target the converged in-limit
+    solution closest to home. Targets left without one (a folded arm near a limit, say) get a
+    second, larger round of starts, and so on through ``starts``.
+
+    Args:
+        robot: Nominal robot, SI.
+        base_p_target: Flange position targets, shape (m, 3), m.
+        rng: Generator of the random starts.
+        starts: Starts per target in each round.
+
+    Returns:
+        One solution per target; a target no round solves keeps its home-start result, flagged.
+    """
+    p_target = np.asarray(base_p_target, dtype=np.float64)
+    result = _best_of_starts(robot, p_target, rng, starts[0])
+    for n_starts in starts[1:]:
+        failed = np.flatnonzero(~result.ok)
+        if failed.size == 0:
+            break
+        retry = _best_of_starts(robot, p_target[failed], rng, n_starts)
+        result = IKResult(
+            _replace_rows(result.q_rad, failed, retry.q_rad),
+            _replace_rows(result.position_error_m, failed, retry.position_error_m),
+            _replace_rows(result.rotation_error_rad, failed, retry.rotation_error_rad),
+            _replace_rows(result.converged, failed, retry.converged),
+            _replace_rows(result.within_limits, failed, retry.within_limits),
+            max(result.iterations, retry.iterations),
+        )
+    return result
+
+

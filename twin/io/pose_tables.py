@@ -1,0 +1,132 @@
+"""CSV tables of joint angles twin writes, and the Cartesian targets it reads (degrees, mm):
+
+- a pose **plan** (`twin plan`): ``q1..qN`` (and ``port``, the station of each pose);
+- **corrected** commands (`twin compensate`): ``q1..qN`` (empty when unreachable), ``status``,
+  ``error_mm`` (the remaining flange error) and, with backlash, ``approach1..N``;
+- **predictions** (`twin predict`): the poses as given, then ``x,y,z`` (mm, base frame),
+  ``length`` and ``tracker_x,tracker_y,tracker_z`` (those the prediction has);
+- **targets** (`twin compensate --targets`): ``x,y,z`` in mm, base frame.
+
+Angles are written to 1e-6 degree, lengths to 1e-6 mm; every file atomically.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.arrays import Array
+from twin.compensation import InOrder
+from twin.errors import InputError
+from twin.ik import STATUS_UNREACHABLE
+from twin.io.atomic import write_atomic
+from twin.io.measurements import PORT_COLUMN, approach_columns, joint_columns, read_table
+from twin.predict import Prediction
+from twin.units import (
+    FILE_DEG_DECIMALS,
+    MAX_LENGTH_M,
+    RESULT_MM_DECIMALS,
+    m_to_mm,
+    mm_to_m,
+    rad_to_deg,
+    rounded,
+)
+
+TARGET_COLUMNS = ("x", "y", "z")
+RESULT_COLUMNS = ("status", "error_mm")
+POSITION_COLUMNS = ("x", "y", "z")
+LENGTH_COLUMN = "length"
+TRACKER_COLUMNS = ("tracker_x", "tracker_y", "tracker_z")
+
+
+def _angles(q_rad: Array) -> list[list[str]]:
+    """Each row's angles in degrees, to 1e-6 degree."""
+    return [list(map(repr, rounded(q, FILE_DEG_DECIMALS))) for q in rad_to_deg(q_rad)]
+
+
+def load_targets(path: str | Path, *, stdin: bool = False) -> Array:
+    """Flange targets x,y,z (mm, base frame) as positions (m, 3), m.
+
+    Raises:
+        InputError: naming the line of a target farther from the base than any arm reaches.
+    """
+    xyz_mm, lines = read_table(path, TARGET_COLUMNS, "a target CSV (x,y,z in mm)", stdin=stdin)
+    far = np.flatnonzero(np.linalg.norm(xyz_mm, axis=1) > m_to_mm(MAX_LENGTH_M))
+    if far.size:
+        raise InputError(f"a target {np.linalg.norm(xyz_mm[far[0]]):g} mm from the base",
+                         f"targets within {float(m_to_mm(MAX_LENGTH_M)):g} mm",
+                         source=path, where=f"line {lines[far[0]]}")
+    return mm_to_m(xyz_mm)
+
+
+def write_plan(path: str | Path, q_rad: Array, port_names: tuple[str, ...] = (),
+               port: NDArray[np.intp] | None = None) -> None:
+    """A pose plan: q1..qN (deg) and, for an encoder moved between stations, each pose's
+    station (``port``: index into ``port_names``)."""
+    header = joint_columns(q_rad.shape[1]) + ((PORT_COLUMN,) if port is not None else ())
+    rows = [",".join(header)]
+    rows += [",".join([*angles, *(() if port is None else (port_names[port[k]],))])
+             for k, angles in enumerate(_angles(q_rad))]
+    write_atomic(path, "\n".join(rows) + "\n")
+
+
+def format_corrected(ordered: InOrder) -> str:
+    """CSV text: q1..qN (deg to 1e-6, empty when unreachable), status, remaining flange error
+    (mm); with backlash, approach1..N: the side each joint must come from (the corrections hold
+    for it)."""
+    solved = ordered.solved
+    error_mm = m_to_mm(solved.position_error_m)
+    n = solved.q_rad.shape[1]
+    header = [*joint_columns(n), *RESULT_COLUMNS,
+              *(approach_columns(n) if ordered.approach is not None else ())]
+    lines = [",".join(header)]
+    for row, (angles, status, error) in enumerate(zip(_angles(solved.q_rad), solved.status,
+                                                      error_mm, strict=True)):
+        angles = [""] * n if status == STATUS_UNREACHABLE else angles
+        sides = [] if ordered.approach is None else [f"{int(s):+d}"
+                                                     for s in ordered.approach[row]]
+        lines.append(",".join([*angles, str(status), f"{error:.6f}", *sides]))
+    return "\n".join(lines) + "\n"
+
+
+def write_corrected(path: str | Path, ordered: InOrder) -> None:
+    """Write :func:`format_corrected` atomically."""
+    write_atomic(path, format_corrected(ordered))
+
+
+def prediction_columns(prediction: Prediction) -> tuple[str, ...]:
+    """The value columns a prediction fills: x,y,z, and length and tracker_x,y,z if it has
+    them."""
+    return (*POSITION_COLUMNS, *((LENGTH_COLUMN,) if prediction.length_m is not None else ()),
+            *(TRACKER_COLUMNS if prediction.tracker_m is not None else ()))
+
+
+def format_prediction(q_rad: Array, approach: NDArray[np.int8] | None,
+                      prediction: Prediction) -> str:
+    """CSV text: the poses as given (q in degrees, approach), then x,y,z, length and
+    tracker_x,tracker_y,tracker_z (those the prediction has) in mm to 1e-6 mm."""
+    n = q_rad.shape[1]
+    header = [*joint_columns(n), *(approach_columns(n) if approach is not None else ()),
+              *prediction_columns(prediction)]
+    columns = _angles(q_rad)
+    if approach is not None:
+        columns = [[*row, *(f"{int(v):+d}" for v in signs)]
+                   for row, signs in zip(columns, approach, strict=True)]
+    xyz = m_to_mm(prediction.position_m)
+    length = None if prediction.length_m is None else m_to_mm(prediction.length_m)
+    tracker = None if prediction.tracker_m is None else m_to_mm(prediction.tracker_m)
+    lines = [",".join(header)]
+    for i, row in enumerate(columns):
+        values = rounded(xyz[i], RESULT_MM_DECIMALS) + (
+            [] if length is None else rounded([length[i]], RESULT_MM_DECIMALS)) + (
+            [] if tracker is None else rounded(tracker[i], RESULT_MM_DECIMALS))
+        lines.append(",".join([*row, *map(repr, values)]))
+    return "\n".join(lines) + "\n"
+
+
+def write_prediction(path: str | Path, q_rad: Array, approach: NDArray[np.int8] | None,
+                     prediction: Prediction) -> None:
+    """Write :func:`format_prediction` atomically."""
+    write_atomic(path, format_prediction(q_rad, approach, prediction))

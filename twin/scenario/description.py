@@ -1,0 +1,134 @@
+"""A scenario: what the twin simulates and how the data are to be calibrated (SI inside).
+
+Read from a TOML file by :mod:`twin.scenario.reader`; simulated by :mod:`twin.sim.simulate`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twin.arrays import Array
+from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.problem import DEFAULT_SIGMA_M
+from twin.robot import RobotModel
+from twin.scenario.constraints import PoseConstraints
+from twin.scenario.instrument import Instrument
+from twin.scenario.joint_errors import JointErrors
+from twin.scenario.noise import NoiseModel
+from twin.scenario.perturbation import Perturbation
+from twin.scenario.physics import Physics
+from twin.stopping import PROTOCOLS, Budget
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario (SI inside).
+
+    Attributes:
+        name: Short name.
+        description: What the scenario is for.
+        seed: Default seed of every random draw.
+        robot: The nominal robot (what the calibration is told).
+        port_m: True port, shape (3,), m (the first station's with several); None without a
+            cable.
+        port_told_m: The port the calibration is told, shape (3,), m; None means the true port
+            plus an N(0, ``port_error_m``²) draw per axis.
+        port_error_m: 1σ per axis of the told port's error, m.
+        perturbation: How the true D-H errors are drawn.
+        pose_count: Number of poses; with a plan, its first rows (0: all of them).
+        pose_plan: Plan CSV of poses, or None to sample.
+        constraints: What a pose must satisfy.
+        noise: Encoder noise and repeatability.
+        joint_errors: Joint-level errors (phases as given, or zeros when drawn).
+        draw_phases: Whether transmission phases are drawn uniformly per seed.
+        physics: Servo stiffness, gravity and tension.
+        train_fraction: Share of poses for identification, or None (the core's 80 %).
+        estimate_port: Hint: calibrate with a port correction.
+        estimate_offset: Hint: calibrate with a length offset.
+        instrument: Stations, attachment, tracker or fixture (:mod:`twin.scenario.instrument`).
+        estimate_attachment: Hint: calibrate with the attachment point unknown.
+        estimate_base: Hint: calibrate with the tracker frame unknown.
+        loss: Hint: the loss of the calibration (:data:`twin.loss.LOSSES`).
+        loss_scale_m: Hint: its scale, m, or None for 3 σ of the noise.
+        stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
+        max_iterations: Iteration limit of every method and stage, or None (the protocol's).
+        errors: The robot's error groups the calibration fits (:data:`twin.unknowns.ERRORS`).
+        study: The ``[study]`` table as written, for twin.study.
+        expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
+        source: The file, or None.
+    """
+
+    name: str
+    seed: int
+    robot: RobotModel
+    port_m: Array | None
+    perturbation: Perturbation
+    pose_count: int
+    description: str = ""
+    port_told_m: Array | None = None
+    port_error_m: float = 0.0
+    pose_plan: Path | None = None
+    constraints: PoseConstraints = field(default_factory=PoseConstraints)
+    noise: NoiseModel = field(default_factory=NoiseModel)
+    joint_errors: JointErrors | None = None
+    draw_phases: bool = True
+    physics: Physics = field(default_factory=Physics)
+    train_fraction: float | None = None
+    estimate_port: bool = False
+    estimate_offset: bool = False
+    stop: str = PROTOCOLS[0]
+    max_iterations: int | None = None
+    errors: tuple[str, ...] = ("dh",)
+    study: dict[str, Any] = field(default_factory=dict)
+    expect: dict[str, Any] = field(default_factory=dict)
+    source: Path | None = None
+    instrument: Instrument = field(default_factory=Instrument)
+    estimate_attachment: bool = False
+    estimate_base: bool = False
+    loss: str = LOSSES[0]
+    loss_scale_m: float | None = None
+
+    @property
+    def budget(self) -> Budget:
+        """The iteration limits and stopping tests the calibration runs with."""
+        return Budget.named(self.stop, self.max_iterations)
+
+    @property
+    def calibration_loss(self) -> Loss:
+        """The loss ``[calibration]`` asks for, its scale defaulting to
+        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the simulated noise (without jitter)."""
+        if self.loss_scale_m is not None:
+            return Loss(self.loss, self.loss_scale_m)
+        sigma = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
+            if self.instrument.kind != "length" \
+            else float(np.hypot(self.noise.sigma_m, self.noise.resolution_m / np.sqrt(12.0)))
+        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * (sigma if sigma > 0 else DEFAULT_SIGMA_M))
+
+    def __post_init__(self) -> None:
+        n = self.robot.n_joints
+        if self.port_m is not None:
+            port = np.array(self.port_m, dtype=np.float64)
+            if port.shape != (3,) or not np.all(np.isfinite(port)):
+                raise ValueError("port_m: expected 3 finite values")
+            port.setflags(write=False)
+            object.__setattr__(self, "port_m", port)
+        elif self.instrument.kind == "length":
+            raise ValueError("port_m: cable lengths need a port")
+        if self.port_told_m is not None:
+            told = np.array(self.port_told_m, dtype=np.float64)
+            told.setflags(write=False)
+            object.__setattr__(self, "port_told_m", told)
+        if self.joint_errors is None:
+            object.__setattr__(self, "joint_errors", JointErrors.none(n))
+        if self.pose_count < (0 if self.pose_plan is not None else 1):
+            raise ValueError("pose_count: expected >= 1 (>= 0 with a plan)")
+        if self.perturbation.scale.shape != (4, n):
+            raise ValueError(f"perturbation scale: expected shape (4, {n})")
+        if self.train_fraction is not None and not 0 < self.train_fraction < 1:
+            raise ValueError("train_fraction: expected in (0, 1)")
+        if self.stop not in PROTOCOLS:
+            raise ValueError(f"stop: expected one of {', '.join(PROTOCOLS)}")

@@ -1,0 +1,76 @@
+"""Fixed points on the twin: configurations of the true robot that bring its measured point (the
+ball) into each socket of a fixture (:class:`twin.scenario.instrument.Instrument`).
+
+For each socket the arm brings the ball into it from ``touches`` different configurations —
+position-only inverse kinematics of the *true* robot, from random starts, kept when within the
+limits, above the floor and free of collisions. The ball seats with an error of σ per axis (the
+IK target is the socket plus that error); the recorded joint angles are those the arm then
+stands at.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.arrays import Array
+from twin.errors import InputError
+from twin.ik import solve_ik
+from twin.kinematics import Structure
+from twin.robot import RobotModel
+from twin.scenario.constraints import PoseConstraints
+from twin.sim.mujoco_twin import Twin
+from twin.sim.poses import usable
+
+IK_STARTS_PER_TOUCH = 40
+"""Random starts tried per wanted configuration before a socket counts as unreachable."""
+
+
+def touch_poses(robot: RobotModel, twin: Twin, points_m: Array, touches: int,
+                constraints: PoseConstraints, sigma_m: Array, rng: np.random.Generator
+                ) -> tuple[Array, NDArray[np.intp]]:
+    """Configurations of the true robot that bring its measured point into each fixed point.
+
+    Args:
+        robot: The true robot.
+        twin: Its twin (no cable), with the true measured point: checks floor and collisions.
+        points_m: The fixed points, base frame, shape (f, 3), m.
+        touches: Configurations per fixed point.
+        constraints: What a configuration must satisfy (the cable's part does not apply).
+        sigma_m: The seating error 1σ per axis, shape (3,), m.
+        rng: Draws the starts and the seating errors.
+
+    Returns:
+        ``(q_rad, point)``: joint angles (f · touches, n), rad, point after point, and each
+        row's fixed point.
+
+    Raises:
+        InputError: if a fixed point cannot be reached ``touches`` times.
+    """
+    tool = np.eye(4)
+    tool[:3, 3] = twin.attachment_m
+    structure = robot.structure
+    pointer = replace(robot, structure=Structure(structure.parametrisation, structure.base,
+                                                 structure.tool @ tool))
+    rows, index = [], []
+    for j, point in enumerate(points_m):
+        found: list[Array] = []
+        tried = 0
+        while len(found) < touches:
+            if tried >= IK_STARTS_PER_TOUCH * touches:
+                raise InputError(f"{len(found)} configurations reaching fixed point {j + 1} at "
+                                 f"{np.round(point * 1e3, 1).tolist()} mm",
+                                 f"{touches}: a placement the arm can reach")
+            batch = 2 * touches
+            tried += batch
+            seeds = rng.uniform(robot.lower_rad, robot.upper_rad, (batch, robot.n_joints))
+            targets = point + rng.normal(0.0, 1.0, (batch, 3)) * sigma_m
+            solved = solve_ik(pointer, targets, seeds)
+            good = solved.q_rad[solved.ok]
+            good = good[usable(constraints, twin, good)] if len(good) else good
+            found.extend(good[: touches - len(found)])
+        rows.append(np.stack(found))
+        index.append(np.full(touches, j, dtype=np.intp))
+    return np.concatenate(rows), np.concatenate(index)
