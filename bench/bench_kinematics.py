@@ -23,12 +23,13 @@ import numpy as np
 import pinocchio as pin
 
 from twin.calibration import make_model
-from twin.compensation import compensate_program, reachable_targets
+from twin.compensation import compensate_program
 from twin.kinematics import point_jacobian, point_position
 from twin.pinocchio_bridge import FLANGE_FRAME, build_model
 from twin.rig import Rig
 from twin.robot import default_robot
 from twin.synthetic import random_poses, synthesize
+from twin.targets import reachable_targets
 from twin.units import mm_to_m
 
 REPEATS = 7

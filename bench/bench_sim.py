@@ -15,7 +15,8 @@ import numpy as np
 
 from twin.kinds.length import cable_length
 from twin.robot import default_robot
-from twin.sim import Physics, Twin, build_spec, load_scenario, simulate
+from twin.scenario import Physics, load_scenario
+from twin.sim import Twin, build_spec, simulate
 from twin.synthetic import random_poses
 
 ROOT = Path(__file__).parents[1]

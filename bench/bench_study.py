@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from twin.sim.simulate import simulate
+from twin.study.definition import load_study
 from twin.study.executors.cluster import DaskCluster
 from twin.study.executors.local import LocalProcesses
-from twin.study.plan import load_study
 from twin.study.runner import run_study, run_trials
 from twin.study.trial import trial_seed
 
