@@ -374,3 +374,71 @@ def test_capture_refuses_an_arm_it_cannot_record(tmp_path: Path,
     assert code == 2 and error.count("\n") == 1
     assert "found a 4-joint robot, expected a 6-joint robot model TOML" in error
     assert not (tmp_path / "out").exists()
+
+
+EYELET_SCENARIO = """
+name = "capture_eyelet"
+seed = 12
+[port]
+position_mm = [600.0, -400.0, 100.0]
+[cable]
+attachment_mm = [25.0, -15.0, 40.0]
+[perturbation]
+a_mm = 1.0
+d_mm = 1.0
+[physics]
+compliance = true
+stiffness_nm_per_rad = [2e5, 2e5, 2e5, 5e4, 5e4, 5e4]
+tension_n = 5.0
+[poses]
+count = 4
+[encoder]
+resolution_mm = 0.001
+"""
+
+
+def test_the_virtual_rig_hooks_the_cable_on_the_eyelet_and_the_capture_says_so(
+        folder: Path, tmp_path: Path) -> None:
+    """A scenario's eyelet and cable tension reach the virtual encoder (its lengths are the
+    twin's to the eyelet, some millimetres from the flange's) and the capture's capture.toml
+    (the told attachment, the tension), so `twin calibrate` on it needs no flag."""
+    from twin.dataset import approach_directions
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
+
+    scenario_path = tmp_path / "eyelet.toml"
+    scenario_path.write_text(EYELET_SCENARIO)
+    device = Device(scenario_path, tmp_path / "pose.json")
+    try:
+        out = tmp_path / "run"
+        assert main(["capture", "--plan", str(folder / "plan.csv"), "--encoder", device.url,
+                     "--robot-source", "sim", "--scenario", str(scenario_path),
+                     "--pose-file", str(device.pose_file), "--out", str(out), *SETTLE]) == 0
+    finally:
+        device.stop()
+    scenario = load_scenario(scenario_path)
+    sim = simulate(scenario)
+    q_rad = deg_to_rad(rows(out)[:, 1:7])
+    approach = approach_directions(q_rad)
+    to_eyelet = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors,
+                           sim.rig.attachment_m).lengths(q_rad, approach)
+    to_flange = Twin.build(sim.true_robot, sim.port_m, scenario.physics,
+                           sim.joint_errors).lengths(q_rad, approach)
+    measured_mm = rows(out)[:, CAPTURE_COLUMNS.index("length")]
+    assert np.max(np.abs(measured_mm - m_to_mm(to_eyelet))) < 0.01
+    assert np.max(np.abs(m_to_mm(to_flange - to_eyelet))) > 1.0
+    capture = load_capture(out / "capture.toml")
+    np.testing.assert_allclose(capture.rig.attachment_m, [0.025, -0.015, 0.040], atol=1e-9)
+    assert capture.calibration.cable_tension_n == pytest.approx(5.0)
+
+
+def test_capture_refuses_rig_flags_with_the_scenarios_rig(folder: Path, tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]
+                                                           ) -> None:
+    """With --robot-source sim the scenario gives the rig: --attachment is a one-line error."""
+    assert main(["capture", "--plan", str(folder / "plan.csv"), "--encoder",
+                 "serial:///dev/null", "--robot-source", "sim", "--scenario",
+                 str(folder / "scenario.toml"), "--attachment", "0,0,40", "--out",
+                 str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--attachment with --robot-source sim" in err

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from twin.cli.arguments import (
+    add_cable_tension,
     add_output,
     add_seed,
     integer,
@@ -48,6 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")
+    parser.add_argument("--attachment", metavar="X,Y,Z", help="where the cable hooks on, mm "
+                        "in the flange frame (an eyelet; default 0,0,0: the flange centre; "
+                        "with sim: the scenario's told attachment)")
+    add_cable_tension(parser, "the encoder spring's pull on the cable in newtons, recorded "
+                      "for the calibration's compliance group (default 0; with sim: the "
+                      "scenario's)")
     parser.add_argument("--scenario", type=InputPath, metavar="SCENARIO.toml",
                         help="sim: the scenario the virtual encoder serves")
     add_seed(parser, "sim: the virtual encoder's --seed")
@@ -82,20 +89,26 @@ def run(args: argparse.Namespace) -> int:
     from twin.hardware.encoders import resolve
     from twin.hardware.encoders.settle import SettleRule
     from twin.hardware.robot_sources.base import RobotSource
-    from twin.io.capture_file import parse_port_mm
+    from twin.io.capture_file import CalibrationSettings, parse_port_mm
     from twin.io.measurements import load_plan
     from twin.io.robot_file import load_robot_or_default
+    from twin.rig import Rig
     from twin.units import mm_to_m
 
     config = resolve(args.encoder)
     rule = SettleRule(k=args.settle_k, tolerance_m=float(mm_to_m(args.settle_tol)),
                       timeout_s=args.settle_timeout, max_failures=args.max_failures,
                       interval_s=args.settle_interval)
-    truth = None
+    truth = calibration = None
     if args.robot_source == "sim":
-        if args.robot is not None or args.port is not None:
-            raise InputError("--robot or --port with --robot-source sim", "neither: the "
-                             "scenario gives the robot and the port", source="command line")
+        given = [flag for flag, value in (("--robot", args.robot), ("--port", args.port),
+                                          ("--attachment", args.attachment),
+                                          ("--cable-tension", args.cable_tension))
+                 if value is not None]
+        if given:
+            raise InputError(f"{' and '.join(given)} with --robot-source sim", "none of "
+                             "--robot, --port, --attachment, --cable-tension: the scenario "
+                             "gives the robot and the rig", source="command line")
         if args.scenario is None:
             raise InputError("no --scenario", "the scenario the virtual encoder serves "
                              "(--robot-source sim)", source="command line")
@@ -107,13 +120,18 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"a {sim.measurements.kind} scenario with "
                              f"{len(sim.rig.ports_m)} ports", "a scenario of one cable port "
                              "(the virtual encoder serves one cable)", source=args.scenario)
-        robot, port_m, truth = sim.robot, sim.port_nominal_m, sim.capture_truth
+        robot, rig, truth = sim.robot, sim.rig_told, sim.capture_truth
+        calibration = sim.calibration_settings
     else:
         robot = load_robot_or_default(args.robot)
         if args.port is None:
             raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
                              source="command line")
-        port_m = parse_port_mm(args.port, "--port", "")
+        rig = Rig.cable(parse_port_mm(args.port, "--port", ""),
+                        None if args.attachment is None
+                        else parse_port_mm(args.attachment, "--attachment", ""))
+        if args.cable_tension:
+            calibration = CalibrationSettings(cable_tension_n=args.cable_tension)
     if robot.urdf is not None or robot.n_joints != CAPTURE_JOINTS:
         # The capture journal's columns are pose, q1..q6, length (twin.hardware.capture_session).
         raise InputError(f"a {robot.n_joints}-joint robot"
@@ -140,8 +158,8 @@ def run(args: argparse.Namespace) -> int:
         source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
 
     out: Path = args.out
-    measured = capture_folder(out, args.plan, plan_q_rad, robot, port_m, config, source, rule,
-                              truth=truth, reconnect_s=args.reconnect,
+    measured = capture_folder(out, args.plan, plan_q_rad, robot, rig, config, source, rule,
+                              calibration=calibration, truth=truth, reconnect_s=args.reconnect,
                               report=lambda line: print(line, flush=True))
     print(f"measured {measured} poses; all {len(plan_q_rad)} are in {out / MEASUREMENTS_NAME}")
     print(f"calibrate with: twin calibrate {out / CAPTURE_NAME}")

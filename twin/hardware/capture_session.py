@@ -41,7 +41,7 @@ from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
 from twin.hardware.encoders.settle import Settled, SettleRule, settle
 from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
-from twin.io.capture_file import write_capture
+from twin.io.capture_file import CalibrationSettings, write_capture
 from twin.io.journal import Journal
 from twin.io.measurements import (
     COLUMNS,
@@ -54,6 +54,7 @@ from twin.io.measurements import (
 from twin.io.paths import os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot
 from twin.io.truth import TRUTH_FILE, write_truth
+from twin.rig import Rig
 from twin.robot import RobotModel, robot_files, robot_to_toml
 from twin.units import m_to_mm
 
@@ -279,11 +280,12 @@ def capture_folder(
     plan_path: Path,
     plan_q_rad: NDArray[np.float64],
     robot: RobotModel,
-    port_m: NDArray[np.float64],
+    rig: Rig,
     config: EncoderConfig,
     source: RobotSource,
     rule: SettleRule,
     *,
+    calibration: CalibrationSettings | None = None,
     truth: Mapping[str, Any] | None = None,
     reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
@@ -297,10 +299,13 @@ def capture_folder(
         plan_path: The plan CSV, copied into the folder.
         plan_q_rad: Its poses, shape (N, 6), rad.
         robot: The nominal robot (a 6-joint model file).
-        port_m: The encoder port, base frame, shape (3,), m.
+        rig: The rig as told: the encoder's one port (base frame, m), the cable's attachment
+            point (flange frame, m) and its tension (N), written to ``capture.toml``.
         config: How to talk to the encoder.
         source: Where the joint angles come from.
         rule: When a reading counts as settled.
+        calibration: How the capture asks to be calibrated (a scenario's ``[calibration]``
+            and the cable's tension), or None for the defaults.
         truth: The twin's truth, written as truth.json, or None.
         reconnect_s: As in :func:`capture`.
         report: Receives progress and fault lines.
@@ -318,8 +323,8 @@ def capture_folder(
         prepare(folder, plan_path, plan_q_rad, robot_text)
         if truth is not None:
             write_truth(folder / TRUTH_FILE, truth)
-        write_capture(folder / CAPTURE_NAME, robot=ROBOT_NAME, port_m=port_m,
-                      measurements=MEASUREMENTS_NAME,
+        write_capture(folder / CAPTURE_NAME, robot=ROBOT_NAME, rig=rig,
+                      measurements=MEASUREMENTS_NAME, calibration=calibration,
                       truth=TRUTH_FILE if truth is not None else None,
                       encoder={"url": config.to_url()})
         return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.errors import UnknownChoiceError
+from twin.errors import InputError, UnknownChoiceError
 from twin.hardware.encoders.url import PROTOCOLS
 from twin.hardware.robot_sources.sim import read_pose
 from twin.units import m_to_mm, mm_to_m
@@ -116,7 +116,12 @@ def scenario_instrument(scenario_path: str | Path, pose_file: str | Path,
 
     scenario = load_scenario(scenario_path)
     sim = simulate(scenario, seed)
-    twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors)
+    if sim.port_m is None or len(sim.rig.ports_m) > 1:
+        raise InputError(f"a {sim.measurements.kind} scenario with {len(sim.rig.ports_m)} ports",
+                         "a scenario of one cable port (the virtual encoder serves one cable)",
+                         source=scenario_path)
+    twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors,
+                      sim.rig.attachment_m)
 
     def lengths_m(q_rad: NDArray[np.float64], from_q_rad: NDArray[np.float64]
                   ) -> NDArray[np.float64]:

@@ -220,6 +220,22 @@ class Simulation:
             "effects": self.effects,
         }
 
+    @property
+    def calibration_settings(self) -> CalibrationSettings:
+        """How the scenario's ``[calibration]`` asks for the data to be calibrated, with the
+        rig's cable tension: what capture.toml carries."""
+        scenario = self.scenario
+        return CalibrationSettings(
+            estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
+            train_fraction=self.train_fraction or TRAIN_FRACTION, stop=scenario.stop,
+            max_iterations=scenario.max_iterations, errors=scenario.errors,
+            cable_tension_n=scenario.physics.tension_n,
+            estimate_attachment=scenario.estimate_attachment,
+            estimate_base=scenario.estimate_base, loss=scenario.loss,
+            loss_scale_mm=None if scenario.loss_scale_m is None
+            else float(m_to_mm(scenario.loss_scale_m)),
+        )
+
 
 def _inertia(robot: RobotModel) -> dict[str, Any]:
     """The true masses (kg) and centres of mass (mm, each link's D-H frame), or nulls."""
@@ -347,16 +363,7 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
         write_atomic(out / name, text)
     write_truth(out / TRUTH_FILE, sim.truth)
     scenario = sim.scenario
-    settings = CalibrationSettings(
-        estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION, stop=scenario.stop,
-        max_iterations=scenario.max_iterations, errors=scenario.errors,
-        cable_tension_n=scenario.physics.tension_n,
-        estimate_attachment=scenario.estimate_attachment,
-        estimate_base=scenario.estimate_base, loss=scenario.loss,
-        loss_scale_mm=None if scenario.loss_scale_m is None
-        else float(m_to_mm(scenario.loss_scale_m)),
-    )
+    settings = sim.calibration_settings
     noise = {"sigma_mm": float(m_to_mm(scenario.noise.sigma_m)),
              "resolution_mm": float(m_to_mm(scenario.noise.resolution_m))} \
         if sim.measurements.kind == "length" \
