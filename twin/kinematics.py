@@ -17,9 +17,13 @@ vector of a calibration keeps the table's layout, slot by slot: (s0 of joints 1.
 1..n, s2 …, s3 …) — for an all-D-H arm the paper's (δa1..n, δd1..n, δα1..n, δθ1..n).
 
 Positions are computed by carrying one point from the flange to the base through the elementary
-motions (three components per step, no 4×4 products); Jacobians by carrying frames from the base
-to the flange and turning each elementary motion into its column (a translation along u gives u,
-a rotation about u through o gives u × (p − o)). No loop over poses or tables.
+motions (three components per step, no 4×4 products). A point's Jacobian along chosen directions
+w (the cable's unit vector, or the base axes for the full Jacobian) carries w the other way, from
+the base to the flange (:class:`PointTrace`): in the frame before a motion, with the point p and
+the direction w expressed there, a translation along the local axis e moves w·p by w·e and a
+rotation about e by w·(e × p) — no frames, axes or cross products in the base frame. Frames
+(:func:`frames`, :func:`flange_jacobian`) are carried from the base to the flange. No loop over
+poses or tables.
 """
 
 from __future__ import annotations
@@ -143,16 +147,18 @@ class Frames(NamedTuple):
 
 
 class PointJacobian(NamedTuple):
-    """A point on the flange, and how it moves with the table, the joints and the point."""
+    """A point on the flange, and how it moves with the table, the joints and the point, along r
+    directions per pose (:meth:`PointTrace.jacobian`; the base axes, r = 3, unless chosen)."""
 
     position: Array
     """The point in the base frame, shape (..., m, 3), m."""
     table: Array
-    """∂p/∂table in the error vector's order, shape (..., m, 3, 4n), m/m or m/rad."""
+    """w·∂p/∂table in the error vector's order, shape (..., m, r, 4n), m/m or m/rad."""
     joints: Array
-    """∂p/∂q, shape (..., m, 3, n), m/rad."""
+    """w·∂p/∂q, shape (..., m, r, n), m/rad."""
     rotation: Array
-    """The flange's rotation, base_R_flange = ∂p/∂(point in the flange frame), (..., m, 3, 3)."""
+    """w·∂p/∂(point in the flange frame), shape (..., m, r, 3): along the base axes the flange's
+    rotation base_R_flange."""
 
 
 def _check_shapes(structure: Structure, dh: Array, q_rad: Array) -> None:
@@ -317,20 +323,126 @@ def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
         dh: Parameter tables, shape (..., 4, n), m and rad.
         q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
         point_m: The point in the flange frame, shape (3,) or (..., 3), m; origin if None.
+
+    Returns:
+        ∂p/∂(·) along the base axes: table (..., m, 3, 4n), joints (..., m, 3, n), rotation
+        (..., m, 3, 3).
     """
-    _, motions, flange = _walk(structure, dh, q_rad, record=True)
-    rotation = flange[..., :3, :3]
-    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
-    offset = local[..., None, :] if local.ndim > 1 else local
-    p = flange[..., :3, 3] + np.einsum("...ij,...j->...i", rotation, np.broadcast_to(
-        offset, (*flange.shape[:-2], 3)))
+    return trace_point(structure, dh, q_rad, point_m).jacobian()
+
+
+_Step = tuple[int, int, int, Array | None, Array | None, list[Array] | None]
+"""One elementary motion as :class:`PointTrace` keeps it: (kind, local axis, column of the
+error vector, cos, sin, the point in the frame before the motion); rotations only carry the
+last three."""
+
+
+class PointTrace:
+    """A point fixed to the flange, carried to the base frame for a batch of tables and poses,
+    with what its derivatives need (made by :func:`trace_point`).
+
+    Attributes:
+        position: The point in the base frame, shape (..., m, 3), m.
+    """
+
+    def __init__(self, structure: Structure, position: Array, steps: list[_Step],
+                 shape: tuple[int, ...]) -> None:
+        self.position = position
+        self._structure = structure
+        self._steps = steps
+        self._shape = shape  # (batch..., 1, m): what every carried component broadcasts to
+
+    def jacobian(self, directions: ArrayLike | None = None) -> PointJacobian:
+        """How the point moves along r directions per pose: w·∂p/∂table, w·∂p/∂q and
+        w·∂p/∂(point in the flange frame) for each direction w.
+
+        The directions are carried from the base to the flange, each step expressing w in the
+        frame before the next motion; there a translation along the local axis e gives w·e and
+        a rotation about e gives w·(e × p), p the point in that frame (kept from the way in).
+
+        Args:
+            directions: Directions in the base frame, shape (..., m, r, 3) (batched with the
+                tables); the base axes (r = 3, the whole Jacobian) if None.
+
+        Returns:
+            table (..., m, r, 4n), joints (..., m, r, n), rotation (..., m, r, 3).
+        """
+        structure = self._structure
+        n = structure.n_joints
+        if directions is None:
+            along = np.broadcast_to(np.eye(3)[:, :, None], (3, 3, self._shape[-1]))
+        else:
+            w_m = np.asarray(directions, dtype=np.float64)
+            along = np.moveaxis(w_m, (-1, -3), (0, -1))  # (3, batch..., r, m)
+        w = list(np.tensordot(structure.base[:3, :3], along, axes=(0, 0)))  # R_baseᵀ w
+        shape = np.broadcast_shapes(along.shape[1:], self._shape)
+        columns = np.empty((4 * n, *shape))
+        for kind, axis, column, c, s, before in self._steps:
+            j, k = (axis + 1) % 3, (axis + 2) % 3
+            if kind == _TRANS:
+                columns[column] = w[axis]
+                continue
+            assert c is not None and s is not None and before is not None
+            columns[column] = w[k] * before[j] - w[j] * before[k]
+            w[j], w[k] = c * w[j] + s * w[k], c * w[k] - s * w[j]  # R_eᵀ w
+        flange = np.tensordot(structure.tool[:3, :3],
+                              np.stack([np.broadcast_to(v, shape) for v in w]), axes=(0, 0))
+        table = np.moveaxis(columns, (0, -1), (-1, -3))
+        return PointJacobian(self.position, table,
+                             table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
+                             np.moveaxis(flange, (0, -1), (-1, -3)))
+
+
+def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
+                point_m: ArrayLike | None = None) -> PointTrace:
+    """A point fixed to the flange, in the base frame, kept for its derivatives.
+
+    Args:
+        structure: What the table means.
+        dh: Parameter tables, shape (..., 4, n), m and rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
+            tables), m; the flange centre (origin) if None.
+    """
+    # As point_position (the point carried from the flange to the base), with the joint angle
+    # q + θ taken whole, and every carried component kept for PointTrace.jacobian; arrays are
+    # joint-major with a row axis (batch..., 1, m), so that r directions broadcast over it.
+    dh = np.asarray(dh, dtype=np.float64)
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    _check_shapes(structure, dh, q_rad)
     n = structure.n_joints
-    columns = _columns(motions, p)
-    table = np.zeros((*p.shape, 4 * n))
-    order = [slot * n + joint for _, joint, slot, _, _ in motions]
-    table[..., order] = columns
-    joints = columns[..., [slot == JOINT_SLOT for _, _, slot, _, _ in motions]]
-    return PointJacobian(p, table, joints, rotation)
+    batch = max(dh.ndim, q_rad.ndim) - 2
+    table = np.moveaxis(dh, (-2, -1), (0, 1))
+    table = table.reshape(4, n, *(1,) * (batch - table.ndim + 2), *table.shape[2:], 1, 1)
+    q = np.moveaxis(q_rad, -1, 0)
+    q = q.reshape(n, *(1,) * (batch - q.ndim + 2), *q.shape[1:-1], 1, q.shape[-1])
+    turned = q + table[JOINT_SLOT]
+    cos_turned, sin_turned = np.cos(turned), np.sin(turned)
+    cos_slots, sin_slots = np.cos(table), np.sin(table)
+    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
+    start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
+    p = [start[..., k, None, None] for k in range(3)]
+    steps: list[_Step] = []
+    for i in range(n - 1, -1, -1):
+        for kind, axis, slot in reversed(_MOTIONS[structure.parametrisation[i]]):
+            column = slot * n + i
+            if kind == _TRANS:
+                p[axis] = p[axis] + table[slot, i]
+                steps.append((kind, axis, column, None, None, None))
+                continue
+            if slot == JOINT_SLOT:
+                c, s = cos_turned[i], sin_turned[i]
+            else:
+                c, s = cos_slots[slot, i], sin_slots[slot, i]
+            j, k = (axis + 1) % 3, (axis + 2) % 3
+            p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
+            steps.append((kind, axis, column, c, s, list(p)))
+    steps.reverse()
+    shape = np.broadcast_shapes(cos_turned.shape[1:], *(v.shape for v in p))
+    position = np.stack([np.broadcast_to(v, shape) for v in p], axis=-1)[..., 0, :, :]
+    rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
+    return PointTrace(structure, np.asarray(position @ rotation.T + translation,
+                                            dtype=np.float64), steps, shape)
 
 
 def flange_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike

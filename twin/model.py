@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements, approach_directions
 from twin.kinds import Kind
-from twin.kinematics import point_jacobian, point_position
+from twin.kinematics import PointJacobian, point_position, trace_point
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
@@ -250,20 +250,32 @@ class Model:
         return self._chain_jacobian(self._check(x), data, measured=True)
 
     def _chain_jacobian(self, x: Array, data: Measurements, measured: bool) -> Array:
-        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
-                               self.point(x) if measured else None)
+        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+                            self.point(x) if measured else None)
         jacobian = np.zeros((len(data), 3, self.n_params))
+        self._chain_rule(trace.jacobian(), data, measured, jacobian)
+        return jacobian
+
+    def _chain_rule(self, moves: PointJacobian, data: Measurements, measured: bool,
+                    out: Array) -> None:
+        """Write into ``out`` (m, r, p) the derivatives of the r rows of every pose w.r.t. the
+        table, joint and (if ``measured``) point groups, from the point's derivatives along
+        those rows (:meth:`twin.kinematics.PointTrace.jacobian`); other columns stay as they
+        are."""
+        m, rows = out.shape[:2]
         for group in self.groups:
+            where = self.slice(group.name)
             if group.stage == Stage.TABLE:
                 assert group.linear is not None
-                jacobian[..., self.slice(group.name)] = chain.table @ group.linear
+                table = moves.table.reshape(m * rows, -1)
+                out[..., where] = (table @ group.linear).reshape(m, rows, -1)
             elif group.stage == Stage.JOINTS:
                 assert group.basis is not None
-                jacobian[..., self.slice(group.name)] = chain.joints @ group.basis(data)
+                out[..., where] = moves.joints @ group.basis(data)
             elif group.stage == Stage.POINT and measured:
                 assert group.linear is not None
-                jacobian[..., self.slice(group.name)] = chain.rotation @ group.linear
-        return jacobian
+                point = moves.rotation.reshape(m * rows, 3)
+                out[..., where] = (point @ group.linear).reshape(m, rows, -1)
 
     # --- residuals ------------------------------------------------------------------------
 
@@ -284,28 +296,18 @@ class Model:
             ``(r, J)``: residuals (M,) in m, Jacobian ∂r/∂x (M, p).
         """
         x = self._check(x)
-        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
-                               self.point(x))
-        kind = self.kind.jacobian(chain.position, self._measurement_values(x), data, self.rig)
+        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+                            self.point(x))
+        kind = self.kind.jacobian(trace.position, self._measurement_values(x), data, self.rig)
         m, rows = len(data), self.kind.rows_per_pose
-        by_position = kind.by_position  # (m, rows, 3)
         jacobian = np.zeros((kind.residuals.size, self.n_params))
+        # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
+        # along those directions alone (one row per pose for a length, not three).
+        self._chain_rule(trace.jacobian(kind.by_position), data, True,
+                         jacobian[: m * rows].reshape(m, rows, self.n_params))
         for group in self.groups:
-            where = self.slice(group.name)
             if group.stage == Stage.MEASUREMENT:
-                jacobian[:, where] = kind.by_group[group.name]
-                continue
-            if group.stage == Stage.TABLE:
-                assert group.linear is not None
-                moves = chain.table @ group.linear  # (m, 3, p_g)
-            elif group.stage == Stage.JOINTS:
-                assert group.basis is not None
-                moves = chain.joints @ group.basis(data)
-            else:
-                assert group.linear is not None
-                moves = chain.rotation @ group.linear
-            jacobian[: m * rows, where] = np.einsum("mrc,mcp->mrp", by_position,
-                                                    moves).reshape(m * rows, -1)
+                jacobian[:, self.slice(group.name)] = kind.by_group[group.name]
         return kind.residuals, jacobian
 
     def symmetries(self, x: ArrayLike) -> Array:
