@@ -148,7 +148,7 @@ def run_filter(
     model = linearise(tracker, x, P)
     # Every residual row is a scalar measurement: a pose of a 3-D kind gives three.
     order = rng.permutation(model.residual_m.size)
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(x, model.f_m2)
     for _ in range(budget.max_iterations):
         r_m2 = max(problem.sigma_m**2, model.f_m2)  # see the module docstring

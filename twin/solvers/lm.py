@@ -131,7 +131,7 @@ def levenberg_marquardt(
     x = np.clip(x0, lower, upper)
     r, J = tracker.jacobian(x)
     f = float(np.mean(r**2))
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(x, f)
     largest = float(np.max(np.sum(J * J, axis=0)))
     mu, nu = initial_damping(J), 2.0

@@ -203,7 +203,7 @@ def run_population(tracker: Tracker, x_init: Array, budget: Budget, move: Move) 
     f = tracker.cost(x_init)
     f_start = float(f[0])
     swarm = Swarm(x_init.copy(), np.zeros_like(x_init), x_init.copy(), f.copy())
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(swarm.g_x, swarm.g_f)
     n = x_init.shape[0]
     best = [swarm.g_f]
