@@ -29,7 +29,8 @@ poses or tables.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from functools import cache
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -331,10 +332,21 @@ def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
     return trace_point(structure, dh, q_rad, point_m).jacobian()
 
 
-_Step = tuple[int, int, int, Array | None, Array | None, list[Array] | None]
-"""One elementary motion as :class:`PointTrace` keeps it: (kind, local axis, column of the
-error vector, cos, sin, the point in the frame before the motion); rotations only carry the
-last three."""
+_Motion = tuple[int, int, int, int, int, int]
+"""An elementary motion of a chain: (kind, local axis, j, k, slot, joint); a rotation turns
+axis j towards k."""
+_Step = tuple[int, int, int, int, int, Any, Any, list[Array] | None]
+"""One elementary motion as :class:`PointTrace` keeps it: (kind, axis, j, k, column of the error
+vector, cos, sin, the point in the frame before the motion); cos, sin and the point are None
+for a translation."""
+
+
+@cache
+def _plan(parametrisation: tuple[str, ...]) -> tuple[_Motion, ...]:
+    """The elementary motions of a chain, base to flange (:data:`_MOTIONS` per joint)."""
+    return tuple((kind, axis, (axis + 1) % 3, (axis + 2) % 3, slot, joint)
+                 for joint, name in enumerate(parametrisation)
+                 for kind, axis, slot in _MOTIONS[name])
 
 
 class PointTrace:
@@ -377,12 +389,11 @@ class PointTrace:
         w = list(np.tensordot(structure.base[:3, :3], along, axes=(0, 0)))  # R_baseᵀ w
         shape = np.broadcast_shapes(along.shape[1:], self._shape)
         columns = np.empty((4 * n, *shape))
-        for kind, axis, column, c, s, before in self._steps:
-            j, k = (axis + 1) % 3, (axis + 2) % 3
+        for kind, axis, j, k, column, c, s, before in self._steps:
             if kind == _TRANS:
                 columns[column] = w[axis]
                 continue
-            assert c is not None and s is not None and before is not None
+            assert before is not None
             columns[column] = w[k] * before[j] - w[j] * before[k]
             w[j], w[k] = c * w[j] + s * w[k], c * w[k] - s * w[j]  # R_eᵀ w
         flange = np.tensordot(structure.tool[:3, :3],
@@ -418,25 +429,26 @@ def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
     q = q.reshape(n, *(1,) * (batch - q.ndim + 2), *q.shape[1:-1], 1, q.shape[-1])
     turned = q + table[JOINT_SLOT]
     cos_turned, sin_turned = np.cos(turned), np.sin(turned)
-    cos_slots, sin_slots = np.cos(table), np.sin(table)
+    values, cos_values, sin_values = table, np.cos(table), np.sin(table)
+    if dh.ndim == 2:  # one table: its entries as numbers, not (1, 1) arrays, which numpy
+        # multiplies half as fast again
+        values, cos_values, sin_values = (v[..., 0, 0].tolist()
+                                          for v in (values, cos_values, sin_values))
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
     start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
     p = [start[..., k, None, None] for k in range(3)]
     steps: list[_Step] = []
-    for i in range(n - 1, -1, -1):
-        for kind, axis, slot in reversed(_MOTIONS[structure.parametrisation[i]]):
-            column = slot * n + i
-            if kind == _TRANS:
-                p[axis] = p[axis] + table[slot, i]
-                steps.append((kind, axis, column, None, None, None))
-                continue
-            if slot == JOINT_SLOT:
-                c, s = cos_turned[i], sin_turned[i]
-            else:
-                c, s = cos_slots[slot, i], sin_slots[slot, i]
-            j, k = (axis + 1) % 3, (axis + 2) % 3
-            p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
-            steps.append((kind, axis, column, c, s, list(p)))
+    for kind, axis, j, k, slot, i in reversed(_plan(structure.parametrisation)):
+        if kind == _TRANS:
+            p[axis] = p[axis] + values[slot][i]
+            steps.append((kind, axis, j, k, slot * n + i, None, None, None))
+            continue
+        if slot == JOINT_SLOT:
+            c, s = cos_turned[i], sin_turned[i]
+        else:
+            c, s = cos_values[slot][i], sin_values[slot][i]
+        p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
+        steps.append((kind, axis, j, k, slot * n + i, c, s, list(p)))
     steps.reverse()
     shape = np.broadcast_shapes(cos_turned.shape[1:], *(v.shape for v in p))
     position = np.stack([np.broadcast_to(v, shape) for v in p], axis=-1)[..., 0, :, :]

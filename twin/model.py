@@ -54,6 +54,9 @@ class Model:
     kind: Kind
     groups: tuple[Group, ...]
     _slices: dict[str, slice] = field(init=False, repr=False, compare=False)
+    _joint_columns: NDArray[np.intp] = field(init=False, repr=False, compare=False)
+    _joint_turned: NDArray[np.intp] = field(init=False, repr=False, compare=False)
+    _joint_sums: Array = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         slices, start = {}, 0
@@ -66,6 +69,19 @@ class Model:
             slices[group.name] = slice(start, start + group.size)
             start += group.size
         object.__setattr__(self, "_slices", slices)
+        # The coefficients of the joints-stage groups as one block: where each sits in x, and a
+        # 0/1 matrix (P, n) that sums them onto the joint each turns.
+        joint_groups = [group for group in self.groups if group.stage == Stage.JOINTS]
+        columns = [np.arange(slices[group.name].start, slices[group.name].stop)
+                   for group in joint_groups]
+        turned = np.array([joint for group in joint_groups for joint in group.joint],
+                          dtype=np.intp)
+        sums = np.zeros((turned.size, self.robot.n_joints))
+        sums[np.arange(turned.size), turned] = 1.0
+        object.__setattr__(self, "_joint_columns", np.concatenate(columns) if columns
+                           else np.zeros(0, dtype=np.intp))
+        object.__setattr__(self, "_joint_turned", turned)
+        object.__setattr__(self, "_joint_sums", sums)
 
     # --- the unknowns ---------------------------------------------------------------------
 
@@ -177,12 +193,17 @@ class Model:
         """Where the joints stand: recorded angles plus the joint-level corrections of x (..., p),
         shape (m, n) without joint groups, else (..., m, n), rad."""
         x = self._check(x)
-        q = data.q_rad
-        for group in self.groups:
-            if group.stage == Stage.JOINTS:
-                assert group.basis is not None
-                q = q + np.einsum("mnp,...p->...mn", group.basis(data), self.block(x, group.name))
-        return np.asarray(q, dtype=np.float64)
+        if not self._joint_columns.size:
+            return np.asarray(data.q_rad, dtype=np.float64)
+        turns = self._joint_basis(data) * x[..., None, self._joint_columns]  # (..., m, P)
+        return np.asarray(data.q_rad + turns @ self._joint_sums, dtype=np.float64)
+
+    def _joint_basis(self, data: Measurements) -> Array:
+        """How far each joint-level coefficient turns its joint at each pose, (m, P), rad per
+        unit, in the order of :attr:`_joint_columns`."""
+        bases = [group.basis(data) for group in self.groups
+                 if group.stage == Stage.JOINTS and group.basis is not None]
+        return np.concatenate(bases, axis=1) if len(bases) > 1 else bases[0]
 
     def positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The measured point in the base frame at every pose, shape (..., m, 3), m."""
@@ -263,15 +284,16 @@ class Model:
         those rows (:meth:`twin.kinematics.PointTrace.jacobian`); other columns stay as they
         are."""
         m, rows = out.shape[:2]
+        if self._joint_columns.size:
+            # Coefficient c turns joint j(c) by basis[:, c]: its column is ∂r/∂q_j(c) times that.
+            out[..., self._joint_columns] = (moves.joints[..., self._joint_turned]
+                                             * self._joint_basis(data)[:, None, :])
         for group in self.groups:
             where = self.slice(group.name)
             if group.stage == Stage.TABLE:
                 assert group.linear is not None
                 table = moves.table.reshape(m * rows, -1)
                 out[..., where] = (table @ group.linear).reshape(m, rows, -1)
-            elif group.stage == Stage.JOINTS:
-                assert group.basis is not None
-                out[..., where] = moves.joints @ group.basis(data)
             elif group.stage == Stage.POINT and measured:
                 assert group.linear is not None
                 point = moves.rotation.reshape(m * rows, 3)
