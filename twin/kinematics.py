@@ -381,13 +381,16 @@ class PointTrace:
         """
         structure = self._structure
         n = structure.n_joints
-        if directions is None:
-            along = np.broadcast_to(np.eye(3)[:, :, None], (3, 3, self._shape[-1]))
+        base_R = structure.base[:3, :3]
+        if directions is None:  # R_baseᵀ e_row, the same at every pose: (3, r = 3, 1)
+            w_local = base_R.T[:, :, None]
         else:
             w_m = np.asarray(directions, dtype=np.float64)
-            along = np.moveaxis(w_m, (-1, -3), (0, -1))  # (3, batch..., r, m)
-        w = list(np.tensordot(structure.base[:3, :3], along, axes=(0, 0)))  # R_baseᵀ w
-        shape = np.broadcast_shapes(along.shape[1:], self._shape)
+            nd = w_m.ndim
+            along = w_m.transpose(nd - 1, *range(nd - 3), nd - 2, nd - 3)  # (3, batch..., r, m)
+            w_local = (base_R.T @ along.reshape(3, -1)).reshape(along.shape)
+        w = list(w_local)
+        shape = np.broadcast_shapes(w_local.shape[1:], self._shape)
         columns = np.empty((4 * n, *shape))
         for kind, axis, j, k, column, c, s, before in self._steps:
             if kind == _TRANS:
@@ -396,12 +399,16 @@ class PointTrace:
             assert before is not None
             columns[column] = w[k] * before[j] - w[j] * before[k]
             w[j], w[k] = c * w[j] + s * w[k], c * w[k] - s * w[j]  # R_eᵀ w
-        flange = np.tensordot(structure.tool[:3, :3],
-                              np.stack([np.broadcast_to(v, shape) for v in w]), axes=(0, 0))
-        table = np.moveaxis(columns, (0, -1), (-1, -3))
+        last = np.empty((3, *shape))
+        for k in range(3):
+            last[k] = w[k]
+        flange = (structure.tool[:3, :3].T @ last.reshape(3, -1)).reshape(last.shape)
+        # (3 or 4n, batch..., r, m) to (batch..., m, r, 3 or 4n)
+        order = (*range(1, columns.ndim - 2), columns.ndim - 1, columns.ndim - 2, 0)
+        table = columns.transpose(order)
         return PointJacobian(self.position, table,
                              table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
-                             np.moveaxis(flange, (0, -1), (-1, -3)))
+                             flange.transpose(order))
 
 
 def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
@@ -423,9 +430,9 @@ def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
     _check_shapes(structure, dh, q_rad)
     n = structure.n_joints
     batch = max(dh.ndim, q_rad.ndim) - 2
-    table = np.moveaxis(dh, (-2, -1), (0, 1))
+    table = dh.transpose(dh.ndim - 2, dh.ndim - 1, *range(dh.ndim - 2))  # (4, n, batch...)
     table = table.reshape(4, n, *(1,) * (batch - table.ndim + 2), *table.shape[2:], 1, 1)
-    q = np.moveaxis(q_rad, -1, 0)
+    q = q_rad.transpose(q_rad.ndim - 1, *range(q_rad.ndim - 1))  # (n, batch..., m)
     q = q.reshape(n, *(1,) * (batch - q.ndim + 2), *q.shape[1:-1], 1, q.shape[-1])
     turned = q + table[JOINT_SLOT]
     cos_turned, sin_turned = np.cos(turned), np.sin(turned)
@@ -451,9 +458,11 @@ def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
         steps.append((kind, axis, j, k, slot * n + i, c, s, list(p)))
     steps.reverse()
     shape = np.broadcast_shapes(cos_turned.shape[1:], *(v.shape for v in p))
-    position = np.stack([np.broadcast_to(v, shape) for v in p], axis=-1)[..., 0, :, :]
+    position = np.empty((*shape, 3))
+    for k in range(3):
+        position[..., k] = p[k]
     rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
-    return PointTrace(structure, np.asarray(position @ rotation.T + translation,
+    return PointTrace(structure, np.asarray(position[..., 0, :, :] @ rotation.T + translation,
                                             dtype=np.float64), steps, shape)
 
 

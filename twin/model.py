@@ -54,6 +54,7 @@ class Model:
     kind: Kind
     groups: tuple[Group, ...]
     _slices: dict[str, slice] = field(init=False, repr=False, compare=False)
+    _size: int = field(init=False, repr=False, compare=False)
     _joint_columns: NDArray[np.intp] = field(init=False, repr=False, compare=False)
     _joint_turned: NDArray[np.intp] = field(init=False, repr=False, compare=False)
     _joint_sums: Array = field(init=False, repr=False, compare=False)
@@ -69,6 +70,7 @@ class Model:
             slices[group.name] = slice(start, start + group.size)
             start += group.size
         object.__setattr__(self, "_slices", slices)
+        object.__setattr__(self, "_size", start)
         # The coefficients of the joints-stage groups as one block: where each sits in x, and a
         # 0/1 matrix (P, n) that sums them onto the joint each turns.
         joint_groups = [group for group in self.groups if group.stage == Stage.JOINTS]
@@ -88,7 +90,7 @@ class Model:
     @property
     def n_params(self) -> int:
         """Length p of the unknown vector x."""
-        return sum(group.size for group in self.groups)
+        return self._size
 
     @property
     def names(self) -> tuple[str, ...]:
