@@ -19,6 +19,7 @@ differences for every group.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -30,6 +31,7 @@ from twin.kinematics import PointJacobian, point_position, trace_point
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
+from twin.unknowns.base import cached
 
 Array = NDArray[np.float64]
 
@@ -58,6 +60,7 @@ class Model:
     _joint_columns: NDArray[np.intp] = field(init=False, repr=False, compare=False)
     _joint_turned: NDArray[np.intp] = field(init=False, repr=False, compare=False)
     _joint_sums: Array = field(init=False, repr=False, compare=False)
+    _joint_basis: Callable[[Measurements], Array] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         slices, start = {}, 0
@@ -84,6 +87,7 @@ class Model:
                            else np.zeros(0, dtype=np.intp))
         object.__setattr__(self, "_joint_turned", turned)
         object.__setattr__(self, "_joint_sums", sums)
+        object.__setattr__(self, "_joint_basis", cached(self._joined_bases))
 
     # --- the unknowns ---------------------------------------------------------------------
 
@@ -200,9 +204,10 @@ class Model:
         turns = self._joint_basis(data) * x[..., None, self._joint_columns]  # (..., m, P)
         return np.asarray(data.q_rad + turns @ self._joint_sums, dtype=np.float64)
 
-    def _joint_basis(self, data: Measurements) -> Array:
+    def _joined_bases(self, data: Measurements) -> Array:
         """How far each joint-level coefficient turns its joint at each pose, (m, P), rad per
-        unit, in the order of :attr:`_joint_columns`."""
+        unit, in the order of :attr:`_joint_columns` (kept per measurement set as
+        :attr:`_joint_basis`)."""
         bases = [group.basis(data) for group in self.groups
                  if group.stage == Stage.JOINTS and group.basis is not None]
         return np.concatenate(bases, axis=1) if len(bases) > 1 else bases[0]

@@ -105,7 +105,8 @@ def boxed_damped_step(normal: Array, gradient: Array, mu: float, low: Array, hig
     def free_minimiser(free: NDArray[np.bool_]) -> Array:
         held = ~free
         rhs = -(gradient[free] + A[np.ix_(free, held)] @ h[held])
-        return np.asarray(cho_solve(cho_factor(A[np.ix_(free, free)]), rhs), dtype=np.float64)
+        factor = cho_factor(A[np.ix_(free, free)], check_finite=False)
+        return np.asarray(cho_solve(factor, rhs, check_finite=False), dtype=np.float64)
 
     free = np.ones(p, dtype=bool)
     while np.any(free):
