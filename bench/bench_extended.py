@@ -17,9 +17,22 @@ residual's noise variance σ̂² = cost / (m − p), far below what any validati
 (scipy's finite differences, steps of about 1e-8, limit how close it gets: some 1e-5 of the
 cost.) The poses' cached bases (compliance torques, harmonics) are computed before the clocks
 start, for both.
+
+BLAS runs on one thread unless the environment says otherwise (:data:`BLAS_THREADS`): on a
+machine whose cores are busy with other work, multi-threaded BLAS waits for its threads, and
+scipy's larger products and SVDs suffer far more from it than twin's: within a few minutes the
+same scipy run (43 Jacobians) took from 0.74 to 2.2 s and the ratio swung from 29× to 91×. On
+one thread scipy is as fast here (0.70–0.78 s), and both sides pay for the load alike.
 """
+# ruff: noqa: E402 — the imports follow the BLAS threads' setting
 
 from __future__ import annotations
+
+import os
+
+BLAS_THREADS = {name: os.environ.setdefault(name, "1") for name in (
+    "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+"""Threads of the BLAS libraries, set before numpy loads them (module docstring)."""
 
 import statistics
 import time
