@@ -18,6 +18,7 @@ from twin.kinematics import (
     point_jacobian,
     point_position,
     rigid_transform,
+    trace_point,
     xyz_rpy,
 )
 from twin.robot import RobotModel, default_robot
@@ -159,6 +160,30 @@ def test_point_jacobian_matches_finite_differences(seed: int) -> None:
                  - point_position(structure, table, q, point - point_steps))
     np.testing.assert_allclose(jacobian.rotation, np.moveaxis(numeric_t / (2 * eps), 0, -1),
                                atol=1e-8)
+
+
+@pytest.mark.parametrize(("tables", "poses", "points"), [
+    ((), (), ()), ((3,), (), (3,)), ((), (3,), ()), ((3,), (3,), ()), ((2, 3), (), (2, 3))])
+def test_jacobian_along_directions_is_the_projected_jacobian(
+        tables: tuple[int, ...], poses: tuple[int, ...], points: tuple[int, ...]) -> None:
+    """Derivatives along r directions per pose (what a measurement's rows need) equal the
+    directions times the whole Jacobian, for any batch of tables, poses and points, every
+    parametrisation; the traced position is point_position's."""
+    rng = np.random.default_rng(11)
+    structure = _mixed(rng)
+    robot = default_robot()
+    table = robot.dh + rng.normal(scale=2e-3, size=(*tables, 4, 6))
+    q = random_poses(robot, 5 * int(np.prod(poses)), rng).reshape(*poses, 5, 6)
+    point = rng.normal(scale=0.05, size=(*points, 3))
+    trace = trace_point(structure, table, q, point)
+    whole = trace.jacobian()
+    directions = rng.normal(size=(*whole.position.shape[:-1], 2, 3))
+    along = trace.jacobian(directions)
+    np.testing.assert_allclose(trace.position, point_position(structure, table, q, point),
+                               atol=1e-15)
+    for name in ("table", "joints", "rotation"):
+        np.testing.assert_allclose(getattr(along, name),
+                                   directions @ getattr(whole, name), atol=1e-14)
 
 
 def test_flange_jacobian_is_the_twist_per_joint(irb120: RobotModel) -> None:

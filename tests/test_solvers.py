@@ -6,13 +6,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from numpy.typing import ArrayLike
 
 from twin.calibration import CalibrationResult, calibrate_many, make_problem
+from twin.problem import Problem
 from twin.scenario import load_scenario
 from twin.sim import Simulation, simulate
 from twin.solvers import SOLVERS, get_solver
 from twin.solvers.amlm import GAMMA_MAX, AdaptiveMomentum
-from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES
+from twin.solvers.base import HISTORY_BATCH, Tracker
+from twin.solvers.lm import levenberg_marquardt
+from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES, particle_swarm
 from twin.stopping import Budget, StopReason
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance
@@ -78,6 +82,38 @@ def test_swarms_evaluate_whole_swarms_per_iteration(results: dict[str, Calibrati
     pso, bipso = results["pso"].solver, results["bipso"].solver
     assert pso.evaluations == N_PARTICLES * (pso.iterations + 1)
     assert bipso.evaluations == N_PARTICLES + (N_PARTICLES + N_INTERPOLATED) * bipso.iterations
+
+
+class _Recording(Tracker):
+    """A tracker that also keeps every recorded x, to evaluate each one alone."""
+
+    def __init__(self, problem: Problem) -> None:
+        super().__init__(problem, "recording")
+        self.iterates: list[np.ndarray] = []
+
+    def record(self, x: ArrayLike, f_m2: float) -> None:
+        self.iterates.append(np.array(x))
+        super().record(x, f_m2)
+
+
+@pytest.mark.parametrize("method", ["lm", "pso"])
+def test_history_validation_is_each_iterates_own(sim: Simulation, method: str) -> None:
+    """The history's validation RMSEs, evaluated in batches when the result is made, are those
+    of each recorded x evaluated on its own (LM; and a swarm run past one batch)."""
+    problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
+    tracker = _Recording(problem)
+    if method == "lm":
+        outcome = levenberg_marquardt(tracker, problem.x0, Budget())
+    else:
+        budget = Budget(max_iterations=HISTORY_BATCH + 6, stall_iterations=0)
+        outcome = particle_swarm(tracker, problem.x0, budget, np.random.default_rng(0),
+                                 n_interpolated=0)
+    history = tracker.finish(outcome).history
+    alone = [np.sqrt(np.mean(problem.model.residuals(x, problem.validation) ** 2))
+             for x in tracker.iterates]
+    assert len(history) == len(alone) > (1 if method == "lm" else HISTORY_BATCH)
+    np.testing.assert_allclose([record.validation_rmse_m for record in history], alone,
+                               rtol=1e-13, atol=0.0)
 
 
 @pytest.mark.parametrize("budget", [Budget.paper(), Budget()], ids=["paper", "converge"])

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, lsq_linear
 
 from twin.calibration import make_problem
 from twin.scenario import parse_scenario
 from twin.sim import Simulation, simulate
 from twin.solvers import get_solver
+from twin.solvers.lm import boxed_damped_step
 from twin.stopping import Budget
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance
@@ -66,3 +67,31 @@ def test_lm_family_matches_scipy_near_the_bounds(simulations: list[Simulation], 
         assert error < 1.5 * reference_error, (method, error / bound, reference_error / bound)
         assert cost <= np.mean(reference.fun**2) * (1 + 1e-6), method
         assert result.converged, (method, result.stop_label)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_box_step_is_the_bounded_least_squares_minimiser(seed: int) -> None:
+    """LM's step on the box (BVLS on the damped normal equations) is the minimiser scipy's
+    BVLS finds on the augmented least-squares problem [J; √μ I] h ≈ [−r; 0], on problems with
+    columns scaled over eleven decades, several bounds in the way and some at zero."""
+    rng = np.random.default_rng(seed)
+    m, p = int(rng.integers(10, 80)), int(rng.integers(2, 40))
+    J = rng.normal(size=(m, p)) * np.exp(rng.uniform(-18.0, 7.0, size=p))
+    r = rng.normal(size=m) * 10.0 ** rng.uniform(-6, 0)
+    mu = 10.0 ** rng.uniform(-12, -1) * float(np.max(np.sum(J * J, axis=0)))
+    width = 10.0 ** rng.uniform(-5, -1, size=p)
+    low, high = -width * rng.uniform(0, 1, size=p), width * rng.uniform(0, 1, size=p)
+    low[rng.uniform(size=p) < 0.1] = 0.0
+    step = boxed_damped_step(J.T @ J, J.T @ r, mu, low, high)
+    augmented = np.vstack([J, np.sqrt(mu) * np.eye(p)])
+    reference = lsq_linear(augmented, np.concatenate([-r, np.zeros(p)]),
+                           bounds=(low, np.maximum(high, low + 1e-300)), method="bvls",
+                           tol=1e-15).x
+
+    def objective(h: np.ndarray) -> float:
+        return float(np.sum((r + J @ h) ** 2) + mu * h @ h)
+
+    assert np.all((step >= low) & (step <= high))
+    decrease = objective(np.zeros(p)) - objective(reference)
+    assert objective(step) <= objective(reference) + 1e-9 * decrease
+    np.testing.assert_allclose(step, reference, atol=1e-10 * float(np.max(high - low)))

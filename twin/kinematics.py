@@ -17,22 +17,25 @@ vector of a calibration keeps the table's layout, slot by slot: (s0 of joints 1.
 1..n, s2 …, s3 …) — for an all-D-H arm the paper's (δa1..n, δd1..n, δα1..n, δθ1..n).
 
 Positions are computed by carrying one point from the flange to the base through the elementary
-motions (three components per step, no 4×4 products); Jacobians by carrying frames from the base
-to the flange and turning each elementary motion into its column (a translation along u gives u,
-a rotation about u through o gives u × (p − o)). No loop over poses or tables.
+motions (three components per step, no 4×4 products). A point's Jacobian along chosen directions
+w (the cable's unit vector, or the base axes for the full Jacobian) carries w the other way, from
+the base to the flange (:class:`PointTrace`): in the frame before a motion, with the point p and
+the direction w expressed there, a translation along the local axis e moves w·p by w·e and a
+rotation about e by w·(e × p) — no frames, axes or cross products in the base frame. Frames
+(:func:`frames`, :func:`flange_jacobian`) are carried from the base to the flange. No loop over
+poses or tables.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from functools import cache
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import frozen_array
-
-Array = NDArray[np.float64]
+from twin.arrays import Array, frozen_array
 
 PARAMETRISATIONS = ("dh", "mdh", "hayati")
 """Per-joint parametrisations, see the module docstring."""
@@ -143,16 +146,18 @@ class Frames(NamedTuple):
 
 
 class PointJacobian(NamedTuple):
-    """A point on the flange, and how it moves with the table, the joints and the point."""
+    """A point on the flange, and how it moves with the table, the joints and the point, along r
+    directions per pose (:meth:`PointTrace.jacobian`; the base axes, r = 3, unless chosen)."""
 
     position: Array
     """The point in the base frame, shape (..., m, 3), m."""
     table: Array
-    """∂p/∂table in the error vector's order, shape (..., m, 3, 4n), m/m or m/rad."""
+    """w·∂p/∂table in the error vector's order, shape (..., m, r, 4n), m/m or m/rad."""
     joints: Array
-    """∂p/∂q, shape (..., m, 3, n), m/rad."""
+    """w·∂p/∂q, shape (..., m, r, n), m/rad."""
     rotation: Array
-    """The flange's rotation, base_R_flange = ∂p/∂(point in the flange frame), (..., m, 3, 3)."""
+    """w·∂p/∂(point in the flange frame), shape (..., m, r, 3): along the base axes the flange's
+    rotation base_R_flange."""
 
 
 def _check_shapes(structure: Structure, dh: Array, q_rad: Array) -> None:
@@ -317,20 +322,146 @@ def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
         dh: Parameter tables, shape (..., 4, n), m and rad.
         q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
         point_m: The point in the flange frame, shape (3,) or (..., 3), m; origin if None.
+
+    Returns:
+        ∂p/∂(·) along the base axes: table (..., m, 3, 4n), joints (..., m, 3, n), rotation
+        (..., m, 3, 3).
     """
-    _, motions, flange = _walk(structure, dh, q_rad, record=True)
-    rotation = flange[..., :3, :3]
-    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
-    offset = local[..., None, :] if local.ndim > 1 else local
-    p = flange[..., :3, 3] + np.einsum("...ij,...j->...i", rotation, np.broadcast_to(
-        offset, (*flange.shape[:-2], 3)))
+    return trace_point(structure, dh, q_rad, point_m).jacobian()
+
+
+_Motion = tuple[int, int, int, int, int, int]
+"""An elementary motion of a chain: (kind, local axis, j, k, slot, joint); a rotation turns
+axis j towards k."""
+_Step = tuple[int, int, int, int, int, Any, Any, list[Array] | None]
+"""One elementary motion as :class:`PointTrace` keeps it: (kind, axis, j, k, column of the error
+vector, cos, sin, the point in the frame before the motion); cos, sin and the point are None
+for a translation."""
+
+
+@cache
+def _plan(parametrisation: tuple[str, ...]) -> tuple[_Motion, ...]:
+    """The elementary motions of a chain, base to flange (:data:`_MOTIONS` per joint)."""
+    return tuple((kind, axis, (axis + 1) % 3, (axis + 2) % 3, slot, joint)
+                 for joint, name in enumerate(parametrisation)
+                 for kind, axis, slot in _MOTIONS[name])
+
+
+class PointTrace:
+    """A point fixed to the flange, carried to the base frame for a batch of tables and poses,
+    with what its derivatives need (made by :func:`trace_point`).
+
+    Attributes:
+        position: The point in the base frame, shape (..., m, 3), m.
+    """
+
+    def __init__(self, structure: Structure, position: Array, steps: list[_Step],
+                 shape: tuple[int, ...]) -> None:
+        self.position = position
+        self._structure = structure
+        self._steps = steps
+        self._shape = shape  # (batch..., 1, m): what every carried component broadcasts to
+
+    def jacobian(self, directions: ArrayLike | None = None) -> PointJacobian:
+        """How the point moves along r directions per pose: w·∂p/∂table, w·∂p/∂q and
+        w·∂p/∂(point in the flange frame) for each direction w.
+
+        The directions are carried from the base to the flange, each step expressing w in the
+        frame before the next motion; there a translation along the local axis e gives w·e and
+        a rotation about e gives w·(e × p), p the point in that frame (kept from the way in).
+
+        Args:
+            directions: Directions in the base frame, shape (..., m, r, 3) (batched with the
+                tables); the base axes (r = 3, the whole Jacobian) if None.
+
+        Returns:
+            table (..., m, r, 4n), joints (..., m, r, n), rotation (..., m, r, 3).
+        """
+        structure = self._structure
+        n = structure.n_joints
+        base_R = structure.base[:3, :3]
+        if directions is None:  # R_baseᵀ e_row, the same at every pose: (3, r = 3, 1)
+            w_local = base_R.T[:, :, None]
+        else:
+            w_m = np.asarray(directions, dtype=np.float64)
+            nd = w_m.ndim
+            along = w_m.transpose(nd - 1, *range(nd - 3), nd - 2, nd - 3)  # (3, batch..., r, m)
+            w_local = (base_R.T @ along.reshape(3, -1)).reshape(along.shape)
+        w = list(w_local)
+        shape = np.broadcast_shapes(w_local.shape[1:], self._shape)
+        columns = np.empty((4 * n, *shape))
+        for kind, axis, j, k, column, c, s, before in self._steps:
+            if kind == _TRANS:
+                columns[column] = w[axis]
+                continue
+            assert before is not None
+            columns[column] = w[k] * before[j] - w[j] * before[k]
+            w[j], w[k] = c * w[j] + s * w[k], c * w[k] - s * w[j]  # R_eᵀ w
+        last = np.empty((3, *shape))
+        for k in range(3):
+            last[k] = w[k]
+        flange = (structure.tool[:3, :3].T @ last.reshape(3, -1)).reshape(last.shape)
+        # (3 or 4n, batch..., r, m) to (batch..., m, r, 3 or 4n)
+        order = (*range(1, columns.ndim - 2), columns.ndim - 1, columns.ndim - 2, 0)
+        table = columns.transpose(order)
+        return PointJacobian(self.position, table,
+                             table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
+                             flange.transpose(order))
+
+
+def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
+                point_m: ArrayLike | None = None) -> PointTrace:
+    """A point fixed to the flange, in the base frame, kept for its derivatives.
+
+    Args:
+        structure: What the table means.
+        dh: Parameter tables, shape (..., 4, n), m and rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
+            tables), m; the flange centre (origin) if None.
+    """
+    # As point_position (the point carried from the flange to the base), with the joint angle
+    # q + θ taken whole, and every carried component kept for PointTrace.jacobian; arrays are
+    # joint-major with a row axis (batch..., 1, m), so that r directions broadcast over it.
+    dh = np.asarray(dh, dtype=np.float64)
+    q_rad = np.asarray(q_rad, dtype=np.float64)
+    _check_shapes(structure, dh, q_rad)
     n = structure.n_joints
-    columns = _columns(motions, p)
-    table = np.zeros((*p.shape, 4 * n))
-    order = [slot * n + joint for _, joint, slot, _, _ in motions]
-    table[..., order] = columns
-    joints = columns[..., [slot == JOINT_SLOT for _, _, slot, _, _ in motions]]
-    return PointJacobian(p, table, joints, rotation)
+    batch = max(dh.ndim, q_rad.ndim) - 2
+    table = dh.transpose(dh.ndim - 2, dh.ndim - 1, *range(dh.ndim - 2))  # (4, n, batch...)
+    table = table.reshape(4, n, *(1,) * (batch - table.ndim + 2), *table.shape[2:], 1, 1)
+    q = q_rad.transpose(q_rad.ndim - 1, *range(q_rad.ndim - 1))  # (n, batch..., m)
+    q = q.reshape(n, *(1,) * (batch - q.ndim + 2), *q.shape[1:-1], 1, q.shape[-1])
+    turned = q + table[JOINT_SLOT]
+    cos_turned, sin_turned = np.cos(turned), np.sin(turned)
+    values, cos_values, sin_values = table, np.cos(table), np.sin(table)
+    if dh.ndim == 2:  # one table: its entries as numbers, not (1, 1) arrays, which numpy
+        # multiplies half as fast again
+        values, cos_values, sin_values = (v[..., 0, 0].tolist()
+                                          for v in (values, cos_values, sin_values))
+    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
+    start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
+    p = [start[..., k, None, None] for k in range(3)]
+    steps: list[_Step] = []
+    for kind, axis, j, k, slot, i in reversed(_plan(structure.parametrisation)):
+        if kind == _TRANS:
+            p[axis] = p[axis] + values[slot][i]
+            steps.append((kind, axis, j, k, slot * n + i, None, None, None))
+            continue
+        if slot == JOINT_SLOT:
+            c, s = cos_turned[i], sin_turned[i]
+        else:
+            c, s = cos_values[slot][i], sin_values[slot][i]
+        p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
+        steps.append((kind, axis, j, k, slot * n + i, c, s, list(p)))
+    steps.reverse()
+    shape = np.broadcast_shapes(cos_turned.shape[1:], *(v.shape for v in p))
+    position = np.empty((*shape, 3))
+    for k in range(3):
+        position[..., k] = p[k]
+    rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
+    return PointTrace(structure, np.asarray(position[..., 0, :, :] @ rotation.T + translation,
+                                            dtype=np.float64), steps, shape)
 
 
 def flange_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike

@@ -28,9 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.errors import UnknownChoiceError
-
-Array = NDArray[np.float64]
 
 LOSSES = ("linear", "huber", "soft_l1", "cauchy")
 """The losses, least squares first."""

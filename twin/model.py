@@ -19,19 +19,20 @@ differences for every group.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
 from twin.kinds import Kind
-from twin.kinematics import point_jacobian, point_position
+from twin.kinematics import PointJacobian, point_position, trace_point
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
-
-Array = NDArray[np.float64]
+from twin.unknowns.base import cached
 
 NULL_RTOL = 1e-8
 """Singular values of the column-scaled Jacobian below this fraction of the largest make an
@@ -54,6 +55,11 @@ class Model:
     kind: Kind
     groups: tuple[Group, ...]
     _slices: dict[str, slice] = field(init=False, repr=False, compare=False)
+    _size: int = field(init=False, repr=False, compare=False)
+    _joint_columns: NDArray[np.intp] = field(init=False, repr=False, compare=False)
+    _joint_turned: NDArray[np.intp] = field(init=False, repr=False, compare=False)
+    _joint_sums: Array = field(init=False, repr=False, compare=False)
+    _joint_basis: Callable[[Measurements], Array] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         slices, start = {}, 0
@@ -66,13 +72,28 @@ class Model:
             slices[group.name] = slice(start, start + group.size)
             start += group.size
         object.__setattr__(self, "_slices", slices)
+        object.__setattr__(self, "_size", start)
+        # The coefficients of the joints-stage groups as one block: where each sits in x, and a
+        # 0/1 matrix (P, n) that sums them onto the joint each turns.
+        joint_groups = [group for group in self.groups if group.stage == Stage.JOINTS]
+        columns = [np.arange(slices[group.name].start, slices[group.name].stop)
+                   for group in joint_groups]
+        turned = np.array([joint for group in joint_groups for joint in group.joint],
+                          dtype=np.intp)
+        sums = np.zeros((turned.size, self.robot.n_joints))
+        sums[np.arange(turned.size), turned] = 1.0
+        object.__setattr__(self, "_joint_columns", np.concatenate(columns) if columns
+                           else np.zeros(0, dtype=np.intp))
+        object.__setattr__(self, "_joint_turned", turned)
+        object.__setattr__(self, "_joint_sums", sums)
+        object.__setattr__(self, "_joint_basis", cached(self._joined_bases))
 
     # --- the unknowns ---------------------------------------------------------------------
 
     @property
     def n_params(self) -> int:
         """Length p of the unknown vector x."""
-        return sum(group.size for group in self.groups)
+        return self._size
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -177,12 +198,18 @@ class Model:
         """Where the joints stand: recorded angles plus the joint-level corrections of x (..., p),
         shape (m, n) without joint groups, else (..., m, n), rad."""
         x = self._check(x)
-        q = data.q_rad
-        for group in self.groups:
-            if group.stage == Stage.JOINTS:
-                assert group.basis is not None
-                q = q + np.einsum("mnp,...p->...mn", group.basis(data), self.block(x, group.name))
-        return np.asarray(q, dtype=np.float64)
+        if not self._joint_columns.size:
+            return np.asarray(data.q_rad, dtype=np.float64)
+        turns = self._joint_basis(data) * x[..., None, self._joint_columns]  # (..., m, P)
+        return np.asarray(data.q_rad + turns @ self._joint_sums, dtype=np.float64)
+
+    def _joined_bases(self, data: Measurements) -> Array:
+        """How far each joint-level coefficient turns its joint at each pose, (m, P), rad per
+        unit, in the order of :attr:`_joint_columns` (kept per measurement set as
+        :attr:`_joint_basis`)."""
+        bases = [group.basis(data) for group in self.groups
+                 if group.stage == Stage.JOINTS and group.basis is not None]
+        return np.concatenate(bases, axis=1) if len(bases) > 1 else bases[0]
 
     def positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The measured point in the base frame at every pose, shape (..., m, 3), m."""
@@ -250,20 +277,33 @@ class Model:
         return self._chain_jacobian(self._check(x), data, measured=True)
 
     def _chain_jacobian(self, x: Array, data: Measurements, measured: bool) -> Array:
-        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
-                               self.point(x) if measured else None)
+        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+                            self.point(x) if measured else None)
         jacobian = np.zeros((len(data), 3, self.n_params))
+        self._chain_rule(trace.jacobian(), data, measured, jacobian)
+        return jacobian
+
+    def _chain_rule(self, moves: PointJacobian, data: Measurements, measured: bool,
+                    out: Array) -> None:
+        """Write into ``out`` (m, r, p) the derivatives of the r rows of every pose w.r.t. the
+        table, joint and (if ``measured``) point groups, from the point's derivatives along
+        those rows (:meth:`twin.kinematics.PointTrace.jacobian`); other columns stay as they
+        are."""
+        m, rows = out.shape[:2]
+        if self._joint_columns.size:
+            # Coefficient c turns joint j(c) by basis[:, c]: its column is ∂r/∂q_j(c) times that.
+            out[..., self._joint_columns] = (moves.joints[..., self._joint_turned]
+                                             * self._joint_basis(data)[:, None, :])
         for group in self.groups:
+            where = self.slice(group.name)
             if group.stage == Stage.TABLE:
                 assert group.linear is not None
-                jacobian[..., self.slice(group.name)] = chain.table @ group.linear
-            elif group.stage == Stage.JOINTS:
-                assert group.basis is not None
-                jacobian[..., self.slice(group.name)] = chain.joints @ group.basis(data)
+                table = moves.table.reshape(m * rows, -1)
+                out[..., where] = (table @ group.linear).reshape(m, rows, -1)
             elif group.stage == Stage.POINT and measured:
                 assert group.linear is not None
-                jacobian[..., self.slice(group.name)] = chain.rotation @ group.linear
-        return jacobian
+                point = moves.rotation.reshape(m * rows, 3)
+                out[..., where] = (point @ group.linear).reshape(m, rows, -1)
 
     # --- residuals ------------------------------------------------------------------------
 
@@ -284,28 +324,18 @@ class Model:
             ``(r, J)``: residuals (M,) in m, Jacobian ∂r/∂x (M, p).
         """
         x = self._check(x)
-        chain = point_jacobian(self.robot.structure, self.table(x), self.joints(x, data),
-                               self.point(x))
-        kind = self.kind.jacobian(chain.position, self._measurement_values(x), data, self.rig)
+        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+                            self.point(x))
+        kind = self.kind.jacobian(trace.position, self._measurement_values(x), data, self.rig)
         m, rows = len(data), self.kind.rows_per_pose
-        by_position = kind.by_position  # (m, rows, 3)
         jacobian = np.zeros((kind.residuals.size, self.n_params))
+        # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
+        # along those directions alone (one row per pose for a length, not three).
+        self._chain_rule(trace.jacobian(kind.by_position), data, True,
+                         jacobian[: m * rows].reshape(m, rows, self.n_params))
         for group in self.groups:
-            where = self.slice(group.name)
             if group.stage == Stage.MEASUREMENT:
-                jacobian[:, where] = kind.by_group[group.name]
-                continue
-            if group.stage == Stage.TABLE:
-                assert group.linear is not None
-                moves = chain.table @ group.linear  # (m, 3, p_g)
-            elif group.stage == Stage.JOINTS:
-                assert group.basis is not None
-                moves = chain.joints @ group.basis(data)
-            else:
-                assert group.linear is not None
-                moves = chain.rotation @ group.linear
-            jacobian[: m * rows, where] = np.einsum("mrc,mcp->mrp", by_position,
-                                                    moves).reshape(m * rows, -1)
+                jacobian[:, self.slice(group.name)] = kind.by_group[group.name]
         return kind.residuals, jacobian
 
     def symmetries(self, x: ArrayLike) -> Array:

@@ -8,15 +8,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.loss import LEAST_SQUARES, Loss
 from twin.model import Model
 from twin.stopping import scale
 from twin.units import mm_to_m
-
-Array = NDArray[np.float64]
 
 DEFAULT_SIGMA_M = float(mm_to_m(0.01))
 """Default expected length noise (1σ): a 0.01 mm class drawstring encoder."""

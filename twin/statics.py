@@ -17,11 +17,10 @@ The base frame's z axis points up (the robot stands on the floor): gravity is �
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from twin.arrays import Array
 from twin.kinematics import Structure, frames, joint_axes
-
-Array = NDArray[np.float64]
 
 GRAVITY_M_S2 = 9.81
 """Standard gravity, m/s², along −z of the base frame."""

@@ -27,10 +27,9 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.errors import UnknownChoiceError
 from twin.units import mm_to_m
-
-Array = NDArray[np.float64]
 
 PROTOCOLS = ("converge", "paper")
 """Names of the stopping protocols, the default first."""
@@ -167,22 +166,23 @@ def at_bounds(x: Array, lower: Array, upper: Array) -> NDArray[np.bool_]:
     return (x <= lower + tolerance) | (x >= upper - tolerance)
 
 
-def optimality(jacobian: Array, residuals: Array, held: NDArray[np.bool_]) -> float:
+def optimality(gradient: Array, column_squares: Array, residual_square: float,
+               held: NDArray[np.bool_]) -> float:
     """First-order optimality: the largest |cos| between r and a column of J, over the unknowns
     not held at a bound and with a column that sees something (MINPACK's gtol measure; units
-    cancel column by column).
+    cancel column by column), from what LM has formed anyway.
 
     Args:
-        jacobian: J, shape (m, p). residuals: r, shape (m,). held: Unknowns held, shape (p,).
+        gradient: Jᵀr, shape (p,). column_squares: ‖J_i‖², the diagonal of JᵀJ, shape (p,).
+        residual_square: ‖r‖². held: Unknowns held, shape (p,).
     """
-    r_norm = float(np.linalg.norm(residuals))
-    norms = np.linalg.norm(jacobian, axis=0)
-    if r_norm == 0.0 or not np.any(norms > 0):
+    norms = np.sqrt(np.maximum(column_squares, 0.0))
+    if residual_square <= 0.0 or not np.any(norms > 0):
         return 0.0
     counted = ~held & (norms > COLUMN_RTOL * np.max(norms))
     if not np.any(counted):
         return 0.0
-    cosines = np.abs(jacobian[:, counted].T @ residuals) / (norms[counted] * r_norm)
+    cosines = np.abs(gradient[counted]) / (norms[counted] * np.sqrt(residual_square))
     return float(np.max(cosines))
 
 

@@ -14,13 +14,13 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.rig import Rig
 
 if TYPE_CHECKING:
     from twin.model import Model
 
-Array = NDArray[np.float64]
 
 
 class KindJacobian(NamedTuple):

@@ -11,12 +11,11 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.kinds.base import KindJacobian, no_symmetries
 from twin.kinematics import Structure, point_position
 from twin.rig import Rig
-
-Array = NDArray[np.float64]
 
 
 def cable_length(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, port_m: ArrayLike,

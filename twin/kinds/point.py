@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.kinds.base import KindJacobian
 from twin.rig import Rig
@@ -34,7 +35,6 @@ from twin.rig import Rig
 if TYPE_CHECKING:
     from twin.model import Model
 
-Array = NDArray[np.float64]
 
 DISTANCE_WEIGHT = 10.0
 """Weight of a known-distance row against a reading's rows (its noise a tenth of theirs)."""

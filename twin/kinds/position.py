@@ -13,12 +13,11 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.kinds.base import KindJacobian, no_symmetries
 from twin.rig import Rig
 from twin.rigid import rotation, rotation_derivatives
-
-Array = NDArray[np.float64]
 
 
 class Position:

@@ -18,14 +18,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
 from twin.solvers.lm import levenberg_marquardt
 from twin.stopping import Budget
-
-Array = NDArray[np.float64]
 
 GAMMA_MAX = 0.95
 """Largest momentum coefficient γ_max (paper)."""

@@ -17,13 +17,11 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.problem import Problem
 from twin.solvers.base import Outcome, SolverResult, Stage, Tracker
 from twin.stopping import Budget
-
-Array = NDArray[np.float64]
 
 StageFunction = Callable[[Tracker, Array, Budget, np.random.Generator], Outcome]
 """``stage(tracker, x_start (p,), budget, rng) -> Outcome``."""

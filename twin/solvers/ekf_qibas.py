@@ -42,7 +42,7 @@ def qibas(tracker: Tracker, x0: Array, budget: Budget, rng: np.random.Generator)
     scale = initial_radius(problem)
     x = np.clip(x0, problem.lower, problem.upper)
     f = float(tracker.cost(x))
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(x, f)
     d = ANTENNA_START
     best_f = [f]

@@ -58,12 +58,10 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.solvers.base import Outcome, Tracker
 from twin.stopping import Budget, StopReason, small_step
-
-Array = NDArray[np.float64]
 
 PRIOR_FRACTION = 0.5
 """Prior 1σ of each unknown as a fraction of its search bound."""
@@ -148,7 +146,7 @@ def run_filter(
     model = linearise(tracker, x, P)
     # Every residual row is a scalar measurement: a pose of a 3-D kind gives three.
     order = rng.permutation(model.residual_m.size)
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(x, model.f_m2)
     for _ in range(budget.max_iterations):
         r_m2 = max(problem.sigma_m**2, model.f_m2)  # see the module docstring

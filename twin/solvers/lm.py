@@ -8,7 +8,8 @@ a step is accepted when ρ > 0 and μ ← μ·max(1/3, 1 − (2ρ − 1)³), els
 The box (±5 mm / ±8°): when the damped step stays inside it, it is taken as it is; when it
 would leave, the step is the exact solution of the damped subproblem on the box,
 ``min ‖r + J h‖² + μ‖h‖²`` subject to ``lower ≤ x + h ≤ upper`` (bounded-variable least
-squares, :func:`scipy.optimize.lsq_linear`), which never predicts an increase. Projecting the
+squares, Stark & Parker's BVLS, as :func:`scipy.optimize.lsq_linear` has it, run on the damped
+normal equations: p×p, not m×p), which never predicts an increase. Projecting the
 free step instead (clipping it) can point uphill, and deciding afterwards which unknowns were
 clipped by comparing the step with its projection is wrong: round-off makes most of them differ
 where nothing was clipped (that was this module's bug — it emptied the free set and stopped far
@@ -17,6 +18,9 @@ from the optimum, reporting convergence).
 Stopping (:mod:`twin.stopping`): first-order optimality (gtol), relative reduction of f (ftol),
 relative step (xtol), every unknown held at a bound (bounds), damping at its ceiling
 (no_descent), the paper's f-change rule (under ``--stop paper``) or the iteration limit.
+
+JᵀJ and Jᵀr are formed once per Jacobian and serve the step, its box, the gain ratio's
+prediction and the stopping tests.
 
 The loop is shared by the LM variants: a :class:`StepRule` may reshape the damped step before it
 is tried (M7 mixes in momentum, M4 picks a step length) and hears whether it was accepted; it
@@ -29,14 +33,12 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import solve_triangular
-from scipy.optimize import lsq_linear
+from scipy.linalg import cho_factor, cho_solve
 
+from twin.arrays import Array
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
 from twin.stopping import Budget, StopReason, held_at_bounds, optimality, small_step
-
-Array = NDArray[np.float64]
 
 TAU = 1e-3
 """Initial damping relative to the largest diagonal entry of JᵀJ (Madsen, Nielsen, Tingleff)."""
@@ -47,6 +49,10 @@ would be a step of any size."""
 MU_CEILING = 1e16
 """Largest damping relative to the largest diagonal entry of JᵀJ: beyond it no step is
 distinguishable from zero and the run stops with ``no_descent``."""
+BOX_RTOL = 1e-10
+"""The box step releases an unknown from its bound only when the gradient pushes it inwards by
+more than this fraction of the gradient's size (Σ|A_kj h_j| + |g_k|): less is round-off, and
+releasing on round-off would cycle."""
 
 
 class StepRule(Protocol):
@@ -65,32 +71,75 @@ class StepRule(Protocol):
         ...
 
 
-def damped_step(J: Array, r: Array, mu: float) -> Array:
-    """The LM step −(JᵀJ + μI)⁻¹ Jᵀr, shape (p,)."""
-    A = J.T @ J
+def damped_step(normal: Array, gradient: Array, mu: float) -> Array:
+    """The LM step −(JᵀJ + μI)⁻¹ Jᵀr, shape (p,), from JᵀJ (p, p) and Jᵀr (p,)."""
+    A = normal.copy()
     A[np.diag_indices_from(A)] += mu
-    return np.asarray(-np.linalg.solve(A, J.T @ r), dtype=np.float64)
+    return np.asarray(-np.linalg.solve(A, gradient), dtype=np.float64)
 
 
-def boxed_damped_step(J: Array, r: Array, mu: float, low: Array, high: Array) -> Array:
+def boxed_damped_step(normal: Array, gradient: Array, mu: float, low: Array, high: Array
+                      ) -> Array:
     """The damped step on the box: argmin ‖r + J h‖² + μ‖h‖² with low ≤ h ≤ high, shape (p,).
 
+    The same minimiser as ½hᵀAh + gᵀh with A = JᵀJ + μI, g = Jᵀr (p×p instead of m×p), found
+    by BVLS (Stark & Parker 1995, the algorithm of :func:`scipy.optimize.lsq_linear`): fix
+    every unknown whose free minimiser leaves the box at its bound until the free minimiser is
+    inside; then release the held unknown the gradient pushes inwards hardest and walk towards
+    the new free minimiser, stopping at the first bound in the way, until no held unknown is
+    pushed inwards (beyond round-off, :data:`BOX_RTOL`). A is positive definite (μ > 0), so the
+    minimiser is unique and each free system is solved by Cholesky.
+
     Args:
-        J: Jacobian (m, p). r: Residuals (m,). mu: Damping μ > 0.
+        normal: JᵀJ, shape (p, p). gradient: Jᵀr, shape (p,). mu: Damping μ > 0.
         low: Lower limits of the step (lower − x), shape (p,), all <= 0.
         high: Upper limits of the step (upper − x), shape (p,), all >= 0.
     """
-    # ‖r + J h‖² + μ‖h‖² = ‖Lᵀh + L⁻¹Jᵀr‖² + const with JᵀJ + μI = L Lᵀ: the same minimiser
-    # from a p×p system instead of the (m + p)×p augmented one, m/p times less work for the
-    # bounded solver (the unbounded step solves the same normal equations).
-    A = J.T @ J
+    A = normal.copy()
     A[np.diag_indices_from(A)] += mu
-    L = np.linalg.cholesky(A)
-    target = -solve_triangular(L, J.T @ r, lower=True)
-    # lsq_linear needs low < high strictly; an unknown exactly at a bound still has room
-    # on the other side.
-    solved = lsq_linear(L.T, target, bounds=(low, high), method="bvls", tol=1e-14)
-    return np.clip(np.asarray(solved.x, dtype=np.float64), low, high)
+    p = gradient.size
+    h = np.zeros(p)  # feasible: low <= 0 <= high
+    side = np.zeros(p, dtype=np.int8)  # −1 held at low, +1 held at high, 0 free
+
+    def free_minimiser(free: NDArray[np.bool_]) -> Array:
+        held = ~free
+        rhs = -(gradient[free] + A[np.ix_(free, held)] @ h[held])
+        factor = cho_factor(A[np.ix_(free, free)], check_finite=False)
+        return np.asarray(cho_solve(factor, rhs, check_finite=False), dtype=np.float64)
+
+    free = np.ones(p, dtype=bool)
+    while np.any(free):
+        index = np.flatnonzero(free)
+        z = free_minimiser(free)
+        below, above = z < low[index], z > high[index]
+        h[index] = np.clip(z, low[index], high[index])
+        side[index[below]], side[index[above]] = -1, 1
+        if not (np.any(below) or np.any(above)):
+            break
+        free[index[below | above]] = False
+    for _ in range(p):
+        inwards = (A @ h + gradient) * side  # > 0 where the bound holds against descent
+        k = int(np.argmax(inwards))
+        if inwards[k] <= BOX_RTOL * (np.abs(A[k]) @ np.abs(h) + abs(gradient[k])):
+            break
+        side[k] = 0
+        while np.any(side == 0):
+            free = side == 0
+            index = np.flatnonzero(free)
+            z, now = free_minimiser(free), h[index]
+            below, above = z < low[index], z > high[index]
+            if not (np.any(below) or np.any(above)):
+                h[index] = z
+                break
+            outside = below | above
+            limit = np.where(below, low[index], high[index])
+            fraction = np.full(index.size, np.inf)
+            fraction[outside] = (limit[outside] - now[outside]) / (z[outside] - now[outside])
+            first = int(np.argmin(fraction))
+            h[index] = now + fraction[first] * (z - now)
+            h[index[first]] = limit[first]
+            side[index[first]] = -1 if below[first] else 1
+    return np.clip(h, low, high)
 
 
 def inside(x: Array, lower: Array, upper: Array) -> bool:
@@ -98,9 +147,9 @@ def inside(x: Array, lower: Array, upper: Array) -> bool:
     return bool(np.all((x >= lower) & (x <= upper)))
 
 
-def initial_damping(J: Array) -> float:
-    """μ₀ = τ · max diag(JᵀJ)."""
-    return TAU * float(np.max(np.sum(J * J, axis=0)))
+def initial_damping(normal: Array) -> float:
+    """μ₀ = τ · max diag(JᵀJ), from JᵀJ (p, p)."""
+    return TAU * float(np.max(np.diag(normal)))
 
 
 def nielsen(mu: float, nu: float, gain: float) -> tuple[float, float]:
@@ -130,21 +179,23 @@ def levenberg_marquardt(
     lower, upper, unit = problem.lower, problem.upper, problem.scale
     x = np.clip(x0, lower, upper)
     r, J = tracker.jacobian(x)
+    normal, gradient = J.T @ J, J.T @ r
     f = float(np.mean(r**2))
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(x, f)
-    largest = float(np.max(np.sum(J * J, axis=0)))
-    mu, nu = initial_damping(J), 2.0
+    largest = float(np.max(np.diag(normal)))
+    mu, nu = initial_damping(normal), 2.0
     for _ in range(budget.max_iterations):
-        held = held_at_bounds(x, J.T @ r, lower, upper)
+        held = held_at_bounds(x, gradient, lower, upper)
         if np.all(held):
             return Outcome(x, StopReason.BOUNDS)
-        if budget.gtol > 0 and optimality(J, r, held) <= budget.gtol:
+        if budget.gtol > 0 and optimality(gradient, np.diag(normal), float(r @ r),
+                                          held) <= budget.gtol:
             return Outcome(x, StopReason.GTOL)
         mu = max(mu, MU_FLOOR * largest)
-        step = damped_step(J, r, mu)
+        step = damped_step(normal, gradient, mu)
         if not inside(x + step, lower, upper):
-            step = boxed_damped_step(J, r, mu, lower - x, upper - x)
+            step = boxed_damped_step(normal, gradient, mu, lower - x, upper - x)
         if rule is not None:
             step = rule.propose(tracker, x, step)
         x_new = np.clip(x + step, lower, upper)
@@ -175,7 +226,8 @@ def levenberg_marquardt(
             rule.accepted(h, f, f_new)
         norm_before = float(r @ r)
         x, r, J, f_old, f = x_new, r_new, J_new, f, f_new
-        largest = float(np.max(np.sum(J * J, axis=0)))
+        normal, gradient = J.T @ J, J.T @ r
+        largest = float(np.max(np.diag(normal)))
         tracker.record(x, f)
         if budget.ftol > 0 and actual <= budget.ftol * norm_before \
                 and predicted <= budget.ftol * norm_before and gain <= 2.0:

@@ -25,13 +25,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.identifiability import measurement_identifiability
 from twin.problem import Problem
 from twin.solvers.base import Solver, SolverResult, Tracker
 from twin.solvers.lm import levenberg_marquardt
 from twin.stopping import Budget
-
-Array = NDArray[np.float64]
 
 
 class BaseTracker(Tracker):

@@ -31,8 +31,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
 
+from twin.arrays import Array
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Tracker
 from twin.stopping import Budget, StopReason, stalled
@@ -40,7 +40,6 @@ from twin.stopping import Budget, StopReason, stalled
 if TYPE_CHECKING:
     from scipy.interpolate import BSpline
 
-Array = NDArray[np.float64]
 
 N_PARTICLES = 100
 """Swarm size N (paper: 100)."""
@@ -203,7 +202,7 @@ def run_population(tracker: Tracker, x_init: Array, budget: Budget, move: Move) 
     f = tracker.cost(x_init)
     f_start = float(f[0])
     swarm = Swarm(x_init.copy(), np.zeros_like(x_init), x_init.copy(), f.copy())
-    if not tracker.history:
+    if not tracker.started:
         tracker.record(swarm.g_x, swarm.g_f)
     n = x_init.shape[0]
     best = [swarm.g_f]

@@ -24,7 +24,7 @@ from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import deg_to_rad
-from twin.unknowns.base import Array, Group, Stage
+from twin.unknowns.base import Array, Group, Stage, cached
 
 BOUND_RAD = float(deg_to_rad(0.5))
 """Search bound on each joint's backlash."""
@@ -40,12 +40,11 @@ def make(robot: RobotModel, rig: Rig) -> Group:
         if data.approach is None:
             raise ValueError("backlash: the measurements do not say the direction each joint "
                              "approached its pose from (approach)")
-        out = np.zeros((len(data), n, n))
-        out[:, np.arange(n), np.arange(n)] = data.approach
-        return out
+        return np.asarray(data.approach, dtype=np.float64)
 
     return Group(
         name="backlash", stage=Stage.JOINTS, names=tuple(f"backlash{i + 1}" for i in range(n)),
         units=("rad",) * n, lower=np.full(n, -BOUND_RAD), upper=np.full(n, BOUND_RAD),
-        radius=np.full(n, RADIUS_RAD), basis=basis, needs_approach=True,
+        radius=np.full(n, RADIUS_RAD), basis=cached(basis), joint=tuple(range(n)),
+        needs_approach=True,
     )

@@ -5,8 +5,9 @@ A calibration's unknown vector x is the concatenation of its groups' blocks, D-H
 group acts at one stage of :class:`twin.model.Model`:
 
 - ``table``: adds to the kinematic parameter table, ``Δtable = linear @ x_g`` (D-H errors);
-- ``joints``: adds to the joint angles, ``Δq = basis(data) @ x_g`` — linear in its
-  coefficients, as transmission error, backlash and compliance are;
+- ``joints``: adds to the joint angles, linear in its coefficients, as transmission error,
+  backlash and compliance are; each coefficient c moves one joint, ``joint[c]``:
+  ``Δq_joint[c] += basis(data)[:, c] · x_c`` (a dense (m, n, p_g) basis would be mostly zeros);
 - ``point``: moves the measured point in the flange frame, ``Δt = linear @ x_g``;
 - ``measurement``: enters the measurement kind's own equation (a port, a length offset, a
   tracker frame, a fixed point); the kind reads its block by the group's name.
@@ -23,12 +24,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from numpy.typing import NDArray
 
-from twin.arrays import frozen_array
+from twin.arrays import Array, frozen_array
 from twin.dataset import Measurements
-
-Array = NDArray[np.float64]
 
 
 class Stage(StrEnum):
@@ -55,7 +53,10 @@ class Group:
         radius: A typical size of each parameter's error, shape (p_g,): the spread of a
             swarm's first particles.
         linear: ``table``: (4n, p_g), ``point``: (3, p_g); None at other stages.
-        basis: ``joints``: ``basis(data) -> (m, n, p_g)``, rad per unit; None at other stages.
+        basis: ``joints``: ``basis(data) -> (m, p_g)``, how far each coefficient turns its
+            joint at each pose, rad per unit; None at other stages.
+        joint: ``joints``: the joint (0-based) each coefficient turns, length p_g; empty at
+            other stages.
         needs_approach: Whether the basis reads the direction each joint approached its pose
             from (``data.approach``): measurements without it cannot be fitted.
     """
@@ -69,6 +70,7 @@ class Group:
     radius: Array
     linear: Array | None = None
     basis: Callable[[Measurements], Array] | None = None
+    joint: tuple[int, ...] = ()
     needs_approach: bool = False
 
     def __post_init__(self) -> None:
@@ -86,6 +88,9 @@ class Group:
                              "stages only")
         if (self.stage == Stage.JOINTS) != (self.basis is not None):
             raise ValueError(f"group {self.name}: a basis goes with the joints stage only")
+        if len(self.joint) != (p if self.stage == Stage.JOINTS else 0):
+            raise ValueError(f"group {self.name}: a joints-stage group names the joint of each "
+                             f"of its {p} parameters, other groups none")
         if self.linear is not None:
             linear = np.asarray(self.linear, dtype=np.float64)
             object.__setattr__(self, "linear", frozen_array(linear, linear.shape, "linear"))

@@ -86,13 +86,11 @@ def make(robot: RobotModel, rig: Rig) -> Group:
     n = robot.n_joints
 
     def basis(data: Measurements) -> Array:
-        out = np.zeros((len(data), n, n))
-        out[:, np.arange(n), np.arange(n)] = torques(robot, rig, data)
-        return out
+        return torques(robot, rig, data)
 
     return Group(
         name="compliance", stage=Stage.JOINTS,
         names=tuple(f"compliance{i + 1}" for i in range(n)), units=(COMPLIANCE_UNIT,) * n,
         lower=np.full(n, LOWER), upper=np.full(n, UPPER), radius=np.full(n, RADIUS),
-        basis=cached(basis),
+        basis=cached(basis), joint=tuple(range(n)),
     )

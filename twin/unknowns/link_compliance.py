@@ -59,14 +59,12 @@ def make(robot: RobotModel, rig: Rig) -> Group:
     p = len(names)
 
     def basis(data: Measurements) -> Array:
-        out = np.zeros((len(data), n, p))
         cable = joint_torques(robot.structure, robot.dh, data.q_rad, np.zeros(n), com,
                               rig.attachment_m, cable_forces(robot, rig, data))
-        out[:, np.arange(n), np.arange(n)] = cable
         weights = link_torques(robot.structure, robot.dh, data.q_rad, mass, com)
-        out[:, joint, n + np.arange(joint.size)] = weights[:, joint, link]
-        return out
+        return np.concatenate([cable, weights[:, joint, link]], axis=1)
 
     return Group(name="link_compliance", stage=Stage.JOINTS, names=names,
                  units=(COMPLIANCE_UNIT,) * p, lower=np.full(p, LOWER),
-                 upper=np.full(p, UPPER), radius=np.full(p, RADIUS), basis=cached(basis))
+                 upper=np.full(p, UPPER), radius=np.full(p, RADIUS), basis=cached(basis),
+                 joint=(*range(n), *joint.tolist()))

@@ -52,15 +52,12 @@ def make(robot: RobotModel, rig: Rig) -> Group:
     p = len(TERMS) * n
 
     def basis(data: Measurements) -> Array:
-        values = harmonics(data.q_rad)  # (m, n, 4)
-        # Joint i's terms move joint i only: a block-diagonal (m, n, 4n).
-        out = np.zeros((len(data), n, n, len(TERMS)))
-        out[:, np.arange(n), np.arange(n)] = values
-        return out.reshape(len(data), n, p)
+        return harmonics(data.q_rad).reshape(len(data), p)  # joint by joint, as x
 
     return Group(
         name="transmission", stage=Stage.JOINTS,
         names=tuple(f"{term}{i + 1}" for i in range(n) for term in TERMS),
         units=("rad",) * p, lower=np.full(p, -BOUND_RAD), upper=np.full(p, BOUND_RAD),
         radius=np.full(p, RADIUS_RAD), basis=cached(basis),
+        joint=tuple(i for i in range(n) for _ in TERMS),
     )
