@@ -4,7 +4,9 @@ see, named, and the error against the truth modulo them.
 Distances from a port that is itself estimated cannot see a turn of everything about joint 1's
 axis or a shift along it (they trade with δθ1 and δd1); a tracker frame estimated freely absorbs
 the same; fixed points without a known distance cannot see the scale; an estimated attachment
-leaves the flange free to slide in its own frame under the measured point. Each is a direction
+leaves the flange free to slide in its own frame under the measured point; and one measured
+point off the flange, even a known one, cannot see the flange turn about it (a turn about an
+axis parallel to joint 6's through the point trades with θ6, a6, d6, α6). Each is a direction
 of the null space of the measurement Jacobian that moves the predicted point: such data define
 the robot's positions only up to that motion, and a comparison with the truth in the base frame
 measures partly the frame, not the calibration.
@@ -16,10 +18,12 @@ How the motions are found and named:
    M = ∂p/∂x · N (3k, r). Columns that move nothing (θ6 of a flange centre, d2 − d3) drop out:
    singular values of M below :data:`MOVES_RTOL` of the largest column norm of ∂p/∂x do not count.
 2. Each candidate motion (:data:`MOTIONS`: rotations about and shifts along joint 1's axis and
-   the other base axes, a scale about the base origin, shifts of the flange along its own axes) is
-   a vector field over the same points; it is *unobservable* when it lies in the span of M
-   (relative distance below :data:`MATCH_RTOL`). What no candidate explains is counted as
-   unnamed motion.
+   the other base axes, a scale about the base origin, shifts of the flange along its own axes)
+   is a vector field over the same points; it is *unobservable* when it lies in the span of M
+   (relative distance below :data:`MATCH_RTOL`). Then the other directions of the flange's own
+   frame along which a shift lies in the span: one measured point off the flange leaves the
+   flange free to turn about it, which moves the flange centre along such a direction. What no
+   candidate explains is counted as unnamed motion.
 
 The error modulo the motions (:func:`gauge_free_rms`) applies the named motions exactly (a
 finite rotation about an axis, not its linearisation) and the unnamed part linearly, with the
@@ -54,6 +58,8 @@ PIN_BASE = ("a reference in the base frame: a port or tracker frame measured in 
 PIN_SCALE = "a known distance between two fixed points (--distance A,B=MM)"
 PIN_FLANGE = ("a measured attachment (--attachment X,Y,Z without --estimate-attachment); the "
               "measured point itself is identified")
+PIN_TURN = ("a second measured point on the tool (the flange turns about the measured point "
+            "unseen); the measured point itself is identified")
 
 
 class Motion(NamedTuple):
@@ -64,9 +70,11 @@ class Motion(NamedTuple):
     kind: str
     """:data:`ROTATION`, :data:`SHIFT`, :data:`SCALE` or :data:`FLANGE_SHIFT`."""
     axis: int
-    """The axis (0, 1, 2: x, y, z) of frame 0 or of the flange."""
+    """The axis (0, 1, 2: x, y, z) of frame 0, or -1 for a flange shift."""
     pin: str
     """How to pin it."""
+    direction: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """A flange shift's direction in the flange frame, unit."""
 
 
 MOTIONS = (
@@ -77,12 +85,16 @@ MOTIONS = (
     Motion("shift along the base x axis", SHIFT, 0, PIN_BASE),
     Motion("shift along the base y axis", SHIFT, 1, PIN_BASE),
     Motion("scale about the base origin", SCALE, 0, PIN_SCALE),
-    Motion("shift of the flange along its own x axis", FLANGE_SHIFT, 0, PIN_FLANGE),
-    Motion("shift of the flange along its own y axis", FLANGE_SHIFT, 1, PIN_FLANGE),
-    Motion("shift of the flange along its own z axis", FLANGE_SHIFT, 2, PIN_FLANGE),
+    Motion("shift of the flange along its own x axis", FLANGE_SHIFT, -1, PIN_FLANGE,
+           (1.0, 0.0, 0.0)),
+    Motion("shift of the flange along its own y axis", FLANGE_SHIFT, -1, PIN_FLANGE,
+           (0.0, 1.0, 0.0)),
+    Motion("shift of the flange along its own z axis", FLANGE_SHIFT, -1, PIN_FLANGE,
+           (0.0, 0.0, 1.0)),
 )
 """Candidate motions, in the order they are named. Base axes are those of the chain's frame 0
-(joint 1 turns about its z axis)."""
+(joint 1 turns about its z axis). Shifts of the flange along other directions of its own frame
+come after (:func:`_flange_shifts`)."""
 
 
 class Gauge(NamedTuple):
@@ -100,6 +112,8 @@ class Gauge(NamedTuple):
     """Frame 0's origin, shape (3,), m."""
     axes: Array
     """Frame 0's axes as columns, shape (3, 3)."""
+    point_in_flange_m: Array
+    """The measured point in the flange frame, shape (3,), m."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -127,7 +141,42 @@ def _field(motion: Motion, points: Array, rotations: Array, origin: Array, axes:
         return np.broadcast_to(axes[:, motion.axis], points.shape)
     if motion.kind == SCALE:
         return points - origin
-    return rotations[:, :, motion.axis]
+    return rotations @ np.asarray(motion.direction)
+
+
+def _flange_shifts(span: Array, rotations: Array, named: list[Array], point_in_flange: Array
+                   ) -> list[Motion]:
+    """Shifts of the flange along fixed directions of its own frame whose field lies in the
+    span of the null motions (3k, r) and is not a combination of the ``named`` fields; with a
+    measured point off the flange, what they are is the flange turning about it."""
+    # The fields R_i d of d = x, y, z are orthogonal with norm √k: an orthonormal basis.
+    basis = np.stack([rotations[:, :, axis].ravel() for axis in range(3)], axis=1)
+    basis /= np.linalg.norm(basis, axis=0)
+    outside = basis - span @ (span.T @ basis)
+    _, s, vt = np.linalg.svd(outside)
+    off = bool(np.linalg.norm(point_in_flange) > 0)
+    found = []
+    for direction in vt[s < MATCH_RTOL]:
+        vector = basis @ direction
+        if _within(vector, named, 1.0):
+            continue
+        shown = ", ".join(f"{c:.2f}" for c in direction)
+        found.append(Motion(
+            f"shift of the flange along ({shown}) in its own frame"
+            + (" (it turns about the measured point)" if off else ""), FLANGE_SHIFT, -1,
+            PIN_TURN if off else PIN_FLANGE,
+            (float(direction[0]), float(direction[1]), float(direction[2]))))
+    return found
+
+
+def _within(vector: Array, fields: list[Array], norm: float) -> bool:
+    """Whether ``vector`` is already a combination of the motions named before it (a turn of
+    the flange about the measured point is a shift of the flange when all three are named)."""
+    if not fields:
+        return False
+    named = np.stack(fields, axis=1)
+    rest = vector - named @ np.linalg.lstsq(named, vector, rcond=None)[0]
+    return bool(np.linalg.norm(rest) < MATCH_RTOL * norm)
 
 
 def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_rad: ArrayLike,
@@ -151,7 +200,8 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     rotations = flange_transform(model.robot.structure, table, model.joints(x, data))[..., :3, :3]
     base = model.robot.structure.base
     origin, axes = base[:3, 3], base[:3, :3]
-    gauge = Gauge((), np.zeros((points.size, 0)), points, rotations, origin, axes)
+    gauge = Gauge((), np.zeros((points.size, 0)), points, rotations, origin, axes,
+                  model.point(x))
     null = np.asarray(null_space, dtype=np.float64)
     if not null.shape[1]:
         return gauge
@@ -167,9 +217,12 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
         vector = _field(motion, points, rotations, origin, axes).ravel()
         norm = float(np.linalg.norm(vector))
         outside = vector - span @ (span.T @ vector)
-        if np.linalg.norm(outside) < MATCH_RTOL * norm:
+        if np.linalg.norm(outside) < MATCH_RTOL * norm and not _within(vector, fields, norm):
             named.append(motion)
             fields.append(vector)
+    for motion in _flange_shifts(span, rotations, fields, gauge.point_in_flange_m):
+        named.append(motion)
+        fields.append(_field(motion, points, rotations, origin, axes).ravel())
     explained = np.stack(fields, axis=1) if fields else np.zeros((points.size, 0))
     rest = span - explained @ np.linalg.lstsq(explained, span, rcond=None)[0] if fields \
         else span
@@ -193,7 +246,7 @@ def _moved(gauge: Gauge, parameters: Array) -> Array:
         elif motion.kind == SCALE:
             scale = value
         else:
-            flange_shift[motion.axis] = value
+            flange_shift += value * np.asarray(motion.direction)
     turned = (points - origin) @ Rotation.from_rotvec(rotation_vector).as_matrix().T
     moved = origin + (1.0 + scale) * turned + shift + gauge.flange_rotations @ flange_shift
     linear = gauge.unnamed @ parameters[len(gauge.motions):]

@@ -34,7 +34,7 @@ from twin.compensation_check import CompensationCheck
 from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.ik import STATUS_OK
-from twin.io.identified import load_result
+from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import load_poses
 from twin.io.paths import InputPath
 from twin.io.pose_tables import load_targets, write_corrected
@@ -100,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
                          source=missing)
     robot = robot_from_flags(args)
     model, x, _ = load_result(args.identified, robot, args.method)
+    warn_result_cautions(args.identified, args.method, "the compensated program")
     if args.cable_tension is not None:
         model, x = model.with_rig(replace(model.rig, tension_n=args.cable_tension), x)
     if args.joints is not None:

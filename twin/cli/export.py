@@ -15,7 +15,12 @@ from twin.cli.arguments import (
 from twin.errors import UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
-from twin.io.identified import ResultWarning, load_result_delta, result_groups
+from twin.io.identified import (
+    ResultWarning,
+    load_result_delta,
+    result_groups,
+    warn_result_cautions,
+)
 from twin.unknowns import ERRORS
 
 NAME = "export"
@@ -50,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
                       f"only, not the joint-level errors ({', '.join(joint_level)}) the result "
                       "also has: use twin compensate or twin predict with the result itself",
                       ResultWarning, stacklevel=2)
+    warn_result_cautions(args.result, args.method, f"the {args.format_name} file")
     identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
     write_atomic(args.out, export_text(identified, args.format_name))
     print(f"wrote {args.out} ({args.format_name}, {identified.name})")

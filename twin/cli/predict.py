@@ -15,7 +15,7 @@ from twin.cli.arguments import (
 )
 from twin.errors import InputError
 from twin.io.capture_file import parse_port_mm
-from twin.io.identified import load_result
+from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import joint_columns, load_poses
 from twin.io.paths import InputPath
 from twin.io.pose_tables import write_prediction
@@ -55,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot = robot_from_flags(args)
     identified = load_result(args.identified, robot, args.method)
+    warn_result_cautions(args.identified, args.method, "the prediction")
     port_m = None if args.port is None else parse_port_mm(args.port, "--port", "")
     poses = load_poses(args.joints, robot, f"a pose CSV ({','.join(joint_columns(1))}.."
                        f"q{robot.n_joints} in degrees)", stdin=True)

@@ -202,6 +202,35 @@ def result_groups(path: str | Path, method: str | None = None) -> tuple[str, ...
     return tuple(str(g) for g in groups) if isinstance(groups, list) else ()
 
 
+def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None:
+    """Warn (:class:`ResultWarning`) before ``use`` (``"exporting"``, ``"compensating"``…) a
+    result whose data could not see some motions of the flange (``unobservable.motions``: the
+    identified model is placed along them by its start, not by the data) or whose model did not
+    fit its data (``misfit``). Nothing for a result written before they were recorded.
+
+    Raises:
+        InputError: if the file is not a result, or ``method`` is missing or unknown.
+    """
+    path = Path(path)
+    entry, _ = _pick(read_json(path, RESULT_FILE), path, method)
+    unobservable = entry.get("unobservable")
+    if not isinstance(unobservable, dict):
+        unobservable = {}
+    motions = unobservable.get("motions")
+    if isinstance(motions, list) and motions:
+        pins = unobservable.get("pin")
+        pin = " or ".join(str(p) for p in pins) if isinstance(pins, list) and pins else ""
+        warnings.warn(f"{path}: the data could not see {', '.join(map(str, motions))}: the "
+                      "identified model sits along them where the calibration started, not "
+                      f"where the robot is, and {use} inherits that"
+                      + (f"; pin them with {pin}" if pin else ""), ResultWarning, stacklevel=2)
+    misfit = entry.get("misfit")
+    if isinstance(misfit, dict) and misfit.get("misfit") is True:
+        warnings.warn(f"{path}: the model did not fit its data (training RMSE {misfit.get('rmse')}"
+                      f" mm against a noise of {misfit.get('noise')} mm), and {use} inherits that",
+                      ResultWarning, stacklevel=2)
+
+
 class IdentifiedModel(NamedTuple):
     """A calibration result as a model and its unknowns, ready to predict or compensate with."""
 
