@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.stats import chi2
 
 from twin.calibration import calibrate
 from twin.dataset import Measurements
-from twin.misfit import ALPHA, FAR, chi2_quantile, misfit_test, repeat_sigma
+from twin.misfit import ALPHA, FAR, chi2_quantile, misfit_test, reading_sigma, repeat_sigma
 from twin.robot import RobotModel
 from twin.synthetic import random_poses, synthesize
 
@@ -46,3 +48,26 @@ def test_repeat_readings_measure_the_noise(irb120: RobotModel, true_robot: Robot
     assert result.misfit is not None and not result.misfit.misfit
     assert result.misfit.noise_source.startswith("repeat readings")
     assert result.misfit.noise_m == pytest.approx(5e-5, rel=0.3)
+
+
+def test_the_robots_repeatability_is_noise() -> None:
+    """The twin's joint jitter (0.01 mm RMS at the flange) on a 0.002 mm encoder: a D-H fit
+    leaves about the r/√3 the stated noise of a reading adds (the twin's MuJoCo jitter is the
+    referee of that model), so told the repeatability it is no misfit, and told the encoder's
+    noise alone it is one."""
+    from twin.scenario import parse_scenario
+    from twin.sim import simulate
+
+    document = {"name": "jitter", "seed": 4, "port": {"position_mm": [600.0, -400.0, 100.0]},
+                "perturbation": {"a_mm": 1.0, "d_mm": 1.0, "alpha_deg": 0.1, "theta_deg": 0.1},
+                "poses": {"count": 400}, "encoder": {"sigma_mm": 0.002, "resolution_mm": 0.0},
+                "joints": {"repeatability_mm": 0.01}}
+    sim = simulate(parse_scenario(document, Path("jitter.toml")))
+    encoder_m, repeatability_m = 2e-6, 1e-5
+    told = reading_sigma(encoder_m, repeatability_m)
+    assert told == pytest.approx(np.hypot(2e-6, 1e-5 / np.sqrt(3)))
+    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, sigma_m=told)
+    assert result.misfit is not None and not result.misfit.misfit, result.misfit
+    assert 0.8 * told < result.metrics["validation"].rmse < 1.25 * told
+    alone = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, sigma_m=encoder_m)
+    assert alone.misfit is not None and alone.misfit.misfit, alone.misfit

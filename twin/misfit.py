@@ -12,15 +12,17 @@ is called a **misfit** when both
 the report and the result then say so in one line, with the likely causes (a wrong port or
 attachment, joint-level errors the robot model lacks, units). The command still succeeds.
 
-σ is the larger of the noise stated for the instrument (its rated σ with its resolution's
-res²/12 folded in, ``--sigma``) and the noise measured by repeat readings: rows with the same
-joint angles (and port or fixed point) should read the same, and their pooled spread is
-measured noise no model can remove. With a robust loss the rows it rejects are left out of
-the test (they are listed apart).
+σ is the larger of the noise stated for a reading (the instrument's rated σ with its
+resolution's res²/12 folded in, ``--sigma``, and the robot's repeatability seen along one
+direction, ``--repeatability``: :func:`reading_sigma`) and the noise measured by repeat
+readings: rows with the same joint angles (and port or fixed point) should read the same, and
+their pooled spread is measured noise no model can remove. With a robust loss the rows it
+rejects are left out of the test (they are listed apart).
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -35,6 +37,13 @@ FAR = 2.0
 """…and the RMSE exceeds this many times the noise."""
 REPEAT_RTOL_RAD = 1e-9
 """Joint angles closer than this (rad) count as the same pose for repeat readings."""
+
+
+def reading_sigma(instrument_sigma_m: float, repeatability_m: float = 0.0) -> float:
+    """The noise 1σ of one reading, m: the instrument's (resolution folded in) and the robot's
+    repeatability — an RMS 3-D flange scatter r, of which a length or one tracker axis sees
+    r/√3 — added in quadrature."""
+    return math.hypot(instrument_sigma_m, repeatability_m / math.sqrt(3.0))
 
 
 class Misfit(NamedTuple):

@@ -71,6 +71,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the instrument's noise 1σ in mm: the filters' measurement noise "
                         "and the misfit test's reference (default: the capture's [encoder] "
                         "sigma_mm with its resolution, else 0.01)")
+    parser.add_argument("--repeatability", type=sigma_mm, metavar="MM",
+                        help="the robot's RMS flange repeatability in mm: noise of every pose "
+                        "that no model removes, added to --sigma (a length sees it over one "
+                        "direction, r/√3); default: the capture's [encoder] repeatability_mm, "
+                        "else 0")
     parser.add_argument("--loss", choices=LOSSES,
                         help="how residual rows count: linear (least squares, default) or a "
                         "robust loss that keeps a few gross errors from steering the fit; the "

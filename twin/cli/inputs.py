@@ -35,6 +35,7 @@ from twin.io.capture_file import (
 )
 from twin.io.truth import load_truth_attachment, load_truth_delta
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.misfit import reading_sigma
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -90,7 +91,8 @@ class Inputs(NamedTuple):
     truth_path: Path | None
     calibration: CalibrationSettings
     sigma_m: float
-    """The instrument's noise 1σ, m."""
+    """The noise 1σ of one reading, m: the instrument's and the robot's repeatability
+    (:func:`twin.misfit.reading_sigma`)."""
 
     @property
     def port_m(self) -> NDArray[np.float64] | None:
@@ -151,6 +153,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
              "estimate_attachment": args.estimate_attachment,
              "estimate_base": args.estimate_base}
     sigma = getattr(args, "sigma", None)
+    repeatability = getattr(args, "repeatability", None)
     errors = getattr(args, "errors", None)
     errors = None if errors == (AUTO,) else errors
     tension = getattr(args, "cable_tension", None)
@@ -169,7 +172,10 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
             measurements_path=capture.measurements,
             truth_path=capture.truth,
             calibration=settings,
-            sigma_m=float(mm_to_m(sigma)) if sigma else capture.sigma_m,
+            sigma_m=reading_sigma(
+                float(mm_to_m(sigma)) if sigma else capture.instrument_sigma_m,
+                capture.repeatability_m if repeatability is None
+                else float(mm_to_m(repeatability))),
         )
     settings = CalibrationSettings(
         **flags, train_fraction=fraction or TRAIN_FRACTION, stop=stop or PROTOCOLS[0],
@@ -181,7 +187,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         measurements_path=input_path,
         truth_path=None,
         calibration=settings,
-        sigma_m=float(mm_to_m(sigma)) if sigma else DEFAULT_SIGMA_M,
+        sigma_m=reading_sigma(float(mm_to_m(sigma)) if sigma else DEFAULT_SIGMA_M,
+                              float(mm_to_m(repeatability or 0.0))),
     )
 
 

@@ -28,6 +28,7 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     url = "serial:///dev/ttyUSB0?baud=115200"
     sigma_mm = 0.01                   # the instrument's noise 1σ (misfit test, filters)
     resolution_mm = 0.004             # its resolution
+    repeatability_mm = 0.01           # the robot's RMS flange repeatability (noise of a pose)
 """
 
 from __future__ import annotations
@@ -173,13 +174,19 @@ class Capture:
     rig: Rig = field(default_factory=Rig)
 
     @property
-    def sigma_m(self) -> float:
+    def instrument_sigma_m(self) -> float:
         """The instrument's noise the capture states: ``[encoder]`` sigma_mm with its
         resolution's res²/12 folded in, m; the default 0.01 mm when it states none."""
         sigma = float(mm_to_m(self.encoder.get("sigma_mm", 0.0)))
         resolution = float(mm_to_m(self.encoder.get("resolution_mm", 0.0)))
         total = math.hypot(sigma, resolution / math.sqrt(12.0))
         return total if total > 0 else DEFAULT_SIGMA_M
+
+    @property
+    def repeatability_m(self) -> float:
+        """The robot's RMS flange repeatability the capture states (``[encoder]``
+        repeatability_mm), m; 0 when it states none."""
+        return float(mm_to_m(self.encoder.get("repeatability_mm", 0.0)))
 
 
 def parse_port_mm(value: object, source: str | Path, where: str) -> NDArray[np.float64]:
@@ -217,7 +224,7 @@ def load_capture(path: str | Path) -> Capture:
              for key in ("robot", "measurements", "truth")
              if key != "truth" or document.has(key)}
     encoder = document.table("encoder")
-    for key in ("sigma_mm", "resolution_mm"):
+    for key in ("sigma_mm", "resolution_mm", "repeatability_mm"):
         encoder.number(key, 0.0, minimum=0.0, expected="a noise in mm >= 0")
     folder = path.parent
     rig = _parse_rig(document)

@@ -368,6 +368,7 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
              "resolution_mm": float(m_to_mm(scenario.noise.resolution_m))} \
         if sim.measurements.kind == "length" \
         else {"sigma_mm": float(m_to_mm(np.sqrt(np.mean(scenario.instrument.sigma_m**2))))}
+    noise["repeatability_mm"] = float(m_to_mm(scenario.noise.repeatability_m))
     write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, rig=sim.rig_told,
                   measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings,
                   encoder={key: value for key, value in noise.items() if value > 0})
