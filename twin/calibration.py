@@ -371,7 +371,7 @@ def make_problem(
         estimate_attachment: Also identify the measured point in the flange frame.
         estimate_base: Also identify the tracker frame (tracker positions), started at a rigid
             fit of the nominal model's points.
-        sigma_m: The instrument's noise 1σ, m: the filters' measurement noise and the misfit
+        sigma_m: The noise 1σ of a reading, m: the filters' measurement noise and the misfit
             test's reference (:mod:`twin.misfit`).
         loss: How residual rows count (:mod:`twin.loss`); least squares by default.
         train_fraction: Share of the poses used for identification (paper: 0.8).

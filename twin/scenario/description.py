@@ -13,6 +13,7 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.misfit import reading_sigma
 from twin.problem import DEFAULT_SIGMA_M
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
@@ -98,15 +99,26 @@ class Scenario:
         return Budget.named(self.stop, self.max_iterations)
 
     @property
-    def calibration_loss(self) -> Loss:
-        """The loss ``[calibration]`` asks for, its scale defaulting to
-        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the simulated noise (without jitter)."""
-        if self.loss_scale_m is not None:
-            return Loss(self.loss, self.loss_scale_m)
-        sigma = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
+    def reading_sigma_m(self) -> float:
+        """The noise 1σ of one reading the calibration is told, m: the instrument's (a cable
+        encoder's σ with its resolution folded in, a tracker's per-axis RMS) and the robot's
+        repeatability (:func:`twin.misfit.reading_sigma`); the default 0.01 mm when both are
+        zero. What twin simulate writes to capture.toml, so studies and `twin calibrate` on a
+        simulated capture tell the filters and the misfit test the same."""
+        instrument = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
             if self.instrument.kind != "length" \
             else float(np.hypot(self.noise.sigma_m, self.noise.resolution_m / np.sqrt(12.0)))
-        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * (sigma if sigma > 0 else DEFAULT_SIGMA_M))
+        sigma = reading_sigma(instrument if instrument > 0 else DEFAULT_SIGMA_M,
+                              self.noise.repeatability_m)
+        return sigma
+
+    @property
+    def calibration_loss(self) -> Loss:
+        """The loss ``[calibration]`` asks for, its scale defaulting to
+        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the noise of a reading."""
+        if self.loss_scale_m is not None:
+            return Loss(self.loss, self.loss_scale_m)
+        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * self.reading_sigma_m)
 
     def __post_init__(self) -> None:
         n = self.robot.n_joints

@@ -64,7 +64,8 @@ def verify_compensation(scenario: Scenario, *, seed: int | None = None, method: 
                        estimate_port=scenario.estimate_port,
                        estimate_offset=scenario.estimate_offset,
                        estimate_attachment=scenario.estimate_attachment,
-                       estimate_base=scenario.estimate_base, loss=scenario.calibration_loss)
+                       estimate_base=scenario.estimate_base, loss=scenario.calibration_loss,
+                       sigma_m=scenario.reading_sigma_m)
     validation = result.metrics["validation"]
     progress(f"  {result.method}: validation RMSE {m_to_mm(validation.rmse):.4f} mm "
              f"(before {m_to_mm(result.metrics['before'].rmse):.4f} mm)")

@@ -156,8 +156,8 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         seed=seed, estimate_port=scenario.estimate_port,
         estimate_offset=scenario.estimate_offset,
         estimate_attachment=scenario.estimate_attachment, estimate_base=scenario.estimate_base,
-        loss=scenario.calibration_loss, train_fraction=sim.train_fraction or TRAIN_FRACTION,
-        budget=scenario.budget,
+        loss=scenario.calibration_loss, sigma_m=scenario.reading_sigma_m,
+        train_fraction=sim.train_fraction or TRAIN_FRACTION, budget=scenario.budget,
     )
     first = next(iter(results.values()))
     model = first.model
