@@ -15,6 +15,9 @@ EXPECTED = {
                    "error-models", "bench-extended"},
     "studies.md": {"paper-replica", "regimes", "bench-study"},
     "robots.md": {"parametrisation"},
+    "measurements.md": {"rigs", "stations"},
+    "twin.md": {"paper-rig"},
+    "identifiability.md": {"unknown-sets", "bench-design", "twin-check"},
 }
 
 
