@@ -1,7 +1,7 @@
 """Regenerate every table of figures in docs/ from fresh runs.
 
 Run by hand after changing a solver, a model or a scenario: ``make docs`` (or
-``.venv/bin/python bench/docs_tables.py [--skip-bench]``). It
+``.venv/bin/python bench/docs_tables.py [--skip-bench] [--only BLOCK …]``). It
 
 1. runs a fresh study of every regime scenario in scenarios/ (10 trials, every method) into
    ``out/docs/studies/`` (deleted first), and the bounds and geometric regimes again under the
@@ -10,7 +10,9 @@ Run by hand after changing a solver, a model or a scenario: ``make docs`` (or
    changes after AMLM — after a converged AMLM, under the paper's 30 + 30, and after AMLM
    stopped early;
 3. runs the benchmarks whose output the docs quote (``--skip-bench`` keeps the old output);
-4. rewrites each block between ``<!-- BEGIN GENERATED name -->`` and
+4. measures the other tables (rig regimes, error models, parametrisations, identifiability, the
+   twin against the paper's rig);
+5. rewrites each block between ``<!-- BEGIN GENERATED name -->`` and
    ``<!-- END GENERATED name -->`` in the docs, each stamped with the commit it was measured at,
    and copies the paper study's convergence figure to docs/figures/.
 
@@ -23,6 +25,7 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime
+import functools
 import re
 import shutil
 import statistics
@@ -38,6 +41,7 @@ import numpy as np
 
 from twin.calibration import calibrate, make_problem
 from twin.errors import InputError
+from twin.io.atomic import write_atomic
 from twin.rig import Rig
 from twin.scenario import Scenario, load_scenario, parse_scenario
 from twin.sim import simulate
@@ -257,14 +261,17 @@ def bipso_changes(regime: str, scenario: Scenario, trial: int) -> list[StageChan
     """Replay M9's two stages on one trial of a regime, for every kind of AMLM stage."""
     seed = trial_seed(scenario.seed, trial)
     sim = simulate(scenario, seed)
+    # As the studies calibrate: the scenario's loss (the outliers regime's Cauchy) and noise.
     problem = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=seed,
                            estimate_port=scenario.estimate_port,
-                           estimate_offset=scenario.estimate_offset).problem
+                           estimate_offset=scenario.estimate_offset,
+                           loss=scenario.calibration_loss,
+                           sigma_m=scenario.reading_sigma_m).problem
     q_workspace = workspace(TrialSpec(scenario, (), 500))
     model = problem.model
 
     def measure(x: np.ndarray) -> tuple[float, float, float]:
-        f = float(np.mean(model.residuals(x, problem.train) ** 2))
+        f = float(np.mean(problem.loss.cost(model.residuals(x, problem.train))))
         validation = float(np.sqrt(np.mean(model.residuals(x, problem.validation) ** 2)))
         flange = rms_distance(model.flange_positions(x, model.poses(q_workspace)),
                               sim.true_robot.flange_positions(q_workspace))
@@ -731,41 +738,69 @@ def main() -> None:
                         help="where the studies run (deleted first)")
     parser.add_argument("--skip-bench", action="store_true",
                         help="keep the benchmark output blocks as they are")
+    parser.add_argument("--only", action="append", metavar="BLOCK",
+                        help="regenerate only this block (repeatable), e.g. m9-bipso-stage; "
+                        "the studies run only if a block needs them")
     args = parser.parse_args()
     studies = args.out / "studies"
-    shutil.rmtree(studies, ignore_errors=True)
-    converge = {regime: run_regime(regime, studies / regime) for regime in REGIMES}
-    paper = {regime: run_regime(regime, studies / f"{regime}-paper", stop="paper")
-             for regime in PROTOCOL_REGIMES}
-    blocks = {
-        "studies.md": {"paper-replica": paper_replica(converge["paper"]),
-                       "regimes": regimes_table(converge)},
-        "methods.md": {"protocols": protocols_table(converge, paper),
-                       "m9-bipso-stage": bipso_table(),
-                       "error-models": error_models_table()},
-        "robots.md": {"parametrisation": parametrisation_table()},
-        "measurements.md": {"rigs": rigs_table(studies / "rigs"),
-                            "stations": stations_table()},
-        "twin.md": {"paper-rig": paper_rig_table()},
-        "identifiability.md": {"unknown-sets": unknown_sets_table(),
-                               "twin-check": twin_check_table(args.out / "identify")},
+
+    def fresh(folder: Path) -> Path:
+        """A folder emptied first: a study there would otherwise resume an earlier run."""
+        shutil.rmtree(folder, ignore_errors=True)
+        return folder
+
+    @functools.cache
+    def converge() -> dict[str, dict[str, Any]]:
+        fresh(studies)
+        return {regime: run_regime(regime, studies / regime) for regime in REGIMES}
+
+    @functools.cache
+    def paper() -> dict[str, dict[str, Any]]:
+        converge()
+        return {regime: run_regime(regime, studies / f"{regime}-paper", stop="paper")
+                for regime in PROTOCOL_REGIMES}
+
+    blocks: dict[str, dict[str, Callable[[], str]]] = {
+        "studies.md": {"paper-replica": lambda: paper_replica(converge()["paper"]),
+                       "regimes": lambda: regimes_table(converge())},
+        "methods.md": {"protocols": lambda: protocols_table(converge(), paper()),
+                       "m9-bipso-stage": bipso_table,
+                       "error-models": error_models_table},
+        "robots.md": {"parametrisation": parametrisation_table},
+        "measurements.md": {"rigs": lambda: rigs_table(fresh(args.out / "rigs")),
+                            "stations": stations_table},
+        "twin.md": {"paper-rig": paper_rig_table},
+        "identifiability.md": {
+            "unknown-sets": unknown_sets_table,
+            "twin-check": lambda: twin_check_table(fresh(args.out / "identify"))},
     }
     if not args.skip_bench:
-        blocks["methods.md"]["bench-solvers"] = bench_output(
+        blocks["methods.md"]["bench-solvers"] = lambda: bench_output(
             "bench_solvers.py", "--repeat", "3", "--large-errors", "8")
-        blocks["methods.md"]["bench-calibration"] = bench_output("bench_calibration.py")
-        blocks["methods.md"]["bench-extended"] = bench_output("bench_extended.py")
-        blocks["studies.md"]["bench-study"] = bench_output("bench_study.py")
-        blocks["identifiability.md"]["bench-design"] = bench_output("bench_design.py")
-    for name, generated in blocks.items():
+        blocks["methods.md"]["bench-calibration"] = lambda: bench_output("bench_calibration.py")
+        blocks["methods.md"]["bench-extended"] = lambda: bench_output("bench_extended.py")
+        blocks["studies.md"]["bench-study"] = lambda: bench_output("bench_study.py")
+        blocks["identifiability.md"]["bench-design"] = lambda: bench_output("bench_design.py")
+    known = [block for generated in blocks.values() for block in generated]
+    wanted = set(args.only or known)
+    if not wanted <= set(known):
+        parser.error(f"--only {', '.join(sorted(wanted - set(known)))}: expected one of "
+                     + ", ".join(known))
+    # Every table is measured first, then the docs are written: a failure writes nothing.
+    contents = {name: {block: make() for block, make in generated.items() if block in wanted}
+                for name, generated in blocks.items()}
+    for name, generated in contents.items():
+        if not generated:
+            continue
         path = DOCS / name
         text = path.read_text(encoding="utf-8")
         for block, content in generated.items():
             text = replace_block(text, block, content)
-        path.write_text(text, encoding="utf-8")
+        write_atomic(path, text)
         print(f"written: {path.relative_to(ROOT)}", file=sys.stderr)
-    figure = studies / "paper" / "fig4_convergence.png"
-    shutil.copyfile(figure, DOCS / "figures" / "methods_paper_convergence.png")
+    if "paper-replica" in wanted:
+        figure = studies / "paper" / "fig4_convergence.png"
+        write_atomic(DOCS / "figures" / "methods_paper_convergence.png", figure.read_bytes())
 
 
 if __name__ == "__main__":

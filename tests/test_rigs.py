@@ -69,12 +69,16 @@ def _workspace(sim: Simulation) -> np.ndarray:
     return random_poses(sim.robot, 500, np.random.default_rng(2024))
 
 
-def _point_bound(result: CalibrationResult, sim: Simulation, q: np.ndarray) -> float:
+def _bound(result: CalibrationResult, sim: Simulation, q: np.ndarray, point: bool = False
+           ) -> float:
+    """The Cramér–Rao bound of the flange (or measured point) error over poses q, for the
+    result's training poses and the twin's noise, at the true unknowns."""
     model = result.model
     train = sim.measurements.subset(result.train_rows)
     x_true = true_unknowns(sim, model)
     sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
-    return cramer_rao_point_rms(model, x_true, train, sigma, q)
+    bound = cramer_rao_point_rms if point else cramer_rao_flange_rms
+    return bound(model, x_true, train, sigma, q)
 
 
 def _gauge_free_points(model: Model, x: np.ndarray, null: np.ndarray, q: np.ndarray,
@@ -96,7 +100,7 @@ def test_an_eyelet_off_the_flange_is_found() -> None:
     q = _workspace(sim)
     error = rms_distance(result.model.positions(result.solver.x, result.model.poses(q)),
                          _true_points(sim, q))
-    bound = _point_bound(result, sim, q)
+    bound = _bound(result, sim, q, point=True)
     assert error < 2 * bound, (error, bound)
     referee = _referee(result, sim)
     poses = result.model.poses(q)
@@ -149,14 +153,11 @@ def test_tracker_positions_recover_the_target_and_the_frame() -> None:
     q = _workspace(sim)
     errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
     assert errors.point_motions == JOINT_1
-    bound = _point_bound(result, sim, q)
+    bound = _bound(result, sim, q, point=True)
     assert errors.point_gauge_free_m < 2 * bound, (errors, bound)
     assert errors.point_m > 10 * bound  # raw, the frame's unseen part dominates
     model = result.model
-    train = sim.measurements.subset(result.train_rows)
-    x_true = true_unknowns(sim, model)
-    sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
-    flange_bound = cramer_rao_flange_rms(model, x_true, train, sigma, q)
+    flange_bound = _bound(result, sim, q)
     assert errors.flange_gauge_free_m < 2 * flange_bound, (errors, flange_bound)
     referee = _referee(result, sim)
     assert result.identified_identifiability is not None
@@ -173,7 +174,7 @@ def test_fixed_points_predict_the_tool_point_on_new_configurations() -> None:
     q = _workspace(sim)  # configurations no touch used
     errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
     assert errors.point_motions == JOINT_1
-    bound = _point_bound(result, sim, q)
+    bound = _bound(result, sim, q, point=True)
     assert errors.point_gauge_free_m < 2 * bound, (errors, bound)
     referee = _referee(result, sim)
     assert result.identified_identifiability is not None
@@ -194,11 +195,7 @@ def test_the_unknown_port_regime_is_within_the_bound_modulo_the_gauge() -> None:
     assert result.gauge is not None and result.gauge.names == JOINT_1
     q = _workspace(sim)
     errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
-    model = result.model
-    train = sim.measurements.subset(result.train_rows)
-    x_true = true_unknowns(sim, model)
-    sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
-    bound = cramer_rao_flange_rms(model, x_true, train, sigma, q)
+    bound = _bound(result, sim, q)
     assert errors.flange_gauge_free_m < 2 * bound < errors.flange_m, (errors, bound)
 
 
@@ -211,17 +208,13 @@ def test_stations_with_unknown_ports() -> None:
     result = _calibrate(sim)
     q = _workspace(sim)
     errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
-    model = result.model
-    train = sim.measurements.subset(result.train_rows)
-    x_true = true_unknowns(sim, model)
-    sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
-    bound = cramer_rao_flange_rms(model, x_true, train, sigma, q)
+    bound = _bound(result, sim, q)
     assert errors.motions == JOINT_1
     assert errors.flange_gauge_free_m < 2 * bound, (errors, bound)
     referee = _referee(result, sim)
     assert result.identified_identifiability is not None
-    flange = unobservable_motions(model, referee, result.identified_identifiability.null_space,
-                                  q)
+    null = result.identified_identifiability.null_space
+    flange = unobservable_motions(result.model, referee, null, q)
     assert gauge_free_rms(flange, sim.true_robot.flange_positions(q)) < 2 * bound
 
 
