@@ -26,6 +26,7 @@ import argparse
 import csv
 import datetime
 import functools
+import os
 import re
 import shutil
 import statistics
@@ -732,6 +733,53 @@ def twin_check_table(folder: Path) -> str:
         "poses), the scenario's seed.")
 
 
+CHECK_CAP = 1
+"""Iteration limit of the deliberately broken change in the `twin check --baseline` example."""
+CHECK_FEW_TRIALS = 4
+"""Trials of the example's comparison that cannot decide (fewer than 5 changed)."""
+
+
+def check_example(folder: Path) -> dict[str, str]:
+    """The worked example of `twin check` in studies.md: the geometric scenario as shipped (the
+    baseline, block ``check-base``), then with every method capped at :data:`CHECK_CAP`
+    iterations, compared with it on all trials and on a few (block ``check-baseline``).
+
+    The capped scenario is written beside the original, as the docs tell the user to, so that
+    its relative robot path resolves, and removed afterwards."""
+    out = Path(os.path.relpath(folder, ROOT)).as_posix()
+    capped = ROOT / "scenarios" / "geometric_capped.toml"
+    common = ["--methods", "lm,ekf", "--expect", "examples/check/lm_ekf.toml", "--no-figures"]
+    sed = f"s/^train_fraction = 0.8$/&\\nmax_iterations = {CHECK_CAP}/"
+
+    def run(*args: str) -> str:
+        done = subprocess.run([sys.executable, "-m", "twin", *args], cwd=ROOT, text=True,
+                              capture_output=True)
+        if done.returncode not in (0, 1):
+            raise SystemExit(f"docs: twin {' '.join(args)} failed: {done.stderr.strip()}")
+        return (f"$ twin {' '.join(args)}\n{done.stdout.rstrip()}\n$ echo $?\n"
+                f"{done.returncode}\n")
+
+    base = run("check", "scenarios/geometric_irb120.toml", "--out", f"{out}/base", *common)
+    text, count = re.subn(r"(?m)^train_fraction = 0\.8$", rf"\g<0>\nmax_iterations = {CHECK_CAP}",
+                          (ROOT / "scenarios" / "geometric_irb120.toml").read_text(
+                              encoding="utf-8"))
+    if count != 1:
+        raise SystemExit("docs: scenarios/geometric_irb120.toml has no 'train_fraction = 0.8'")
+    write_atomic(capped, text)
+    try:
+        compared = run("check", "scenarios/geometric_capped.toml", "--out", f"{out}/capped",
+                       *common, "--baseline", f"{out}/base", "--junit", f"{out}/capped.xml")
+        few = run("check", "scenarios/geometric_capped.toml", "--out", f"{out}/capped-few",
+                  "--trials", str(CHECK_FEW_TRIALS), *common, "--baseline", f"{out}/base")
+    finally:
+        capped.unlink(missing_ok=True)
+    note = stamp("Run by `make docs` from a fresh output folder.")
+    return {"check-base": f"```\n{base}```\n\n{note}",
+            "check-baseline": (f"```\n$ sed '{sed}' scenarios/geometric_irb120.toml > "
+                               f"scenarios/geometric_capped.toml\n{compared}{few}"
+                               f"$ rm scenarios/geometric_capped.toml\n```\n\n{note}")}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "docs",
@@ -760,9 +808,15 @@ def main() -> None:
         return {regime: run_regime(regime, studies / f"{regime}-paper", stop="paper")
                 for regime in PROTOCOL_REGIMES}
 
+    @functools.cache
+    def checks() -> dict[str, str]:
+        return check_example(fresh(args.out / "check"))
+
     blocks: dict[str, dict[str, Callable[[], str]]] = {
         "studies.md": {"paper-replica": lambda: paper_replica(converge()["paper"]),
-                       "regimes": lambda: regimes_table(converge())},
+                       "regimes": lambda: regimes_table(converge()),
+                       "check-base": lambda: checks()["check-base"],
+                       "check-baseline": lambda: checks()["check-baseline"]},
         "methods.md": {"protocols": lambda: protocols_table(converge(), paper()),
                        "m9-bipso-stage": bipso_table,
                        "error-models": error_models_table},

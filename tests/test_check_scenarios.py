@@ -45,14 +45,14 @@ def test_shipped_expectations_hold(path: Path, tmp_path: Path,
 
 def test_shipped_expectations_catch_a_capped_solver(tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
-    """The geometric scenario with every method capped at 2 iterations (a real setting, no
+    """The geometric scenario with every method capped at 1 iteration (a real setting, no
     mock) fails its own shipped expectations: LM stops short of the Cramér–Rao bound."""
     source = SCENARIOS / "geometric_irb120.toml"
     text = source.read_text(encoding="utf-8")
     robot = (SCENARIOS.parent / "models" / "irb120.toml").as_posix()
     capped = tmp_path / "geometric_capped.toml"
     text = text.replace('robot = "../models/irb120.toml"', f'robot = "{robot}"')
-    capped.write_text(text.replace("[calibration]\n", "[calibration]\nmax_iterations = 2\n"),
+    capped.write_text(text.replace("[calibration]\n", "[calibration]\nmax_iterations = 1\n"),
                       encoding="utf-8")
     code = main(["check", str(capped), "--out", str(tmp_path / "study"), "--trials", str(TRIALS),
                  "--no-figures", "--methods", ",".join(expected_methods(source))])

@@ -178,8 +178,8 @@ def test_stop_protocol_from_capture_and_flag(
     assert [stage["method"] for stage in document["stop"]["stages"]] == ["amlm", "bipso"]
     assert document["stop"]["stages"][0]["stop_reason"] in ("ftol", "xtol", "gtol")
     assert document["converged"] is True and "stage bipso" in printed
-    assert main(["calibrate", str(capture), "--max-iterations", "2", "--json", str(out)]) == 0
+    assert main(["calibrate", str(capture), "--max-iterations", "1", "--json", str(out)]) == 0
     document = json.loads(out.read_text())
-    assert document["stop_reason"] == "max_iterations" and document["iterations"] == 2
+    assert document["stop_reason"] == "max_iterations" and document["iterations"] == 1
     assert main(["calibrate", str(capture), "--max-iterations", "0"]) == 2
     assert "--max-iterations: found '0', expected an integer" in capsys.readouterr().err

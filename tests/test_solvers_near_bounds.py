@@ -16,7 +16,7 @@ from twin.calibration import make_problem
 from twin.scenario import parse_scenario
 from twin.sim import Simulation, simulate
 from twin.solvers import get_solver
-from twin.solvers.lm import boxed_damped_step
+from twin.solvers.lm import boxed_damped_step, damping
 from twin.stopping import Budget
 from twin.synthetic import random_poses
 from twin.uncertainty import cramer_rao_flange_rms, rms_distance
@@ -72,26 +72,30 @@ def test_lm_family_matches_scipy_near_the_bounds(simulations: list[Simulation], 
 @pytest.mark.parametrize("seed", range(40))
 def test_box_step_is_the_bounded_least_squares_minimiser(seed: int) -> None:
     """LM's step on the box (BVLS on the damped normal equations) is the minimiser scipy's
-    BVLS finds on the augmented least-squares problem [J; √μ I] h ≈ [−r; 0], on problems with
+    BVLS finds on the augmented least-squares problem [J; √(μD)] h ≈ [−r; 0], on problems with
     columns scaled over eleven decades, several bounds in the way and some at zero."""
     rng = np.random.default_rng(seed)
     m, p = int(rng.integers(10, 80)), int(rng.integers(2, 40))
     J = rng.normal(size=(m, p)) * np.exp(rng.uniform(-18.0, 7.0, size=p))
     r = rng.normal(size=m) * 10.0 ** rng.uniform(-6, 0)
-    mu = 10.0 ** rng.uniform(-12, -1) * float(np.max(np.sum(J * J, axis=0)))
+    damped = damping(J.T @ J, 10.0 ** rng.uniform(-12, -1))
     width = 10.0 ** rng.uniform(-5, -1, size=p)
     low, high = -width * rng.uniform(0, 1, size=p), width * rng.uniform(0, 1, size=p)
     low[rng.uniform(size=p) < 0.1] = 0.0
-    step = boxed_damped_step(J.T @ J, J.T @ r, mu, low, high)
-    augmented = np.vstack([J, np.sqrt(mu) * np.eye(p)])
+    step = boxed_damped_step(J.T @ J, J.T @ r, damped, low, high)
+    augmented = np.vstack([J, np.diag(np.sqrt(damped))])
     reference = lsq_linear(augmented, np.concatenate([-r, np.zeros(p)]),
                            bounds=(low, np.maximum(high, low + 1e-300)), method="bvls",
                            tol=1e-15).x
 
     def objective(h: np.ndarray) -> float:
-        return float(np.sum((r + J @ h) ** 2) + mu * h @ h)
+        return float(np.sum((r + J @ h) ** 2) + damped @ (h * h))
 
     assert np.all((step >= low) & (step <= high))
     decrease = objective(np.zeros(p)) - objective(reference)
     assert objective(step) <= objective(reference) + 1e-9 * decrease
-    np.testing.assert_allclose(step, reference, atol=1e-10 * float(np.max(high - low)))
+    # Compared in each unknown's own scale (√ of its damped curvature): with columns eleven
+    # decades apart the damped system's condition reaches 1e12, and both solvers' steps are
+    # then determined only to ~1e-4 along the weak columns, where the objective cannot tell.
+    scale = np.sqrt(np.diag(J.T @ J) + damped)
+    assert np.max(np.abs(scale * (step - reference))) <= 1e-8 * np.max(np.abs(scale * reference))
