@@ -68,7 +68,7 @@ class NoiseModel:
             robot: The arm.
             q_rad: Poses, shape (m, n), rad.
         """
-        if self.repeatability_m == 0.0:
+        if self.repeatability_m <= 0.0:
             return 0.0
         joint_jacobian = point_jacobian(robot.structure, robot.dh, q_rad).joints
         mean_square_gain = float(np.mean(np.sum(joint_jacobian**2, axis=(1, 2))))

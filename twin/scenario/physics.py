@@ -87,7 +87,7 @@ def true_inertia(robot: RobotModel, mass_error: float, rng: np.random.Generator)
         rng: The scenario's generator (draws 4n numbers when the file gives centres of mass,
             else n; none when e is 0 or the file gives no masses).
     """
-    if mass_error == 0.0 or robot.mass_kg is None:
+    if mass_error <= 0.0 or robot.mass_kg is None:
         return robot
     n = robot.n_joints
     mass = robot.mass_kg * (1.0 + rng.uniform(-mass_error, mass_error, n))

@@ -225,7 +225,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
                             "[min, max] with min < max")
     outlier_rate = encoder.number("outlier_rate", 0.0, minimum=0.0, maximum=1.0)
     outlier_mm = encoder.number("outlier_mm", 0.0, minimum=0.0)
-    if outlier_rate > 0 and outlier_mm == 0:
+    if outlier_rate > 0 and outlier_mm <= 0:
         raise encoder.error("outlier_mm", "0 with outlier_rate > 0", "an outlier size > 0")
 
     joints = tables["joints"]
@@ -270,7 +270,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     train_fraction = calibration.number("train_fraction", minimum=0.0, maximum=1.0,
                                         strict_minimum=True) \
         if calibration.has("train_fraction") else None
-    if train_fraction == 1.0:
+    if train_fraction is not None and train_fraction >= 1.0:
         raise calibration.error("train_fraction", "1.0", "a share below 1 (some poses held out)")
     stop = calibration.text("stop", PROTOCOLS[0], choices=PROTOCOLS)
     loss = calibration.text("loss", LOSSES[0], choices=LOSSES)

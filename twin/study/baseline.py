@@ -35,13 +35,11 @@ from scipy.stats import wilcoxon
 from twin.errors import InputError
 from twin.study.expect import Expectation
 from twin.study.rows import BOOLEAN_COLUMNS, TrialRow
-from twin.study.statistics import SIGNIFICANCE
+from twin.study.statistics import SIGNIFICANCE, TIE_RTOL
 from twin.study.store import TrialKey
 
 MIN_CHANGED = math.ceil(-math.log2(SIGNIFICANCE))
 """Fewest changed trials with which a one-sided signed-rank test can give p < 0.05 (2⁻⁵)."""
-TIE_RTOL = 1e-9
-"""A paired difference within this fraction of the larger value is a tie (no change)."""
 MOVED = 3
 """Trials named as those that moved most."""
 VERDICTS = ("pass", "regression", "inconclusive")

@@ -42,7 +42,7 @@ RADIUS = 1e-5
 def cable_forces(robot: RobotModel, rig: Rig, data: Measurements) -> Array:
     """The cable's pull at every pose, base frame, shape (m, 3), N: ``rig.tension_n`` from the
     attachment point towards the row's port, at the nominal geometry."""
-    if rig.tension_n == 0.0 or not len(rig.ports_m):
+    if rig.tension_n <= 0.0 or not len(rig.ports_m):
         return np.zeros((len(data), 3))
     flange = robot.flange_transforms(data.q_rad)
     at = flange[:, :3, :3] @ rig.attachment_m + flange[:, :3, 3]
