@@ -8,11 +8,8 @@ under both stopping protocols (converge, and the paper's 0.001 mm² rule).
 
 from __future__ import annotations
 
-import statistics
-import time
-from collections.abc import Callable
-
 import numpy as np
+from _timing import median_time
 from scipy.optimize import least_squares
 
 from twin.calibration import make_problem
@@ -23,16 +20,6 @@ from twin.synthetic import random_poses, synthesize
 from twin.units import dh_rows_from_display, mm_to_m
 
 REPEATS = 15
-
-
-def timed(run: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
-    """Median wall time of REPEATS runs and the last run's solution."""
-    times, x = [], np.empty(0)
-    for _ in range(REPEATS):
-        start = time.perf_counter()
-        x = run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), x
 
 
 def main() -> None:
@@ -63,7 +50,7 @@ def main() -> None:
             residuals, problem.x0, jac=jacobian, method="trf",
             bounds=(problem.lower, problem.upper)).x,
     }
-    results = {name: timed(run) for name, run in runs.items()}
+    results = {name: median_time(run, REPEATS) for name, run in runs.items()}
     reference = results["twin lm (converge)"][0]
     print(f"{'solver':<28}{'median time [ms]':>18}{'final f [mm²]':>16}{'time / twin lm':>16}"
           f"{'max |x|/bound':>15}")

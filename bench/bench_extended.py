@@ -41,6 +41,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from _timing import median_time
 from scipy.optimize import least_squares
 
 from twin.calibration import make_problem
@@ -78,16 +79,6 @@ def timed_in_turns(runs: dict[str, Callable[[], np.ndarray]], repeats: int
     return {name: (statistics.median(times[name]), solutions[name]) for name in runs}
 
 
-def timed(run: Callable[[], object], repeats: int) -> float:
-    """Median wall time of ``repeats`` runs."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
 def main() -> None:
     path = ROOT / "scenarios" / "paper_irb120.toml"
     document = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -120,8 +111,8 @@ def main() -> None:
     model.jacobian(problem.x0, train)  # fills the poses' cached bases, for both
     runs = {"twin lm": twin_lm, "scipy trf, 2-point J": scipy_trf}
     results = timed_in_turns(runs, REPEATS)
-    one_residual = timed(lambda: residuals(problem.x0), 50)
-    one_jacobian = timed(lambda: model.jacobian(problem.x0, train), 50)
+    one_residual, _ = median_time(lambda: residuals(problem.x0), 50)
+    one_jacobian, _ = median_time(lambda: model.jacobian(problem.x0, train), 50)
     print(f"{len(train)} training poses, {model.n_params} unknowns ({', '.join(ERRORS)}); "
           f"{scenario.name} rig, masses 20 % off, seed {sim.seed}")
     print(f"{'solver':<24}{'runs':>6}{'Jacobians':>11}{'median time [s]':>17}"

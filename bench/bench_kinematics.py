@@ -14,13 +14,9 @@ Every result pair is checked to agree before its times are printed.
 
 from __future__ import annotations
 
-import statistics
-import time
-from collections.abc import Callable
-from typing import Any
-
 import numpy as np
 import pinocchio as pin
+from _timing import median_time
 
 from twin.calibration import make_model
 from twin.compensation import compensate_program
@@ -36,16 +32,6 @@ REPEATS = 7
 N_TABLES = 100
 N_POSES = 96
 N_ROWS = 1000
-
-
-def timed(run: Callable[[], Any], repeats: int = REPEATS) -> tuple[float, Any]:
-    """Median wall time of ``repeats`` runs and the last run's result."""
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
 
 
 def report(label: str, ours_s: float, theirs_s: float, theirs: str) -> None:
@@ -74,8 +60,8 @@ def main() -> None:
                 out[k, i] = data.oMf[frame].translation
         return out
 
-    ours_s, ours = timed(lambda: point_position(robot.structure, tables, q))
-    theirs_s, theirs = timed(pinocchio_fk, repeats=3)
+    ours_s, ours = median_time(lambda: point_position(robot.structure, tables, q), REPEATS)
+    theirs_s, theirs = median_time(pinocchio_fk, 3)
     assert np.max(np.abs(ours - theirs)) < 1e-9
     report(f"FK, {N_TABLES} tables × {N_POSES} poses", ours_s, theirs_s, "Pinocchio loop")
 
@@ -97,8 +83,8 @@ def main() -> None:
                                               pin.LOCAL_WORLD_ALIGNED)[:3]
         return out
 
-    ours_s, _ = timed(residuals_and_jacobian, repeats=50)
-    theirs_s, theirs = timed(pinocchio_jacobians, repeats=50)
+    ours_s, _ = median_time(residuals_and_jacobian, 50)
+    theirs_s, theirs = median_time(pinocchio_jacobians, 50)
     ours_jacobian = point_jacobian(robot.structure, tables[0], q).joints
     assert np.max(np.abs(ours_jacobian - theirs)) < 1e-9
     report(f"cable residuals + 24-column Jacobian, {N_POSES} poses (vs joint Jacobian only)",
@@ -115,8 +101,9 @@ def main() -> None:
             for i in range(N_ROWS)
         ])
 
-    ours_s, batched = timed(lambda: compensate_program(robot, identified, q_program).q_rad)
-    theirs_s, looped = timed(row_by_row, repeats=3)
+    ours_s, batched = median_time(
+        lambda: compensate_program(robot, identified, q_program).q_rad, REPEATS)
+    theirs_s, looped = median_time(row_by_row, 3)
     assert np.max(np.abs(batched - looped)) < 1e-8
     report(f"compensation IK (full pose), {N_ROWS} rows", ours_s, theirs_s, "row by row")
 

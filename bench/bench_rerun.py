@@ -8,13 +8,11 @@ the logging time per pose and the ratio logging / calibration. Medians of repeat
 
 from __future__ import annotations
 
-import statistics
 import tempfile
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from _timing import median_time
 
 from twin.calibration import calibrate_many
 from twin.robot import default_robot
@@ -25,16 +23,6 @@ from twin.viz.recording import open_recording
 
 REPEATS = 5
 PORT_M = mm_to_m([600.0, -400.0, 100.0])
-
-
-def median_seconds(run: Callable[[], object]) -> float:
-    """Median wall time of REPEATS runs."""
-    times = []
-    for _ in range(REPEATS):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def bench(n_poses: int, folder: Path, rng: np.random.Generator) -> str:
@@ -53,8 +41,9 @@ def bench(n_poses: int, folder: Path, rng: np.random.Generator) -> str:
         with open_recording(RerunOptions(save=path), "bench") as recording:
             recording.log_calibration(results, data, truth_delta=delta)
 
-    calibrate_s = median_seconds(lambda: calibrate_many(robot, data, PORT_M, ["lm"], seed=0))
-    log_s = median_seconds(log)
+    calibrate_s, _ = median_time(
+        lambda: calibrate_many(robot, data, PORT_M, ["lm"], seed=0), REPEATS)
+    log_s, _ = median_time(log, REPEATS)
     return (f"{n_poses:>6} {calibrate_s:>14.4f} {log_s:>9.4f} {log_s / n_poses * 1e6:>14.1f} "
             f"{log_s / calibrate_s:>14.2f} {path.stat().st_size / 1024:>11.0f}")
 

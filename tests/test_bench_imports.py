@@ -12,7 +12,7 @@ import pytest
 BENCH = Path(__file__).resolve().parents[1] / "bench"
 
 
-@pytest.mark.parametrize("script", sorted(path.name for path in BENCH.glob("*.py")))
+@pytest.mark.parametrize("script", sorted(path.name for path in BENCH.glob("[!_]*.py")))
 def test_bench_script_imports(script: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """Loading the script runs its imports and definitions, not its main()."""
     monkeypatch.syspath_prepend(str(BENCH))
