@@ -12,11 +12,12 @@ import numpy as np
 from _timing import median_time
 from scipy.optimize import least_squares
 
-from twin.calibration import make_problem
-from twin.robot import default_robot
+from twin.calibration.pipeline import make_problem
+from twin.io.robot_file import default_robot
+from twin.robot import random_poses
 from twin.solvers.lm import SOLVER as LM
 from twin.stopping import Budget
-from twin.synthetic import random_poses, synthesize
+from twin.synthetic import synthesize
 from twin.units import dh_rows_from_display, mm_to_m
 
 REPEATS = 15

@@ -24,8 +24,8 @@ from twin.hardware.encoders import open_encoder, parse_url
 from twin.hardware.encoders.settle import SettleRule, settle
 from twin.hardware.robot_sources.sim import publish_pose
 from twin.hardware.virtual_encoder import Instrument, serve
+from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
-from twin.robot import default_robot
 from twin.units import deg_to_rad, mm_to_m
 
 READINGS = 400

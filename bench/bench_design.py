@@ -19,17 +19,18 @@ import statistics
 import numpy as np
 from _timing import median_time
 
-from twin.calibration import make_model
+from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.uncertainty import rms_distance
+from twin.calibration.pipeline import make_model
 from twin.dataset import Measurements
-from twin.design import choose_port, plan_poses, score_poses
-from twin.identifiability import measurement_identifiability
+from twin.design.optimal import choose_port, plan_poses, score_poses
+from twin.io.robot_file import default_robot
 from twin.problem import Problem
 from twin.rig import Rig
-from twin.robot import default_robot
+from twin.robot import random_poses
 from twin.solvers import get_solver
 from twin.stopping import Budget
-from twin.synthetic import random_poses, synthesize
-from twin.uncertainty import rms_distance
+from twin.synthetic import synthesize
 from twin.units import dh_rows_from_display, m_to_mm, mm_to_m
 
 PORT_M = mm_to_m([600.0, -400.0, 100.0])

@@ -44,7 +44,7 @@ import numpy as np
 from _timing import median_time
 from scipy.optimize import least_squares
 
-from twin.calibration import make_problem
+from twin.calibration.pipeline import make_problem
 from twin.rig import Rig
 from twin.scenario import parse_scenario
 from twin.sim import simulate

@@ -3,7 +3,8 @@
 Run by hand: ``python bench/bench_kinematics.py``. Prints the median wall time of repeated runs
 of each pair, side by side in one run, and their ratio:
 
-1. flange positions of 100 D-H tables (a swarm) × 96 poses: ``twin.kinematics.point_position``
+1. flange positions of 100 D-H tables (a swarm) × 96 poses:
+``twin.geometry.kinematics.point_position``
    on all at once vs a Pinocchio model per table and ``framesForwardKinematics`` per pose;
 2. the cable residuals and their analytic Jacobian (24 D-H columns) on 96 poses, one call, vs
    Pinocchio's flange joint Jacobian (6 columns only) in a loop over the poses;
@@ -18,14 +19,15 @@ import numpy as np
 import pinocchio as pin
 from _timing import median_time
 
-from twin.calibration import make_model
-from twin.compensation import compensate_program
-from twin.kinematics import point_jacobian, point_position
-from twin.pinocchio_bridge import FLANGE_FRAME, build_model
+from twin.calibration.pipeline import make_model
+from twin.compensation.joints import compensate_program
+from twin.compensation.targets import reachable_targets
+from twin.export.pinocchio import FLANGE_FRAME, build_model
+from twin.geometry.kinematics import point_jacobian, point_position
+from twin.io.robot_file import default_robot
 from twin.rig import Rig
-from twin.robot import default_robot
-from twin.synthetic import random_poses, synthesize
-from twin.targets import reachable_targets
+from twin.robot import random_poses
+from twin.synthetic import synthesize
 from twin.units import mm_to_m
 
 REPEATS = 7

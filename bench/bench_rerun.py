@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 from _timing import median_time
 
-from twin.calibration import calibrate_many
-from twin.robot import default_robot
-from twin.synthetic import random_poses, synthesize
+from twin.calibration.pipeline import calibrate_many
+from twin.io.robot_file import default_robot
+from twin.robot import random_poses
+from twin.synthetic import synthesize
 from twin.units import dh_rows_from_display, mm_to_m
 from twin.viz.options import RerunOptions
 from twin.viz.recording import open_recording

@@ -13,11 +13,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
-from twin.robot import default_robot
+from twin.robot import random_poses
 from twin.scenario import Physics, load_scenario
 from twin.sim import Twin, build_spec, simulate
-from twin.synthetic import random_poses
 
 ROOT = Path(__file__).parents[1]
 PORT_M = np.array([0.6, -0.4, 0.1])

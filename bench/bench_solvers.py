@@ -26,14 +26,15 @@ import time
 
 import numpy as np
 
-from twin.calibration import make_problem
+from twin.calibration.pipeline import make_problem
+from twin.io.robot_file import default_robot
 from twin.problem import Problem
-from twin.robot import default_robot
+from twin.robot import random_poses
 from twin.solvers import get_solver
 from twin.solvers.base import Tracker
 from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES
 from twin.stopping import Budget
-from twin.synthetic import random_poses, synthesize
+from twin.synthetic import synthesize
 from twin.units import deg_to_rad, m_to_mm, mm_to_m
 
 METHODS = ("ekf", "lm", "pso", "ukf-vslm", "ekf-qibas", "ekf-qpso", "amlm", "bipso", "amlm-bipso")

@@ -40,7 +40,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from twin.calibration import calibrate, make_problem
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import calibrate, make_problem
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.rig import Rig
@@ -61,7 +62,6 @@ from twin.study.trial import (
     true_unknowns,
     workspace,
 )
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 from twin.units import m_to_mm
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -480,11 +480,12 @@ def parametrisation_table() -> str:
     left by LM when the true robot's nearly parallel axes are tilted by up to 0.05°."""
     import numpy as np
 
-    from twin.calibration import calibrate, make_model, split_rows
-    from twin.identifiability import measurement_identifiability
+    from twin.analysis.identifiability import measurement_identifiability
+    from twin.analysis.uncertainty import cramer_rao_flange_rms
+    from twin.calibration.pipeline import calibrate, make_model, split_rows
     from twin.rig import Rig
-    from twin.synthetic import random_poses, synthesize
-    from twin.uncertainty import cramer_rao_flange_rms
+    from twin.robot import random_poses
+    from twin.synthetic import synthesize
 
     rows = []
     for label, name in PARAMETRISATION_ROBOTS:
@@ -572,17 +573,17 @@ def stations_table() -> str:
     """What extra stations change: rank, σ of the D-H lengths and the bound, for the same
     number of random feasible poses shared between 1, 2 or 3 stations, ports measured or
     estimated."""
-    from twin.calibration import make_model
-    from twin.design import score_poses
-    from twin.gauge import unobservable_motions
-    from twin.identifiability import measurement_identifiability
+    from twin.analysis.gauge import unobservable_motions
+    from twin.analysis.identifiability import measurement_identifiability
+    from twin.analysis.uncertainty import base_covariance, parameter_sigma
+    from twin.calibration.pipeline import make_model
+    from twin.design.optimal import score_poses
+    from twin.io.robot_file import default_robot
     from twin.rig import Rig
-    from twin.robot import default_robot
+    from twin.robot import random_poses
     from twin.scenario import PoseConstraints
     from twin.sim.mujoco_twin import Twin
     from twin.sim.poses import sample_poses
-    from twin.synthetic import random_poses
-    from twin.uncertainty import base_covariance, parameter_sigma
     from twin.units import mm_to_m
 
     robot = default_robot()
@@ -687,10 +688,10 @@ RANK_POSES = 200
 def unknown_sets_table() -> str:
     """Rank and unidentifiable combinations of the IRB 120's unknowns with and without the port
     and the length offset, at the nominal geometry."""
-    from twin.calibration import make_model
-    from twin.identifiability import measurement_identifiability
-    from twin.robot import default_robot
-    from twin.synthetic import random_poses
+    from twin.analysis.identifiability import measurement_identifiability
+    from twin.calibration.pipeline import make_model
+    from twin.io.robot_file import default_robot
+    from twin.robot import random_poses
 
     robot = default_robot()
     q = random_poses(robot, RANK_POSES, np.random.default_rng(0))

@@ -17,8 +17,9 @@ import pytest
 
 from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
-from twin.robot import RobotModel, default_robot
-from twin.synthetic import random_poses, synthesize
+from twin.io.robot_file import default_robot
+from twin.robot import RobotModel, random_poses
+from twin.synthetic import synthesize
 from twin.units import dh_rows_from_display, mm_to_m
 
 PORT_M = mm_to_m([600.0, -400.0, 100.0])

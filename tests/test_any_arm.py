@@ -16,23 +16,23 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from twin.calibration import CalibrationResult, calibrate
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import CalibrationResult, calibrate
+from twin.calibration.predict import predict
 from twin.cli import main
-from twin.compensation import compensate_program, compensate_targets
-from twin.compensation_check import check_compensation
+from twin.compensation.check import check_compensation
+from twin.compensation.joints import compensate_program, compensate_targets
+from twin.compensation.targets import reachable_targets
 from twin.dataset import Measurements
+from twin.export.pinocchio import urdf_flange
 from twin.io.capture_file import load_capture
 from twin.io.identified import load_result
 from twin.io.measurements import load_measurements
 from twin.io.truth import load_truth_delta
-from twin.pinocchio_bridge import urdf_flange
-from twin.predict import predict
+from twin.robot import random_poses
 from twin.scenario import load_scenario
 from twin.sim import Simulation, Twin, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
-from twin.synthetic import random_poses
-from twin.targets import reachable_targets
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from twin.calibration import (
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import (
     CalibrationResult,
     calibrate,
     calibrate_many,
@@ -15,10 +16,9 @@ from twin.calibration import (
 )
 from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.robot import RobotModel
+from twin.robot import RobotModel, random_poses
 from twin.stopping import Budget
-from twin.synthetic import random_poses, synthesize
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.synthetic import synthesize
 
 
 def test_split_is_reproducible_and_disjoint() -> None:

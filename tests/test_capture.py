@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.dataset import approach_directions
 from twin.errors import InputError, TwinError
@@ -175,7 +175,7 @@ def test_recover_drops_a_partial_line_and_refuses_a_pose_twice(tmp_path: Path) -
 def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
     """A folder whose robot.toml an older twin wrote at full precision resumes with the same
     robot; another robot (a 0.01 mm longer link) is refused."""
-    from twin.robot import default_robot, robot_to_toml
+    from twin.io.robot_file import default_robot, robot_to_toml
 
     robot = default_robot()
     plan = tmp_path / "plan.csv"

@@ -111,7 +111,7 @@ def test_capture_calibration_table_sets_unknowns_and_split(
 ) -> None:
     """A capture's [calibration] table chooses the unknowns and the split; flags win."""
     from twin.io.capture_file import CalibrationSettings, write_capture
-    from twin.robot import default_robot, robot_to_toml
+    from twin.io.robot_file import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
     capture = tmp_path / "capture.toml"
@@ -142,7 +142,7 @@ def test_bad_capture_calibration_table(
     csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], table: str, message: str
 ) -> None:
     """A wrong [calibration] entry is one line naming the key, exit code 2."""
-    from twin.robot import default_robot, robot_to_toml
+    from twin.io.robot_file import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
     capture = tmp_path / "capture.toml"
@@ -158,7 +158,7 @@ def test_stop_protocol_from_capture_and_flag(
     """The capture's stop protocol is used and reported; --stop and --max-iterations win; the
     JSON says which test stopped each stage."""
     from twin.io.capture_file import CalibrationSettings, write_capture
-    from twin.robot import default_robot, robot_to_toml
+    from twin.io.robot_file import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
     capture = tmp_path / "capture.toml"

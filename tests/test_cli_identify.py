@@ -13,8 +13,8 @@ from matplotlib.image import imread
 from twin.cli import main
 from twin.io.capture_file import write_capture
 from twin.io.measurements import read_table
-from twin.io.robot_file import load_robot
-from twin.robot import RobotModel, robot_to_toml
+from twin.io.robot_file import load_robot, robot_to_toml
+from twin.robot import RobotModel
 from twin.units import dh_rows_to_display
 
 PORT = "600,-400,100"

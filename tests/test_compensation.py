@@ -8,19 +8,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.calibration import calibrate
+from twin.analysis.uncertainty import rms_distance
+from twin.calibration.pipeline import calibrate
 from twin.cli import main
-from twin.compensation import compensate_program, compensate_targets
-from twin.compensation_check import check_compensation
+from twin.compensation.check import check_compensation
+from twin.compensation.ik import (
+    STATUS_JOINT_LIMIT,
+    STATUS_OK,
+    STATUS_UNREACHABLE,
+    nominal_ik,
+    solve_ik,
+)
+from twin.compensation.joints import compensate_program, compensate_targets
+from twin.compensation.targets import reachable_targets
 from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.ik import STATUS_JOINT_LIMIT, STATUS_OK, STATUS_UNREACHABLE, nominal_ik, solve_ik
+from twin.geometry.kinematics import flange_jacobian
 from twin.io.identified import load_result_delta
 from twin.io.results import result_to_dict, write_json
-from twin.kinematics import flange_jacobian
 from twin.robot import RobotModel
-from twin.targets import reachable_targets
-from twin.uncertainty import rms_distance
 
 
 def test_flange_jacobian_matches_finite_differences(true_robot: RobotModel) -> None:
@@ -224,9 +230,8 @@ def test_cli_verify_geometric_scenario(capsys: pytest.CaptureFixture[str]) -> No
 def test_home_pose_is_the_irb120s_and_within_any_arms_limits() -> None:
     """The reference posture of nominal IK: the IRB 120's (q5 = 30°, the rest 0); for the FR3,
     whose joints 4 and 6 exclude 0, within the limits."""
-    from twin.ik import home_pose
-    from twin.io.robot_file import load_robot
-    from twin.robot import default_robot
+    from twin.compensation.ik import home_pose
+    from twin.io.robot_file import default_robot, load_robot
 
     np.testing.assert_allclose(home_pose(default_robot()), np.deg2rad([0, 0, 0, 0, 30, 0]))
     fr3 = load_robot(Path(__file__).parents[1] / "models" / "fr3" / "fr3.urdf")
@@ -239,7 +244,8 @@ def test_cli_compensates_a_four_axis_program_for_position(tmp_path: Path) -> Non
     flange at the program's nominal flange position (the orientation is not solved: four joints
     cannot take any pose)."""
     from twin.io.robot_file import load_robot
-    from twin.synthetic import random_poses, synthesize
+    from twin.robot import random_poses
+    from twin.synthetic import synthesize
 
     model_file = Path(__file__).parents[1] / "models" / "scara4" / "scara4.toml"
     robot = load_robot(model_file)

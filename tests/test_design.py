@@ -7,11 +7,10 @@ import itertools
 import numpy as np
 import pytest
 
-from twin.calibration import make_model
-from twin.design import choose_port, d_optimal_rows, plan_poses, score_poses
+from twin.calibration.pipeline import make_model
+from twin.design.optimal import choose_port, d_optimal_rows, plan_poses, score_poses
 from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
+from twin.robot import RobotModel, random_poses
 
 SIGMA_M = 1e-5
 

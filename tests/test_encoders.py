@@ -32,8 +32,8 @@ from twin.hardware.encoders import (
 from twin.hardware.encoders.settle import SettleRule, SettleTimeoutError, settle
 from twin.hardware.robot_sources.sim import publish_pose
 from twin.hardware.virtual_encoder import TRANSIENT_M, Instrument, serve
+from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
-from twin.robot import default_robot
 from twin.units import deg_to_rad, m_to_mm, mm_to_m
 
 PORT_M = mm_to_m([600.0, -400.0, 100.0])

@@ -10,14 +10,14 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.dataset import Measurements
 from twin.export import FORMATS, export_text
+from twin.geometry.kinematics import flange_transform
 from twin.io.results import result_to_dict, write_json
-from twin.io.robot_file import load_robot
-from twin.kinematics import flange_transform
-from twin.robot import RobotModel, parse_robot
+from twin.io.robot_file import load_robot, parse_robot
+from twin.robot import RobotModel
 
 N_POSES = 1000
 

@@ -12,19 +12,19 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.errors import InputError
 from twin.export import export_text
+from twin.export.pinocchio import urdf_flange
 from twin.export.urdf import NO_LIMIT
+from twin.geometry.kinematics import rigid_transform
 from twin.io.identified import load_result_delta
 from twin.io.results import result_to_dict, write_json
-from twin.io.robot_file import load_robot
+from twin.io.robot_file import default_robot, load_robot
 from twin.io.urdf_reader import load_urdf
-from twin.kinematics import rigid_transform
-from twin.pinocchio_bridge import urdf_flange
-from twin.robot import RobotModel, default_robot
-from twin.synthetic import random_poses, synthesize
+from twin.robot import RobotModel, random_poses
+from twin.synthetic import synthesize
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 URDFS = {"ur5e": MODELS / "ur5e" / "ur5e.urdf", "fr3": MODELS / "fr3" / "fr3.urdf",

@@ -15,11 +15,12 @@ from pathlib import Path
 import pytest
 from conftest import PORT_M, Refusals
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.dataset import Measurements
 from twin.io.capture_file import write_capture
 from twin.io.results import result_to_dict, write_json
-from twin.robot import RobotModel, robot_to_toml
+from twin.io.robot_file import robot_to_toml
+from twin.robot import RobotModel
 from twin.scenario import parse_scenario
 from twin.sim import simulate, write_simulation
 

@@ -20,14 +20,14 @@ import numpy as np
 import pytest
 from conftest import PORT_M
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.dataset import Measurements
 from twin.io.atomic import write_atomic
 from twin.io.measurements import load_plan
 from twin.io.results import result_to_dict
-from twin.io.robot_file import load_robot
-from twin.robot import RobotModel, robot_to_toml
+from twin.io.robot_file import load_robot, robot_to_toml
+from twin.robot import RobotModel
 
 PORT = "600,-400,100"
 

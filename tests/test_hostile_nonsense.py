@@ -18,12 +18,13 @@ import numpy as np
 import pytest
 from conftest import PORT_M, Refusals
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
 from twin.io.results import result_to_dict
-from twin.robot import RobotModel, robot_to_toml
+from twin.io.robot_file import robot_to_toml
+from twin.robot import RobotModel
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "geometric_irb120.toml"

@@ -17,7 +17,8 @@ import pytest
 from conftest import Refusals
 
 from twin.io.paths import MAX_LINE_CHARS, MAX_NESTING
-from twin.robot import RobotModel, robot_to_toml
+from twin.io.robot_file import robot_to_toml
+from twin.robot import RobotModel
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "geometric_irb120.toml"

@@ -5,17 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration import make_model
-from twin.dataset import Measurements
-from twin.identifiability import (
+from twin.analysis.identifiability import (
     identifiability,
     measurement_identifiability,
     name_direction,
     observability,
 )
+from twin.calibration.pipeline import make_model
+from twin.dataset import Measurements
 from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
+from twin.robot import RobotModel, random_poses
 
 KNOWN_PORT_NULL = {"theta6", "alpha6", "d2-d3", "a5+theta5", "d5-alpha5"}
 

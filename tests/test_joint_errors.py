@@ -10,15 +10,14 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from twin.calibration import calibrate, make_model
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import calibrate, make_model
+from twin.calibration.predict import predict
 from twin.cli import main
 from twin.dataset import Measurements, approach_directions
 from twin.io.identified import load_result
-from twin.predict import predict
 from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.robot import RobotModel, random_poses
 from twin.units import deg_to_rad
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -113,8 +112,8 @@ def test_dh_alone_cannot_hold_joint_errors(
 def test_predict_is_the_model_and_needs_approach(
     irb120: RobotModel, core_case: tuple[object, np.ndarray, Measurements], port_m: np.ndarray
 ) -> None:
-    """twin.predict gives the model's measured point and length at the poses and approach
-    directions given; a model with backlash refuses poses without directions; a named port
+    """twin.calibration.predict gives the model's measured point and length at the poses and
+    approach directions given; a model with backlash refuses poses without directions; a named port
     gives the straight distance from it."""
     model, x_true, data = core_case
 
@@ -289,8 +288,8 @@ def test_compensation_solves_on_the_whole_model(
     the move's from the row before, except where a joint moves less than its backlash: no side
     is then consistent, and the row is flagged for an approach move from the side stated. Solved
     on the identified table alone, the commands miss by the joint-level errors."""
-    from twin.compensation import compensate_targets, solve_in_order
-    from twin.targets import reachable_targets
+    from twin.compensation.joints import compensate_targets, solve_in_order
+    from twin.compensation.targets import reachable_targets
 
     model, x_true, _ = core_case
     q, targets = reachable_targets(irb120, 60, np.random.default_rng(4))
@@ -315,11 +314,11 @@ def test_compensation_puts_the_twins_robot_on_its_targets(tmp_path: Path) -> Non
     bring the true robot (MuJoCo at rest, joint errors and sag) to within 3× the calibration's
     predicted flange accuracy of its targets; with the D-H table alone it stays tenths of a
     millimetre off."""
-    from twin.calibration import calibrate
-    from twin.compensation import compensate_targets, solve_in_order
+    from twin.calibration.pipeline import calibrate
+    from twin.compensation.joints import compensate_targets, solve_in_order
+    from twin.compensation.targets import reachable_targets
     from twin.scenario import load_scenario
     from twin.sim import Twin, simulate
-    from twin.targets import reachable_targets
 
     scenario = load_scenario(scenario_with_joint_errors(tmp_path, poses=300))
     sim = simulate(scenario)
@@ -345,8 +344,8 @@ def test_compensate_cli_uses_the_whole_model(capture: Path, tmp_path: Path,
     """`twin compensate --joints` with an extended result corrects by more than the table
     alone would; the cable unhooked (--cable-tension 0) changes the correction; a program's
     approach columns are used as given."""
+    from twin.compensation.targets import reachable_targets
     from twin.io.robot_file import load_robot
-    from twin.targets import reachable_targets
 
     robot = load_robot(capture / "robot.toml")
     q_deg = np.rad2deg(reachable_targets(robot, 20, np.random.default_rng(6))[0])

@@ -7,14 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration import make_model
+from twin.calibration.pipeline import make_model
 from twin.dataset import Measurements
+from twin.geometry.rigid import transform
 from twin.kinds.point import DISTANCE_WEIGHT
 from twin.model import Model
 from twin.rig import Distance, Rig
-from twin.rigid import transform
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
+from twin.robot import RobotModel, random_poses
 
 EYELET_M = np.array([0.025, -0.015, 0.04])
 BASE_IN_TRACKER = transform([1.2, -0.3, 0.4], [0.1, -0.2, 2.5])

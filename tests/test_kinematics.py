@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from twin.kinematics import (
+from twin.geometry.kinematics import (
     PARAMETRISATIONS,
     Structure,
     fixed_transforms,
@@ -21,8 +21,8 @@ from twin.kinematics import (
     trace_point,
     xyz_rpy,
 )
-from twin.robot import RobotModel, default_robot
-from twin.synthetic import random_poses
+from twin.io.robot_file import default_robot
+from twin.robot import RobotModel, random_poses
 
 STANDARD = Structure.standard(6)
 

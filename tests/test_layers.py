@@ -20,7 +20,7 @@ ADAPTERS = {
     "twin.sim.poses", "twin.sim.touches", "twin.sim.simulate", "twin.sim.verification",
     "twin.export.mjcf",
     # Pinocchio.
-    "twin.pinocchio_bridge", "twin.export.urdf",
+    "twin.export.pinocchio", "twin.export.urdf",
     # Rerun: the recording and what it logs.
     "twin.viz.recording", "twin.viz.sinks", "twin.viz.scene", "twin.viz.calibration_log",
     "twin.viz.blueprint", "twin.viz.writer",

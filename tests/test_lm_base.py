@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration import calibrate, make_model
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import calibrate, make_model
 from twin.dataset import Measurements
 from twin.rig import Rig
-from twin.robot import RobotModel
+from twin.robot import RobotModel, random_poses
 from twin.solvers import SOLVERS, get_solver
 from twin.stopping import Budget
-from twin.synthetic import random_poses, synthesize
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.synthetic import synthesize
 
 SIGMA_M = 1e-5
 CONVERGED = Budget()

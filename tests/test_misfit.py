@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from twin.calibration import calibrate
+from twin.analysis.misfit import ALPHA, FAR, chi2_quantile, misfit_test, reading_sigma, repeat_sigma
+from twin.calibration.pipeline import calibrate
 from twin.dataset import Measurements
-from twin.misfit import ALPHA, FAR, chi2_quantile, misfit_test, reading_sigma, repeat_sigma
-from twin.robot import RobotModel
-from twin.synthetic import random_poses, synthesize
+from twin.robot import RobotModel, random_poses
+from twin.synthetic import synthesize
 
 
 @pytest.mark.parametrize("dof", [1, 7, 73, 1000])

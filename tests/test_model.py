@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration import make_model
+from twin.calibration.pipeline import make_model
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, UnknownChoiceError
 from twin.kinds.length import cable_length
@@ -212,7 +212,7 @@ def test_link_compliance_holds_compliance(
     """Each link's gravity torque summed over the links is the gravity part of the joint
     torque; so link_compliance with every link coefficient of joint i equal to c_i moves the
     joints exactly as compliance c_i does."""
-    from twin.statics import joint_torques, link_torques
+    from twin.geometry.statics import joint_torques, link_torques
 
     assert irb120.mass_kg is not None and irb120.com_m is not None
     q = measurements.q_rad[:20]

@@ -9,12 +9,11 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.geometry.kinematics import frames
 from twin.io.robot_file import load_robot
-from twin.kinematics import frames
-from twin.robot import MAX_JOINTS, MIN_JOINTS
+from twin.robot import MAX_JOINTS, MIN_JOINTS, random_poses
 from twin.scenario import load_scenario
 from twin.sim.builder import build_spec
-from twin.synthetic import random_poses
 
 MODELS = Path(__file__).parents[1] / "models"
 SCENARIOS = Path(__file__).parents[1] / "scenarios"

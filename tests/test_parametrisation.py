@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.kinematics import Structure, fixed_transforms, flange_transform, rigid_transform
-from twin.parametrisation import (
+from twin.geometry.kinematics import Structure, fixed_transforms, flange_transform, rigid_transform
+from twin.geometry.parametrisation import (
     PARALLEL_THRESHOLD_DEG,
     axis_angles_deg,
     chain_flange,
@@ -14,7 +14,7 @@ from twin.parametrisation import (
     convert,
     resolve,
 )
-from twin.robot import default_robot
+from twin.io.robot_file import default_robot
 
 IRB120_DH = np.array([[0.0, 0.27, 0.07, 0.0, 0.0, 0.0],
                       [0.29, 0.0, 0.0, 0.302, 0.0, 0.072],

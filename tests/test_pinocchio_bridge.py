@@ -8,9 +8,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from twin.io.robot_file import load_robot
-from twin.pinocchio_bridge import FLANGE_FRAME, build_model, urdf_flange
-from twin.robot import RobotModel, default_robot
+from twin.export.pinocchio import FLANGE_FRAME, build_model, urdf_flange
+from twin.io.robot_file import default_robot, load_robot
+from twin.robot import RobotModel
 
 N_POSES = 1000
 MODELS = Path(__file__).resolve().parents[1] / "models"

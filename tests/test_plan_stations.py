@@ -8,12 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.calibration import make_model
+from twin.calibration.pipeline import make_model
 from twin.cli import main
-from twin.design import plan_stations
+from twin.design.optimal import plan_stations
 from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
+from twin.robot import RobotModel, random_poses
 
 STATIONS = ["front=600,-400,100", "left=300,600,50", "back=-500,-300,150"]
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.calibration import calibrate_many
+from twin.calibration.pipeline import calibrate_many
 from twin.dataset import Measurements
-from twin.report import format_comparison, format_result
+from twin.report.text import format_comparison, format_result
 from twin.robot import RobotModel
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.calibration import calibrate
+from twin.calibration.pipeline import calibrate
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.identified import load_result
@@ -68,10 +68,10 @@ def test_results_of_every_rig_rebuild_their_model(tmp_path: Path, irb120: RobotM
     """A tracker result keeps its tracker frame exactly (the rigid-fit start), a fixed-point
     result its points and distances, a stations result which ports were estimated: the
     rebuilt model predicts the same residuals."""
-    from twin.calibration import make_model
+    from twin.calibration.pipeline import make_model
+    from twin.geometry.rigid import transform
     from twin.rig import Distance, Rig
-    from twin.rigid import transform
-    from twin.synthetic import random_poses
+    from twin.robot import random_poses
 
     rng = np.random.default_rng(11)
     q = random_poses(irb120, 60, rng)

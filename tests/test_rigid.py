@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from twin.rigid import angles, kabsch, rotation, rotation_derivatives, transform
+from twin.geometry.rigid import angles, kabsch, rotation, rotation_derivatives, transform
 
 
 def test_rotation_is_z_y_x_of_fixed_axes() -> None:

@@ -17,24 +17,24 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from twin.accuracy import truth_errors
-from twin.calibration import (
+from twin.analysis.gauge import gauge_free_rms, unobservable_motions
+from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
+from twin.calibration.accuracy import truth_errors
+from twin.calibration.pipeline import (
     CalibrationResult,
     calibrate,
     make_problem,
     solve_many,
 )
+from twin.calibration.selection import FewPosesWarning, warn_few_poses
 from twin.cli import main
-from twin.gauge import gauge_free_rms, unobservable_motions
 from twin.io.robot_file import load_robot
 from twin.loss import Loss
 from twin.model import Model
+from twin.robot import random_poses
 from twin.scenario import load_scenario
-from twin.selection import FewPosesWarning, warn_few_poses
 from twin.sim import Simulation, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
-from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 JOINT_1 = ("rotation about joint 1's axis", "shift along joint 1's axis")
@@ -115,7 +115,7 @@ def test_an_eyelet_off_the_flange_is_found() -> None:
 def test_the_eyelet_unestimated_is_a_misfit() -> None:
     """The same data with the attachment left at the flange centre do not fit, and the first
     likely cause named is the attachment point."""
-    from twin.diagnosis import likely_causes
+    from twin.calibration.diagnosis import likely_causes
 
     sim = _simulate("eyelet_irb120")
     split = make_problem(sim.robot, sim.measurements, rig=sim.rig_told)
@@ -130,7 +130,7 @@ def test_the_eyelet_unestimated_is_a_misfit() -> None:
 def test_a_port_50_mm_off_is_reported_as_a_misfit() -> None:
     """Told a port 50 mm off, the calibration reports a misfit naming the port first; told
     the right one it does not."""
-    from twin.diagnosis import likely_causes
+    from twin.calibration.diagnosis import likely_causes
 
     sim = _simulate("geometric_irb120")
     assert sim.port_m is not None

@@ -10,8 +10,8 @@ from conftest import Refusals
 
 from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
-from twin.robot import RobotModel, default_robot, robot_to_toml
-from twin.synthetic import random_poses
+from twin.io.robot_file import default_robot, robot_to_toml
+from twin.robot import RobotModel, random_poses
 
 PORT = "600,-400,100"
 

@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError
-from twin.io.robot_file import load_robot
-from twin.robot import RobotModel, parse_robot, robot_files, robot_to_toml
+from twin.io.robot_file import load_robot, parse_robot, robot_files, robot_to_toml
+from twin.robot import RobotModel
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_shipped_model_equals_models_file() -> None:
     """The packaged default is the content of models/irb120.toml."""
-    from twin.robot import default_robot
+    from twin.io.robot_file import default_robot
 
     from_file = load_robot(ROOT / "models" / "irb120.toml")
     packaged = default_robot()

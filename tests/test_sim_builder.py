@@ -9,12 +9,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.io.robot_file import load_robot
+from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length
-from twin.robot import RobotModel, default_robot
+from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics
 from twin.sim import build_spec
-from twin.synthetic import random_poses
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.robot import default_robot
+from twin.io.robot_file import default_robot
+from twin.robot import random_poses
 from twin.scenario import NoiseModel
-from twin.synthetic import random_poses
 
 
 def test_readings_are_quantised_to_the_resolution() -> None:

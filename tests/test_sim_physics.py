@@ -6,11 +6,11 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
-from twin.robot import default_robot
+from twin.robot import random_poses
 from twin.scenario import Physics
 from twin.sim import Twin, static_equilibrium
-from twin.synthetic import random_poses
 
 PORT_M = np.array([0.6, -0.4, 0.1])
 STIFFNESS = np.array([2e5, 2e5, 2e5, 5e4, 5e4, 5e4])
@@ -98,8 +98,8 @@ def test_physics_rejects_loads_without_stiffness() -> None:
 
 
 def test_core_torques_equal_mujoco_generalised_forces() -> None:
-    """The calibration's static torques (twin.statics: gravity at the robot file's centres of
-    mass, the cable's pull towards the port) equal MuJoCo's generalised forces on the twin built
+    """The calibration's static torques (twin.geometry.statics: gravity at the robot file's centres
+    of mass, the cable's pull towards the port) equal MuJoCo's generalised forces on the twin built
     from the same file, qfrc_actuator − qfrc_bias with the servos at the pose, to 1e-9 N·m."""
     from twin.rig import Rig
     from twin.unknowns.compliance import torques

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError, TwinError
-from twin.robot import default_robot
+from twin.io.robot_file import default_robot
+from twin.robot import random_poses
 from twin.scenario import PoseConstraints
 from twin.sim import Twin, read_pose_plan, sample_poses
-from twin.synthetic import random_poses
 from twin.units import deg_to_rad
 
 PORT_M = np.array([0.6, -0.4, 0.1])

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.calibration import calibrate, make_model, split_rows
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import calibrate, make_model, split_rows
 from twin.cli import main
 from twin.errors import InputError
 from twin.io.capture_file import load_capture
@@ -18,11 +19,10 @@ from twin.io.robot_file import load_robot
 from twin.io.truth import load_truth_delta
 from twin.kinds.length import cable_length
 from twin.rig import Rig
+from twin.robot import random_poses
 from twin.scenario import load_scenario, parse_scenario
 from twin.sim import simulate, write_simulation
 from twin.stopping import Budget
-from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 ROOT = Path(__file__).parents[1]
 GEOMETRIC = ROOT / "scenarios" / "geometric_irb120.toml"

@@ -8,8 +8,10 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike
 
-from twin.calibration import CalibrationResult, calibrate_many, make_problem
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import CalibrationResult, calibrate_many, make_problem
 from twin.problem import Problem
+from twin.robot import random_poses
 from twin.scenario import load_scenario
 from twin.sim import Simulation, simulate
 from twin.solvers import SOLVERS, get_solver
@@ -18,8 +20,6 @@ from twin.solvers.base import HISTORY_BATCH, Tracker
 from twin.solvers.lm import levenberg_marquardt
 from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES, particle_swarm
 from twin.stopping import Budget, StopReason
-from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "geometric_irb120.toml"
 PAPER_METHODS = ("ekf", "lm", "pso", "ukf-vslm", "ekf-qibas", "ekf-qpso", "amlm", "bipso",

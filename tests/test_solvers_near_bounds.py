@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares, lsq_linear
 
-from twin.calibration import make_problem
+from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration.pipeline import make_problem
+from twin.robot import random_poses
 from twin.scenario import parse_scenario
 from twin.sim import Simulation, simulate
 from twin.solvers import get_solver
 from twin.solvers.lm import boxed_damped_step, damping
 from twin.stopping import Budget
-from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, rms_distance
 
 SEEDS = range(10)
 METHODS = ("lm", "amlm", "amlm-bipso")

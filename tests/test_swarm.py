@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration import make_model
+from twin.calibration.pipeline import make_model
 from twin.dataset import Measurements
+from twin.io.robot_file import default_robot
 from twin.problem import Problem
 from twin.rig import Rig
-from twin.robot import default_robot
 from twin.solvers.swarm import (
     best_in_slots,
     chord_parameters,

@@ -5,14 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration import calibrate, make_model
-from twin.dataset import Measurements
-from twin.identifiability import measurement_identifiability
-from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.stopping import Budget
-from twin.synthetic import random_poses
-from twin.uncertainty import (
+from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.uncertainty import (
     base_covariance,
     flange_sigma,
     parameter_covariance,
@@ -22,6 +16,11 @@ from twin.uncertainty import (
     rms_distance,
     workspace_grid,
 )
+from twin.calibration.pipeline import calibrate, make_model
+from twin.dataset import Measurements
+from twin.rig import Rig
+from twin.robot import RobotModel, random_poses
+from twin.stopping import Budget
 
 SIGMA_M = 1e-5
 

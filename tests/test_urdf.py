@@ -10,10 +10,10 @@ import pytest
 
 from twin.cli import main
 from twin.errors import InputError
-from twin.io.robot_file import load_robot
+from twin.export.pinocchio import urdf_flange
+from twin.io.robot_file import default_robot, load_robot
 from twin.io.urdf_reader import CONTINUOUS_LIMIT_RAD, load_urdf
-from twin.pinocchio_bridge import urdf_flange
-from twin.robot import RobotModel, default_robot
+from twin.robot import RobotModel
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 URDFS = {"ur5e": MODELS / "ur5e" / "ur5e.urdf", "fr3": MODELS / "fr3" / "fr3.urdf",

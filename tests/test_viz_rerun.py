@@ -24,13 +24,13 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
-from twin.calibration import CalibrationResult, calibrate_many
+from twin.calibration.pipeline import CalibrationResult, calibrate_many
 from twin.cli import main
+from twin.geometry.kinematics import Structure, frames
 from twin.io.capture_file import load_capture
 from twin.io.measurements import load_measurements
 from twin.io.results import MM2_PER_M2
 from twin.io.truth import load_truth_delta
-from twin.kinematics import Structure, frames
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm
 from twin.viz import entities
 from twin.viz.options import RerunOptions

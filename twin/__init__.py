@@ -5,19 +5,19 @@ identifies the robot's kinematic errors (and the rig's unknowns) from such lengt
 are SI (m, rad) inside; files and the command line use mm and degrees.
 """
 
-from twin.calibration import CalibrationResult, calibrate, calibrate_many
+from twin.analysis.metrics import Metrics
+from twin.calibration.pipeline import CalibrationResult, calibrate, calibrate_many
+from twin.calibration.predict import Prediction, predict
 from twin.dataset import Measurements
 from twin.errors import InputError, TwinError, UnknownChoiceError
+from twin.geometry.kinematics import Structure, flange_transform, point_jacobian, point_position
 from twin.io.measurements import load_measurements, write_measurements
-from twin.io.robot_file import load_robot
+from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length
-from twin.kinematics import Structure, flange_transform, point_jacobian, point_position
 from twin.loss import Loss
-from twin.metrics import Metrics
 from twin.model import Model
-from twin.predict import Prediction, predict
 from twin.rig import Distance, Rig
-from twin.robot import RobotModel, default_robot
+from twin.robot import RobotModel
 from twin.stopping import Budget, StopReason
 
 __all__ = [

@@ -7,7 +7,7 @@ For unknowns x (the blocks of its groups, :mod:`twin.unknowns`) and a pose q:
    backlash, compliance);
 3. the measured point sits at the rig's attachment plus every ``point`` group's correction, in
    the flange frame;
-4. the forward kinematics (:mod:`twin.kinematics`) carry it to the base frame, and the
+4. the forward kinematics (:mod:`twin.geometry.kinematics`) carry it to the base frame, and the
    measurement kind (:mod:`twin.kinds`) turns it into residuals, reading the ``measurement``
    groups (ports, offset…).
 
@@ -27,8 +27,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
+from twin.geometry.kinematics import PointJacobian, point_position, trace_point
 from twin.kinds import Kind
-from twin.kinematics import PointJacobian, point_position, trace_point
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
@@ -36,7 +36,7 @@ from twin.unknowns.base import cached
 
 NULL_RTOL = 1e-8
 """Singular values of the column-scaled Jacobian below this fraction of the largest make an
-exact null direction (the rank tolerance of :mod:`twin.identifiability`)."""
+exact null direction (the rank tolerance of :mod:`twin.analysis.identifiability`)."""
 
 
 @dataclass(frozen=True)
@@ -287,8 +287,8 @@ class Model:
                     out: Array) -> None:
         """Write into ``out`` (m, r, p) the derivatives of the r rows of every pose w.r.t. the
         table, joint and (if ``measured``) point groups, from the point's derivatives along
-        those rows (:meth:`twin.kinematics.PointTrace.jacobian`); other columns stay as they
-        are."""
+        those rows (:meth:`twin.geometry.kinematics.PointTrace.jacobian`); other columns stay as
+        they are."""
         m, rows = out.shape[:2]
         if self._joint_columns.size:
             # Coefficient c turns joint j(c) by basis[:, c]: its column is ∂r/∂q_j(c) times that.

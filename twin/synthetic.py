@@ -7,16 +7,11 @@ module is the closed-form counterpart, where the truth is exactly the model bein
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from twin.dataset import Measurements
 from twin.kinds.length import cable_length
 from twin.robot import RobotModel
-
-
-def random_poses(robot: RobotModel, n_poses: int, rng: np.random.Generator) -> NDArray[np.float64]:
-    """Joint angles drawn uniformly within the joint limits, shape (n_poses, n), rad."""
-    return rng.uniform(robot.lower_rad, robot.upper_rad, size=(n_poses, robot.n_joints))
 
 
 def synthesize(

@@ -50,7 +50,8 @@ def rad_to_arcsec(value_rad: ArrayLike) -> NDArray[np.float64]:
 DH_KEYS = ("a", "d", "alpha", "theta")
 """Row order of a D-H table and of the error vector X (paper eq. 7). In a table of any
 parametrisation the rows are its four slots under these keys: a Hayati joint holds its β (an
-angle) in the ``d`` row, which ``is_length`` says (:attr:`twin.kinematics.Structure.is_length`)."""
+angle) in the ``d`` row, which ``is_length`` says
+(:attr:`twin.geometry.kinematics.Structure.is_length`)."""
 DH_IS_LENGTH = (True, True, False, False)
 
 

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from twin.io.measurements import write_measurements
-from twin.robot import default_robot
-from twin.synthetic import random_poses, synthesize
+from twin.io.robot_file import default_robot
+from twin.robot import random_poses
+from twin.synthetic import synthesize
 from twin.units import dh_rows_from_display, mm_to_m
 
 TRUE_DELTA = {  # mm and degrees

@@ -3,11 +3,11 @@
 ``DESCRIPTION``, its arguments (``add_arguments(parser)``) and ``run(args)``: it parses, calls
 the library and prints. Where the library function a command calls has the
 command's name, its module may too (`twin simulate` calls :func:`twin.sim.simulate.simulate`,
-`twin predict` :func:`twin.predict.predict`, `twin check` :func:`twin.study.check.check`,
-`twin virtual-encoder` :mod:`twin.hardware.virtual_encoder`): a module of ``twin/cli/`` is the
-command, the other the thing it runs. What several commands parse alike is in
-:mod:`twin.cli.arguments` (flag types and shared flag sets) and :mod:`twin.cli.inputs` (what a
-calibration's INPUT and rig flags resolve to).
+`twin predict` :func:`twin.calibration.predict.predict`, `twin check`
+:func:`twin.study.check.check`, `twin virtual-encoder` :mod:`twin.hardware.virtual_encoder`): a
+module of ``twin/cli/`` is the command, the other the thing it runs. What several commands parse
+alike is in :mod:`twin.cli.arguments` (flag types and shared flag sets) and :mod:`twin.cli.inputs`
+(what a calibration's INPUT and rig flags resolve to).
 
 User mistakes (:class:`~twin.errors.InputError`, a bad flag, an ``OSError`` on a named file,
 an adapter library whose extra is not installed) print one line on stderr and exit with code 2;

@@ -200,7 +200,8 @@ def robot_from_flags(args: argparse.Namespace) -> RobotModel:
 
 
 AUTO = "auto"
-"""The ``--errors`` value that lets the data choose the error groups (:mod:`twin.selection`)."""
+"""The ``--errors`` value that lets the data choose the error groups
+(:mod:`twin.calibration.selection`)."""
 
 
 def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:

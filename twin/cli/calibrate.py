@@ -2,14 +2,17 @@
 
 ``--errors`` chooses the robot's error groups (D-H by default; transmission, backlash and
 compliance beside it), or ``auto`` fits nested choices and keeps the one the data support
-(:mod:`twin.selection`). The rig flags say how the data were measured (docs/measurements.md).
+(:mod:`twin.calibration.selection`). The rig flags say how the data were measured
+(docs/measurements.md).
 """
 
 from __future__ import annotations
 
 import argparse
 
-from twin.calibration import solve_many
+from twin.calibration.diagnosis import likely_causes
+from twin.calibration.pipeline import solve_many
+from twin.calibration.selection import choose_errors, warn_weak_data
 from twin.cli.arguments import (
     AUTO,
     add_output,
@@ -26,14 +29,12 @@ from twin.cli.inputs import (
     truth_of,
 )
 from twin.dataset import Measurements
-from twin.diagnosis import likely_causes
 from twin.errors import InputError
 from twin.io.measurements import load_measurements
 from twin.io.results import choice_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES
-from twin.report import format_choice, format_comparison, format_result
-from twin.selection import choose_errors, warn_weak_data
+from twin.report.text import format_choice, format_comparison, format_result
 from twin.solvers import SOLVERS, get_solver, solver_choices
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.unknowns import ERRORS

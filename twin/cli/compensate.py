@@ -20,6 +20,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.metrics import Metrics
 from twin.cli.arguments import (
     add_cable_tension,
     add_output,
@@ -29,17 +30,16 @@ from twin.cli.arguments import (
     integer,
     robot_from_flags,
 )
-from twin.compensation import InOrder, compensate_program_rows, compensate_target_rows
-from twin.compensation_check import CompensationCheck
+from twin.compensation.check import CompensationCheck
+from twin.compensation.ik import STATUS_OK
+from twin.compensation.joints import InOrder, compensate_program_rows, compensate_target_rows
 from twin.dataset import MAX_POSES
 from twin.errors import InputError
-from twin.ik import STATUS_OK
 from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import load_poses
 from twin.io.paths import InputPath
 from twin.io.pose_tables import load_targets, write_corrected
-from twin.metrics import Metrics
-from twin.plots import compensation_histogram
+from twin.report.plots import compensation_histogram
 from twin.units import m_to_mm, rad_to_deg
 
 VERIFY_TARGETS = 1000

@@ -7,20 +7,20 @@ import argparse
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.assessment import assess, flange_error_map
-from twin.calibration import WORKSPACE_POSES
+from twin.analysis.identifiability import WEAK_RTOL, Identifiability
+from twin.calibration.assessment import assess, flange_error_map
+from twin.calibration.pipeline import WORKSPACE_POSES
 from twin.cli.arguments import (
     add_output,
     add_seed,
     sigma_mm,
 )
 from twin.cli.inputs import add_input_flags, make_split, resolve_inputs, truth_of
-from twin.identifiability import WEAK_RTOL, Identifiability
 from twin.io.measurements import load_measurements
 from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
-from twin.plots import accuracy_map
-from twin.report import describe_rig, format_fit, format_joint_groups, format_truth, has_point
+from twin.report.plots import accuracy_map
+from twin.report.text import describe_rig, format_fit, format_joint_groups, format_truth, has_point
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, mm_to_m, slot_label
 from twin.unknowns import ERRORS
 

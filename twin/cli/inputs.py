@@ -14,8 +14,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.accuracy import TruthErrors, workspace_truth_errors
-from twin.calibration import TRAIN_FRACTION, CalibrationResult, SplitProblem, make_problem
+from twin.analysis.misfit import reading_sigma
+from twin.calibration.accuracy import TruthErrors, workspace_truth_errors
+from twin.calibration.pipeline import TRAIN_FRACTION, CalibrationResult, SplitProblem, make_problem
 from twin.cli.arguments import (
     AUTO,
     add_cable_tension,
@@ -35,7 +36,6 @@ from twin.io.capture_file import (
 )
 from twin.io.truth import load_truth_attachment, load_truth_delta
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
-from twin.misfit import reading_sigma
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -92,7 +92,7 @@ class Inputs(NamedTuple):
     calibration: CalibrationSettings
     sigma_m: float
     """The noise 1σ of one reading, m: the instrument's and the robot's repeatability
-    (:func:`twin.misfit.reading_sigma`)."""
+    (:func:`twin.analysis.misfit.reading_sigma`)."""
 
     @property
     def port_m(self) -> NDArray[np.float64] | None:

@@ -1,10 +1,10 @@
 """`twin plan`: a D-optimal pose plan for a cable calibration, and where to put the port.
 
 Candidates come from the MuJoCo twin's feasibility sampler, unless ``--joint-limits-only``
-(:mod:`twin.planning`); the design itself (:mod:`twin.design`) is pure numpy. ``--errors``
-plans for the error groups the calibration will fit; with backlash, each candidate is taken as
-approached from the one before it (random candidates: random sides) and the plan is scored for
-the sides of visiting it in order, as `twin capture` does.
+(:mod:`twin.design.planning`); the design itself (:mod:`twin.design.optimal`) is pure numpy.
+``--errors`` plans for the error groups the calibration will fit; with backlash, each candidate is
+taken as approached from the one before it (random candidates: random sides) and the plan is scored
+for the sides of visiting it in order, as `twin capture` does.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import argparse
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import WORKSPACE_POSES, make_model
+from twin.calibration.pipeline import WORKSPACE_POSES, make_model
 from twin.cli.arguments import (
     add_cable_tension,
     add_error_groups,
@@ -26,12 +26,19 @@ from twin.cli.arguments import (
     sigma_mm,
 )
 from twin.dataset import MAX_POSES
-from twin.design import DesignScore
+from twin.design.optimal import DesignScore
+from twin.design.planning import (
+    PortPlan,
+    SamplerFactory,
+    StationsPlan,
+    joint_limit_sampler,
+    plan_for_ports,
+    plan_for_stations,
+)
 from twin.errors import InputError
 from twin.io.capture_file import parse_named_port
 from twin.io.pose_tables import write_plan
 from twin.model import Model
-from twin.planning import PortPlan, StationsPlan, plan_for_ports, plan_for_stations
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import m_to_mm, mm_to_m
@@ -105,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         model = _model(args, robot, rig)
         _check_poses(args, model, len(rig.ports_m), " per station")
         stations = plan_for_stations(model, rig, args.poses, args.candidates, sigma_m,
-                                     seed=args.seed, feasible=args.feasible)
+                                     seed=args.seed, sampler=_sampler(args))
         write_plan(args.out, stations.q_rad, rig.port_names, stations.port)
         print(_stations_report(args, robot, model, rig, stations))
         return 0
@@ -117,10 +124,19 @@ def run(args: argparse.Namespace) -> int:
     model = model_at(ports_m[0])
     _check_poses(args, model, 1, "")
     plan = plan_for_ports(model_at, ports_m, args.poses, args.candidates, sigma_m,
-                          seed=args.seed, feasible=args.feasible)
+                          seed=args.seed, sampler=_sampler(args))
     write_plan(args.out, plan.q_rad)
     print(_ports_report(args, robot, model, ports_m, plan))
     return 0
+
+
+def _sampler(args: argparse.Namespace) -> SamplerFactory:
+    """Candidates the twin can measure, or (--joint-limits-only) any within the limits."""
+    if not args.feasible:
+        return joint_limit_sampler
+    from twin.sim.poses import feasible_sampler
+
+    return feasible_sampler
 
 
 def _model(args: argparse.Namespace, robot: RobotModel, rig: Rig) -> Model:

@@ -7,6 +7,7 @@ import argparse
 
 import numpy as np
 
+from twin.calibration.predict import predict
 from twin.cli.arguments import (
     add_output,
     add_result,
@@ -19,7 +20,6 @@ from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import joint_columns, load_poses
 from twin.io.paths import InputPath
 from twin.io.pose_tables import write_prediction
-from twin.predict import predict
 
 NAME = "predict"
 HELP = "predict the measured point (and cable length) with an identified model"

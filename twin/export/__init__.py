@@ -4,7 +4,8 @@ Each format is a module here named after its ``--format`` value, with ``export(r
 (so ``export/urdf.py`` writes URDFs, :mod:`twin.io.urdf_reader` reads them); a format's heavy
 dependency (MuJoCo) is imported only when that format is asked for.
 
-- ``dh``: the `models/` TOML format (:func:`twin.robot.robot_to_toml`), mm and degrees, in the
+- ``dh``: the `models/` TOML format (:func:`twin.io.robot_file.robot_to_toml`), mm and degrees, in
+the
   robot's parametrisation;
 - ``urdf``: URDF for ROS / MoveIt / Pinocchio: the robot's own URDF with the calibrated joint
   origins, or ROS-Industrial names (``base_link``, ``joint_i``, ``link_i``, ``tool0``) for a

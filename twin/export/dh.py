@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from twin.robot import RobotModel, robot_to_toml
+from twin.io.robot_file import robot_to_toml
+from twin.robot import RobotModel
 
 
 def export(robot: RobotModel) -> str:

@@ -9,9 +9,9 @@
   ``tool0`` on a fixed joint ``link_n-tool0`` — and the file's limits.
 
 How the calibration goes in. The identified chain's fixed transforms
-(:func:`twin.kinematics.fixed_transforms`) give every joint's frame at q = 0, the joint turning
-about its z axis. When the robot was read, each URDF joint's frame (turned so that its axis is
-z) was recorded as a shift along and a turn about that same axis from the table's frame
+(:func:`twin.geometry.kinematics.fixed_transforms`) give every joint's frame at q = 0, the joint
+turning about its z axis. When the robot was read, each URDF joint's frame (turned so that its axis
+is z) was recorded as a shift along and a turn about that same axis from the table's frame
 (:attr:`twin.robot.UrdfSource.frame_offsets`); such a screw commutes with the joint's turn, so
 the calibrated URDF joint frame is the calibrated table frame with the same screw, and each link
 frame — with its meshes and inertials — moves by the calibration alone. Revolute joint k's
@@ -36,9 +36,9 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from twin.arrays import Array
+from twin.geometry.kinematics import fixed_transforms, rigid_transform, xyz_rpy
+from twin.geometry.parametrisation import joint_frames
 from twin.io.urdf_reader import REVOLUTE, axis_alignment, find_chain
-from twin.kinematics import fixed_transforms, rigid_transform, xyz_rpy
-from twin.parametrisation import joint_frames
 from twin.robot import RobotModel
 
 SCREW_TOLERANCE = 1e-12

@@ -23,7 +23,7 @@ feeding a UR xacro.
 from __future__ import annotations
 
 from twin.export.urdf import joint_origins
-from twin.kinematics import xyz_rpy
+from twin.geometry.kinematics import xyz_rpy
 from twin.robot import RobotModel
 
 

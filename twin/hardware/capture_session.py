@@ -52,10 +52,10 @@ from twin.io.measurements import (
     read_table,
 )
 from twin.io.paths import os_error, read_bytes, read_text
-from twin.io.robot_file import load_robot
+from twin.io.robot_file import load_robot, robot_files, robot_to_toml
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.rig import Rig
-from twin.robot import RobotModel, robot_files, robot_to_toml
+from twin.robot import RobotModel
 from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"

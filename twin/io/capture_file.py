@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import TRAIN_FRACTION
+from twin.calibration.pipeline import TRAIN_FRACTION
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_toml

@@ -18,12 +18,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array
-from twin.compensation import InOrder
+from twin.calibration.predict import Prediction
+from twin.compensation.ik import STATUS_UNREACHABLE
+from twin.compensation.joints import InOrder
 from twin.errors import InputError
-from twin.ik import STATUS_UNREACHABLE
 from twin.io.atomic import write_atomic
 from twin.io.measurements import PORT_COLUMN, approach_columns, joint_columns, read_table
-from twin.predict import Prediction
 from twin.units import (
     FILE_DEG_DECIMALS,
     MAX_LENGTH_M,

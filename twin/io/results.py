@@ -15,15 +15,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twin.calibration import CalibrationResult
-from twin.identifiability import Identifiability
+from twin.analysis.identifiability import Identifiability
+from twin.analysis.metrics import Metrics
+from twin.analysis.misfit import ALPHA, FAR
+from twin.calibration.pipeline import CalibrationResult
+from twin.calibration.selection import ErrorChoice
+from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
-from twin.metrics import Metrics
-from twin.misfit import ALPHA, FAR
 from twin.rig import Rig
-from twin.rigid import angles
 from twin.robot import RobotModel
-from twin.selection import ErrorChoice
 from twin.units import (
     FILE_DEG_DECIMALS,
     RESULT_MM_DECIMALS,
@@ -36,9 +36,9 @@ from twin.units import (
 )
 
 if TYPE_CHECKING:
-    from twin.accuracy import TruthErrors
-    from twin.assessment import Assessment
-    from twin.diagnosis import Cause
+    from twin.calibration.accuracy import TruthErrors
+    from twin.calibration.assessment import Assessment
+    from twin.calibration.diagnosis import Cause
 
 MM2_PER_M2 = float(m_to_mm(1.0)) ** 2
 MASS_DECIMALS = 3

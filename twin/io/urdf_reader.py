@@ -12,11 +12,11 @@ down to a tip link:
   joints (a gripper's fingers) are kept in the URDF and left at zero.
 
 Each revolute joint's frame is turned so that its axis is z, which gives the chain as fixed
-transforms T_0 … T_n (:func:`twin.kinematics.fixed_transforms`' form: fixed joints between two
-revolute joints merge into one transform), and :func:`twin.parametrisation.convert` turns those
-into the chosen parametrisation exactly. Joint limits, rated speeds and torques come from the
-URDF's ``<limit>``; link masses from Pinocchio's inertias (a joint's mass is that of every link
-rigidly attached after it). The URDF text itself is kept (:class:`twin.robot.UrdfSource`) so
+transforms T_0 … T_n (:func:`twin.geometry.kinematics.fixed_transforms`' form: fixed joints between
+two revolute joints merge into one transform), and :func:`twin.geometry.parametrisation.convert`
+turns those into the chosen parametrisation exactly. Joint limits, rated speeds and torques come
+from the URDF's ``<limit>``; link masses from Pinocchio's inertias (a joint's mass is that of every
+link rigidly attached after it). The URDF text itself is kept (:class:`twin.robot.UrdfSource`) so
 that a calibration can be written back into it with every name, mesh and inertial
 (:mod:`twin.export.urdf`).
 """
@@ -37,9 +37,9 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.errors import InputError
+from twin.geometry.kinematics import fixed_transforms
+from twin.geometry.parametrisation import AUTO, convert, joint_frames
 from twin.io.paths import read_text
-from twin.kinematics import fixed_transforms
-from twin.parametrisation import AUTO, convert, joint_frames
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
 
 if TYPE_CHECKING:
@@ -221,7 +221,8 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
         base_link: The link the chain starts from; the root link if None.
         tip_link: The flange link; ``tool0``, ``flange`` or the one leaf if None.
         parametrisation: ``auto`` (Hayati where consecutive axes are nearly parallel, standard
-            D-H elsewhere), ``dh``, ``mdh``, or one per joint (:mod:`twin.parametrisation`).
+            D-H elsewhere), ``dh``, ``mdh``, or one per joint
+            (:mod:`twin.geometry.parametrisation`).
 
     Returns:
         The robot, its forward kinematics equal to Pinocchio's to 1e-9 m, with the URDF kept.

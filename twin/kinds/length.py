@@ -13,8 +13,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
 from twin.dataset import Measurements
+from twin.geometry.kinematics import Structure, point_position
 from twin.kinds.base import KindJacobian, no_symmetries
-from twin.kinematics import Structure, point_position
 from twin.rig import Rig
 
 

@@ -15,9 +15,9 @@ from numpy.typing import NDArray
 
 from twin.arrays import Array
 from twin.dataset import Measurements
+from twin.geometry.rigid import rotation, rotation_derivatives
 from twin.kinds.base import KindJacobian, no_symmetries
 from twin.rig import Rig
-from twin.rigid import rotation, rotation_derivatives
 
 
 class Position:

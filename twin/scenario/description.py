@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from twin.analysis.misfit import reading_sigma
 from twin.arrays import Array
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
-from twin.misfit import reading_sigma
 from twin.problem import DEFAULT_SIGMA_M
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
@@ -102,8 +102,8 @@ class Scenario:
     def reading_sigma_m(self) -> float:
         """The noise 1σ of one reading the calibration is told, m: the instrument's (a cable
         encoder's σ with its resolution folded in, a tracker's per-axis RMS) and the robot's
-        repeatability (:func:`twin.misfit.reading_sigma`); the default 0.01 mm when both are
-        zero. What twin simulate writes to capture.toml, so studies and `twin calibrate` on a
+        repeatability (:func:`twin.analysis.misfit.reading_sigma`); the default 0.01 mm when both
+        are zero. What twin simulate writes to capture.toml, so studies and `twin calibrate` on a
         simulated capture tell the filters and the misfit test the same."""
         instrument = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
             if self.instrument.kind != "length" \

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
-from twin.kinematics import point_jacobian
+from twin.geometry.kinematics import point_jacobian
 from twin.robot import RobotModel
 from twin.units import m_to_mm
 

@@ -103,12 +103,12 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.dataset import KINDS, MAX_POSES
+from twin.geometry.rigid import transform
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
 from twin.loss import LOSSES
 from twin.rig import MAX_TENSION_N
-from twin.rigid import transform
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
 from twin.scenario.instrument import Instrument

@@ -1,6 +1,6 @@
 """A MuJoCo model of a serial revolute arm, built with :class:`mujoco.MjSpec` from a RobotModel.
 
-The chain is the robot's fixed transforms (:func:`twin.kinematics.fixed_transforms`),
+The chain is the robot's fixed transforms (:func:`twin.geometry.kinematics.fixed_transforms`),
 ``base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯ Rz(q_n) · T_n``, whatever the parametrisation of its
 joints (standard or modified D-H, Hayati) and its base and tool transforms: body ``link<i>``
 (child of ``link<i−1>``, or of the world for i = 1) sits at ``T_{i−1}`` in its parent and carries
@@ -31,10 +31,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.kinematics import fixed_transforms, joint_placements
+from twin.geometry.kinematics import fixed_transforms, joint_placements
+from twin.geometry.statics import GRAVITY_M_S2
 from twin.robot import RobotModel
 from twin.scenario.physics import RIGID, Physics
-from twin.statics import GRAVITY_M_S2
 from twin.units import rad_to_deg
 
 DEFAULT_RADIUS_M = 0.04

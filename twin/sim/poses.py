@@ -8,6 +8,7 @@ passing through a link (a MuJoCo ray cast).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from numpy.typing import NDArray
 from twin.arrays import Array
 from twin.errors import InputError
 from twin.io.measurements import load_plan
+from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.sim.mujoco_twin import Twin
 from twin.units import m_to_mm
@@ -104,3 +106,20 @@ def read_pose_plan(path: str | Path, twin: Twin, constraints: PoseConstraints) -
             raise InputError(f"a pose with {name}", "poses the rig can measure",
                              source=path, where=f"line {lines[row]}")
     return q_rad
+
+
+def feasible_sampler(robot: RobotModel, rng: np.random.Generator
+                     ) -> Callable[[Array, int], Array]:
+    """A candidate sampler for :mod:`twin.design.planning`: poses the MuJoCo twin with the
+    encoder at a port can measure (its default constraints), drawn from ``rng``."""
+    constraints = PoseConstraints()
+
+    def draw(port_m: Array, count: int) -> Array:
+        try:
+            return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
+        except InputError as exc:
+            port = ",".join(f"{v:g}" for v in m_to_mm(port_m))
+            raise InputError(exc.found, exc.expected + " (or --joint-limits-only)",
+                             source=f"--port {port}") from None
+
+    return draw

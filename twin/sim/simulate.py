@@ -19,20 +19,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.metrics import metrics
 from twin.arrays import Array
-from twin.calibration import TRAIN_FRACTION, tracker_start, with_fixed_points
+from twin.calibration.pipeline import TRAIN_FRACTION, tracker_start, with_fixed_points
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
+from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
 from twin.io.capture_file import CalibrationSettings, write_capture
 from twin.io.measurements import write_measurements
+from twin.io.robot_file import robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.kinds import get_kind
-from twin.metrics import metrics
 from twin.model import Model
 from twin.rig import Rig
-from twin.rigid import angles
-from twin.robot import RobotModel, robot_files
+from twin.robot import RobotModel
 from twin.scenario.description import Scenario
 from twin.scenario.instrument import tracker_readings
 from twin.scenario.joint_errors import JointErrors

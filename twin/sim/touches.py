@@ -16,9 +16,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array
+from twin.compensation.ik import solve_ik
 from twin.errors import InputError
-from twin.ik import solve_ik
-from twin.kinematics import Structure
+from twin.geometry.kinematics import Structure
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.sim.mujoco_twin import Twin

@@ -14,14 +14,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.calibration import CalibrationResult, calibrate
-from twin.compensation import compensate_targets, solve_in_order
-from twin.compensation_check import CompensationCheck, check_compensation
+from twin.calibration.pipeline import CalibrationResult, calibrate
+from twin.compensation.check import CompensationCheck, check_compensation
+from twin.compensation.joints import compensate_targets, solve_in_order
+from twin.compensation.targets import reachable_targets
 from twin.dataset import approach_directions
 from twin.scenario import Scenario
 from twin.sim.mujoco_twin import Twin
 from twin.sim.simulate import Simulation, simulate
-from twin.targets import reachable_targets
 from twin.units import m_to_mm
 from twin.unknowns import Stage
 

@@ -1,8 +1,8 @@
 """lm-base — Levenberg–Marquardt on the base parameters (not in the paper).
 
 Distance-only data leave some combinations of the unknowns unseen (the IRB 120 with a known
-port: θ6, α6, d2 − d3 and two wrist combinations; see :mod:`twin.identifiability`). Plain LM
-then wanders along those directions as far as its damping lets it, and the parameters it
+port: θ6, α6, d2 − d3 and two wrist combinations; see :mod:`twin.analysis.identifiability`). Plain
+LM then wanders along those directions as far as its damping lets it, and the parameters it
 returns there mean nothing. This method first picks the base parameters at the start point
 (QR with column pivoting of the column-scaled Jacobian of the training poses), holds the
 dependent unknowns at their start values, and runs the same LM loop as ``lm`` on the rest:
@@ -25,8 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.identifiability import measurement_identifiability
 from twin.arrays import Array
-from twin.identifiability import measurement_identifiability
 from twin.problem import Problem
 from twin.solvers.base import Solver, SolverResult, Tracker
 from twin.solvers.lm import levenberg_marquardt

@@ -24,8 +24,8 @@ from typing import Any
 
 from twin.errors import InputError
 from twin.io.paths import read_bytes, read_toml
+from twin.io.robot_file import robot_files
 from twin.io.table import Table
-from twin.robot import robot_files
 from twin.scenario import Scenario, parse_scenario
 from twin.solvers import SOLVERS, get_solver
 

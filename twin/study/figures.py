@@ -1,4 +1,4 @@
-"""A study's figures as PNG (:mod:`twin.plots`): the paper's Figs. 3–5 and the truth.
+"""A study's figures as PNG (:mod:`twin.report.plots`): the paper's Figs. 3–5 and the truth.
 
 - ``fig3_metrics.png``: validation RMSE, MAE (the paper's "STD"), MAX and time per method,
   mean ± std over trials (paper Fig. 3).
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.plots import pyplot, save_png
+from twin.report.plots import pyplot, save_png
 
 FLOOR = 1e-4
 """Parameter-error plots stop this fraction below their largest value."""

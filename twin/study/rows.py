@@ -58,7 +58,7 @@ class TrialRow(NamedTuple):
     stop_reason: str
     """The test that stopped each stage, joined by ``+`` for cascades (``gtol+stalled``)."""
     flange_error_gauge_free_mm: float
-    """The flange error modulo the motions the data cannot see (:mod:`twin.gauge`: a turn
+    """The flange error modulo the motions the data cannot see (:mod:`twin.analysis.gauge`: a turn
     about joint 1's axis with an estimated port…)."""
     crlb_ratio_gauge_free: float
     """Its ratio to the bound."""

@@ -14,17 +14,18 @@ Against the truth, for each method:
   really is — MuJoCo at rest with transmission error, backlash and sag (``Twin.at_rest``), the
   workspace poses visited in order from home — against the identified model's prediction at the
   same commanded poses and approach directions;
-- **Cramér–Rao bound** of that error (:func:`twin.uncertainty.cramer_rao_flange_rms`) for the
+- **Cramér–Rao bound** of that error (:func:`twin.analysis.uncertainty.cramer_rao_flange_rms`) for
+the
   trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
   cable), averaged over the poses, from the fitted model's Jacobian (joint groups included).
   Outliers are not noise, nor are compliance and joint errors to a D-H-only model, so in those
   regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
 - **gauge-free errors**: the flange error modulo the motions the data cannot see, and the
   measured point's (eyelet, tracker target, ball) error likewise, with its own Cramér–Rao bound
-  (:mod:`twin.accuracy`, :mod:`twin.gauge`);
+  (:mod:`twin.calibration.accuracy`, :mod:`twin.analysis.gauge`);
 - **identifiable parameter error**: x̂ − x_true with its components along the null space of the
-  cable Jacobian removed (:mod:`twin.identifiability`). The null space is taken at the nominal
-  geometry, where it is exact (rank 19 of 24 for the IRB 120 with a known port): at the
+  cable Jacobian removed (:mod:`twin.analysis.identifiability`). The null space is taken at the
+  nominal geometry, where it is exact (rank 19 of 24 for the IRB 120 with a known port): at the
   perturbed truth the same directions have singular values some 1e-4–1e-7 of the largest, so
   they are numerically but not practically identifiable, and would swamp the comparison.
 """
@@ -37,20 +38,20 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from twin.accuracy import truth_errors
+from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.arrays import Array
-from twin.calibration import TRAIN_FRACTION, CalibrationResult, calibrate_many
+from twin.calibration.accuracy import truth_errors
+from twin.calibration.pipeline import TRAIN_FRACTION, CalibrationResult, calibrate_many
 from twin.dataset import approach_directions
-from twin.identifiability import measurement_identifiability
+from twin.geometry.rigid import angles
 from twin.model import Model
-from twin.rigid import angles
+from twin.robot import random_poses
 from twin.scenario import Scenario
 from twin.sim.mujoco_twin import Twin
 from twin.sim.simulate import Simulation, simulate
 from twin.study.rows import TrialRow
 from twin.study.store import TrialOutcome
-from twin.synthetic import random_poses
-from twin.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.units import m_to_mm, to_display
 from twin.unknowns import Stage
 

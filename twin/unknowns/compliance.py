@@ -1,8 +1,8 @@
 """Compliance: each joint gives way under the static torque it carries.
 
 Per joint i, ``Δq_i = c_i · τ_i`` with τ_i the torque on joint i
-(:func:`twin.statics.joint_torques`) from gravity on the links (masses and centres of mass of
-the robot file: keys ``mass`` and ``com``) and from the cable's pull (the rig's ``tension_n``
+(:func:`twin.geometry.statics.joint_torques`) from gravity on the links (masses and centres of mass
+of the robot file: keys ``mass`` and ``com``) and from the cable's pull (the rig's ``tension_n``
 towards each row's port, at the attachment point). n unknowns ``compliance1``… in rad/(N·m)
 (results show µrad/(N·m)); c_i is the inverse of the joint's stiffness.
 
@@ -25,9 +25,9 @@ import numpy as np
 
 from twin.dataset import Measurements
 from twin.errors import InputError
+from twin.geometry.statics import joint_torques
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.statics import joint_torques
 from twin.units import COMPLIANCE_UNIT
 from twin.unknowns.base import Array, Group, Stage, cached
 

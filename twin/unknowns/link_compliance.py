@@ -4,8 +4,8 @@ Per joint i::
 
     Δq_i = compliance{i}_cable · τ_i^cable + Σ_{j ≥ i} compliance{i}_link{j} · τ_ij
 
-with τ_ij the torque link j's weight puts on joint i (:func:`twin.statics.link_torques`, from the
-robot file's masses and centres of mass, at the nominal geometry and the recorded pose) and
+with τ_ij the torque link j's weight puts on joint i (:func:`twin.geometry.statics.link_torques`,
+from the robot file's masses and centres of mass, at the nominal geometry and the recorded pose) and
 τ_i^cable the cable's pull's (the rig's ``tension_n``). Each coefficient is the joint's
 compliance times how far the link's true weight (and lever) is from the file's: the group
 ``compliance`` assumes the file's masses right up to a common scale per joint, this one lets
@@ -32,9 +32,9 @@ from __future__ import annotations
 import numpy as np
 
 from twin.dataset import Measurements
+from twin.geometry.statics import joint_torques, link_torques
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.statics import joint_torques, link_torques
 from twin.units import COMPLIANCE_UNIT
 from twin.unknowns.base import Array, Group, Stage, cached
 from twin.unknowns.compliance import RADIUS, cable_forces, require_inertia

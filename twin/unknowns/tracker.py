@@ -4,7 +4,8 @@ tracker's frame.
 6 unknowns ``base_x``, ``base_y``, ``base_z`` (m) and ``base_rx``, ``base_ry``, ``base_rz``
 (rad) of a correction applied in the tracker frame on top of the rig's
 :attr:`~twin.rig.Rig.base_in_tracker`: ``p_tracker = Rz Ry Rx(base_r) · (base_in_tracker ·
-p_base) + base_xyz`` (:mod:`twin.rigid`). The calibration starts the rig's transform at a rigid
+p_base) + base_xyz`` (:mod:`twin.geometry.rigid`). The calibration starts the rig's transform at a
+rigid
 fit (Kabsch) of the nominal model's points onto the measured ones, so the correction is small:
 bounded to ±100 mm and ±10°. A tracker frame estimated freely absorbs a turn of the robot about
 joint 1's axis and a shift along it: they trade with δθ1 and δd1 (docs/measurements.md).

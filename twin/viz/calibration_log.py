@@ -16,7 +16,7 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.calibration import CalibrationResult
+from twin.calibration.pipeline import CalibrationResult
 from twin.dataset import Measurements
 from twin.io.results import MM2_PER_M2
 from twin.kinds import get_kind
@@ -160,8 +160,8 @@ def log_convergence(writer: Writer, method: str, result: CalibrationResult, orde
 
 class CalibrationLog:
     """Logs a calibration run as it goes: the setup at once, each method as it finishes
-    (:meth:`add`, e.g. as the ``on_result`` of :func:`twin.calibration.calibrate_many`), the
-    report at the end (:meth:`finish`).
+    (:meth:`add`, e.g. as the ``on_result`` of :func:`twin.calibration.pipeline.calibrate_many`),
+    the report at the end (:meth:`finish`).
 
     Args:
         writer: Where to log.

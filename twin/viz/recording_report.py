@@ -1,6 +1,6 @@
 """The ``report`` document of a recording: metrics table and identifiability, as markdown.
 
-The tables are the CLI's own (:mod:`twin.report`), in mm and degrees, inside fenced blocks so
+The tables are the CLI's own (:mod:`twin.report.text`), in mm and degrees, inside fenced blocks so
 their columns stay aligned; this module adds only what a recording needs beside them.
 """
 
@@ -11,12 +11,12 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import CalibrationResult
+from twin.analysis.uncertainty import rms_distance
+from twin.calibration.pipeline import CalibrationResult
 from twin.dataset import Measurements
-from twin.report import describe_rig, format_comparison, format_result
+from twin.report.text import describe_rig, format_comparison, format_result
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.uncertainty import rms_distance
 from twin.units import m_to_mm
 
 NO_IDENTIFIABILITY = "Not computed for this run: the results carry no identifiability summary."

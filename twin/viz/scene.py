@@ -2,7 +2,7 @@
 
 Positions are logged in metres in the robot base frame (z up), one row per pose on the ``pose``
 timeline; the link polylines are the frame origins 0..n of the core's FK
-(:func:`twin.kinematics.chain`), so what is drawn is exactly what is fitted.
+(:func:`twin.geometry.kinematics.chain`), so what is drawn is exactly what is fitted.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
-from twin.kinematics import frames
+from twin.geometry.kinematics import frames
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import m_to_mm

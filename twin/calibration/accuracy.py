@@ -3,8 +3,8 @@
 Over workspace poses, the RMS distance between the identified and the true flange centres, and
 between the identified and the true measured points (an eyelet, a tracker target, a ball), each
 both as it is (in the base frame the nominal robot defines) and after the unobservable motions
-of :mod:`twin.gauge` that bring the identified points closest to the true ones. When the rig
-pins the base frame (a measured port, no tracker frame estimated) the two agree; with an
+of :mod:`twin.analysis.gauge` that bring the identified points closest to the true ones. When the
+rig pins the base frame (a measured port, no tracker frame estimated) the two agree; with an
 estimated port or tracker frame the raw error measures partly the frame, and the gauge-free
 one is what the Cramér–Rao bound bounds.
 """
@@ -16,11 +16,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twin.calibration import WORKSPACE_POSES, CalibrationResult
-from twin.gauge import gauge_free_rms, unobservable_motions
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
-from twin.uncertainty import rms_distance
+from twin.analysis.gauge import gauge_free_rms, unobservable_motions
+from twin.analysis.uncertainty import rms_distance
+from twin.calibration.pipeline import WORKSPACE_POSES, CalibrationResult
+from twin.robot import RobotModel, random_poses
 
 
 class TruthErrors(NamedTuple):
@@ -73,7 +72,7 @@ def truth_errors(result: CalibrationResult, true_robot: RobotModel, true_attachm
 
 def workspace_truth_errors(result: CalibrationResult, true_robot: RobotModel,
                            true_attachment_m: ArrayLike) -> TruthErrors:
-    """:func:`truth_errors` over :data:`twin.calibration.WORKSPACE_POSES` random poses drawn
-    with the calibration's seed."""
+    """:func:`truth_errors` over :data:`twin.calibration.pipeline.WORKSPACE_POSES` random poses
+    drawn with the calibration's seed."""
     q_workspace = random_poses(result.robot, WORKSPACE_POSES, np.random.default_rng(result.seed))
     return truth_errors(result, true_robot, true_attachment_m, q_workspace)

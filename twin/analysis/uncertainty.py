@@ -7,7 +7,7 @@ IRB 120), so the bound on the flange position stays finite and meaningful.
 
 After a calibration the noise is not known: it is estimated from the training residuals as
 σ̂² = ‖r‖² / (m − rank). Per-parameter standard deviations are those of the base parameters
-(:mod:`twin.identifiability`) with the dependent ones held at their start values — the only
+(:mod:`twin.analysis.identifiability`) with the dependent ones held at their start values — the only
 reading in which a single parameter has a finite variance; the dependent ones have none.
 With the port estimated, the base frame is only defined relative to the port up to a shift
 along and a turn about the first joint axis; flange accuracies then leave that motion out.
@@ -20,9 +20,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.analysis.identifiability import RANK_RTOL
 from twin.arrays import Array
 from twin.dataset import Measurements
-from twin.identifiability import RANK_RTOL
 from twin.model import Model
 from twin.robot import RobotModel
 

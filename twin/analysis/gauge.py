@@ -14,7 +14,8 @@ measures partly the frame, not the calibration.
 How the motions are found and named:
 
 1. The null space N (p, r) of the measurement Jacobian at the identified unknowns
-   (:mod:`twin.identifiability`) is carried to the predicted points over the workspace poses,
+   (:mod:`twin.analysis.identifiability`) is carried to the predicted points over the workspace
+   poses,
    M = ∂p/∂x · N (3k, r). Columns that move nothing (θ6 of a flange centre, d2 − d3) drop out:
    singular values of M below :data:`MOVES_RTOL` of the largest column norm of ∂p/∂x do not count.
 2. Each candidate motion (:data:`MOTIONS`: rotations about and shifts along joint 1's axis and
@@ -28,8 +29,8 @@ How the motions are found and named:
 The error modulo the motions (:func:`gauge_free_rms`) applies the named motions exactly (a
 finite rotation about an axis, not its linearisation) and the unnamed part linearly, with the
 parameters that bring the predicted points closest to the truth (scipy's least_squares).
-The Cramér–Rao bound (:mod:`twin.uncertainty`) leaves the same motions out, so it is the bound of
-this error.
+The Cramér–Rao bound (:mod:`twin.analysis.uncertainty`) leaves the same motions out, so it is the
+bound of this error.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
-from twin.kinematics import flange_transform
+from twin.geometry.kinematics import flange_transform
 from twin.model import Model
 
 MOVES_RTOL = 1e-6
@@ -188,7 +189,7 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
         model: The fitted model.
         x: Identified unknowns, shape (p,).
         null_space: Null directions of the measurement Jacobian at x, shape (p, r), in the units
-            of x (:attr:`twin.identifiability.Identifiability.null_space`).
+            of x (:attr:`twin.analysis.identifiability.Identifiability.null_space`).
         q_rad: Poses the motions are evaluated at (the workspace), shape (k, n), rad.
         measured: The measured point (attachment) instead of the flange centre.
     """

@@ -27,14 +27,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
-from twin.kinematics import flange_jacobian
+from twin.geometry.kinematics import flange_jacobian
 from twin.robot import RobotModel
 
 _T = TypeVar("_T", bound=np.generic)
 
 ActualAngles = Callable[[Array, NDArray[np.intp]], Array]
 """Where the joints stand for commands q (k, n) at target rows (k,): actual angles (k, n), rad
-(:class:`twin.compensation.ActualJoints`)."""
+(:class:`twin.compensation.joints.ActualJoints`)."""
 
 TOLERANCE_M = 1e-10
 """Position error below which a row has converged, m."""
@@ -155,7 +155,7 @@ def solve_ik(
         tolerance_rad: Rotation convergence tolerance, rad.
         max_iterations: Newton iterations at most.
         joints: Where the joints stand for a command (the identified joint-level errors,
-            :class:`twin.compensation.ActualJoints`), or None: exactly at it.
+            :class:`twin.compensation.joints.ActualJoints`), or None: exactly at it.
 
     Returns:
         The solved commands and per-row convergence and limit flags.

@@ -10,9 +10,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.analysis.metrics import Metrics, metrics
 from twin.arrays import Array
-from twin.ik import IKResult
-from twin.metrics import Metrics, metrics
+from twin.compensation.ik import IKResult
 
 
 class CompensationCheck(NamedTuple):

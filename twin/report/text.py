@@ -8,17 +8,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration import WORKSPACE_POSES, CalibrationResult
+from twin.analysis.identifiability import WEAK_RTOL, Identifiability
+from twin.analysis.metrics import Metrics
+from twin.analysis.misfit import ALPHA
+from twin.calibration.pipeline import WORKSPACE_POSES, CalibrationResult
+from twin.calibration.selection import ErrorChoice
 from twin.dataset import Measurements
-from twin.identifiability import WEAK_RTOL, Identifiability
+from twin.geometry.parametrisation import PARALLEL_THRESHOLD_DEG
+from twin.geometry.rigid import angles
 from twin.loss import REJECT_SCALES
-from twin.metrics import Metrics
-from twin.misfit import ALPHA
-from twin.parametrisation import PARALLEL_THRESHOLD_DEG
 from twin.rig import Rig
-from twin.rigid import angles
 from twin.robot import RobotModel
-from twin.selection import ErrorChoice
 from twin.solvers import get_solver
 from twin.units import (
     DH_KEYS,
@@ -31,8 +31,8 @@ from twin.units import (
 )
 
 if TYPE_CHECKING:
-    from twin.accuracy import TruthErrors
-    from twin.diagnosis import Cause
+    from twin.calibration.accuracy import TruthErrors
+    from twin.calibration.diagnosis import Cause
 
 MAX_ROWS_SHOWN = 20
 """Rejected rows listed in the report (the JSON lists them all)."""
@@ -212,7 +212,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         result: The calibration.
         truth_delta: The true D-H errors, shape (4, n), m and rad, to print beside, if known.
         truth: The errors against the truth over the workspace, if known.
-        causes: The likely causes of a misfit (:func:`twin.diagnosis.likely_causes`).
+        causes: The likely causes of a misfit (:func:`twin.calibration.diagnosis.likely_causes`).
     """
     solver = get_solver(result.method)
     lines = [

@@ -18,7 +18,7 @@ from twin.io.atomic import write_atomic
 from twin.units import m_to_mm
 
 if TYPE_CHECKING:
-    from twin.compensation_check import CompensationCheck
+    from twin.compensation.check import CompensationCheck
 
 DPI = 120
 """Resolution of every PNG, dots per inch."""

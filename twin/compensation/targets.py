@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.ik import FULL_POSE_JOINTS
-from twin.kinematics import flange_jacobian
+from twin.compensation.ik import FULL_POSE_JOINTS
+from twin.geometry.kinematics import flange_jacobian
 from twin.robot import RobotModel
 
 DEXTERITY_LENGTH_M = 0.3
@@ -26,9 +26,9 @@ def dexterity(robot: RobotModel, q_rad: ArrayLike, length_m: float = DEXTERITY_L
 
     Zero at a singularity (stretched or folded elbow, aligned wrist axes); ``length_m`` weighs
     the angular rows against the linear ones (:data:`DEXTERITY_LENGTH_M` by default). An arm of
-    fewer than :data:`~twin.ik.FULL_POSE_JOINTS` joints is only ever asked for positions
-    (:mod:`twin.compensation`): its dexterity is that of the position rows alone (a SCARA's
-    stretched elbow loses a direction of the flange's position, not of its 6D motion).
+    fewer than :data:`~twin.compensation.ik.FULL_POSE_JOINTS` joints is only ever asked for
+    positions (:mod:`twin.compensation.joints`): its dexterity is that of the position rows alone (a
+    SCARA's stretched elbow loses a direction of the flange's position, not of its 6D motion).
 
     Args:
         robot: The robot, SI.

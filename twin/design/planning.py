@@ -1,10 +1,11 @@
 """Planning a cable capture: D-optimal poses among candidates the rig can measure, the port (or
 the stations) they are measured from, and how the plan compares with as many random poses.
 
-Candidates come from the MuJoCo twin's feasibility sampler (imported when asked for: flange
-above the floor, no collision, cable in range and clear of the links, per port), or from the
-joint limits alone; the design itself (:mod:`twin.design`) is pure numpy. Every random draw
-(candidates, workspace poses, the random plan) comes from one generator seeded by ``seed``.
+Candidates come from a sampler the caller passes in: the MuJoCo twin's feasibility sampler
+(:func:`twin.sim.poses.feasible_sampler`: flange above the floor, no collision, cable in range
+and clear of the links, per port), or the joint limits alone (the default); the design itself
+(:mod:`twin.design.optimal`) is pure numpy. Every random draw (candidates, workspace poses, the
+random plan) comes from one generator seeded by ``seed``.
 """
 
 from __future__ import annotations
@@ -16,18 +17,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array
-from twin.calibration import WORKSPACE_POSES
-from twin.design import DesignScore, PortChoice, choose_port, plan_stations, score_poses
-from twin.errors import InputError
+from twin.calibration.pipeline import WORKSPACE_POSES
+from twin.design.optimal import DesignScore, PortChoice, choose_port, plan_stations, score_poses
 from twin.model import Model
 from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
-from twin.units import m_to_mm
+from twin.robot import RobotModel, random_poses
 
 Sampler = Callable[[Array, int], Array]
 """``draw(port_m, count)``: ``count`` candidate poses for the port (3,) m, shape (count, n),
 rad."""
+SamplerFactory = Callable[[RobotModel, np.random.Generator], Sampler]
+"""Makes a :data:`Sampler` for a robot, drawing from the plan's generator."""
 
 
 class Draws(NamedTuple):
@@ -76,40 +76,22 @@ class StationsPlan(NamedTuple):
     """The score of as many random poses shared evenly between the stations."""
 
 
-def candidate_sampler(robot: RobotModel, rng: np.random.Generator, *, feasible: bool
-                      ) -> Sampler:
-    """Candidate poses for a port: those the MuJoCo twin with that port can measure (its
-    default constraints) when ``feasible``, else any within the joint limits."""
-    if not feasible:
-        return lambda port_m, count: random_poses(robot, count, rng)
-    from twin.scenario import PoseConstraints
-    from twin.sim.mujoco_twin import Twin
-    from twin.sim.poses import sample_poses
-
-    constraints = PoseConstraints()
-
-    def draw(port_m: Array, count: int) -> Array:
-        try:
-            return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
-        except InputError as exc:
-            port = ",".join(f"{v:g}" for v in m_to_mm(port_m))
-            raise InputError(exc.found, exc.expected + " (or --joint-limits-only)",
-                             source=f"--port {port}") from None
-
-    return draw
+def joint_limit_sampler(robot: RobotModel, rng: np.random.Generator) -> Sampler:
+    """Candidate poses anywhere within the joint limits, whatever the port."""
+    return lambda port_m, count: random_poses(robot, count, rng)
 
 
-def _draws(robot: RobotModel, ports_m: Array, n_candidates: int, seed: int, feasible: bool
-           ) -> Draws:
+def _draws(robot: RobotModel, ports_m: Array, n_candidates: int, seed: int,
+           sampler: SamplerFactory) -> Draws:
     rng = np.random.default_rng(seed)
-    draw = candidate_sampler(robot, rng, feasible=feasible)
+    draw = sampler(robot, rng)
     q_workspace = random_poses(robot, WORKSPACE_POSES, rng)
     return Draws(draw, q_workspace, np.stack([draw(port, n_candidates) for port in ports_m]))
 
 
 def plan_for_ports(model_at: Callable[[Array], Model], ports_m: Array, n_poses: int,
-                   n_candidates: int, sigma_m: float, *, seed: int, feasible: bool
-                   ) -> PortPlan:
+                   n_candidates: int, sigma_m: float, *, seed: int,
+                   sampler: SamplerFactory = joint_limit_sampler) -> PortPlan:
     """The D-optimal plan for each candidate port; the port whose plan predicts the smallest
     flange error over the workspace, and its plan scored against random poses.
 
@@ -120,11 +102,12 @@ def plan_for_ports(model_at: Callable[[Array], Model], ports_m: Array, n_poses: 
         n_candidates: Candidate poses drawn per port.
         sigma_m: Length noise 1σ of the predicted accuracy, m.
         seed: Seed of every draw.
-        feasible: Candidates the rig can measure (the twin's constraints), or within the
-            joint limits only.
+        sampler: Makes the candidate sampler from the robot and the plan's generator: within
+            the joint limits by default; :func:`twin.sim.poses.feasible_sampler` draws those
+            the rig can measure (the twin's constraints).
     """
     robot = model_at(ports_m[0]).robot
-    draws = _draws(robot, ports_m, n_candidates, seed, feasible)
+    draws = _draws(robot, ports_m, n_candidates, seed, sampler)
     choice = choose_port(model_at(ports_m[0]), ports_m, draws.candidates_rad, n_poses, sigma_m,
                          draws.q_workspace_rad)
     port_m = ports_m[choice.best]
@@ -139,7 +122,8 @@ def plan_for_ports(model_at: Callable[[Array], Model], ports_m: Array, n_poses: 
 
 
 def plan_for_stations(model: Model, rig: Rig, n_poses: int, n_candidates: int,
-                      sigma_m: float, *, seed: int, feasible: bool) -> StationsPlan:
+                      sigma_m: float, *, seed: int,
+                      sampler: SamplerFactory = joint_limit_sampler) -> StationsPlan:
     """Poses and stations planned together for an encoder moved between named ports, scored
     against random poses shared evenly between the stations.
 
@@ -150,9 +134,9 @@ def plan_for_stations(model: Model, rig: Rig, n_poses: int, n_candidates: int,
         n_candidates: Candidate poses drawn per station.
         sigma_m: Length noise 1σ of the predicted accuracy, m.
         seed: Seed of every draw.
-        feasible: As in :func:`plan_for_ports`.
+        sampler: As in :func:`plan_for_ports`.
     """
-    draws = _draws(model.robot, rig.ports_m, n_candidates, seed, feasible)
+    draws = _draws(model.robot, rig.ports_m, n_candidates, seed, sampler)
     x0 = np.zeros(model.n_params)
     plan = plan_stations(model, x0, draws.candidates_rad, n_poses)
     share, extra = divmod(n_poses, len(rig.ports_m))

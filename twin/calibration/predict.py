@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.calibration import check_approach
+from twin.calibration.pipeline import check_approach
 from twin.model import Model
 
 
@@ -57,7 +57,8 @@ def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | N
     """The measured point (and cable length) an identified model predicts at poses.
 
     Args:
-        identified: The model and its unknowns (:class:`~twin.calibration.CalibrationResult`,
+        identified: The model and its unknowns
+        (:class:`~twin.calibration.pipeline.CalibrationResult`,
             :class:`~twin.io.identified.IdentifiedModel`).
         q_rad: Joint angles, shape (m, n), rad.
         approach: The direction each joint approached each pose from, shape (m, n), ±1; needed

@@ -12,8 +12,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.analysis.identifiability import Identifiability, measurement_identifiability
+from twin.analysis.uncertainty import flange_sigma, workspace_grid
 from twin.arrays import Array
-from twin.calibration import (
+from twin.calibration.pipeline import (
     WORKSPACE_POSES,
     CalibrationResult,
     SplitProblem,
@@ -21,13 +23,10 @@ from twin.calibration import (
     solve_many,
 )
 from twin.dataset import Measurements
-from twin.design import DesignScore, score_poses
-from twin.identifiability import Identifiability, measurement_identifiability
+from twin.design.optimal import DesignScore, score_poses
 from twin.model import Model
-from twin.robot import RobotModel
+from twin.robot import RobotModel, random_poses
 from twin.stopping import Budget
-from twin.synthetic import random_poses
-from twin.uncertainty import flange_sigma, workspace_grid
 
 METHOD = "lm-base"
 """The calibration an assessment runs: LM on the base parameters, with their uncertainty."""

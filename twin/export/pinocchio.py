@@ -4,8 +4,9 @@ forward kinematics of a URDF, the referee of the robots read from and written ba
 An adapter: it imports Pinocchio, and nothing in the core imports it. (Reading a URDF is
 :mod:`twin.io.urdf_reader`; writing one is :mod:`twin.export.urdf`.)
 
-A robot of any parametrisation is its fixed transforms (:func:`twin.kinematics.fixed_transforms`):
-joint i is a revolute about z placed at T_{i−1} in joint i − 1's frame, and a frame named
+A robot of any parametrisation is its fixed transforms
+(:func:`twin.geometry.kinematics.fixed_transforms`): joint i is a revolute about z placed at T_{i−1}
+in joint i − 1's frame, and a frame named
 ``flange`` sits at T_n on the last joint.
 """
 
@@ -17,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from twin.arrays import Array
-from twin.kinematics import fixed_transforms
+from twin.geometry.kinematics import fixed_transforms
 from twin.robot import RobotModel
 
 FLANGE_FRAME = "flange"
@@ -36,7 +37,7 @@ def build_model(robot: RobotModel) -> pin.Model:
 
     Returns:
         A ``pinocchio.Model`` with ``nq = robot.n_joints`` whose configuration is q in rad, the
-        same q as :func:`twin.kinematics.flange_transform` takes.
+        same q as :func:`twin.geometry.kinematics.flange_transform` takes.
     """
     fixed = fixed_transforms(robot.structure, robot.dh)
     model = pin.Model()

@@ -33,7 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.calibration import (
+from twin.analysis.identifiability import measurement_identifiability, warn_rank_deficient
+from twin.calibration.pipeline import (
     TRAIN_FRACTION,
     CalibrationResult,
     SplitProblem,
@@ -42,7 +43,6 @@ from twin.calibration import (
     required_poses,
 )
 from twin.dataset import Measurements
-from twin.identifiability import measurement_identifiability, warn_rank_deficient
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.stopping import Budget
@@ -110,9 +110,10 @@ def warn_few_poses(n_train: int, rank: int, errors: Sequence[str], rows_per_pose
 def warn_weak_data(robot: RobotModel, split: SplitProblem, errors: Sequence[str],
                    source: str | Path, seed: int) -> None:
     """Before a calibration, warn when its training poses identify fewer directions than
-    well-spread poses would (:func:`twin.identifiability.warn_rank_deficient`; not for fixed
-    points, where random poses reach no common point to compare with) and when they are too few
-    for the unknowns they identify (:func:`warn_few_poses`, naming the error groups ``errors``)."""
+    well-spread poses would (:func:`twin.analysis.identifiability.warn_rank_deficient`; not for
+    fixed points, where random poses reach no common point to compare with) and when they are too
+    few for the unknowns they identify (:func:`warn_few_poses`, naming the error groups
+    ``errors``)."""
     problem = split.problem
     if problem.train.kind != "point":
         warn_rank_deficient(robot, problem.model, problem.x0, problem.train, source, seed)
@@ -150,7 +151,7 @@ def choose_errors(
 ) -> ErrorChoice:
     """Fit every nested error model on the same split and choose by BIC (module docstring).
 
-    Takes the arguments of :func:`twin.calibration.calibrate`; ``candidates`` replaces the
+    Takes the arguments of :func:`twin.calibration.pipeline.calibrate`; ``candidates`` replaces the
     nested error models.
 
     Raises:

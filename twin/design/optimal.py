@@ -1,7 +1,7 @@
 """Measurement design: which poses to measure, and where to put the encoder port.
 
 A D-optimal plan maximises det(J_Bᵀ J_B), J_B the cable-length Jacobian of the base parameters
-(:mod:`twin.identifiability`) at the nominal geometry: it minimises the volume of the
+(:mod:`twin.analysis.identifiability`) at the nominal geometry: it minimises the volume of the
 parameters' confidence ellipsoid, and — unlike the other criteria — it does not depend on the
 units or scaling of the parameters. Each pose adds one row j, so
 
@@ -11,8 +11,8 @@ units or scaling of the parameters. Each pose adds one row j, so
   determinant ratio ``(1 + d_c)(1 − d_i) + d_ic² ``, d = jᵀF⁻¹j', until no swap gains.
 
 Both steps score every candidate at once. The port is chosen among candidate positions by the
-predicted RMS flange-position error over the workspace (Cramér–Rao, :mod:`twin.uncertainty`)
-of the D-optimal plan made for each port.
+predicted RMS flange-position error over the workspace (Cramér–Rao,
+:mod:`twin.analysis.uncertainty`) of the D-optimal plan made for each port.
 """
 
 from __future__ import annotations
@@ -23,10 +23,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.identifiability import Observability, identifiability, observability
+from twin.analysis.uncertainty import cramer_rao_flange_rms
 from twin.arrays import Array
-from twin.identifiability import Observability, identifiability, observability
 from twin.model import Model
-from twin.uncertainty import cramer_rao_flange_rms
 
 RIDGE = 1e-9
 """Greedy start F = δI, δ this fraction of the mean squared entry of the candidate rows."""

@@ -1,12 +1,13 @@
-"""Why a calibration does not fit its data: the likely causes of a misfit (:mod:`twin.misfit`).
+"""Why a calibration does not fit its data: the likely causes of a misfit
+(:mod:`twin.analysis.misfit`).
 
 Each cause the data could reveal is tried by refitting: the rig's unknowns the calibration left
 out (the port, the attachment point, the tracker frame, the length offset) are added one at a
 time and the problem solved again with LM from the first fit, and outliers by a Huber fit
 (scale 3 σ) whose RMSE is taken over the rows it keeps; a cause whose refit brings the training
-RMSE within :data:`twin.misfit.FAR` times the noise is *likely*, and the refit's RMSE is quoted.
-Causes no refit can test follow: units (readings whose scale is far from the nominal model's)
-and the robot model (joint-level errors, another model file).
+RMSE within :data:`twin.analysis.misfit.FAR` times the noise is *likely*, and the refit's RMSE is
+quoted. Causes no refit can test follow: units (readings whose scale is far from the nominal
+model's) and the robot model (joint-level errors, another model file).
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.calibration import CalibrationResult, SplitProblem, make_model
+from twin.analysis.misfit import FAR
+from twin.calibration.pipeline import CalibrationResult, SplitProblem, make_model
 from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
-from twin.misfit import FAR
 from twin.problem import Problem
 from twin.solvers import get_solver
 from twin.stopping import Budget

@@ -43,8 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import NULL_RTOL, Model
-from twin.robot import RobotModel
-from twin.synthetic import random_poses
+from twin.robot import RobotModel, random_poses
 from twin.unknowns import Stage
 
 RANK_RTOL = NULL_RTOL

@@ -4,11 +4,11 @@ The torque that loads joint i is the moment about its axis of every load beyond 
 
     τ_i = u_i · Σ_j (p_j − o_i) × F_j,
 
-with u_i, o_i the joint's axis and a point on it (:func:`twin.kinematics.joint_axes`), F_j = m_j g
-at the centre of mass p_j of each link j ≥ i, and an external force (the drawstring's pull) at a
-point fixed to the flange. It is the generalised force the loads exert on the joint (what MuJoCo
-calls ``qfrc_actuator − qfrc_bias`` for a pulling tendon, at rest): a joint held by a servo of
-stiffness k deflects by τ / k in the direction of q. The sum over j ≥ i is taken from the flange
+with u_i, o_i the joint's axis and a point on it (:func:`twin.geometry.kinematics.joint_axes`), F_j
+= m_j g at the centre of mass p_j of each link j ≥ i, and an external force (the drawstring's pull)
+at a point fixed to the flange. It is the generalised force the loads exert on the joint (what
+MuJoCo calls ``qfrc_actuator − qfrc_bias`` for a pulling tendon, at rest): a joint held by a servo
+of stiffness k deflects by τ / k in the direction of q. The sum over j ≥ i is taken from the flange
 down: Σ_{j≥i} (p_j − o_i) × F_j = Σ_{j≥i} p_j × F_j − o_i × Σ_{j≥i} F_j, two cumulative sums.
 
 The base frame's z axis points up (the robot stands on the floor): gravity is −z.
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.kinematics import Structure, frames, joint_axes
+from twin.geometry.kinematics import Structure, frames, joint_axes
 
 GRAVITY_M_S2 = 9.81
 """Standard gravity, m/s², along −z of the base frame."""

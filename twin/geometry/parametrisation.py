@@ -3,9 +3,9 @@ conversion to it.
 
 Any serial revolute chain can be written as fixed transforms between joints,
 ``base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯ Rz(q_n) · T_n`` (what a URDF, Pinocchio and
-:func:`twin.kinematics.fixed_transforms` hold). :func:`convert` turns such a chain into a
-:class:`~twin.kinematics.Structure` and a table with the same forward kinematics — every joint
-in the parametrisation asked for, a base transform placing frame 0 on joint 1's axis and a
+:func:`twin.geometry.kinematics.fixed_transforms` hold). :func:`convert` turns such a chain into a
+:class:`~twin.geometry.kinematics.Structure` and a table with the same forward kinematics — every
+joint in the parametrisation asked for, a base transform placing frame 0 on joint 1's axis and a
 tool transform from the last joint's frame to the flange absorbing what the table cannot hold
 (a URDF joint origin is a full rigid transform, six numbers; a table row holds four).
 
@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.kinematics import PARAMETRISATIONS, Structure, flange_transform
+from twin.geometry.kinematics import PARAMETRISATIONS, Structure, flange_transform
 
 PARALLEL_THRESHOLD_DEG = 10.0
 """Consecutive axes closer than this to parallel (or antiparallel) get a Hayati joint."""
@@ -141,8 +141,8 @@ def choose(fixed: ArrayLike, threshold_deg: float = PARALLEL_THRESHOLD_DEG) -> t
 
 def resolve(request: str | Sequence[str], fixed: ArrayLike) -> tuple[str, ...]:
     """The per-joint parametrisation a request names: one of :data:`REQUESTS` for the whole
-    chain (``auto``: :func:`choose`), or one of :data:`twin.kinematics.PARAMETRISATIONS` per
-    joint.
+    chain (``auto``: :func:`choose`), or one of :data:`twin.geometry.kinematics.PARAMETRISATIONS`
+    per joint.
 
     Raises:
         ValueError: for an unknown name, a list of the wrong length, or modified D-H mixed with

@@ -1,6 +1,6 @@
 """Error compensation: the joint angles that make the identified robot go where it should.
 
-Two requests, both solved by the batched inverse kinematics of :mod:`twin.ik`:
+Two requests, both solved by the batched inverse kinematics of :mod:`twin.compensation.ik`:
 
 - a **program** (joint angles written against the nominal model): the target is the full
   nominal flange pose ``base_T_flange = FK_nominal(q)``; solve position and orientation on the
@@ -11,16 +11,16 @@ Two requests, both solved by the batched inverse kinematics of :mod:`twin.ik`:
   between the identified flange and the program's nominal one is reported
   (``rotation_error_rad``) rather than solved;
 - **Cartesian targets** (flange positions only): first a nominal solution (position-only IK on
-  the nominal model from a few joint-space starts, :func:`twin.ik.nominal_ik`), then position-only
-  IK on the identified model seeded from it. With 3 equations and 4 to 7 joints the Newton step
-  is the minimum-norm one, so the corrected joints stay next to the nominal ones and the flange
-  orientation stays close to the nominal solution's.
+  the nominal model from a few joint-space starts, :func:`twin.compensation.ik.nominal_ik`), then
+  position-only IK on the identified model seeded from it. With 3 equations and 4 to 7 joints the
+  Newton step is the minimum-norm one, so the corrected joints stay next to the nominal ones and the
+  flange orientation stays close to the nominal solution's.
 
 The identified robot is its identified table and, when the calibration identified them, its
 joint-level errors (:class:`ActualJoints`): commanded q, the joints stand at q + Δq(q) —
 transmission error, backlash for the direction the robot comes from, compliance under the load
 at the pose — and the flange is the table's at those angles. The IK solves for the command
-(:mod:`twin.ik`).
+(:mod:`twin.compensation.ik`).
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
+from twin.compensation.ik import FULL_POSE_JOINTS, IKResult, nominal_ik, solve_ik
 from twin.dataset import approach_directions
-from twin.ik import FULL_POSE_JOINTS, IKResult, nominal_ik, solve_ik
 from twin.model import Model
 from twin.robot import RobotModel
 from twin.unknowns import Stage
@@ -207,7 +207,7 @@ def compensate_target_rows(model: Model, x: ArrayLike, nominal: RobotModel,
                            base_p_target: ArrayLike, rng: np.random.Generator
                            ) -> tuple[InOrder, Array]:
     """Cartesian targets' corrected commands, for the whole identified model: nominal solutions
-    first (:func:`twin.ik.nominal_ik`), then :func:`solve_in_order` from them.
+    first (:func:`twin.compensation.ik.nominal_ik`), then :func:`solve_in_order` from them.
 
     Args:
         model: The identified measurement model.

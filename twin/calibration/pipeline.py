@@ -20,24 +20,23 @@ from typing import NamedTuple, TypedDict, Unpack
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.gauge import Gauge, unobservable_motions
+from twin.analysis.identifiability import Identifiability, measurement_identifiability
+from twin.analysis.metrics import Metrics, metrics
+from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
+from twin.analysis.uncertainty import CalibrationUncertainty, calibration_uncertainty
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.gauge import Gauge, unobservable_motions
-from twin.identifiability import Identifiability, measurement_identifiability
+from twin.geometry.rigid import kabsch, rotation
 from twin.kinds import get_kind
 from twin.loss import LEAST_SQUARES, Loss
-from twin.metrics import Metrics, metrics
-from twin.misfit import Misfit, misfit_test, repeat_sigma
 from twin.model import Model
 from twin.problem import DEFAULT_SIGMA_M, Problem
 from twin.rig import Rig
-from twin.rigid import kabsch, rotation
-from twin.robot import RobotModel
+from twin.robot import RobotModel, random_poses
 from twin.solvers import SolverResult, get_solver
 from twin.stopping import Budget, at_bounds
-from twin.synthetic import random_poses
-from twin.uncertainty import CalibrationUncertainty, calibration_uncertainty
 from twin.unknowns import make_groups
 
 TRAIN_FRACTION = 0.8
@@ -127,10 +126,10 @@ class CalibrationResult:
         uncertainty: Noise estimate, base-parameter covariance and predicted flange accuracy.
         budget: The iteration limits and stopping tests the method ran with.
         misfit: The chi-square test of the training residuals against the noise
-            (:mod:`twin.misfit`).
+            (:mod:`twin.analysis.misfit`).
         rejected_rows: Measurement rows (poses, 0-based, train and validation) whose residual
             the robust loss rejects (:mod:`twin.loss`), ascending; empty for least squares.
-        gauge: The motions of the flange the data cannot see (:mod:`twin.gauge`).
+        gauge: The motions of the flange the data cannot see (:mod:`twin.analysis.gauge`).
         loss: The loss the methods minimised.
     """
 
@@ -372,7 +371,7 @@ def make_problem(
         estimate_base: Also identify the tracker frame (tracker positions), started at a rigid
             fit of the nominal model's points.
         sigma_m: The noise 1σ of a reading, m: the filters' measurement noise and the misfit
-            test's reference (:mod:`twin.misfit`).
+            test's reference (:mod:`twin.analysis.misfit`).
         loss: How residual rows count (:mod:`twin.loss`); least squares by default.
         train_fraction: Share of the poses used for identification (paper: 0.8).
 
