@@ -22,9 +22,9 @@ from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.setup import make_model
 from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
 from twin.problem import Problem
+from twin.report.display import SIGNIFICANT, mm
 from twin.solvers import get_solver
 from twin.stopping import Budget
-from twin.units import m_to_mm
 
 REFITS = {
     "port": ("the port positions", "--estimate-port"),
@@ -54,7 +54,8 @@ class Cause(NamedTuple):
         """``the port position (--estimate-port reaches 0.0104 mm)``."""
         if self.refit_rmse_m is None:
             return f"{self.name} ({self.remedy})"
-        return f"{self.name} ({self.remedy} reaches {float(m_to_mm(self.refit_rmse_m)):.4g} mm)"
+        reaches = mm(self.refit_rmse_m, significant=SIGNIFICANT)
+        return f"{self.name} ({self.remedy} reaches {reaches})"
 
 
 def _refit(split: SplitProblem, result: CalibrationResult, group: str) -> float | None:

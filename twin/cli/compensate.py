@@ -39,8 +39,8 @@ from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import load_poses
 from twin.io.paths import InputPath
 from twin.io.pose_tables import load_targets, write_corrected
+from twin.report.display import deg, deg_values, mm
 from twin.report.plots import compensation_histogram
-from twin.units import m_to_mm, rad_to_deg
 
 VERIFY_TARGETS = 1000
 
@@ -125,10 +125,10 @@ def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
         f"{count} {status}" for status, count in zip(statuses, counts, strict=True))
     ok = solved.status == STATUS_OK
     if np.any(ok):
-        change_deg = np.abs(rad_to_deg(solved.q_rad[ok] - q_nominal_rad[ok]))
+        change_rad = np.abs(solved.q_rad[ok] - q_nominal_rad[ok])
         text += ("\ncorrection per joint, mean |Δq| [deg]: "
-                 + " ".join(f"{v:.4f}" for v in change_deg.mean(axis=0))
-                 + f"; largest {change_deg.max():.4f}")
+                 + deg_values(change_rad.mean(axis=0), separator=" ")
+                 + f"; largest {deg(change_rad.max(), unit=False)}")
     if np.any(ordered.approach_moves):
         rows = np.flatnonzero(ordered.approach_moves) + 1
         text += (f"\n{rows.size} rows need an approach move (a joint moves less than its "
@@ -159,8 +159,7 @@ def _verify(args: argparse.Namespace) -> int:
 
 
 def _row(label: str, m: Metrics) -> str:
-    return (f"  {label:<34}{m_to_mm(m.mae):>10.4f}{m_to_mm(m.rmse):>10.4f}"
-            f"{m_to_mm(m.max):>10.4f}")
+    return f"  {label:<34}" + "".join(mm(v, width=10, unit=False) for v in (m.mae, m.rmse, m.max))
 
 
 def format_checks(checks: dict[str, CompensationCheck]) -> str:

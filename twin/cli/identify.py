@@ -19,9 +19,10 @@ from twin.cli.inputs import add_input_flags, make_split, resolve_inputs, truth_o
 from twin.io.measurements import load_measurements
 from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
+from twin.report.display import SIGMA_DECIMALS, SIGNIFICANT, mm, slot
 from twin.report.plots import accuracy_map
 from twin.report.text import describe_rig, format_fit, format_joint_groups, format_truth, has_point
-from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, slot_label
+from twin.units import DH_KEYS, m_to_mm, slot_label
 from twin.unknowns import ERRORS
 
 NAME = "identify"
@@ -72,7 +73,7 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     """Per-parameter 1σ in mm and degrees; '—' for the dependent (not identifiable) ones."""
     shape = model.robot.dh.shape
     is_length = model.robot.is_length
-    display = dh_rows_to_display(model.block(sigma, "dh").reshape(shape), is_length)
+    table = model.block(sigma, "dh").reshape(shape)
     labels = [f"σ {slot_label(key, lengths)}" for key, lengths in zip(DH_KEYS, is_length,
                                                                        strict=True)]
     width = max(16, *(len(label) + 1 for label in labels))
@@ -80,8 +81,9 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     lines = [header]
     for i in range(shape[1]):
         row = "".join(
-            f"{'—':>{width}}" if np.isnan(display[key][i]) else f"{display[key][i]:>{width}.5f}"
-            for key in DH_KEYS
+            f"{'—':>{width}}" if np.isnan(table[k, i])
+            else slot(table[k, i], is_length[k, i], SIGMA_DECIMALS, width=width)
+            for k in range(len(DH_KEYS))
         )
         lines.append(f"  {i + 1:>5}{row}")
     return lines
@@ -93,7 +95,6 @@ def run(args: argparse.Namespace) -> int:
     robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)
     split = make_split(inputs, data, args.seed)
-    sigma_mm = float(m_to_mm(inputs.calibration.sigma_m))
     assessment = assess(robot, split, data, seed=args.seed)
     data, nominal, score, result = assessment
     model = split.problem.model
@@ -108,31 +109,31 @@ def run(args: argparse.Namespace) -> int:
         f"  base parameters ({nominal.rank}): " + ", ".join(nominal.base_names),
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
-        f"  Cramér–Rao bound at σ = {sigma_mm:.4g} mm: flange RMS error over "
-        f"{WORKSPACE_POSES} workspace poses {float(m_to_mm(score.flange_rms_m)):.4f} mm",
+        f"  Cramér–Rao bound at σ = {mm(inputs.calibration.sigma_m, significant=SIGNIFICANT)}: "
+        f"flange RMS error over {WORKSPACE_POSES} workspace poses {mm(score.flange_rms_m)}",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
     lines += [
         f"At the identified geometry (lm-base, seed {args.seed}, "
         f"{result.train_rows.size} training poses):",
-        f"  validation RMSE {float(m_to_mm(result.metrics['validation'].rmse)):.4f} mm, "
-        f"noise estimate {float(m_to_mm(uncertainty.noise_sigma_m)):.4f} mm",
+        f"  validation RMSE {mm(result.metrics['validation'].rmse)}, "
+        f"noise estimate {mm(uncertainty.noise_sigma_m)}",
         *_identifiability_lines(result.identified_identifiability),
-        f"  predicted flange RMS error over the workspace "
-        f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
+        f"  predicted flange RMS error over the workspace {mm(uncertainty.flange_rms_m)} "
+        "(from the noise estimate)",
         *format_fit(result),
         *format_joint_groups(result),
     ]
     _, truth = truth_of(inputs, result)
     if truth is not None and inputs.truth_path is not None:
         lines.append(f"  true flange RMS error over the workspace "
-                     f"{float(m_to_mm(truth.flange_m)):.4f} mm (against the D-H table of "
+                     f"{mm(truth.flange_m)} (against the D-H table of "
                      f"{inputs.truth_path.name})")
         point = format_truth(truth, has_point(result))[1:]
         lines += point if not truth.motions else [
             f"    modulo {', '.join(truth.motions)}: "
-            f"{float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm", *point]
+            f"{mm(truth.flange_gauge_free_m)}", *point]
     lines += [
         "  standard deviations of the base parameters (dependent ones held: —)",
         *_sigma_table(model, uncertainty.sigma),
@@ -145,5 +146,6 @@ def run(args: argparse.Namespace) -> int:
                      "(q1 = q4 = q5 = q6 = 0)")
         print(f"map: {args.map}")
     if args.json:
-        write_json(args.json, assessment_to_dict(assessment, sigma_mm, truth))
+        write_json(args.json, assessment_to_dict(
+            assessment, float(m_to_mm(inputs.calibration.sigma_m)), truth))
     return 0

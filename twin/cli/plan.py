@@ -41,9 +41,10 @@ from twin.errors import InputError
 from twin.io.capture_file import parse_named_port
 from twin.io.pose_tables import write_plan
 from twin.model import Model
+from twin.report.display import AS_GIVEN, SIGNIFICANT, mm, mm_values
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import m_to_mm, mm_to_m
+from twin.units import mm_to_m
 from twin.unknowns import ERRORS
 
 DEFAULT_CANDIDATES = 2000
@@ -95,7 +96,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _score_row(label: str, score: DesignScore) -> str:
     o = score.observability
     return (f"  {label:<8}{o.o1:>11.4g}{o.o3:>11.4g}{o.o4:>11.4g}{o.condition:>11.4g}"
-            f"{float(m_to_mm(score.flange_rms_m)):>14.4f}")
+            f"{mm(score.flange_rms_m, width=14, unit=False)}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -160,6 +161,11 @@ def _check_poses(args: argparse.Namespace, model: Model, stations: int, per: str
                          "the candidates", source="--poses")
 
 
+def _sigma(args: argparse.Namespace) -> str:
+    """The noise the bound is computed at, as `twin identify` shows it."""
+    return mm(mm_to_m(args.sigma), significant=SIGNIFICANT)
+
+
 def _ports_report(args: argparse.Namespace, robot: RobotModel, model: Model,
                   ports_m: NDArray[np.float64], plan: PortPlan) -> str:
     choice, chosen = plan.choice, plan.choice.plans[plan.choice.best]
@@ -167,17 +173,17 @@ def _ports_report(args: argparse.Namespace, robot: RobotModel, model: Model,
     if len(ports_m) > 1:
         lines.append("port candidates [mm]        predicted flange RMS [mm]")
         for k, (port, rms) in enumerate(zip(ports_m, choice.flange_rms_m, strict=True)):
-            text = ", ".join(f"{v:g}" for v in m_to_mm(port))
-            lines.append(f"  ({text}){'':<{max(1, 24 - len(text))}}{float(m_to_mm(rms)):.4f}"
+            text = mm_values(port, significant=AS_GIVEN)
+            lines.append(f"  ({text}){'':<{max(1, 24 - len(text))}}{mm(rms, unit=False)}"
                          + ("   <- chosen" if k == choice.best else ""))
-    port_text = ", ".join(f"{v:g}" for v in m_to_mm(plan.port_m))
+    port_text = mm_values(plan.port_m, significant=AS_GIVEN)
     lines += [
         f"{robot.name}: {args.poses} D-optimal poses of {args.candidates} "
         f"{'feasible ' if args.feasible else ''}candidates "
         f"({chosen.selection.exchanges} exchanges), port ({port_text}) mm, "
         f"{chosen.base_mask.sum()} base parameters of {model.n_params} unknowns",
         *_score_lines(plan.planned, plan.random),
-        f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {args.sigma:g} mm "
+        f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {_sigma(args)} "
         f"over {WORKSPACE_POSES} workspace poses; random: {args.poses} poses drawn with the "
         "same seed and constraints)",
         f"plan: {args.out}",
@@ -196,7 +202,7 @@ def _stations_report(args: argparse.Namespace, robot: RobotModel, model: Model, 
         "  stations: " + ", ".join(f"{name} {int(count)} poses" for name, count
                                    in zip(rig.port_names, used, strict=True)),
         *_score_lines(plan.planned, plan.random),
-        f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {args.sigma:g} mm "
+        f"  (base-parameter columns in SI; flange RMS: Cramér–Rao at σ = {_sigma(args)} "
         f"over {WORKSPACE_POSES} workspace poses, modulo what the data cannot see; random: "
         f"{args.poses} poses shared evenly between the stations, drawn with the same seed and "
         "constraints)",

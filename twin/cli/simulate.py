@@ -32,31 +32,30 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     import numpy as np
 
+    from twin.report.display import LENGTH_DECIMALS, number, xyz_mm
     from twin.scenario import load_scenario
     from twin.sim import simulate, write_simulation
-    from twin.units import m_to_mm
 
     scenario = load_scenario(args.scenario)
     sim = simulate(scenario, seed=args.seed)
     capture = write_simulation(args.out, sim)
-    effects = sim.effects
+    effects = sim.effects  # in mm, as truth.json keeps them
     print(f"{scenario.name}: {len(sim.measurements)} poses, seed {sim.seed}, "
           f"{'compliant' if not scenario.physics.rigid else 'rigid'} joints")
-    print(f"  nominal model vs readings: RMSE {effects['nominal_rmse_mm']:.4f} mm")
+    shown = {key: f"{number(value, LENGTH_DECIMALS)} mm" for key, value in effects.items()}
+    print(f"  nominal model vs readings: RMSE {shown['nominal_rmse_mm']}")
     readings = "lengths" if sim.measurements.kind == "length" else "readings"
-    print(f"  non-geometric share of the {readings}: RMS {effects['non_geometric_mm']:.4f} mm; "
-          f"flange shift by joint errors and sag: RMS {effects['flange_shift_mm']:.4f} mm")
+    print(f"  non-geometric share of the {readings}: RMS {shown['non_geometric_mm']}; "
+          f"flange shift by joint errors and sag: RMS {shown['flange_shift_mm']}")
     if sim.outlier_rows.size:
         print(f"  {sim.outlier_rows.size} outliers")
     told = sim.rig_told
     for name, port_m in zip(told.port_names, told.ports_m, strict=True):
-        port = ", ".join(f"{v:.3f}" for v in m_to_mm(port_m))
         print(f"  port {'' if len(told.ports_m) == 1 else name + ' '}told to the calibration: "
-              f"({port}) mm")
+              f"{xyz_mm(port_m)}")
     if sim.measurements.kind != "length" or np.any(np.abs(sim.rig.attachment_m) > 0):
-        point = ", ".join(f"{v:.3f}" for v in m_to_mm(sim.rig.attachment_m))
-        told_point = ", ".join(f"{v:.3f}" for v in m_to_mm(told.attachment_m))
-        print(f"  measured point in the flange frame: ({point}) mm, told ({told_point}) mm")
+        print(f"  measured point in the flange frame: {xyz_mm(sim.rig.attachment_m)}, "
+              f"told {xyz_mm(told.attachment_m)}")
     if sim.rig.point_names:
         print(f"  {len(sim.rig.point_names)} fixed points, {len(told.distances)} known "
               "distances told")

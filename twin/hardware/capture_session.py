@@ -55,9 +55,9 @@ from twin.io.measurements import (
 from twin.io.paths import os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot, robot_files, robot_to_toml
 from twin.io.truth import TRUTH_FILE, write_truth
+from twin.report.display import mm
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import m_to_mm
 
 POSE_COLUMN = "pose"
 ROW_COLUMNS = (POSE_COLUMN, *COLUMNS)
@@ -266,9 +266,8 @@ def capture(
                     from None
             record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
             done.add(pose)
-            report(f"pose {pose}/{n_poses}: {float(m_to_mm(settled.length_m)):.4f} mm "
-                   f"({settled.readings} readings, spread "
-                   f"{float(m_to_mm(settled.spread_m)):.4f} mm, "
+            report(f"pose {pose}/{n_poses}: {mm(settled.length_m)} "
+                   f"({settled.readings} readings, spread {mm(settled.spread_m)}, "
                    f"{time.monotonic() - started:.2f} s)")
     except KeyboardInterrupt:
         report(f"interrupted at pose {pose}/{n_poses}. {_saved(done, n_poses)}")

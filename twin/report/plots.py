@@ -15,6 +15,7 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.io.atomic import write_atomic
+from twin.report.display import mm
 from twin.units import m_to_mm
 
 if TYPE_CHECKING:
@@ -72,9 +73,9 @@ def compensation_histogram(path: str | Path, checks: dict[str, CompensationCheck
     bins = np.geomspace(low, float(errors_mm.max()), 60).tolist()
     figure, axes = plt.subplots(figsize=(6.4, 4.0), layout="constrained")
     for label, values in series:
-        rms = float(m_to_mm(np.sqrt(np.mean(values**2))))
+        rms = mm(np.sqrt(np.mean(values**2)))
         axes.hist(np.maximum(m_to_mm(values), low), bins=bins, alpha=0.6,
-                  label=f"{label} (RMS {rms:.4f} mm)")
+                  label=f"{label} (RMS {rms})")
     axes.set_xscale("log")
     axes.set_xlabel("true flange position error [mm]")
     axes.set_ylabel("targets")

@@ -18,18 +18,20 @@ from twin.dataset import Measurements
 from twin.geometry.parametrisation import PARALLEL_THRESHOLD_DEG
 from twin.geometry.rigid import angles
 from twin.loss import REJECT_SCALES
+from twin.report.display import (
+    JOINT_DECIMALS,
+    SIGNIFICANT,
+    deg_values,
+    joint_level,
+    mm,
+    number,
+    slot,
+    xyz_mm,
+)
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.solvers import get_solver
-from twin.units import (
-    DH_KEYS,
-    DISPLAY_UNITS,
-    dh_rows_to_display,
-    m_to_mm,
-    rad_to_arcsec,
-    rad_to_deg,
-    slot_label,
-)
+from twin.units import DH_KEYS, slot_label
 
 if TYPE_CHECKING:
     from twin.calibration.accuracy import TruthErrors
@@ -42,8 +44,8 @@ MAE_NOTE = '* MAE = mean |r|, the metric the paper labels "STD"; std is the stan
 
 
 def _metric_row(label: str, m: Metrics) -> str:
-    values = m_to_mm([m.rmse, m.mae, m.std, m.max])
-    return f"  {label:<18}" + "".join(f"{v:>10.4f}" for v in values)
+    return f"  {label:<18}" + "".join(mm(v, width=10, unit=False)
+                                      for v in (m.rmse, m.mae, m.std, m.max))
 
 
 ARBITRARY = "their values are arbitrary: compare flange positions, not raw parameters"
@@ -76,13 +78,11 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
         )
     if result.uncertainty is not None:
         lines.append(
-            f"  noise estimate {float(m_to_mm(result.uncertainty.noise_sigma_m)):.4f} mm; "
-            "predicted flange RMS error over the workspace "
-            f"{float(m_to_mm(result.uncertainty.flange_rms_m)):.4f} mm"
+            f"  noise estimate {mm(result.uncertainty.noise_sigma_m)}; "
+            f"predicted flange RMS error over the workspace {mm(result.uncertainty.flange_rms_m)}"
         )
         if result.model.has("attachment"):
-            lines[-1] += (", measured point "
-                          f"{float(m_to_mm(result.uncertainty.point_rms_m)):.4f} mm")
+            lines[-1] += f", measured point {mm(result.uncertainty.point_rms_m)}"
     return lines
 
 
@@ -117,23 +117,18 @@ def format_parametrisation(robot: RobotModel) -> list[str]:
     return [f"  joints 1..{len(kinds)}: " + ", ".join(kinds) + why]
 
 
-def _xyz(values_m: NDArray[np.float64]) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in m_to_mm(values_m)) + ") mm"
-
-
 def describe_rig(rig: Rig, measurements: Measurements) -> str:
     """``port (600.000, -400.000, 100.000) mm``, ``2 ports (front, left)``, ``tracker
     positions`` or ``6 fixed points``, with the attachment when it is off the flange."""
     if measurements.kind == "length":
-        text = "port (" + ", ".join(f"{v:.3f}" for v in m_to_mm(rig.ports_m[0])) + ") mm" \
-            if len(rig.ports_m) == 1 else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
+        text = f"port {xyz_mm(rig.ports_m[0])}" if len(rig.ports_m) == 1 \
+            else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
     elif measurements.kind == "position":
         text = "laser-tracker positions"
     else:
         text = f"{len(rig.point_names or measurements.point_names)} fixed points"
     if np.any(np.abs(rig.attachment_m) > 0):
-        text += ", measured point (" + ", ".join(f"{v:.3f}" for v in m_to_mm(rig.attachment_m)) \
-            + ") mm in the flange frame"
+        text += f", measured point {xyz_mm(rig.attachment_m)} in the flange frame"
     return text
 
 
@@ -144,16 +139,15 @@ def format_rig(result: CalibrationResult) -> list[str]:
         rig = model.rig
         for j in rig.estimated_port_index:
             name = "" if len(rig.ports_m) == 1 else f" {rig.port_names[j]}"
-            lines.append(f"  identified port{name}: {_xyz(result.ports_m[j])}")
+            lines.append(f"  identified port{name}: {xyz_mm(result.ports_m[j])}")
     if model.has("offset"):
-        lines.append(f"  identified length offset: {float(m_to_mm(result.offset_m)):.4f} mm")
+        lines.append(f"  identified length offset: {mm(result.offset_m)}")
     if model.has("attachment"):
-        lines.append(f"  identified attachment (flange frame): {_xyz(result.attachment_m)}")
+        lines.append(f"  identified attachment (flange frame): {xyz_mm(result.attachment_m)}")
     if model.has("base"):
         transform = result.base_in_tracker
-        turn = rad_to_deg(angles(transform[:3, :3]))
-        lines.append(f"  identified base in the tracker frame: {_xyz(transform[:3, 3])}, "
-                     f"rx ry rz ({turn[0]:.4f}, {turn[1]:.4f}, {turn[2]:.4f}) deg")
+        lines.append(f"  identified base in the tracker frame: {xyz_mm(transform[:3, 3])}, "
+                     f"rx ry rz ({deg_values(angles(transform[:3, :3]))}) deg")
     if model.has("points"):
         lines.append(f"  identified fixed points: {len(model.rig.point_names)} (in the JSON)")
     return lines
@@ -167,14 +161,15 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
         likely = "; likely causes: " + ", ".join(cause.describe() for cause in causes) \
             if causes else ""
         lines.append(f"  MISFIT: the model does not fit these data — training RMSE "
-                     f"{float(m_to_mm(misfit.rmse_m)):.4g} mm against a noise of "
-                     f"{float(m_to_mm(misfit.noise_m)):.4g} mm ({misfit.describe()}){likely}")
+                     f"{mm(misfit.rmse_m, significant=SIGNIFICANT)} against a noise of "
+                     f"{mm(misfit.noise_m, significant=SIGNIFICANT)} ({misfit.describe()}){likely}")
     if result.loss.robust:
         rows = result.rejected_rows
         shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
             + (", …" if rows.size > MAX_ROWS_SHOWN else "")
-        lines.append(f"  {result.loss.name} loss, scale {float(m_to_mm(result.loss.scale_m)):.4g}"
-                     f" mm: {rows.size} row(s) rejected (beyond {REJECT_SCALES:g} scales; "
+        lines.append(f"  {result.loss.name} loss, scale "
+                     f"{mm(result.loss.scale_m, significant=SIGNIFICANT)}: {rows.size} row(s) "
+                     f"rejected (beyond {REJECT_SCALES:g} scales; "
                      f"0-based data rows){': ' + shown if rows.size else ''}")
     gauge = result.gauge
     if gauge is not None and gauge.names:
@@ -187,13 +182,12 @@ def format_truth(truth: TruthErrors, point: bool = True) -> list[str]:
     """The errors against the truth over the workspace, raw and modulo the unseen motions; the
     measured point's line only if ``point`` (an attachment off the flange or estimated)."""
     lines = [f"  against the truth over {WORKSPACE_POSES} workspace poses: flange RMS "
-             f"{float(m_to_mm(truth.flange_m)):.4f} mm"]
+             f"{mm(truth.flange_m)}"]
     if truth.motions:
-        lines[-1] += (f", {float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm modulo "
-                      + ", ".join(truth.motions))
+        lines[-1] += f", {mm(truth.flange_gauge_free_m)} modulo " + ", ".join(truth.motions)
     if point:
-        lines.append(f"  measured point RMS {float(m_to_mm(truth.point_m)):.4f} mm"
-                     + (f", {float(m_to_mm(truth.point_gauge_free_m)):.4f} mm modulo "
+        lines.append(f"  measured point RMS {mm(truth.point_m)}"
+                     + (f", {mm(truth.point_gauge_free_m)} modulo "
                         + ", ".join(truth.point_motions) if truth.point_motions else ""))
     return lines
 
@@ -234,22 +228,23 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
     if truth is not None:
         lines += format_truth(truth, has_point(result))
     is_length = result.robot.is_length
-    identified = dh_rows_to_display(result.delta, is_length)
-    true_rows = None if truth_delta is None else dh_rows_to_display(truth_delta, is_length)
     header = "  joint"
     for key, lengths in zip(DH_KEYS, is_length, strict=True):
         label = f"δ{slot_label(key, lengths)}"
-        header += f"{label:>{max(14, len(label) + 1)}}" + (f"{'true':>10}" if true_rows else "")
+        header += f"{label:>{max(14, len(label) + 1)}}" \
+            + (f"{'true':>10}" if truth_delta is not None else "")
     kinds = set(result.robot.structure.parametrisation)
     errors = "D-H" if kinds == {"dh"} else "/".join(sorted(kinds))
-    lines += ["", f"Identified {errors} errors" + (" (and the truth)" if true_rows else ""),
+    lines += ["", f"Identified {errors} errors"
+              + (" (and the truth)" if truth_delta is not None else ""),
               *format_parametrisation(result.robot), header]
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
-        for key, lengths in zip(DH_KEYS, is_length, strict=True):
-            row += f"{identified[key][i]:>{max(14, len(slot_label(key, lengths)) + 2)}.4f}"
-            if true_rows:
-                row += f"{true_rows[key][i]:>10.4f}"
+        for k, (key, lengths) in enumerate(zip(DH_KEYS, is_length, strict=True)):
+            row += slot(result.delta[k, i], lengths[i],
+                        width=max(14, len(slot_label(key, lengths)) + 2))
+            if truth_delta is not None:
+                row += slot(truth_delta[k, i], lengths[i], width=10)
         lines.append(row)
     lines += format_joint_groups(result)
     return "\n".join(lines)
@@ -258,15 +253,6 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
 JOINT_GROUP_COLUMNS = {"transmission": ("sin q", "cos q", "sin 2q", "cos 2q"),
                        "backlash": ("backlash",), "compliance": ("compliance",)}
 """Columns of each joint-level group in the report, one row per joint."""
-
-
-def _report_units(values_si: NDArray[np.float64], unit: str) -> tuple[NDArray[np.float64], str]:
-    """Joint-level values as the report shows them: angles in arc-seconds, the rest in the
-    unit results use (µrad/(N·m) for compliance)."""
-    if unit == "rad":
-        return rad_to_arcsec(values_si), "arcsec"
-    label, factor, _ = DISPLAY_UNITS[unit]
-    return np.asarray(values_si) * factor, label
 
 
 def format_joint_groups(result: CalibrationResult) -> list[str]:
@@ -282,8 +268,8 @@ def format_joint_groups(result: CalibrationResult) -> list[str]:
     header, tables = "  joint", []
     for name in present:
         unit, columns = model.group(name).units[0], JOINT_GROUP_COLUMNS[name]
-        values, label = _report_units(model.block(result.solver.x, name), unit)
-        deviations, _ = _report_units(sigma[model.slice(name)], unit)
+        values, label = joint_level(model.block(result.solver.x, name), unit)
+        deviations, _ = joint_level(sigma[model.slice(name)], unit)
         header += "".join(f"{f'{column} [{label}]':>24}{'±σ':>8}" for column in columns)
         tables.append((np.reshape(values, (n, -1)), np.reshape(deviations, (n, -1))))
     lines = ["", "Identified joint-level errors", header]
@@ -291,8 +277,9 @@ def format_joint_groups(result: CalibrationResult) -> list[str]:
         row = f"  {i + 1:>5}"
         for table, table_sigma in tables:
             for value, deviation in zip(table[i], table_sigma[i], strict=True):
-                row += f"{value:>24.2f}" + (f"{deviation:>8.2f}" if np.isfinite(deviation)
-                                             else f"{'—':>8}")
+                row += number(value, JOINT_DECIMALS, width=24) + (
+                    number(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation)
+                    else f"{'—':>8}")
         lines.append(row)
     return lines
 
@@ -305,11 +292,11 @@ def format_choice(choice: ErrorChoice) -> str:
              f"  {'errors':<44}{'unknowns':>9}{'rank':>6}{'train RMSE':>12}"
              f"{'valid. RMSE':>13}{'BIC':>12}  [mm]"]
     for k, candidate in enumerate(choice.candidates):
-        train = float(m_to_mm(candidate.result.metrics["train"].rmse))
-        validation = float(m_to_mm(candidate.result.metrics["validation"].rmse))
+        train = mm(candidate.result.metrics["train"].rmse, width=12, unit=False)
+        validation = mm(candidate.result.metrics["validation"].rmse, width=13, unit=False)
         mark = "  <- chosen" if k == choice.chosen else ""
         lines.append(f"  {'+'.join(candidate.errors):<44}{candidate.unknowns:>9}"
-                     f"{candidate.rank:>6}{train:>12.4f}{validation:>13.4f}"
+                     f"{candidate.rank:>6}{train}{validation}"
                      f"{candidate.bic:>12.1f}{mark}")
     lines += [f"  skipped: {reason}" for reason in choice.skipped]
     lines += ["  rule: the lowest BIC = m ln(RSS/m) + k ln m (m training residuals, k the rank:",
@@ -325,13 +312,13 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         "  method      paper    RMSE     MAE*      std      MAX [mm]   time [s]   iter    evals"
         "  stopped by",
     ]
-    before = m_to_mm(list(first.metrics["before"]))
-    lines.append(f"  {'before':<10}  {'':<5}" + "".join(f"{v:>9.4f}" for v in before))
+    lines.append(f"  {'before':<10}  {'':<5}"
+                 + "".join(mm(v, width=9, unit=False) for v in first.metrics["before"]))
     for name, result in results.items():
-        v = m_to_mm(list(result.metrics["validation"]))
         alias = get_solver(name).alias.upper()
         lines.append(
-            f"  {name:<10}  {alias:<5}" + "".join(f"{x:>9.4f}" for x in v)
+            f"  {name:<10}  {alias:<5}"
+            + "".join(mm(v, width=9, unit=False) for v in result.metrics["validation"])
             + f"{result.solver.seconds:>11.3f}{result.solver.iterations:>7}"
             f"{result.solver.evaluations:>9}  {result.solver.stop_label}"
         )
@@ -340,7 +327,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         lines += _nominal_lines(first.identifiability, "lm-base holds them at their start "
                                 "values; for the others " + ARBITRARY)
     predicted = [
-        f"{name} {float(m_to_mm(result.uncertainty.flange_rms_m)):.4f}"
+        f"{name} {mm(result.uncertainty.flange_rms_m, unit=False)}"
         for name, result in results.items() if result.uncertainty is not None
     ]
     if predicted:
@@ -354,7 +341,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
                      "method for the likely causes")
     if first.loss.robust:
         lines.append(f"  rows rejected by the {first.loss.name} loss (scale "
-                     f"{float(m_to_mm(first.loss.scale_m)):.4g} mm): " + ", ".join(
+                     f"{mm(first.loss.scale_m, significant=SIGNIFICANT)}): " + ", ".join(
                          f"{name} {result.rejected_rows.size}" for name, result in results.items())
                      + " (the JSON lists them)")
     if first.gauge is not None and first.gauge.names:

@@ -17,10 +17,10 @@ from numpy.typing import NDArray
 from twin.arrays import Array
 from twin.errors import InputError
 from twin.io.measurements import load_plan
+from twin.report.display import AS_GIVEN, mm, mm_values
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.sim.mujoco_twin import Twin
-from twin.units import m_to_mm
 
 MAX_DRAWS_PER_POSE = 500
 """Give up when this many candidates per wanted pose were not enough."""
@@ -34,7 +34,7 @@ def violations(constraints: PoseConstraints, twin: Twin, q_rad: Array
     inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
     found = [
         ("outside the joint limits", ~np.all(inside, axis=1)),
-        (f"flange below {m_to_mm(constraints.min_flange_height_m):g} mm",
+        (f"flange below {mm(constraints.min_flange_height_m, significant=AS_GIVEN)}",
          flange[:, 2] < constraints.min_flange_height_m),
         ("links in collision", twin.in_collision(q_rad)),
     ]
@@ -45,8 +45,9 @@ def violations(constraints: PoseConstraints, twin: Twin, q_rad: Array
     length = np.linalg.norm(point - twin.port_m, axis=-1)
     return [
         *found[:2],
-        (f"cable length outside [{m_to_mm(constraints.cable_min_m):g}, "
-         f"{m_to_mm(constraints.cable_max_m):g}] mm",
+        ("cable length outside ["
+         + mm_values([constraints.cable_min_m, constraints.cable_max_m], significant=AS_GIVEN)
+         + "] mm",
          (length < constraints.cable_min_m) | (length > constraints.cable_max_m)),
         found[2],
         ("cable through a link", twin.cable_blocked(q_rad, constraints.cable_clearance_m)),
@@ -118,7 +119,7 @@ def feasible_sampler(robot: RobotModel, rng: np.random.Generator
         try:
             return sample_poses(Twin.build(robot, port_m), count, constraints, rng)
         except InputError as exc:
-            port = ",".join(f"{v:g}" for v in m_to_mm(port_m))
+            port = mm_values(port_m, significant=AS_GIVEN, separator=",")
             raise InputError(exc.found, exc.expected + " (or --joint-limits-only)",
                              source=f"--port {port}") from None
 

@@ -19,10 +19,10 @@ from twin.compensation.check import CompensationCheck, check_compensation
 from twin.compensation.joints import compensate_targets, solve_in_order
 from twin.compensation.targets import reachable_targets
 from twin.dataset import approach_directions
+from twin.report.display import mm
 from twin.scenario import Scenario
 from twin.sim.mujoco_twin import Twin
 from twin.sim.simulate import Simulation, simulate
-from twin.units import m_to_mm
 from twin.unknowns import Stage
 
 
@@ -61,8 +61,8 @@ def verify_compensation(scenario: Scenario, *, seed: int | None = None, method: 
     result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told_pulled, method=method,
                        settings=scenario.calibration, seed=sim.seed)
     validation = result.metrics["validation"]
-    progress(f"  {result.method}: validation RMSE {m_to_mm(validation.rmse):.4f} mm "
-             f"(before {m_to_mm(result.metrics['before'].rmse):.4f} mm)")
+    progress(f"  {result.method}: validation RMSE {mm(validation.rmse)} "
+             f"(before {mm(result.metrics['before'].rmse)})")
     twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors,
                       sim.rig.attachment_m)
     rng = np.random.default_rng(sim.seed)

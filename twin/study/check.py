@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, NamedTuple, TextIO
 
 from twin.errors import InputError
+from twin.report.display import percent
 from twin.study.baseline import (
     MIN_CHANGED,
     Comparison,
@@ -139,7 +140,7 @@ class CheckReport:
         lines = [f"baseline {self.baseline}: {n} paired trials, one-sided Wilcoxon signed-rank "
                  "test that this study is worse",
                  f"regression: p < {SIGNIFICANCE:g} and worse by more than "
-                 f"{100 * self.tolerance:g}% (median paired difference / the baseline's median)"]
+                 f"{percent(self.tolerance)} (median paired difference / the baseline's median)"]
         # Nothing changed is a definite answer; a few changes are not.
         few = [c for c in self.comparisons if 0 < c.changed < MIN_CHANGED]
         if few:
@@ -156,7 +157,7 @@ class CheckReport:
             rows.append(([c.case] if self.swept else []) + [
                 c.method, c.column, "lower" if c.lower_is_better else "higher",
                 f"{c.trials}" + (f" (+{c.nonfinite} non-finite)" if c.nonfinite else ""),
-                f"{c.changed}", f"{c.median_difference:+.4g}", f"{c.relative:+.1%}", p,
+                f"{c.changed}", f"{c.median_difference:+.4g}", percent(c.relative, 1, sign=True), p,
                 c.verdict.upper(), moved])
         lines += _table([*head, "method", "metric", "better", "pairs", "changed",
                          "median diff", "relative", "p", "verdict", "worse most"], rows)

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from twin.report.display import LENGTH_DECIMALS, number
 from twin.report.plots import pyplot, save_png
 
 FLOOR = 1e-4
@@ -49,7 +50,8 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
         axis.set_xticks(x, methods, rotation=30, ha="right")
         axis.set_title(label)
         if key != "seconds":
-            axis.set_title(f"{label}  (before: {table6['before'][key]['mean']:.3f})")
+            axis.set_title(f"{label}  (before: "
+                           f"{number(table6['before'][key]['mean'], LENGTH_DECIMALS)})")
         axis.grid(axis="y", alpha=0.3)
     figure.suptitle(title)
     figure.tight_layout()

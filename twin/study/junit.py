@@ -13,6 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from twin.io.atomic import write_atomic
+from twin.report.display import percent
 from twin.study.check import CheckReport, measured_text
 
 
@@ -44,7 +45,8 @@ def junit_xml(report: CheckReport) -> str:
             suite, "testcase", classname=f"{report.scenario}.{comparison.method}.baseline",
             name=f"{comparison.column} not worse than the baseline" + _suffix(comparison.case))
         summary = (f"median difference {comparison.median_difference:+.4g} "
-                   f"({comparison.relative:+.1%}) over {comparison.trials} paired trials, "
+                   f"({percent(comparison.relative, 1, sign=True)}) over {comparison.trials} "
+                   "paired trials, "
                    f"{comparison.changed} changed, p = "
                    + ("n/a" if comparison.p_value is None else f"{comparison.p_value:.3g}"))
         if comparison.verdict == "regression":

@@ -14,10 +14,10 @@ from numpy.typing import NDArray
 from twin.analysis.uncertainty import rms_distance
 from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
+from twin.report.display import POSITION_DECIMALS, mm
 from twin.report.text import describe_rig, format_comparison, format_result
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import m_to_mm
 
 NO_IDENTIFIABILITY = "Not computed for this run: the results carry no identifiability summary."
 
@@ -42,7 +42,7 @@ def flange_error_markdown(
     lines = ["| model | flange error vs truth, RMS [mm] |", "|---|---:|"]
     lines += [
         f"| {label} | "
-        f"{float(m_to_mm(rms_distance(robot.flange_positions(measurements.q_rad), true))):.4f} |"
+        f"{mm(rms_distance(robot.flange_positions(measurements.q_rad), true), unit=False)} |"
         for label, robot in rows
     ]
     return "\n".join(lines)
@@ -119,12 +119,12 @@ def scene_markdown(robot: RobotModel, measurements: Measurements, rig: Rig,
     parts = [f"# Measurements of {robot.name}",
              f"{len(measurements)} poses, {describe_rig(rig, measurements)}."]
     if measurements.kind == "length":
-        lengths = m_to_mm(measurements.lengths)
-        parts[-1] = parts[-1][:-1] + (f", cable lengths {lengths.min():.3f} … "
-                                      f"{lengths.max():.3f} mm.")
+        lengths = measurements.lengths
+        parts[-1] = parts[-1][:-1] + (
+            f", cable lengths {mm(lengths.min(), POSITION_DECIMALS, unit=False)} … "
+            f"{mm(lengths.max(), POSITION_DECIMALS)}.")
     if truth_delta is not None:
-        rms = float(m_to_mm(rms_distance(
-            robot.flange_positions(measurements.q_rad),
-            robot.perturbed(truth_delta).flange_positions(measurements.q_rad))))
-        parts.append(f"RMS flange offset of the true robot from the nominal: {rms:.4f} mm.")
+        rms = rms_distance(robot.flange_positions(measurements.q_rad),
+                           robot.perturbed(truth_delta).flange_positions(measurements.q_rad))
+        parts.append(f"RMS flange offset of the true robot from the nominal: {mm(rms)}.")
     return "\n\n".join(parts) + "\n"

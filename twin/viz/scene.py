@@ -15,9 +15,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.dataset import Measurements
 from twin.geometry.kinematics import frames
+from twin.report.display import POSITION_DECIMALS, mm, xyz_mm
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import m_to_mm
 from twin.viz import entities
 from twin.viz.writer import Writer
 
@@ -111,7 +111,7 @@ def log_port_and_cable(
             strips=strips.astype(np.float32),
             colors=_colors(CABLE_COLOR, poses.size),
             radii=np.full(poses.size, CABLE_RADIUS_UI, dtype=np.float32),
-            labels=[f"L = {v:.3f} mm" for v in m_to_mm(length_m)],
+            labels=[f"L = {mm(v, POSITION_DECIMALS)}" for v in np.ravel(length_m)],
         ),
     )
 
@@ -160,8 +160,7 @@ def log_measurement(writer: Writer, rig: Rig, measurements: Measurements,
         return
     if measurements.kind == "position":
         assert measurements.position_m is not None
-        labels = [f"({x:.3f}, {y:.3f}, {z:.3f}) mm" for x, y, z in
-                  m_to_mm(measurements.position_m)]
+        labels = [xyz_mm(position) for position in measurements.position_m]
     else:
         assert measurements.point is not None
         names = rig.point_names or measurements.point_names

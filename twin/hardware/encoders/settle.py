@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from twin.hardware.encoders.base import EncoderError, EncoderReadError
-from twin.units import m_to_mm, mm_to_m
+from twin.report.display import AS_GIVEN, mm, mm_values
+from twin.units import mm_to_m
 
 
 @dataclass(frozen=True)
@@ -105,10 +106,10 @@ def settle(
             if spread <= rule.tolerance_m:
                 return Settled(sum(window) / rule.k, spread, readings, failures)
         if clock() > deadline:
-            last = ", ".join(f"{value:.4f}" for value in m_to_mm(list(window)))
+            last = mm_values(list(window))
             raise SettleTimeoutError(
                 f"the length did not settle within {rule.timeout_s:g} s: the last readings "
-                f"[{last}] mm are not {rule.k} within {float(m_to_mm(rule.tolerance_m)):g} mm"
+                f"[{last}] mm are not {rule.k} within {mm(rule.tolerance_m, significant=AS_GIVEN)}"
             )
         if rule.interval_s:
             time.sleep(rule.interval_s)

@@ -1,0 +1,118 @@
+"""How every number a user reads is shown: lengths in mm, angles in degrees (joint-level errors
+in arc-seconds), compliances in µrad/(N·m), shares in percent.
+
+:mod:`twin.units` converts between SI and the units people read; this module turns an SI value
+into the text a report, a table, a prompt or a message shows, so that how a quantity reads is
+decided here and nowhere else. It imports only :mod:`twin.units`: every layer may show a number.
+
+The styles, by what a number is:
+
+- a measured length or error (an RMSE, a noise estimate, a σ): :data:`LENGTH_DECIMALS`, 0.1 µm
+  (``0.0093 mm``); an angle :data:`ANGLE_DECIMALS`;
+- a position (a port, a measured point, a cable length): :data:`POSITION_DECIMALS`, 1 µm
+  (``(600.000, -400.000, 100.000) mm``);
+- a figure whose size is not known beforehand (a misfit, a loss scale, a refit): ``significant=``
+  :data:`SIGNIFICANT` digits (``18.65 mm``);
+- a value echoed as the user gave it (a setting, a limit, a candidate port): ``significant=``
+  :data:`AS_GIVEN`, Python's ``g`` (``600``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.units import DISPLAY_UNITS, m_to_mm, rad_to_arcsec, rad_to_deg
+
+LENGTH_DECIMALS = 4
+"""A measured length or error, mm: 0.1 µm, ten times finer than a good encoder resolves."""
+POSITION_DECIMALS = 3
+"""A position or a cable length, mm: 1 µm, as robot files keep them."""
+ANGLE_DECIMALS = 4
+"""An angle, degrees: 1e-4 degree, 0.36 arc-second."""
+SIGMA_DECIMALS = 5
+"""A parameter's standard deviation, mm or degrees: three digits of a σ of some 0.002."""
+JOINT_DECIMALS = 2
+"""A joint-level error in arc-seconds or µrad/(N·m)."""
+SIGNIFICANT = 4
+"""Significant digits of a figure whose size is not known beforehand."""
+AS_GIVEN = 6
+"""Significant digits of a value echoed as given: Python's ``g``."""
+
+
+def number(value: float, decimals: int | None = None, *, significant: int | None = None,
+           width: int = 0, sign: bool = False) -> str:
+    """``value`` with ``decimals`` fixed decimals, or ``significant`` digits (``g``; the
+    default when neither is given, :data:`AS_GIVEN`), right-aligned in ``width`` characters,
+    with its sign always shown if ``sign``."""
+    kind = f".{decimals}f" if decimals is not None and significant is None \
+        else f".{AS_GIVEN if significant is None else significant}g"
+    return format(float(value), f">{'+' if sign else ''}{width or ''}{kind}")
+
+
+def mm(value_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
+       significant: int | None = None, width: int = 0, sign: bool = False,
+       unit: bool = True) -> str:
+    """A length given in m (a number or a 0-d array), in mm: ``0.0093 mm`` (without `` mm``
+    if not ``unit``, for a table whose header names it); ``decimals``, ``significant``,
+    ``width`` and ``sign`` as in :func:`number`."""
+    text = number(float(m_to_mm(value_m)), decimals, significant=significant, width=width,
+                  sign=sign)
+    return f"{text} mm" if unit else text
+
+
+def mm_values(values_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
+              significant: int | None = None, separator: str = ", ") -> str:
+    """Lengths given in m, in mm, joined by ``separator`` and without the unit:
+    ``600, -400, 100`` (``significant=AS_GIVEN``)."""
+    return separator.join(number(v, decimals, significant=significant)
+                          for v in np.ravel(m_to_mm(values_m)))
+
+
+def xyz_mm(values_m: ArrayLike, decimals: int = POSITION_DECIMALS) -> str:
+    """A position given in m, shape (3,), in mm: ``(600.000, -400.000, 100.000) mm``."""
+    return f"({mm_values(values_m, decimals)}) mm"
+
+
+def deg(value_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
+        significant: int | None = None, width: int = 0, unit: bool = True) -> str:
+    """An angle given in rad, in degrees: ``0.0123 deg`` (without `` deg`` if not ``unit``)."""
+    text = number(float(rad_to_deg(value_rad)), decimals, significant=significant,
+                  width=width)
+    return f"{text} deg" if unit else text
+
+
+def deg_values(values_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
+               separator: str = ", ") -> str:
+    """Angles given in rad, in degrees, joined by ``separator`` and without the unit."""
+    return separator.join(number(v, decimals) for v in np.ravel(rad_to_deg(values_rad)))
+
+
+def slot(value_si: float, is_length: bool, decimals: int | None = None, *,
+         width: int = 0) -> str:
+    """An entry of a D-H (or Hayati) table given in SI, in its row's unit without it: mm for
+    a length, degrees for an angle (``decimals``: :data:`LENGTH_DECIMALS`,
+    :data:`ANGLE_DECIMALS`)."""
+    if is_length:
+        return mm(value_si, LENGTH_DECIMALS if decimals is None else decimals, width=width,
+                  unit=False)
+    return deg(value_si, ANGLE_DECIMALS if decimals is None else decimals, width=width,
+               unit=False)
+
+
+def joint_level(values_si: ArrayLike, unit: str) -> tuple[NDArray[np.float64], str]:
+    """Joint-level values in the unit reports show them in, and its label: angles in
+    arc-seconds (what gear makers quote), the rest in the unit results use (µrad/(N·m) for
+    compliance, :data:`twin.units.DISPLAY_UNITS`); shown with :data:`JOINT_DECIMALS`."""
+    if unit == "rad":
+        return rad_to_arcsec(values_si), "arcsec"
+    label, factor, _ = DISPLAY_UNITS[unit]
+    return np.asarray(values_si, dtype=np.float64) * factor, label
+
+
+def percent(fraction: float, decimals: int | None = None, *, sign: bool = False) -> str:
+    """A share given as a fraction, in percent: ``95%`` with ``decimals`` (``+2.5%``), or
+    as given (``g``) without them."""
+    if decimals is None:
+        return f"{number(100 * fraction, sign=sign)}%"
+    return format(float(fraction), f"{'+' if sign else ''}.{decimals}%")
