@@ -21,8 +21,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 
-KINDS = ("length", "position", "point")
-"""Measurement kinds, by what a row holds."""
 MAX_POSES = 100_000
 """The most poses a plan, a scenario or a verification may ask for: a typo like 1e9 must be an
 error, not an exhausted memory."""

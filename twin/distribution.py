@@ -1,17 +1,30 @@
-"""The installed distribution: its name on the package index, its version and its extras.
+"""The installed distribution: its name on the package index, its version, its extras, and
+the one registry every family of plug-ins uses.
 
 The import name is ``twin``; the distribution is published as :data:`NAME`, because ``twin``
 is taken on PyPI. The core install (numpy, scipy, matplotlib) calibrates, identifies, plans,
 compensates and exports D-H tables; each adapter's library comes with an extra
 (:data:`EXTRAS`), and a command that needs a missing one says which to install.
+
+Each family (solvers, measurement kinds, unknown groups, encoders, robot sources, study
+executors, export formats) is a subpackage with one interface, one module per member and one
+:class:`Registry` of its members by name: the library looks members up there, the CLI lists
+them from there, and a new member is one module and one line in its family's registry. A member
+whose module needs an extra's library is registered :class:`Lazy` and imported when first
+asked for.
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Iterable, Iterator, Mapping
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _metadata_version
+from typing import NamedTuple, TypeVar
 
-from twin.errors import InputError
+from twin.errors import InputError, UnknownChoiceError
+
+Member = TypeVar("Member")
 
 NAME = "cabletwin"
 """The distribution's name on the package index (``pip install cabletwin``)."""
@@ -68,3 +81,77 @@ def missing_extra(exc: ImportError, *, source: str | None = None) -> MissingExtr
             return MissingExtraError(name.partition(".")[0], extra, source=source)
         error = error.__cause__ or error.__context__
     return None
+
+
+class Lazy(NamedTuple):
+    """A registry member imported when first asked for: ``"package.module:attribute"``."""
+
+    target: str
+
+
+class Registry(Mapping[str, Member]):
+    """The members of one plug-in family by name, in the order given (the order lists show and,
+    for unknown groups, the order x lays them out in).
+
+    A :class:`~collections.abc.Mapping`: ``registry[name]`` (a ``KeyError`` for an unknown
+    name, as any mapping), ``name in registry``, iteration over the names. :meth:`lookup` is
+    the user-facing way: it accepts aliases and raises :class:`~twin.errors.UnknownChoiceError`
+    listing the choices.
+
+    Args:
+        kind: What a member is, for messages (``method``, ``export format``).
+        members: Each member by name, or its :class:`Lazy` import path.
+        aliases: Other names of members (``{"m2": "lm"}``), shown beside them in
+            :meth:`choices`.
+        ignore_case: Whether :meth:`lookup` folds case (and strips blanks).
+    """
+
+    def __init__(self, kind: str, members: Mapping[str, Member | Lazy], *,
+                 aliases: Mapping[str, str] | None = None, ignore_case: bool = False) -> None:
+        self.kind = kind
+        self._members = dict(members)
+        self._aliases = dict(aliases or {})
+        unknown = set(self._aliases.values()) - set(self._members)
+        if unknown:
+            raise ValueError(f"{kind} aliases of no member: {sorted(unknown)}")
+        self.ignore_case = ignore_case
+
+    def __getitem__(self, name: str) -> Member:
+        member = self._members[name]
+        if isinstance(member, Lazy):
+            # An extra's missing library rises as ImportError, which the CLI turns into the
+            # extra to install (missing_extra), naming the command.
+            module, _, attribute = member.target.partition(":")
+            member = getattr(importlib.import_module(module), attribute)
+            self._members[name] = member
+        return member
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._members)
+
+    def __len__(self) -> int:
+        return len(self._members)
+
+    def choices(self) -> list[str]:
+        """``name (alias)`` (or ``name``) for every member, for help texts and messages."""
+        aliases = {name: alias for alias, name in self._aliases.items()}
+        return [f"{name} ({aliases[name]})" if name in aliases else name for name in self]
+
+    def lookup(self, name: str, *, source: str | None = None, also: Iterable[str] = ()
+               ) -> Member:
+        """The member called or aliased ``name``.
+
+        Args:
+            name: A member's name or alias.
+            source: The flag or file the name came from, for the message.
+            also: Further choices the caller accepts beside the members (``all``), listed.
+
+        Raises:
+            UnknownChoiceError: listing :meth:`choices` (and ``also``).
+            ImportError: for a lazy member whose extra is not installed.
+        """
+        key = name.strip().lower() if self.ignore_case else name
+        key = self._aliases.get(key, key)
+        if key not in self._members:
+            raise UnknownChoiceError(self.kind, name, [*self.choices(), *also], source=source)
+        return self[key]

@@ -13,7 +13,7 @@ from twin.calibration.split import required_poses, split_rows
 from twin.calibration.start import check_approach, match_ports, tracker_start, with_fixed_points
 from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.kinds import get_kind
+from twin.kinds import KINDS
 from twin.model import Model
 from twin.problem import Problem
 from twin.rig import Rig
@@ -33,13 +33,13 @@ def make_model(robot: RobotModel, rig: Rig, kind: str = "length",
     Args:
         robot: The nominal robot.
         rig: The nominal rig.
-        kind: The measurement kind (:data:`twin.dataset.KINDS`).
+        kind: The measurement kind (:data:`twin.kinds.KINDS`).
         settings: Which groups to identify.
 
     Fixed-point data always identify their fixed points (group ``points``).
     """
     names = [*settings.groups, *(["points"] if kind == "point" else [])]
-    return Model(robot, rig, get_kind(kind), make_groups(names, robot, rig))
+    return Model(robot, rig, KINDS.lookup(kind), make_groups(names, robot, rig))
 
 
 def cable_rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
@@ -54,7 +54,7 @@ def cable_rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
 
 def _check_unknowns(settings: CalibrationSettings, kind: str) -> None:
     """Refuse rig unknowns the measurement kind cannot have (a port of tracker data…)."""
-    groups = get_kind(kind).groups
+    groups = KINDS.lookup(kind).groups
     for name in settings.estimate:
         if name != "attachment" and name not in groups:
             raise InputError(f"{RIG_UNKNOWNS[name]} with {kind} measurements",

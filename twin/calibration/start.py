@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.rigid import kabsch
-from twin.kinds import get_kind
+from twin.kinds import KINDS
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -72,7 +72,7 @@ def with_fixed_points(robot: RobotModel, rig: Rig, measurements: Measurements) -
     names = measurements.point_names or tuple(
         f"point{j + 1}" for j in range(int(measurements.point.max()) + 1))
     nominal = Model(robot, replace(rig, point_names=(), points_m=np.zeros((0, 3)),
-                                   distances=()), get_kind("point"), ())
+                                   distances=()), KINDS.lookup("point"), ())
     positions = nominal.positions(np.zeros(0), measurements)
     counts = np.bincount(measurements.point, minlength=len(names))
     starts = np.stack([np.bincount(measurements.point, positions[:, k], minlength=len(names))

@@ -35,7 +35,7 @@ from twin.io.results import choice_to_dict, result_to_dict, write_json
 from twin.io.truth import load_truth_delta
 from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES
 from twin.report.text import format_choice, format_comparison, format_result
-from twin.solvers import SOLVERS, get_solver, solver_choices
+from twin.solvers import SOLVERS, get_solver
 from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.unknowns import ERRORS
 from twin.viz import add_rerun_flags, calibration_log
@@ -63,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "force; loads the joints for the compliance group); default: the capture's, else 0")
     parser.add_argument(
         "--method", default="lm",
-        help="method name or paper alias, or 'all': " + ", ".join(solver_choices()),
+        help="method name or paper alias, or 'all': " + ", ".join(SOLVERS.choices()),
     )
     add_seed(parser, "seed of the split and of the method", default=0)
     parser.add_argument("--estimate-offset", action="store_true",

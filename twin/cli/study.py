@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING
 
 from twin.cli.arguments import (
     add_output,
@@ -12,13 +11,11 @@ from twin.cli.arguments import (
     integer,
 )
 from twin.errors import InputError
-from twin.solvers import solver_choices
+from twin.solvers import SOLVERS
 from twin.stopping import PROTOCOLS
+from twin.study.executors import Executor, open_executor
 from twin.study.executors.cluster import reach_scheduler
 from twin.viz import add_rerun_flags, open_from_args
-
-if TYPE_CHECKING:
-    from twin.study.executors import Executor
 
 TRIAL_REPORT = "study/trial"
 """Rerun entity of each trial's table, on the ``case`` and ``trial`` timelines."""
@@ -40,7 +37,7 @@ def add_study_arguments(parser: argparse.ArgumentParser,
                         help="trials per case (default: [study] trials, else 10)")
     parser.add_argument("--methods", metavar="M1,M2,…|all",
                         help="comma-separated names or aliases, or 'all' (default: [study] "
-                        "methods, else all): " + ", ".join(solver_choices()))
+                        "methods, else all): " + ", ".join(SOLVERS.choices()))
     parser.add_argument("--stop", choices=PROTOCOLS,
                         help="stopping protocol of every method (default: the scenario's "
                         "[calibration] stop, else converge); part of the study's identity")
@@ -68,13 +65,7 @@ def executor_from_args(args: argparse.Namespace) -> Executor:
     an input error, raised before anything is written), else local processes."""
     if args.scheduler:
         reach_scheduler(args.scheduler)
-    if args.scheduler or args.workers:
-        from twin.study.executors.cluster import DaskCluster
-
-        return DaskCluster(args.scheduler, args.workers)
-    from twin.study.executors.local import LocalProcesses
-
-    return LocalProcesses()
+    return open_executor(args.scheduler, args.workers)
 
 
 NAME = "study"

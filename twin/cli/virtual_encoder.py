@@ -10,7 +10,7 @@ from twin.cli.arguments import (
     add_seed,
     integer,
 )
-from twin.hardware.encoders.url import PROTOCOLS
+from twin.hardware.encoders.url import ENCODERS
 
 URL_QUERY = {"ascii": "protocol=ascii", "modbus": "protocol=modbus&scale=0.001"}
 """What the driver needs besides the path: the Modbus device counts µm in registers 0–1."""
@@ -29,7 +29,7 @@ DESCRIPTION = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
     add_scenario(parser)
-    parser.add_argument("--protocol", choices=PROTOCOLS, default="ascii",
+    parser.add_argument("--protocol", choices=tuple(ENCODERS), default="ascii",
                         help="ASCII line protocol or Modbus RTU (default: ascii)")
     add_seed(parser, "seed of the truth and of the noise (default: the scenario's)")
     parser.add_argument("--pose-file", type=Path, metavar="FILE",

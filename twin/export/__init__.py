@@ -1,6 +1,7 @@
 """Export a robot model (typically the identified one) to the formats other tools read.
 
-Each format is a module here named after its ``--format`` value, with ``export(robot) -> str``
+Each format is a module here named after its ``--format`` value, with ``export(robot) -> str``,
+registered in :data:`FORMATS`
 (so ``export/urdf.py`` writes URDFs, :mod:`twin.io.urdf_reader` reads them); a format's heavy
 dependency (MuJoCo) is imported only when that format is asked for.
 
@@ -17,12 +18,17 @@ the
 
 from __future__ import annotations
 
-import importlib
+from collections.abc import Callable
 
-from twin.errors import UnknownChoiceError
+from twin.distribution import Lazy, Registry
 from twin.robot import RobotModel
 
-FORMATS = ("dh", "urdf", "yaml", "mjcf")
+Exporter = Callable[[RobotModel], str]
+
+FORMATS: Registry[Exporter] = Registry("export format", {
+    name: Lazy(f"twin.export.{name}:export") for name in ("dh", "urdf", "yaml", "mjcf")})
+"""Every format's ``export`` function, by ``--format`` name; each module is imported when its
+format is asked for."""
 
 
 def export_text(robot: RobotModel, format_name: str) -> str:
@@ -31,7 +37,4 @@ def export_text(robot: RobotModel, format_name: str) -> str:
     Raises:
         UnknownChoiceError: if the format is not one of :data:`FORMATS`.
     """
-    if format_name not in FORMATS:
-        raise UnknownChoiceError("export format", format_name, FORMATS, source="--format")
-    module = importlib.import_module(f"twin.export.{format_name}")
-    return str(module.export(robot))
+    return str(FORMATS.lookup(format_name, source="--format")(robot))

@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError, UnknownChoiceError
-from twin.hardware.encoders.url import PROTOCOLS
+from twin.hardware.encoders.url import ENCODERS
 from twin.hardware.robot_sources.sim import read_pose
 from twin.units import m_to_mm, mm_to_m
 
@@ -263,8 +263,8 @@ def serve(instrument: Instrument, protocol: str, *, slave_id: int = 1, garbage_e
         garbage_every: Corrupt every N-th answer (0: never).
         announce: Called with the host-side device path once the device answers.
     """
-    if protocol not in PROTOCOLS:
-        raise UnknownChoiceError("protocol", protocol, PROTOCOLS)
+    if protocol not in ENCODERS:
+        raise UnknownChoiceError("protocol", protocol, ENCODERS)
 
     def default_announce(path: str) -> None:
         print(path, flush=True)

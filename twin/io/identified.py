@@ -29,7 +29,7 @@ from twin.errors import InputError, UnknownChoiceError
 from twin.io.capture_file import parse_port_mm
 from twin.io.paths import read_json
 from twin.io.truth import parse_dh_rows
-from twin.kinds import get_kind
+from twin.kinds import KINDS
 from twin.model import Model
 from twin.rig import MAX_TENSION_N, Distance, Rig
 from twin.robot import RobotModel
@@ -351,7 +351,7 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
         raise InputError(f"{groups!r}", "a list of unknown group names", source=path,
                          where=f"{where}unknowns.groups")
     try:
-        model = Model(robot, rig, get_kind(str(unknowns.get("kind"))),
+        model = Model(robot, rig, KINDS.lookup(str(unknowns.get("kind"))),
                       make_groups(groups, robot, rig))
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=path,

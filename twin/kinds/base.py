@@ -43,7 +43,7 @@ class Kind(Protocol):
     """A measurement kind."""
 
     name: str
-    """``length``, ``position`` or ``point`` (:data:`twin.dataset.KINDS`)."""
+    """``length``, ``position`` or ``point`` (:data:`twin.kinds.KINDS`)."""
     rows_per_pose: int
     """Residual rows per pose: 1 for a length, 3 for a position."""
     groups: tuple[str, ...]

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twin.arrays import Array, frozen_array
-from twin.dataset import KINDS
+from twin.kinds import KINDS
 from twin.rig import Distance
 
 
@@ -30,7 +30,7 @@ class Instrument:
     """How the twin measures, beyond the paper's single cable (SI).
 
     Attributes:
-        kind: ``length``, ``position`` or ``point`` (:data:`twin.dataset.KINDS`).
+        kind: ``length``, ``position`` or ``point`` (:data:`twin.kinds.KINDS`).
         attachment_m: The true measured point in the flange frame, shape (3,), m.
         attachment_told_m: The attachment the calibration is told, shape (3,), m.
         station_names: Names of the encoder's stations (ports); empty: the scenario's one port.

@@ -103,12 +103,13 @@ from typing import Any
 import numpy as np
 
 from twin.arrays import Array
-from twin.dataset import KINDS, MAX_POSES
+from twin.dataset import MAX_POSES
 from twin.geometry.rigid import transform
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
+from twin.kinds import KINDS
 from twin.rig import MAX_TENSION_N
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
@@ -310,7 +311,7 @@ def _pose(values: Array) -> Array:
 def _instrument(tables: dict[str, Table]) -> Instrument:
     """The ``[cable]``, ``[measurement]``, ``[fixture]`` tables and ``[port.stations_mm]``."""
     measurement, cable, fixture = tables["measurement"], tables["cable"], tables["fixture"]
-    kind = measurement.text("kind", "length", choices=KINDS)
+    kind = measurement.text("kind", "length", choices=tuple(KINDS))
     if kind == "length":
         for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
             if measurement.has(key):

@@ -30,7 +30,7 @@ from twin.io.capture_file import write_capture
 from twin.io.measurements import write_measurements
 from twin.io.robot_file import robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
-from twin.kinds import get_kind
+from twin.kinds import KINDS
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -126,7 +126,7 @@ class Simulation:
         ``flange_shift_mm``: flange displacement by joint errors, jitter and sag.
         """
         data = self.measurements
-        kind = get_kind(data.kind)
+        kind = KINDS.lookup(data.kind)
         told = with_fixed_points(self.robot, self.rig_told, data) if data.kind == "point" \
             else self.rig_told
         nominal = Model(self.robot, told, kind, ())
@@ -273,7 +273,7 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
         q, point = touch_poses(true_robot, twins[0], rig.points_m, instrument.touches,
                                scenario.constraints, instrument.sigma_m, rng)
         rest = AtRest(q, np.full(len(q), np.nan), true_robot.flange_positions(q),
-                      Model(true_robot, rig, get_kind("point"), ()).positions(
+                      Model(true_robot, rig, KINDS.lookup("point"), ()).positions(
                           np.zeros(0), Measurements(q, point=point)))
         return _simulation(scenario, seed, true_robot, delta, joint_errors, 0.0, rest,
                            Measurements(q, point=point, point_names=rig.point_names),

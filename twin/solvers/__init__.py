@@ -1,12 +1,12 @@
 """Calibration methods behind one interface (:class:`~twin.solvers.base.Solver`).
 
-Each method lives in its own module and exports ``SOLVER``; this registry resolves a CLI name or
-the paper's alias (``m1``…``m9``).
+Each method lives in its own module and exports ``SOLVER``; the registry (:data:`SOLVERS`, a
+:class:`twin.distribution.Registry`) resolves a CLI name or the paper's alias (``m1``…``m9``).
 """
 
 from __future__ import annotations
 
-from twin.errors import UnknownChoiceError
+from twin.distribution import Registry
 from twin.solvers import (
     amlm,
     amlm_bipso,
@@ -21,40 +21,22 @@ from twin.solvers import (
 )
 from twin.solvers.base import IterationRecord, Solver, SolverResult, Tracker
 
-SOLVERS: dict[str, Solver] = {
-    solver.name: solver
-    for solver in (
-        ekf.SOLVER,
-        lm.SOLVER,
-        pso.SOLVER,
-        ukf_vslm.SOLVER,
-        ekf_qibas.SOLVER,
-        ekf_qpso.SOLVER,
-        amlm.SOLVER,
-        bipso.SOLVER,
-        amlm_bipso.SOLVER,
-        lm_base.SOLVER,
-    )
-}
-"""Every method, by name, in the paper's order, then the methods beyond the paper."""
-
-
-def solver_choices() -> list[str]:
-    """``name (alias)`` for every method, for help texts and error messages."""
-    return [f"{s.name} ({s.alias})" if s.alias else s.name for s in SOLVERS.values()]
+_SOLVERS = (ekf.SOLVER, lm.SOLVER, pso.SOLVER, ukf_vslm.SOLVER, ekf_qibas.SOLVER, ekf_qpso.SOLVER,
+            amlm.SOLVER, bipso.SOLVER, amlm_bipso.SOLVER, lm_base.SOLVER)
+SOLVERS: Registry[Solver] = Registry(
+    "method", {solver.name: solver for solver in _SOLVERS},
+    aliases={solver.alias: solver.name for solver in _SOLVERS if solver.alias}, ignore_case=True)
+"""Every method, by name (or the paper's alias, case-insensitive), in the paper's order, then
+the methods beyond the paper."""
 
 
 def get_solver(name: str) -> Solver:
-    """The method called ``name`` or aliased ``name`` (case-insensitive).
+    """The method called or aliased ``name`` (case-insensitive).
 
     Raises:
         UnknownChoiceError: listing the valid names and aliases.
     """
-    key = name.strip().lower()
-    for solver in SOLVERS.values():
-        if key in (solver.name, solver.alias):
-            return solver
-    raise UnknownChoiceError("method", name, [*solver_choices(), "all"])
+    return SOLVERS.lookup(name, also=["all"])
 
 
 __all__ = [
@@ -64,5 +46,4 @@ __all__ = [
     "SolverResult",
     "Tracker",
     "get_solver",
-    "solver_choices",
 ]

@@ -33,7 +33,7 @@ from twin.study.baseline import (
     require_methods,
 )
 from twin.study.definition import StudyPlan, load_study
-from twin.study.executors import Executor
+from twin.study.executors import Executor, open_executor
 from twin.study.expect import Expectation, measure, parse_expect_table, read_expect_file
 from twin.study.rows import TrialRow
 from twin.study.runner import run_trials, write_report
@@ -274,9 +274,7 @@ def check(
         paired = paired_keys(seeds, base_rows, baseline)
         require_methods(metrics_of(pairs), base_rows, baseline)
     if executor is None:
-        from twin.study.executors.local import LocalProcesses
-
-        executor = LocalProcesses()
+        executor = open_executor()
     store = run_trials(plan, out, executor, stream=stream)
     write_report(plan, store, figures=figures)
     rows = store.rows(plan.keys)

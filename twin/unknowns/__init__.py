@@ -1,14 +1,16 @@
 """Unknown groups behind one interface (:class:`~twin.unknowns.base.Group`), one module each.
 
 A calibration chooses its groups by name (``--errors``, ``errors = [...]``, the estimate flags);
-this registry resolves the names. New groups plug in here and in nothing else of the core.
+the registry (:data:`GROUPS`, a :class:`twin.distribution.Registry` of each group's factory)
+resolves the names. New groups plug in here and in nothing else of the core.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from twin.errors import InputError, UnknownChoiceError
+from twin.distribution import Registry
+from twin.errors import InputError
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import (
@@ -27,7 +29,7 @@ from twin.unknowns.base import Group, Stage
 
 Factory = Callable[[RobotModel, Rig], Group]
 
-GROUPS: dict[str, Factory] = {
+GROUPS: Registry[Factory] = Registry("error group", {
     "dh": dh.make,
     "transmission": transmission.make,
     "backlash": backlash.make,
@@ -38,7 +40,7 @@ GROUPS: dict[str, Factory] = {
     "attachment": attachment.make,
     "base": tracker.make,
     "points": points.make,
-}
+})
 """Every unknown group, by name, in the order x lays them out."""
 ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")
 """The robot's error groups, which a calibration chooses (``--errors``, ``[calibration] errors``);
@@ -83,8 +85,7 @@ def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
         InputError: for compliance and link_compliance together (the second holds the first).
     """
     for name in names:
-        if name not in GROUPS:
-            raise UnknownChoiceError("error group", name, GROUPS)
+        GROUPS.lookup(name)
     if "compliance" in names and "link_compliance" in names:
         raise InputError("compliance with link_compliance", "one of them: link_compliance "
                          "holds each joint's compliance, link by link")

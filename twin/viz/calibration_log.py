@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
 from twin.io.results import MM2_PER_M2
-from twin.kinds import get_kind
+from twin.kinds import KINDS
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -189,7 +189,8 @@ class CalibrationLog:
         self.truth_delta = truth_delta
         self.rig = rig
         self.sources = len(self.methods) + (truth_delta is not None)
-        nominal = Model(robot, rig, get_kind(measurements.kind), make_groups(["dh"], robot, rig))
+        nominal = Model(robot, rig, KINDS.lookup(measurements.kind),
+                        make_groups(["dh"], robot, rig))
         writer.stream.send_blueprint(calibration_blueprint(
             self.methods, truth_delta is not None, bar_keys(robot.is_length)))
         writer.once(entities.WORLD, rr.ViewCoordinates.RIGHT_HAND_Z_UP)

@@ -1,4 +1,5 @@
-"""Drawstring-encoder drivers behind one interface (:class:`~twin.hardware.encoders.base.Encoder`).
+"""Drawstring-encoder drivers behind one interface (:class:`~twin.hardware.encoders.base.Encoder`),
+registered by protocol in :data:`ENCODERS`.
 
 An adapter: pyserial and minimalmodbus are imported by the drivers, when :func:`open_encoder`
 opens one.
@@ -12,9 +13,10 @@ from twin.hardware.encoders.base import (
     EncoderError,
     EncoderReadError,
 )
-from twin.hardware.encoders.url import EncoderConfig, load_device, parse_url, resolve
+from twin.hardware.encoders.url import ENCODERS, EncoderConfig, load_device, parse_url, resolve
 
 __all__ = [
+    "ENCODERS",
     "Encoder",
     "EncoderConfig",
     "EncoderDisconnectedError",
@@ -33,10 +35,4 @@ def open_encoder(config: EncoderConfig) -> Encoder:
     Raises:
         EncoderDisconnectedError: if the device is absent.
     """
-    if config.protocol == "modbus":
-        from twin.hardware.encoders.modbus import ModbusEncoder
-
-        return ModbusEncoder(config)
-    from twin.hardware.encoders.ascii import AsciiEncoder
-
-    return AsciiEncoder(config)
+    return ENCODERS.lookup(config.protocol)(config)

@@ -23,15 +23,25 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qsl, quote, urlsplit
 
+from twin.distribution import Lazy, Registry
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.units import LENGTH_FACTORS
 
-PROTOCOLS = ("ascii", "modbus")
+if TYPE_CHECKING:
+    from twin.hardware.encoders.base import Encoder
+
+ENCODERS: Registry[type[Encoder]] = Registry("protocol", {
+    "ascii": Lazy("twin.hardware.encoders.ascii:AsciiEncoder"),
+    "modbus": Lazy("twin.hardware.encoders.modbus:ModbusEncoder"),
+})
+"""Every driver, by the ``protocol`` key that selects it; a driver's module (and pyserial,
+minimalmodbus) is imported when it is opened. Here, beside the key, because the driver
+interface (:mod:`twin.hardware.encoders.base`) takes the configuration this module parses."""
 PARITIES = ("N", "E", "O", "M", "S")
 WORD_ORDERS = ("big", "little")
 """Modbus 32-bit word order: ``big`` high word first (ABCD), ``little`` low word first (CDAB)."""
@@ -104,7 +114,7 @@ class EncoderConfig:
         for key, ok, expected in checks:
             if not ok:
                 raise InputError(f"{getattr(self, key)!r}", expected, where=key)
-        for key, choices in (("protocol", PROTOCOLS), ("parity", PARITIES),
+        for key, choices in (("protocol", tuple(ENCODERS)), ("parity", PARITIES),
                              ("function", FUNCTIONS), ("word_order", WORD_ORDERS),
                              ("type", VALUE_TYPES), ("unit", tuple(LENGTH_FACTORS))):
             if getattr(self, key) not in choices:
