@@ -23,7 +23,7 @@ from twin.hardware.capture_session import HEADER, format_row, journal
 from twin.hardware.encoders import open_encoder, parse_url
 from twin.hardware.encoders.settle import SettleRule, settle
 from twin.hardware.robot_sources.sim import publish_pose
-from twin.hardware.virtual_encoder import Instrument, serve
+from twin.hardware.virtual_encoder import MeasuringHead, serve
 from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
 from twin.units import deg_to_rad, mm_to_m
@@ -36,7 +36,7 @@ PORT_M = mm_to_m([600.0, -400.0, 100.0])
 
 def start_device(protocol: str, pose_file: Path) -> str:
     robot = default_robot()
-    instrument = Instrument(lambda q, _from: cable_length(robot.structure, robot.dh, q, PORT_M),
+    instrument = MeasuringHead(lambda q, _from: cable_length(robot.structure, robot.dh, q, PORT_M),
                             lambda length_m, _rng: length_m, 6, pose_file, seed=0)
     paths: queue.Queue[str] = queue.Queue()
     threading.Thread(target=serve, args=(instrument, protocol), daemon=True,

@@ -31,7 +31,7 @@ from twin.hardware.encoders import (
 )
 from twin.hardware.encoders.settle import SettleRule, SettleTimeoutError, settle
 from twin.hardware.robot_sources.sim import publish_pose
-from twin.hardware.virtual_encoder import TRANSIENT_M, Instrument, serve
+from twin.hardware.virtual_encoder import TRANSIENT_M, MeasuringHead, serve
 from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
 from twin.units import deg_to_rad, m_to_mm, mm_to_m
@@ -49,7 +49,7 @@ def expected_m(j: int) -> float:
 
 def start_device(protocol: str, pose_file: Path, garbage_every: int = 0) -> str:
     """Serve an exact virtual encoder on a new pty in a daemon thread; its host path."""
-    instrument = Instrument(lambda q, _from: cable_length(ROBOT.structure, ROBOT.dh, q, PORT_M),
+    instrument = MeasuringHead(lambda q, _from: cable_length(ROBOT.structure, ROBOT.dh, q, PORT_M),
                             lambda length_m, _rng: length_m, 6, pose_file, seed=0)
     paths: queue.Queue[str] = queue.Queue()
     threading.Thread(target=serve, args=(instrument, protocol), daemon=True,

@@ -21,7 +21,7 @@ from twin.solvers import SOLVERS, get_solver
 from twin.solvers.base import Solver
 from twin.study.executors import EXECUTORS
 from twin.unknowns import GROUPS
-from twin.unknowns.base import Group
+from twin.unknowns.group import Group
 
 
 def test_lookup_takes_names_and_aliases_and_lists_the_choices() -> None:

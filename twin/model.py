@@ -32,7 +32,7 @@ from twin.kinds import Kind
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
-from twin.unknowns.base import cached
+from twin.unknowns.group import cached
 
 NULL_RTOL = 1e-8
 """Singular values of the column-scaled Jacobian below this fraction of the largest make an

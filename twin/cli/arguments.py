@@ -199,7 +199,7 @@ def robot_from_flags(args: argparse.Namespace) -> RobotModel:
     return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link)
 
 
-AUTO = "auto"
+AUTO_ERRORS = "auto"
 """The ``--errors`` value that lets the data choose the error groups
 (:mod:`twin.calibration.selection`)."""
 
@@ -210,13 +210,13 @@ def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:
     from twin.errors import InputError
     from twin.unknowns import ERRORS, check_errors
 
-    choices = ",".join(ERRORS) + (f" (any of them, comma-separated) or {AUTO}" if auto
+    choices = ",".join(ERRORS) + (f" (any of them, comma-separated) or {AUTO_ERRORS}" if auto
                                   else " (any of them, comma-separated)")
 
     def parse(text: str) -> tuple[str, ...]:
         names = [name.strip().lower() for name in text.split(",")]
-        if auto and names == [AUTO]:
-            return (AUTO,)
+        if auto and names == [AUTO_ERRORS]:
+            return (AUTO_ERRORS,)
         if any(name not in ERRORS for name in names):
             raise argparse.ArgumentTypeError(f"found {text!r}, expected {choices}")
         try:

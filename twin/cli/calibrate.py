@@ -14,7 +14,7 @@ from twin.calibration.diagnosis import likely_causes
 from twin.calibration.pipeline import solve_many
 from twin.calibration.selection import choose_errors, warn_weak_data
 from twin.cli.arguments import (
-    AUTO,
+    AUTO_ERRORS,
     add_output,
     add_seed,
     integer,
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     everything = args.method.strip().lower() == "all"
     methods = list(SOLVERS) if everything else [get_solver(args.method).name]
     measurements = load_measurements(measurements_path, robot, stdin=True)
-    if args.errors == (AUTO,):
+    if args.errors == (AUTO_ERRORS,):
         if everything:
             raise InputError("--errors auto with --method all", "one method to compare the "
                              "error models with", source="--errors")

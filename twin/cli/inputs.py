@@ -19,7 +19,7 @@ from twin.calibration.accuracy import TruthErrors, workspace_truth_errors
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.setup import make_problem
 from twin.cli.arguments import (
-    AUTO,
+    AUTO_ERRORS,
     add_cable_tension,
     add_error_groups,
     add_input,
@@ -149,7 +149,7 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
     sigma, repeatability = getattr(args, "sigma", None), getattr(args, "repeatability", None)
     scale = getattr(args, "loss_scale", None)
     changes = {
-        "errors": base.errors if errors in (None, (AUTO,)) else errors,
+        "errors": base.errors if errors in (None, (AUTO_ERRORS,)) else errors,
         "estimate": tuple(estimate),
         "sigma_m": reading_sigma(float(mm_to_m(sigma)) if sigma else instrument_sigma_m,
                                  repeatability_m if repeatability is None

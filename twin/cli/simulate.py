@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     import numpy as np
 
-    from twin.report.display import LENGTH_DECIMALS, number, xyz_mm
+    from twin.report.display import LENGTH_DECIMALS, plain, xyz_mm
     from twin.scenario import load_scenario
     from twin.sim import simulate, write_simulation
 
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     effects = sim.effects  # in mm, as truth.json keeps them
     print(f"{scenario.name}: {len(sim.measurements)} poses, seed {sim.seed}, "
           f"{'compliant' if not scenario.physics.rigid else 'rigid'} joints")
-    shown = {key: f"{number(value, LENGTH_DECIMALS)} mm" for key, value in effects.items()}
+    shown = {key: f"{plain(value, LENGTH_DECIMALS)} mm" for key, value in effects.items()}
     print(f"  nominal model vs readings: RMSE {shown['nominal_rmse_mm']}")
     readings = "lengths" if sim.measurements.kind == "length" else "readings"
     print(f"  non-geometric share of the {readings}: RMS {shown['non_geometric_mm']}; "

@@ -143,7 +143,7 @@ def score_poses(
     )
 
 
-class PosePlan(NamedTuple):
+class PoseDesign(NamedTuple):
     """A D-optimal plan drawn from candidate poses."""
 
     q_rad: Array
@@ -156,7 +156,7 @@ class PosePlan(NamedTuple):
 
 def plan_poses(
     model: Model, x: ArrayLike, candidates_rad: ArrayLike, n_poses: int
-) -> PosePlan:
+) -> PoseDesign:
     """The D-optimal ``n_poses`` among candidate poses for fitting ``model`` near ``x``.
 
     Args:
@@ -168,10 +168,10 @@ def plan_poses(
     candidates = np.asarray(candidates_rad, dtype=np.float64)
     rows, mask = base_rows(model, x, candidates)
     selection = d_optimal_rows(rows, n_poses)
-    return PosePlan(q_rad=candidates[selection.rows], selection=selection, base_mask=mask)
+    return PoseDesign(q_rad=candidates[selection.rows], selection=selection, base_mask=mask)
 
 
-class StationPlan(NamedTuple):
+class StationDesign(NamedTuple):
     """A D-optimal plan of poses and the station (port) each is measured from."""
 
     q_rad: Array
@@ -185,7 +185,7 @@ class StationPlan(NamedTuple):
 
 
 def plan_stations(model: Model, x: ArrayLike, candidates_rad: ArrayLike, n_poses: int
-                  ) -> StationPlan:
+                  ) -> StationDesign:
     """The D-optimal ``n_poses`` (pose, station) pairs for a rig of several ports measured
     together: every candidate pose of every station is one candidate row, and the greedy and
     exchange steps choose among all of them at once, so stations and poses are chosen together.
@@ -204,7 +204,7 @@ def plan_stations(model: Model, x: ArrayLike, candidates_rad: ArrayLike, n_poses
     jacobian = model.jacobian(np.asarray(x, dtype=np.float64), model.poses(q_all, port))[1]
     mask = identifiability(jacobian, model.names).base_mask
     selection = d_optimal_rows(jacobian[:, mask], n_poses)
-    return StationPlan(q_all[selection.rows], port[selection.rows], selection, mask)
+    return StationDesign(q_all[selection.rows], port[selection.rows], selection, mask)
 
 
 class PortChoice(NamedTuple):
@@ -214,7 +214,7 @@ class PortChoice(NamedTuple):
     """Index of the chosen port."""
     flange_rms_m: Array
     """Predicted workspace RMS flange error of each port's plan, shape (K,), m."""
-    plans: tuple[PosePlan, ...]
+    plans: tuple[PoseDesign, ...]
     """Each port's D-optimal plan."""
 
 

@@ -54,9 +54,9 @@ from twin.geometry.kinematics import PARAMETRISATIONS, Structure, flange_transfo
 
 PARALLEL_THRESHOLD_DEG = 10.0
 """Consecutive axes closer than this to parallel (or antiparallel) get a Hayati joint."""
-AUTO = "auto"
+AUTO_PARAMETRISATION = "auto"
 """The parametrisation request that lets :func:`choose` decide per joint."""
-REQUESTS = (*PARAMETRISATIONS, AUTO)
+REQUESTS = (*PARAMETRISATIONS, AUTO_PARAMETRISATION)
 """A whole-chain request: one parametrisation for every joint, or ``auto``."""
 PARALLEL_EPS = 1e-12
 """|sin| of the angle between two axes below which they count as exactly parallel (the common
@@ -153,7 +153,7 @@ def resolve(request: str | Sequence[str], fixed: ArrayLike) -> tuple[str, ...]:
         if request not in REQUESTS:
             raise ValueError(f"parametrisation {request!r}: expected one of "
                              + ", ".join(REQUESTS) + " or a list of one per joint")
-        kinds = choose(fixed) if request == AUTO else (request,) * n
+        kinds = choose(fixed) if request == AUTO_PARAMETRISATION else (request,) * n
     else:
         kinds = tuple(request)
         if len(kinds) != n or any(kind not in PARAMETRISATIONS for kind in kinds):
@@ -300,7 +300,8 @@ def _table_mdh(joints: Array, flange: Array) -> tuple[Array, Array]:
     return table, start
 
 
-def convert(fixed: ArrayLike, request: str | Sequence[str] = AUTO) -> tuple[Structure, Array]:
+def convert(fixed: ArrayLike, request: str | Sequence[str] = AUTO_PARAMETRISATION
+            ) -> tuple[Structure, Array]:
     """The chain as a structure and table with the same forward kinematics.
 
     Args:

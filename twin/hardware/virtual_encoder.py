@@ -63,7 +63,7 @@ MICROMETRE_M = float(mm_to_m(1e-3))
 """One count of the Modbus integer registers, m."""
 
 
-class Instrument:
+class MeasuringHead:
     """The encoder's measuring head: the reading at the robot's current commanded pose.
 
     Args:
@@ -103,7 +103,7 @@ class Instrument:
 
 
 def scenario_instrument(scenario_path: str | Path, pose_file: str | Path,
-                        seed: int | None = None) -> Instrument:
+                        seed: int | None = None) -> MeasuringHead:
     """The encoder of a scenario: the twin of its true robot, its encoder noise and seed.
 
     The truth (D-H errors, port, joint-error phases) is :func:`twin.sim.simulate`'s for the same
@@ -130,7 +130,7 @@ def scenario_instrument(scenario_path: str | Path, pose_file: str | Path,
     def read(length_m: float, rng: np.random.Generator) -> float:
         return float(scenario.noise.read(np.array([length_m]), rng).length_m[0])
 
-    return Instrument(lengths_m, read, sim.robot.n_joints, pose_file, sim.seed)
+    return MeasuringHead(lengths_m, read, sim.robot.n_joints, pose_file, sim.seed)
 
 
 def _open_pty() -> tuple[int, int, str]:
@@ -155,7 +155,7 @@ class _Every:
 class _AsciiDevice:
     """Answers ASCII queries arriving on a pty master."""
 
-    def __init__(self, instrument: Instrument, master: int, garbage_every: int) -> None:
+    def __init__(self, instrument: MeasuringHead, master: int, garbage_every: int) -> None:
         self.instrument, self.master = instrument, master
         self.corrupt = _Every(garbage_every)
         self.buffer = b""
@@ -200,7 +200,7 @@ def _registers(length_m: float) -> list[int]:
     return [high, low, low, high, bits >> 16, bits & 0xFFFF]
 
 
-async def _serve_modbus(instrument: Instrument, host_master: int, slave_id: int,
+async def _serve_modbus(instrument: MeasuringHead, host_master: int, slave_id: int,
                         garbage_every: int) -> Any:
     from pymodbus import FramerType
     from pymodbus.server import ModbusSerialServer
@@ -236,7 +236,7 @@ async def _serve_modbus(instrument: Instrument, host_master: int, slave_id: int,
     return server
 
 
-async def _serve(instrument: Instrument, protocol: str, slave_id: int, garbage_every: int,
+async def _serve(instrument: MeasuringHead, protocol: str, slave_id: int, garbage_every: int,
                  announce: Callable[[str], None]) -> None:
     master, _slave, path = _open_pty()
     # Keeping our own slave fd open means the master never reads EIO between two captures.
@@ -252,7 +252,7 @@ async def _serve(instrument: Instrument, protocol: str, slave_id: int, garbage_e
         await server.shutdown()
 
 
-def serve(instrument: Instrument, protocol: str, *, slave_id: int = 1, garbage_every: int = 0,
+def serve(instrument: MeasuringHead, protocol: str, *, slave_id: int = 1, garbage_every: int = 0,
           announce: Callable[[str], None] | None = None) -> None:
     """Serve the instrument on a new pseudo-terminal until the process is stopped.
 

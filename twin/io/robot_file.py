@@ -68,7 +68,7 @@ from twin.geometry.kinematics import (
     rigid_transform,
     xyz_rpy,
 )
-from twin.geometry.parametrisation import AUTO, REQUESTS, check_mix, convert
+from twin.geometry.parametrisation import AUTO_PARAMETRISATION, REQUESTS, check_mix, convert
 from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.io.urdf_reader import load_urdf
@@ -94,7 +94,7 @@ def _urdf_reference(document: dict[str, Any], source: str | Path) -> RobotModel:
     links = {key: doc.text(key) if doc.has(key) else None for key in ("base_link", "tip_link")}
     robot = load_urdf(Path(source).parent / doc.text("urdf"), base_link=links["base_link"],
                       tip_link=links["tip_link"],
-                      parametrisation=parametrisation_request(doc, AUTO))
+                      parametrisation=parametrisation_request(doc, AUTO_PARAMETRISATION))
     return replace(robot, name=doc.text("name")) if doc.has("name") else robot
 
 
@@ -211,7 +211,7 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
                         "one per joint")
     # "auto" rows are standard D-H: the geometry the conversion starts from.
     kinds = request if isinstance(request, tuple) else \
-        ("dh",) * n if request == AUTO else (request,) * n
+        ("dh",) * n if request == AUTO_PARAMETRISATION else (request,) * n
     to_m, to_rad = LENGTH_FACTORS[length_unit], ANGLE_FACTORS[angle_unit]
     # key: (factor to SI, largest magnitude in SI, unit as written, smallest value in SI)
     per_unit = {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
@@ -268,8 +268,8 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     try:
         structure = Structure(kinds, base=_end_transform(doc, "base", to_m, to_rad, units),
                               tool=_end_transform(doc, "tool", to_m, to_rad, units))
-        if request == AUTO:
-            structure, table = convert(fixed_transforms(structure, table), AUTO)
+        if request == AUTO_PARAMETRISATION:
+            structure, table = convert(fixed_transforms(structure, table), AUTO_PARAMETRISATION)
         else:
             check_mix(kinds)
     except ValueError as exc:

@@ -38,7 +38,7 @@ import numpy as np
 from twin.arrays import Array
 from twin.errors import InputError
 from twin.geometry.kinematics import fixed_transforms
-from twin.geometry.parametrisation import AUTO, convert, joint_frames
+from twin.geometry.parametrisation import AUTO_PARAMETRISATION, convert, joint_frames
 from twin.io.paths import read_text
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
 
@@ -213,7 +213,7 @@ def frame_offsets(urdf_frames: Array, table_frames: Array) -> Array:
 
 
 def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None,
-              parametrisation: str | Sequence[str] = AUTO) -> RobotModel:
+              parametrisation: str | Sequence[str] = AUTO_PARAMETRISATION) -> RobotModel:
     """The serial chain of a URDF as a robot, in the parametrisation asked for.
 
     Args:

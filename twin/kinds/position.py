@@ -3,7 +3,7 @@
 For pose i with the measured point at p_i in the base frame, three rows
 ``r_i = R_c (R_0 p_i + t_0) + t_c − y_i``: ``(R_0, t_0)`` the rig's
 :attr:`~twin.rig.Rig.base_in_tracker`, ``(R_c, t_c)`` the correction of group ``base``
-(:mod:`twin.unknowns.base`; none without it), y_i the tracker's reading.
+(:mod:`twin.unknowns.tracker`; none without it), y_i the tracker's reading.
 """
 
 from __future__ import annotations

@@ -40,8 +40,8 @@ AS_GIVEN = 6
 """Significant digits of a value echoed as given: Python's ``g``."""
 
 
-def number(value: float, decimals: int | None = None, *, significant: int | None = None,
-           width: int = 0, sign: bool = False) -> str:
+def plain(value: float, decimals: int | None = None, *, significant: int | None = None,
+          width: int = 0, sign: bool = False) -> str:
     """``value`` with ``decimals`` fixed decimals, or ``significant`` digits (``g``; the
     default when neither is given, :data:`AS_GIVEN`), right-aligned in ``width`` characters,
     with its sign always shown if ``sign``."""
@@ -55,8 +55,8 @@ def mm(value_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
        unit: bool = True) -> str:
     """A length given in m (a number or a 0-d array), in mm: ``0.0093 mm`` (without `` mm``
     if not ``unit``, for a table whose header names it); ``decimals``, ``significant``,
-    ``width`` and ``sign`` as in :func:`number`."""
-    text = number(float(m_to_mm(value_m)), decimals, significant=significant, width=width,
+    ``width`` and ``sign`` as in :func:`plain`."""
+    text = plain(float(m_to_mm(value_m)), decimals, significant=significant, width=width,
                   sign=sign)
     return f"{text} mm" if unit else text
 
@@ -65,7 +65,7 @@ def mm_values(values_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
               significant: int | None = None, separator: str = ", ") -> str:
     """Lengths given in m, in mm, joined by ``separator`` and without the unit:
     ``600, -400, 100`` (``significant=AS_GIVEN``)."""
-    return separator.join(number(v, decimals, significant=significant)
+    return separator.join(plain(v, decimals, significant=significant)
                           for v in np.ravel(m_to_mm(values_m)))
 
 
@@ -77,7 +77,7 @@ def xyz_mm(values_m: ArrayLike, decimals: int = POSITION_DECIMALS) -> str:
 def deg(value_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
         significant: int | None = None, width: int = 0, unit: bool = True) -> str:
     """An angle given in rad, in degrees: ``0.0123 deg`` (without `` deg`` if not ``unit``)."""
-    text = number(float(rad_to_deg(value_rad)), decimals, significant=significant,
+    text = plain(float(rad_to_deg(value_rad)), decimals, significant=significant,
                   width=width)
     return f"{text} deg" if unit else text
 
@@ -85,7 +85,7 @@ def deg(value_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
 def deg_values(values_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
                separator: str = ", ") -> str:
     """Angles given in rad, in degrees, joined by ``separator`` and without the unit."""
-    return separator.join(number(v, decimals) for v in np.ravel(rad_to_deg(values_rad)))
+    return separator.join(plain(v, decimals) for v in np.ravel(rad_to_deg(values_rad)))
 
 
 def slot(value_si: float, is_length: bool, decimals: int | None = None, *,
@@ -114,5 +114,5 @@ def percent(fraction: float, decimals: int | None = None, *, sign: bool = False)
     """A share given as a fraction, in percent: ``95%`` with ``decimals`` (``+2.5%``), or
     as given (``g``) without them."""
     if decimals is None:
-        return f"{number(100 * fraction, sign=sign)}%"
+        return f"{plain(100 * fraction, sign=sign)}%"
     return format(float(fraction), f"{'+' if sign else ''}.{decimals}%")

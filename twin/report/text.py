@@ -24,7 +24,7 @@ from twin.report.display import (
     deg_values,
     joint_level,
     mm,
-    number,
+    plain,
     slot,
     xyz_mm,
 )
@@ -277,8 +277,8 @@ def format_joint_groups(result: CalibrationResult) -> list[str]:
         row = f"  {i + 1:>5}"
         for table, table_sigma in tables:
             for value, deviation in zip(table[i], table_sigma[i], strict=True):
-                row += number(value, JOINT_DECIMALS, width=24) + (
-                    number(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation)
+                row += plain(value, JOINT_DECIMALS, width=24) + (
+                    plain(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation)
                     else f"{'—':>8}")
         lines.append(row)
     return lines

@@ -56,7 +56,7 @@ class Outcome(NamedTuple):
     """False if it returns its start unchanged (a search that found nothing better)."""
 
 
-class Stage(NamedTuple):
+class StageResult(NamedTuple):
     """One stage of a method: a single-stage method has one, a cascade two."""
 
     method: str
@@ -81,7 +81,7 @@ class SolverResult(NamedTuple):
     """Why the (last stage of the) method stopped."""
     converged: bool
     """True if x is a point where a convergence test (ftol, xtol, gtol) fired."""
-    stages: tuple[Stage, ...]
+    stages: tuple[StageResult, ...]
     """Each stage's name, iterations and stop reason, in order."""
     history: tuple[IterationRecord, ...]
 
@@ -185,10 +185,10 @@ class Tracker:
 
     def finish(self, outcome: Outcome) -> SolverResult:
         """The result of a single-stage method, with the wall time since the tracker was made."""
-        return self.finish_stages(outcome, [Stage(self.method, self.iterations, outcome.reason)],
-                                  converged=outcome.reason.converged)
+        stage = StageResult(self.method, self.iterations, outcome.reason)
+        return self.finish_stages(outcome, [stage], converged=outcome.reason.converged)
 
-    def finish_stages(self, outcome: Outcome, stages: list[Stage], converged: bool
+    def finish_stages(self, outcome: Outcome, stages: list[StageResult], converged: bool
                       ) -> SolverResult:
         """The result of a method whose stages are given, with the wall time so far (the
         history's validation RMSEs included)."""

@@ -20,7 +20,7 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.problem import Problem
-from twin.solvers.base import Outcome, SolverResult, Stage, Tracker
+from twin.solvers.base import Outcome, SolverResult, StageResult, Tracker
 from twin.stopping import Budget
 
 StageFunction = Callable[[Tracker, Array, Budget, np.random.Generator], Outcome]
@@ -40,9 +40,9 @@ def run_cascade(
     stage_budget = budget.stage()
     stages = []
     first_outcome = first[1](tracker, problem.x0, stage_budget, rng)
-    stages.append(Stage(first[0], tracker.iterations, first_outcome.reason))
+    stages.append(StageResult(first[0], tracker.iterations, first_outcome.reason))
     done = tracker.iterations
     outcome = second[1](tracker, first_outcome.x, stage_budget, rng)
-    stages.append(Stage(second[0], tracker.iterations - done, outcome.reason))
+    stages.append(StageResult(second[0], tracker.iterations - done, outcome.reason))
     converged = outcome.reason.converged or (not outcome.moved and first_outcome.reason.converged)
     return tracker.finish_stages(outcome, stages, converged)

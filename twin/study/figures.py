@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from twin.report.display import LENGTH_DECIMALS, number
+from twin.report.display import LENGTH_DECIMALS, plain
 from twin.report.plots import pyplot, save_png
 
 FLOOR = 1e-4
@@ -51,7 +51,7 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
         axis.set_title(label)
         if key != "seconds":
             axis.set_title(f"{label}  (before: "
-                           f"{number(table6['before'][key]['mean'], LENGTH_DECIMALS)})")
+                           f"{plain(table6['before'][key]['mean'], LENGTH_DECIMALS)})")
         axis.grid(axis="y", alpha=0.3)
     figure.suptitle(title)
     figure.tight_layout()

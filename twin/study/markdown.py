@@ -6,18 +6,18 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from twin.report.display import LENGTH_DECIMALS, number, percent
+from twin.report.display import LENGTH_DECIMALS, percent, plain
 from twin.study.rows import TrialRow
 from twin.study.statistics import PAPER_TABLE6
 
 
 def _pm(stats: Mapping[str, float], decimals: int = LENGTH_DECIMALS) -> str:
-    return f"{number(stats['mean'], decimals)} ± {number(stats['std'], decimals)}"
+    return f"{plain(stats['mean'], decimals)} ± {plain(stats['std'], decimals)}"
 
 
 def _paper(method_alias: str, key: str) -> str:
     value = PAPER_TABLE6.get(method_alias, {}).get(key)
-    return "" if value is None else number(value)
+    return "" if value is None else plain(value)
 
 
 def _reasons(counts: Mapping[str, int]) -> str:
@@ -60,7 +60,7 @@ def _case_markdown(case: Mapping[str, Any]) -> list[str]:
         for method, test in t7["tests"].items():
             statistic = "" if test["statistic"] is None else f"{test['statistic']:g}"
             lines.append(f"| {method} | {test['alias'].upper()} | {test['n']} | "
-                         f"{number(test['median_difference_mm'], LENGTH_DECIMALS, sign=True)} | "
+                         f"{plain(test['median_difference_mm'], LENGTH_DECIMALS, sign=True)} | "
                          f"{statistic} | "
                          f"{test['p_value']:.4g} | {test['verdict']} |")
         lines.append("")
@@ -69,7 +69,7 @@ def _case_markdown(case: Mapping[str, Any]) -> list[str]:
               "ratio (median) |", "|---|---|---|---|---|---|"]
     for method, row in truth.items():
         lines.append(f"| {method} | {row['alias'].upper()} | {_pm(row['flange_error'])} | "
-                     f"{number(row['crlb']['mean'], LENGTH_DECIMALS)} | "
+                     f"{plain(row['crlb']['mean'], LENGTH_DECIMALS)} | "
                      f"{row['crlb_ratio']['mean']:.2f} | "
                      f"{row['crlb_ratio']['median']:.2f} |")
     best = case["best"]
@@ -85,8 +85,8 @@ def trial_markdown(case: str, trial: int, rows: Sequence[TrialRow]) -> str:
              "| method | validation RMSE [mm] | flange error [mm] | bound ratio | iterations | "
              "time [s] |", "|---|---|---|---|---|---|"]
     for row in rows:
-        lines.append(f"| {row.method} | {number(row.validation_rmse_mm, LENGTH_DECIMALS)} | "
-                     f"{number(row.flange_error_mm, LENGTH_DECIMALS)} | {row.crlb_ratio:.2f} | "
+        lines.append(f"| {row.method} | {plain(row.validation_rmse_mm, LENGTH_DECIMALS)} | "
+                     f"{plain(row.flange_error_mm, LENGTH_DECIMALS)} | {row.crlb_ratio:.2f} | "
                      f"{row.iterations} | {row.seconds:.3f} |")
     return "\n".join(lines) + "\n"
 

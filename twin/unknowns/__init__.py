@@ -1,4 +1,4 @@
-"""Unknown groups behind one interface (:class:`~twin.unknowns.base.Group`), one module each.
+"""Unknown groups behind one interface (:class:`~twin.unknowns.group.Group`), one module each.
 
 A calibration chooses its groups by name (``--errors``, ``errors = [...]``, the estimate flags);
 the registry (:data:`GROUPS`, a :class:`twin.distribution.Registry` of each group's factory)
@@ -25,7 +25,7 @@ from twin.unknowns import (
     tracker,
     transmission,
 )
-from twin.unknowns.base import Group, Stage
+from twin.unknowns.group import Group, Stage
 
 Factory = Callable[[RobotModel, Rig], Group]
 

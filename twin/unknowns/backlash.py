@@ -24,7 +24,7 @@ from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import deg_to_rad
-from twin.unknowns.base import Array, Group, Stage, cached
+from twin.unknowns.group import Array, Group, Stage, cached
 
 BOUND_RAD = float(deg_to_rad(0.5))
 """Search bound on each joint's backlash."""

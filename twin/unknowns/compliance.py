@@ -29,7 +29,7 @@ from twin.geometry.statics import joint_torques
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import COMPLIANCE_UNIT
-from twin.unknowns.base import Array, Group, Stage, cached
+from twin.unknowns.group import Array, Group, Stage, cached
 
 LOWER = -1e-5
 """Lower search bound of a compliance, rad/(N·m)."""

@@ -12,7 +12,7 @@ import numpy as np
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import deg_to_rad, mm_to_m
-from twin.unknowns.base import Group, Stage
+from twin.unknowns.group import Group, Stage
 
 BOUND_M = float(mm_to_m(5.0))
 """Search bound on a length error (paper: ±5 mm)."""

@@ -36,8 +36,8 @@ from twin.geometry.statics import joint_torques, link_torques
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import COMPLIANCE_UNIT
-from twin.unknowns.base import Array, Group, Stage, cached
 from twin.unknowns.compliance import RADIUS, cable_forces, require_inertia
+from twin.unknowns.group import Array, Group, Stage, cached
 
 LOWER = -1e-4
 """Lower search bound of a coefficient, rad/(N·m)."""

@@ -14,7 +14,7 @@ import numpy as np
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import mm_to_m
-from twin.unknowns.base import Group, Stage
+from twin.unknowns.group import Group, Stage
 
 BOUND_M = float(mm_to_m(100.0))
 """Search bound on a fixed point's correction."""
