@@ -98,36 +98,9 @@ def read_columns(
         stdin: Whether ``-`` means standard input.
         journal: The command's own resumable file (see :func:`twin.io.paths.read_bytes`).
     """
-    text = read_text(path, what, stdin=stdin, journal=journal)
-    for number, line in enumerate(io.StringIO(text), start=1):
-        # Before the csv module, whose field limit would otherwise raise its own error.
-        if len(line.rstrip("\r\n")) > MAX_LINE_CHARS:
-            raise InputError(f"a line of {len(line.rstrip())} characters",
-                             f"{what} with lines of at most {MAX_LINE_CHARS}", source=path,
-                             where=f"line {number}")
-    expected_header = "a header " + ",".join(columns)
-    rows = [
-        (number, fields)
-        for number, fields in enumerate(csv.reader(io.StringIO(text)), start=1)
-        if fields and any(f.strip() for f in fields) and not fields[0].lstrip().startswith("#")
-    ]
-    if not rows:
-        raise InputError("an empty file", f"{expected_header} and one row per pose", source=path)
-    header_line, header = rows[0]
-    header = [name.strip() for name in header]
-    missing = [name for name in columns if name not in header]
-    if missing:
-        raise InputError(
-            f"columns {','.join(header)} (no {','.join(missing)})", expected_header,
-            source=path, where=f"line {header_line}",
-        )
-    duplicated = sorted({name for name in (*columns, *optional, *labels)
-                         if header.count(name) > 1})
-    if duplicated:
-        raise InputError(f"column {duplicated[0]!r} twice", "each column once",
-                         source=path, where=f"line {header_line}")
-    if len(rows) == 1:
-        raise InputError("a header and no data rows", "one row per pose", source=path)
+    rows = _data_rows(read_text(path, what, stdin=stdin, journal=journal), path, what)
+    header = _header(rows, columns, (*optional, *labels), path)
+    header_line = rows[0][0]
     numeric = (*columns, *(name for name in optional if name in header))
     named = tuple(name for name in labels if name in header)
     values = np.empty((len(rows) - 1, len(numeric)))
@@ -140,16 +113,8 @@ def read_columns(
                 source=path, where=f"line {number}",
             )
         for col, name in enumerate(numeric):
-            text_value = fields[header.index(name)].strip()
-            try:
-                value = float(text_value)
-            except ValueError:
-                raise InputError(f"{text_value!r}", "a number", source=path,
-                                 where=f"line {number}, column {name}") from None
-            if not math.isfinite(value):
-                raise InputError(f"{text_value!r}", "a finite number", source=path,
-                                 where=f"line {number}, column {name}")
-            values[row, col] = value
+            values[row, col] = _cell(fields[header.index(name)].strip(), path,
+                                       f"line {number}, column {name}")
         for name in named:
             label = fields[header.index(name)].strip()
             if not label or len(label) > MAX_LABEL_CHARS:
@@ -160,6 +125,56 @@ def read_columns(
     count = len(columns)
     extra = {name: values[:, count + k] for k, name in enumerate(numeric[count:])}
     return Columns(values[:, :count], extra, texts, lines, tuple(header), header_line)
+
+
+def _data_rows(text: str, path: str | Path, what: str) -> list[tuple[int, list[str]]]:
+    """The CSV rows of ``text`` that are neither blank nor comments, with their line
+    numbers; lines no longer than :data:`~twin.io.paths.MAX_LINE_CHARS`."""
+    for number, line in enumerate(io.StringIO(text), start=1):
+        # Before the csv module, whose field limit would otherwise raise its own error.
+        if len(line.rstrip("\r\n")) > MAX_LINE_CHARS:
+            raise InputError(f"a line of {len(line.rstrip())} characters",
+                             f"{what} with lines of at most {MAX_LINE_CHARS}", source=path,
+                             where=f"line {number}")
+    return [
+        (number, fields)
+        for number, fields in enumerate(csv.reader(io.StringIO(text)), start=1)
+        if fields and any(f.strip() for f in fields) and not fields[0].lstrip().startswith("#")
+    ]
+
+
+def _header(rows: list[tuple[int, list[str]]], columns: tuple[str, ...],
+            others: tuple[str, ...], path: str | Path) -> list[str]:
+    """The header's names (the first row): every required column, each column once, and at
+    least one data row after it."""
+    expected_header = "a header " + ",".join(columns)
+    if not rows:
+        raise InputError("an empty file", f"{expected_header} and one row per pose", source=path)
+    header_line, header = rows[0][0], [name.strip() for name in rows[0][1]]
+    missing = [name for name in columns if name not in header]
+    if missing:
+        raise InputError(
+            f"columns {','.join(header)} (no {','.join(missing)})", expected_header,
+            source=path, where=f"line {header_line}",
+        )
+    duplicated = sorted({name for name in (*columns, *others) if header.count(name) > 1})
+    if duplicated:
+        raise InputError(f"column {duplicated[0]!r} twice", "each column once",
+                         source=path, where=f"line {header_line}")
+    if len(rows) == 1:
+        raise InputError("a header and no data rows", "one row per pose", source=path)
+    return header
+
+
+def _cell(text: str, path: str | Path, where: str) -> float:
+    """A numeric cell: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{text!r}", "a number", source=path, where=where) from None
+    if not math.isfinite(value):
+        raise InputError(f"{text!r}", "a finite number", source=path, where=where)
+    return value
 
 
 def read_table(

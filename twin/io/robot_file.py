@@ -53,7 +53,7 @@ import tomllib
 from dataclasses import replace
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -186,6 +186,44 @@ def _end_transform(doc: Table, key: str, to_m: float, to_rad: float,
     return rigid_transform(parts[0], parts[1])
 
 
+class _Units(NamedTuple):
+    """A model file's units as written (``length_unit``, ``angle_unit``)."""
+
+    length: str
+    angle: str
+
+    @property
+    def to_m(self) -> float:
+        """Metres per length unit."""
+        return LENGTH_FACTORS[self.length]
+
+    @property
+    def to_rad(self) -> float:
+        """Radians per angle unit."""
+        return ANGLE_FACTORS[self.angle]
+
+    def limits(self) -> dict[str, tuple[float, float, str, float | None]]:
+        """Each per-joint key beside the table's: (factor to SI, largest magnitude in SI, unit
+        as written, smallest value in SI or None for ±largest)."""
+        return {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
+                "radius": (self.to_m, MAX_LENGTH_M, self.length, 0.0),
+                "velocity": (self.to_rad, MAX_VELOCITY_RAD_S, f"{self.angle}/s", 0.0),
+                "effort": (1.0, MAX_EFFORT_NM, "N·m", 0.0),
+                "lower": (self.to_rad, MAX_ANGLE_RAD, self.angle, None),
+                "upper": (self.to_rad, MAX_ANGLE_RAD, self.angle, None)}
+
+
+class _Joint(NamedTuple):
+    """One joint table of a model file, in SI."""
+
+    slots: NDArray[np.float64]
+    """Its column of the parameter table, shape (4,), m and rad."""
+    values: dict[str, float]
+    """Its limits and the optional keys given (mass, radius, velocity, effort)."""
+    com_m: NDArray[np.float64] | None
+    """Its centre of mass, shape (3,), m, if given."""
+
+
 def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     """Validate a parsed model document and build the robot from it.
 
@@ -197,9 +235,29 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
                          "load_robot reads the files that name a URDF)", source=source)
     doc = Table(document, source, allowed=_TOP_KEYS, kind="or a 'urdf' reference")
     name = doc.text("name")
-    length_unit = doc.text("length_unit", choices=tuple(LENGTH_FACTORS))
-    angle_unit = doc.text("angle_unit", choices=tuple(ANGLE_FACTORS))
+    units = _Units(doc.text("length_unit", choices=tuple(LENGTH_FACTORS)),
+                   doc.text("angle_unit", choices=tuple(ANGLE_FACTORS)))
     request = parametrisation_request(doc, "dh")
+    joints, kinds = _joint_kinds(doc, request)
+    read = [_joint(values, index, kind, source, units)
+            for index, (values, kind) in enumerate(zip(joints, kinds, strict=True))]
+    optional = _optional_columns(doc, read)
+    structure, table = _structure(doc, kinds, request, np.stack([j.slots for j in read], axis=1),
+                                  units)
+    return RobotModel(
+        name=name, dh=table, structure=structure,
+        lower_rad=np.array([j.values["lower"] for j in read]),
+        upper_rad=np.array([j.values["upper"] for j in read]),
+        mass_kg=optional["mass"], radius_m=optional["radius"],
+        velocity_rad_s=optional["velocity"], effort_nm=optional["effort"],
+        com_m=optional[_COM_KEY],
+    )
+
+
+def _joint_kinds(doc: Table, request: str | tuple[str, ...]
+                 ) -> tuple[list[Any], tuple[str, ...]]:
+    """The ``joints`` list and each joint's parametrisation (``auto`` rows are standard D-H:
+    the geometry the conversion starts from)."""
     joints = doc.required("joints", f"a list of {MIN_JOINTS} to {MAX_JOINTS} joint tables")
     if not isinstance(joints, list) or not MIN_JOINTS <= len(joints) <= MAX_JOINTS:
         count = len(joints) if isinstance(joints, list) else type(joints).__name__
@@ -209,79 +267,87 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
     if isinstance(request, tuple) and len(request) != n:
         raise doc.error("parametrisation", f"{len(request)} parametrisations for {n} joints",
                         "one per joint")
-    # "auto" rows are standard D-H: the geometry the conversion starts from.
     kinds = request if isinstance(request, tuple) else \
         ("dh",) * n if request == AUTO_PARAMETRISATION else (request,) * n
-    to_m, to_rad = LENGTH_FACTORS[length_unit], ANGLE_FACTORS[angle_unit]
-    # key: (factor to SI, largest magnitude in SI, unit as written, smallest value in SI)
-    per_unit = {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
-                "radius": (to_m, MAX_LENGTH_M, length_unit, 0.0),
-                "velocity": (to_rad, MAX_VELOCITY_RAD_S, f"{angle_unit}/s", 0.0),
-                "effort": (1.0, MAX_EFFORT_NM, "N·m", 0.0),
-                "lower": (to_rad, MAX_ANGLE_RAD, angle_unit, None),
-                "upper": (to_rad, MAX_ANGLE_RAD, angle_unit, None)}
-    table = np.zeros((4, n))
-    columns: dict[str, list[float]] = {key: [] for key in per_unit}
-    coms: list[NDArray[np.float64]] = []
-    for index, (values, kind) in enumerate(zip(joints, kinds, strict=True)):
-        slots = SLOT_NAMES[kind]
-        joint = Table(values, source, f"joint {index + 1}",
-                      allowed=(*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY),
-                      kind=f"a {kind} joint")
-        if joint.has(_COM_KEY):
-            largest = MAX_LENGTH_M / to_m
-            coms.append(joint.vector(_COM_KEY, 3, within=largest, expected=(
-                f"[x, y, z]: three numbers in {length_unit}, each within ±{largest:g}")) * to_m)
-        for slot, (key, is_length) in enumerate(zip(slots, SLOT_IS_LENGTH[kind], strict=True)):
-            factor, largest = (to_m, MAX_LENGTH_M) if is_length else (to_rad, MAX_ANGLE_RAD)
-            unit = length_unit if is_length else angle_unit
+    return joints, kinds
+
+
+def _joint(values: Any, index: int, kind: str, source: str | Path, units: _Units) -> _Joint:
+    """Joint ``index`` (0-based) of ``kind``: its centre of mass, its table slots, its limits
+    and optional keys, in that order of checking."""
+    slots = SLOT_NAMES[kind]
+    joint = Table(values, source, f"joint {index + 1}",
+                  allowed=(*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY),
+                  kind=f"a {kind} joint")
+    com_m = None
+    if joint.has(_COM_KEY):
+        largest = MAX_LENGTH_M / units.to_m
+        com_m = joint.vector(_COM_KEY, 3, within=largest, expected=(
+            f"[x, y, z]: three numbers in {units.length}, each within ±{largest:g}")) * units.to_m
+    column = np.zeros(4)
+    for slot, (key, is_length) in enumerate(zip(slots, SLOT_IS_LENGTH[kind], strict=True)):
+        factor, largest = (units.to_m, MAX_LENGTH_M) if is_length \
+            else (units.to_rad, MAX_ANGLE_RAD)
+        unit = units.length if is_length else units.angle
+        joint.required(key, _within(unit, largest / factor))
+        column[slot] = joint.number(key, minimum=-largest / factor, maximum=largest / factor,
+                                    expected=_within(unit, largest / factor)) * factor
+    given = {}
+    for key, (factor, largest, unit, smallest) in units.limits().items():
+        if key in _LIMIT_KEYS:
             joint.required(key, _within(unit, largest / factor))
-            table[slot, index] = joint.number(key, minimum=-largest / factor,
-                                              maximum=largest / factor,
-                                              expected=_within(unit, largest / factor)) * factor
-        for key, (factor, largest, unit, smallest) in per_unit.items():
-            if key in _LIMIT_KEYS:
-                joint.required(key, _within(unit, largest / factor))
-            if joint.has(key):
-                expected = _within(unit, largest / factor) if smallest is None \
-                    else f"a number from 0 to {largest / factor:g} {unit}"
-                columns[key].append(joint.number(
-                    key, minimum=-largest / factor if smallest is None else smallest,
-                    maximum=largest / factor, expected=expected) * factor)
-        if columns["lower"][-1] >= columns["upper"][-1]:
-            raise joint.error("lower", f"{values['lower']} >= upper = {values['upper']}",
-                              "lower < upper")
+        if joint.has(key):
+            expected = _within(unit, largest / factor) if smallest is None \
+                else f"a number from 0 to {largest / factor:g} {unit}"
+            given[key] = joint.number(
+                key, minimum=-largest / factor if smallest is None else smallest,
+                maximum=largest / factor, expected=expected) * factor
+    if given["lower"] >= given["upper"]:
+        raise joint.error("lower", f"{values['lower']} >= upper = {values['upper']}",
+                          "lower < upper")
+    return _Joint(column, given, com_m)
+
+
+def _optional_columns(doc: Table, joints: list[_Joint]
+                      ) -> dict[str, NDArray[np.float64] | None]:
+    """Each optional key (and ``com``) over the joints, or None: on every joint or on none,
+    and a centre of mass only with masses."""
+    n = len(joints)
     optional: dict[str, NDArray[np.float64] | None] = {}
     for key in _OPTIONAL_JOINT_KEYS:
-        given = len(columns[key])
-        if given not in (0, n):
-            raise doc.error("joints", f"{key!r} on {given} of {n} joints",
+        column = [j.values[key] for j in joints if key in j.values]
+        if len(column) not in (0, n):
+            raise doc.error("joints", f"{key!r} on {len(column)} of {n} joints",
                             f"{key!r} on every joint or on none")
-        optional[key] = np.array(columns[key]) if given else None
+        optional[key] = np.array(column) if column else None
+    coms = [j.com_m for j in joints if j.com_m is not None]
     if len(coms) not in (0, n):
         raise doc.error("joints", f"{_COM_KEY!r} on {len(coms)} of {n} joints",
                         f"{_COM_KEY!r} on every joint or on none")
     if coms and optional["mass"] is None:
         raise doc.error("joints", f"{_COM_KEY!r} without 'mass'",
                         "a 'mass' beside every centre of mass")
-    units = (length_unit, angle_unit)
+    optional[_COM_KEY] = np.array(coms) if coms else None
+    return optional
+
+
+def _structure(doc: Table, kinds: tuple[str, ...], request: str | tuple[str, ...],
+               table: NDArray[np.float64], units: _Units
+               ) -> tuple[Structure, NDArray[np.float64]]:
+    """The chain with the file's ``base`` and ``tool``, and its table; an ``auto`` request
+    converted to the parametrisation each joint needs."""
+    names = (units.length, units.angle)
     try:
-        structure = Structure(kinds, base=_end_transform(doc, "base", to_m, to_rad, units),
-                              tool=_end_transform(doc, "tool", to_m, to_rad, units))
+        structure = Structure(
+            kinds, base=_end_transform(doc, "base", units.to_m, units.to_rad, names),
+            tool=_end_transform(doc, "tool", units.to_m, units.to_rad, names))
         if request == AUTO_PARAMETRISATION:
-            structure, table = convert(fixed_transforms(structure, table), AUTO_PARAMETRISATION)
-        else:
-            check_mix(kinds)
+            return convert(fixed_transforms(structure, table), AUTO_PARAMETRISATION)
+        check_mix(kinds)
     except ValueError as exc:
         raise doc.error("parametrisation", str(exc),
                         "a chain the parametrisation can hold") from None
-    return RobotModel(
-        name=name, dh=table, structure=structure,
-        lower_rad=np.array(columns["lower"]), upper_rad=np.array(columns["upper"]),
-        mass_kg=optional["mass"], radius_m=optional["radius"],
-        velocity_rad_s=optional["velocity"], effort_nm=optional["effort"],
-        com_m=np.array(coms) if coms else None,
-    )
+    return structure, table
 
 
 def default_robot() -> RobotModel:

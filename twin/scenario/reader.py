@@ -111,6 +111,7 @@ from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
 from twin.kinds import KINDS
 from twin.rig import MAX_TENSION_N
+from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
 from twin.scenario.instrument import Instrument
@@ -147,46 +148,87 @@ POSE = "[x, y, z, rx, ry, rz] in mm and degrees"
 def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     """Validate a parsed scenario document (paths are relative to ``source``'s folder).
 
+    Each table has its own reader below, called in the order the errors are reported.
+
     Raises:
         InputError: naming the key that is wrong.
     """
     top = Table(document, source, allowed=_TOP)
     tables = {name: top.table(name, allowed=keys) for name, keys in _TABLES.items()}
     name = top.text("name") if top.has("name") else top.required("name", "a scenario name")
-    folder = source.parent
+    robot = _robot(top, source.parent)
+    if not top.has("seed"):
+        top.required("seed", "an integer seed")
+    passed_through = {key: dict(top.table(key, expected="a table (read by twin.study)").values)
+                      for key in ("study", "expect")}
+    instrument = _instrument(tables)
+    port_m, port_told_m, port_error_m = _port(tables["port"], instrument)
+    perturbation = _perturbation(tables["perturbation"], robot)
+    plan, count = _poses(tables["poses"], instrument, source.parent)
+    cable_range = _cable_range(tables["encoder"])
+    joint_errors, draw_phases = _joint_errors(tables["joints"], robot.n_joints)
+    physics = _physics(tables["physics"], robot)
+    scenario = Scenario(
+        name=name,
+        description=top.text("description", ""),
+        seed=top.integer("seed", minimum=0),
+        robot=robot,
+        port_m=port_m,
+        port_told_m=port_told_m,
+        port_error_m=port_error_m,
+        perturbation=perturbation,
+        pose_count=count,
+        pose_plan=plan,
+        constraints=_constraints(tables["poses"], cable_range),
+        noise=_noise(tables["encoder"], tables["joints"]),
+        joint_errors=joint_errors,
+        draw_phases=draw_phases,
+        physics=physics,
+        study=passed_through["study"],
+        expect=passed_through["expect"],
+        source=source,
+        instrument=instrument,
+    )
+    return replace(scenario, calibration=parse_calibration(tables["calibration"],
+                                                           scenario.reading_sigma_m))
+
+
+def _robot(top: Table, folder: Path) -> RobotModel:
+    """``robot`` (a model file or URDF beside the scenario; the IRB 120 without it) and, for a
+    URDF, ``robot_base_link`` and ``robot_tip_link``."""
     links = {key: top.text(f"robot_{key}") if top.has(f"robot_{key}") else None
              for key in ("base_link", "tip_link")}
     if not top.has("robot") and any(links.values()):
         raise top.error("robot_base_link", "robot_base_link or robot_tip_link without robot",
                         "robot = \"arm.urdf\" beside them")
-    robot = load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
-                                  **links)
+    return load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
+                                 **links)
+
+
+def _port(port: Table, instrument: Instrument) -> tuple[Array | None, Array | None, float]:
+    """``[port]``: the true port, the one told (or the error to draw it with), m; none but
+    for cable lengths."""
+    if instrument.kind != "length":
+        if port.values:
+            raise port.error(sorted(port.values)[0], f"a port with {instrument.kind} "
+                             "measurements", "no [port] table (only cable lengths have ports)")
+        return None, None, 0.0
+    if not instrument.station_names:
+        port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
+        port_m = mm_to_m(port.vector("position_mm", 3))
+    else:
+        port_m = instrument.stations_m[0]
+    if port.has("told_mm") and port.has("told_error_mm"):
+        raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
+    if port.has("told_mm") and instrument.station_names:
+        raise port.error("told_mm", "told_mm with stations", "told_error_mm for every station")
+    told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
+    return port_m, told_m, float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
+
+
+def _perturbation(pert: Table, robot: RobotModel) -> Perturbation:
+    """``[perturbation]``: the distribution and each table entry's scale."""
     n = robot.n_joints
-    if not top.has("seed"):
-        top.required("seed", "an integer seed")
-    passed_through = {key: dict(top.table(key, expected="a table (read by twin.study)").values)
-                      for key in ("study", "expect")}
-
-    instrument = _instrument(tables)
-    port = tables["port"]
-    port_m, port_told_m, port_error_m = None, None, 0.0
-    if instrument.kind == "length":
-        if not instrument.station_names:
-            port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
-            port_m = mm_to_m(port.vector("position_mm", 3))
-        else:
-            port_m = instrument.stations_m[0]
-        if port.has("told_mm") and port.has("told_error_mm"):
-            raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
-        if port.has("told_mm") and instrument.station_names:
-            raise port.error("told_mm", "told_mm with stations", "told_error_mm for every station")
-        port_told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
-        port_error_m = float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
-    elif port.values:
-        raise port.error(sorted(port.values)[0], f"a port with {instrument.kind} measurements",
-                         "no [port] table (only cable lengths have ports)")
-
-    pert = tables["perturbation"]
     distribution = pert.text("distribution", "uniform", choices=DISTRIBUTIONS)
     alpha_rad = deg_to_rad(pert.vector("alpha_deg", n, per_joint=True, minimum=0.0,
                                        default=0.0))
@@ -201,22 +243,28 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         alpha_rad,
         deg_to_rad(pert.vector("theta_deg", n, per_joint=True, minimum=0.0, default=0.0)),
     ])
+    return Perturbation(distribution, scale, robot.is_length)
 
-    poses = tables["poses"]
+
+def _poses(poses: Table, instrument: Instrument, folder: Path) -> tuple[Path | None, int]:
+    """``[poses]``: the plan file (or None) and the number of poses to draw (fixed points:
+    one per touch of every socket)."""
     plan = folder / poses.text("plan") if poses.has("plan") else None
     if instrument.kind == "point":
         for key in ("count", "plan"):
             if poses.has(key):
                 raise poses.error(key, f"{key} with fixed points",
                                   "[fixture] placements and touches (they set the poses)")
-        count = len(instrument.points_m) * instrument.touches
-    else:
-        if plan is None:
-            poses.required("count", "the number of poses (or a plan)")
-        count = poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") \
-            else 0
+        return plan, len(instrument.points_m) * instrument.touches
+    if plan is None:
+        poses.required("count", "the number of poses (or a plan)")
+    return plan, poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") \
+        else 0
 
-    encoder = tables["encoder"]
+
+def _cable_range(encoder: Table) -> Array:
+    """``[encoder] range_mm`` as ``[min, max]``, m; the outliers checked (:func:`_noise` reads
+    them)."""
     cable_range = mm_to_m(encoder.vector("range_mm", 2, minimum=0.0, default=[50.0, 1500.0]))
     if cable_range[0] >= cable_range[1]:
         raise encoder.error("range_mm", repr(encoder.values["range_mm"]),
@@ -225,15 +273,19 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     outlier_mm = encoder.number("outlier_mm", 0.0, minimum=0.0)
     if outlier_rate > 0 and outlier_mm <= 0:
         raise encoder.error("outlier_mm", "0 with outlier_rate > 0", "an outlier size > 0")
+    return cable_range
 
-    joints = tables["joints"]
+
+def _joint_errors(joints: Table, n: int) -> tuple[JointErrors, bool]:
+    """``[joints]``' transmission error and backlash, and whether the phases are to be drawn
+    (none given)."""
     arcsec = deg_to_rad(1.0 / ARCSEC_PER_DEG)
     harmonic = joints.vector("transmission_harmonic", n, per_joint=True, minimum=1.0, default=1)
     if np.any(harmonic != np.round(harmonic)):
         raise joints.error("transmission_harmonic", repr(joints.values["transmission_harmonic"]),
                            "whole numbers of cycles per revolution")
     draw_phases = not joints.has("transmission_phase_deg")
-    joint_errors = JointErrors(
+    return JointErrors(
         transmission_rad=joints.vector("transmission_arcsec", n, per_joint=True, minimum=0.0,
                                        default=0.0) * arcsec,
         harmonic=harmonic,
@@ -241,66 +293,54 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         else deg_to_rad(joints.vector("transmission_phase_deg", n)),
         backlash_rad=joints.vector("backlash_arcsec", n, per_joint=True, minimum=0.0,
                                    default=0.0) * arcsec,
-    )
+    ), draw_phases
 
-    phys = tables["physics"]
-    compliance = phys.boolean("compliance", False)
-    if compliance:
-        phys.required("stiffness_nm_per_rad", "the servo stiffness per joint in N·m/rad")
-        if robot.mass_kg is None and phys.boolean("gravity", True):
-            raise phys.error("gravity", "true with a robot model without masses",
-                             "link masses in the model file (key 'mass'), or gravity = false")
-        physics = Physics(
-            stiffness_nm_per_rad=phys.vector("stiffness_nm_per_rad", n, per_joint=True,
-                                             minimum=1.0),
-            gravity=phys.boolean("gravity", True),
-            tension_n=phys.number("tension_n", 0.0, minimum=0.0, maximum=MAX_TENSION_N),
-            mass_error=phys.number("mass_error", 0.0, minimum=0.0, maximum=MAX_MASS_ERROR),
-        )
-    else:
+
+def _physics(phys: Table, robot: RobotModel) -> Physics:
+    """``[physics]``: servo stiffness, gravity, the cable's pull and the mass error, only with
+    ``compliance = true``."""
+    if not phys.boolean("compliance", False):
         for key in ("stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"):
             if phys.has(key):
                 raise phys.error(key, f"{key} with compliance = false",
                                  "compliance = true to use it")
-        physics = Physics()
-
-    scenario = Scenario(
-        name=name,
-        description=top.text("description", ""),
-        seed=top.integer("seed", minimum=0),
-        robot=robot,
-        port_m=port_m,
-        port_told_m=port_told_m,
-        port_error_m=port_error_m,
-        perturbation=Perturbation(distribution, scale, robot.is_length),
-        pose_count=count,
-        pose_plan=plan,
-        constraints=PoseConstraints(
-            min_flange_height_m=float(mm_to_m(poses.number("min_flange_height_mm", 50.0))),
-            cable_min_m=float(cable_range[0]),
-            cable_max_m=float(cable_range[1]),
-            cable_clearance_m=float(mm_to_m(poses.number("cable_clearance_mm", 0.0,
-                                                          minimum=0.0))),
-        ),
-        noise=NoiseModel(
-            sigma_m=float(mm_to_m(encoder.number("sigma_mm", 0.0, minimum=0.0))),
-            resolution_m=float(mm_to_m(encoder.number("resolution_mm", DEFAULT_RESOLUTION_MM,
-                                                      minimum=0.0))),
-            repeatability_m=float(mm_to_m(joints.number("repeatability_mm", 0.0, minimum=0.0))),
-            outlier_rate=outlier_rate,
-            outlier_m=float(mm_to_m(outlier_mm)),
-            offset_m=float(mm_to_m(encoder.number("offset_mm", 0.0))),
-        ),
-        joint_errors=joint_errors,
-        draw_phases=draw_phases,
-        physics=physics,
-        study=passed_through["study"],
-        expect=passed_through["expect"],
-        source=source,
-        instrument=instrument,
+        return Physics()
+    phys.required("stiffness_nm_per_rad", "the servo stiffness per joint in N·m/rad")
+    if robot.mass_kg is None and phys.boolean("gravity", True):
+        raise phys.error("gravity", "true with a robot model without masses",
+                         "link masses in the model file (key 'mass'), or gravity = false")
+    return Physics(
+        stiffness_nm_per_rad=phys.vector("stiffness_nm_per_rad", robot.n_joints, per_joint=True,
+                                         minimum=1.0),
+        gravity=phys.boolean("gravity", True),
+        tension_n=phys.number("tension_n", 0.0, minimum=0.0, maximum=MAX_TENSION_N),
+        mass_error=phys.number("mass_error", 0.0, minimum=0.0, maximum=MAX_MASS_ERROR),
     )
-    return replace(scenario, calibration=parse_calibration(tables["calibration"],
-                                                           scenario.reading_sigma_m))
+
+
+def _constraints(poses: Table, cable_range: Array) -> PoseConstraints:
+    """What a drawn pose must meet: ``[poses]``' flange height and cable clearance, the
+    encoder's range."""
+    return PoseConstraints(
+        min_flange_height_m=float(mm_to_m(poses.number("min_flange_height_mm", 50.0))),
+        cable_min_m=float(cable_range[0]),
+        cable_max_m=float(cable_range[1]),
+        cable_clearance_m=float(mm_to_m(poses.number("cable_clearance_mm", 0.0, minimum=0.0))),
+    )
+
+
+def _noise(encoder: Table, joints: Table) -> NoiseModel:
+    """The reading's noise: ``[encoder]``'s σ, resolution, outliers and offset, the robot's
+    repeatability (``[joints]``)."""
+    return NoiseModel(
+        sigma_m=float(mm_to_m(encoder.number("sigma_mm", 0.0, minimum=0.0))),
+        resolution_m=float(mm_to_m(encoder.number("resolution_mm", DEFAULT_RESOLUTION_MM,
+                                                  minimum=0.0))),
+        repeatability_m=float(mm_to_m(joints.number("repeatability_mm", 0.0, minimum=0.0))),
+        outlier_rate=encoder.number("outlier_rate", 0.0, minimum=0.0, maximum=1.0),
+        outlier_m=float(mm_to_m(encoder.number("outlier_mm", 0.0, minimum=0.0))),
+        offset_m=float(mm_to_m(encoder.number("offset_mm", 0.0))),
+    )
 
 
 def _pose(values: Array) -> Array:

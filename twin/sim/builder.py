@@ -116,13 +116,35 @@ def build_spec(
     Returns:
         An uncompiled spec; ``spec.compile()`` gives the model, ``spec.to_xml()`` its MJCF.
     """
-    n = robot.n_joints
     spec = mujoco.MjSpec()
     spec.modelname = robot.name.lower().replace(" ", "_")
     spec.compiler.degree = False
     spec.option.timestep = TIMESTEP_S
     spec.option.gravity = [0.0, 0.0, -GRAVITY_M_S2]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    end = _add_chain(spec, robot, attachment_m)
+    # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
+    # offset, links two apart meet at the wrist and elbow centres too.
+    for i in range(1, robot.n_joints - 1):
+        spec.add_exclude(bodyname1=f"link{i}", bodyname2=f"link{i + 2}")
+    # Link 1 stands on the floor at the base; it only turns about the vertical.
+    spec.add_exclude(bodyname1="world", bodyname2="link1")
+    if floor:
+        spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                size=[2.0, 2.0, 0.05], rgba=[0.8, 0.8, 0.8, 1.0])
+        spec.worldbody.add_light(name="light", pos=[0.0, 0.0, 3.0], dir=[0.0, 0.0, -1.0])
+    if physics.stiffness_nm_per_rad is not None:
+        _add_servos(spec, robot, physics.stiffness_nm_per_rad)
+    if port_m is not None:
+        _add_cable(spec, port_m, end, physics)
+    return spec
+
+
+def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike | None) -> str:
+    """The pedestal (if joint 1 stands off the base origin), the links with their joints,
+    geoms and inertials, site ``flange`` and site ``point`` (with an attachment); returns the
+    site the cable ends at."""
+    n = robot.n_joints
     radius = robot.radius_m if robot.radius_m is not None else np.full(n, DEFAULT_RADIUS_M)
     fixed = fixed_transforms(robot.structure, robot.dh)
     post = joint_placements(robot.structure, robot.dh)[1]
@@ -150,46 +172,43 @@ def build_spec(
     flange = fixed[n]
     parent.add_site(name="flange", pos=flange[:3, 3], quat=_quat(flange[:3, :3]),
                     size=[0.008, 0, 0], rgba=[0.1, 0.6, 0.1, 1.0])
-    end = "flange"
-    if attachment_m is not None:
-        # The attachment is given in the flange frame; the site lives in link n's body.
-        point = flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
-        parent.add_site(name="point", pos=point, quat=_quat(flange[:3, :3]),
-                        size=[0.006, 0, 0], rgba=[0.8, 0.1, 0.1, 1.0])
-        end = "point"
-    # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
-    # offset, links two apart meet at the wrist and elbow centres too.
-    for i in range(1, n - 1):
-        spec.add_exclude(bodyname1=f"link{i}", bodyname2=f"link{i + 2}")
-    # Link 1 stands on the floor at the base; it only turns about the vertical.
-    spec.add_exclude(bodyname1="world", bodyname2="link1")
-    if floor:
-        spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE,
-                                size=[2.0, 2.0, 0.05], rgba=[0.8, 0.8, 0.8, 1.0])
-        spec.worldbody.add_light(name="light", pos=[0.0, 0.0, 3.0], dir=[0.0, 0.0, -1.0])
+    if attachment_m is None:
+        return "flange"
+    # The attachment is given in the flange frame; the site lives in link n's body.
+    point = flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
+    parent.add_site(name="point", pos=point, quat=_quat(flange[:3, :3]),
+                    size=[0.006, 0, 0], rgba=[0.8, 0.1, 0.1, 1.0])
+    return "point"
+
+
+def _add_servos(spec: mujoco.MjSpec, robot: RobotModel, stiffness_nm_per_rad: Array) -> None:
+    """Actuators ``servo<i>``: position servos of each joint's stiffness (N·m/rad), within
+    the joint's limits."""
+    for i, (kp, lower, upper) in enumerate(
+        zip(stiffness_nm_per_rad, robot.lower_rad, robot.upper_rad, strict=True)
+    ):
+        servo = spec.add_actuator(name=f"servo{i + 1}", target=f"joint{i + 1}",
+                                  trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        servo.set_to_position(kp=float(kp), dampratio=SERVO_DAMPING_RATIO)
+        servo.ctrlrange = [lower, upper]
+        servo.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+
+
+def _add_cable(spec: mujoco.MjSpec, port_m: ArrayLike, end: str, physics: Physics) -> None:
+    """World site ``port``, tendon ``cable`` from it to site ``end`` and, with compliant
+    physics, actuator ``tension`` pulling the cable."""
+    spec.worldbody.add_site(name="port", pos=np.asarray(port_m, dtype=np.float64),
+                            size=[0.01, 0, 0], rgba=[0.1, 0.1, 0.8, 1.0])
+    cable = spec.add_tendon(name="cable", width=CABLE_WIDTH_M, rgba=[0.2, 0.2, 0.2, 1.0])
+    cable.wrap_site("port")
+    cable.wrap_site(end)
     if physics.stiffness_nm_per_rad is not None:
-        for i, (kp, lower, upper) in enumerate(
-            zip(physics.stiffness_nm_per_rad, robot.lower_rad, robot.upper_rad, strict=True)
-        ):
-            servo = spec.add_actuator(name=f"servo{i + 1}", target=f"joint{i + 1}",
-                                      trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            servo.set_to_position(kp=float(kp), dampratio=SERVO_DAMPING_RATIO)
-            servo.ctrlrange = [lower, upper]
-            servo.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    if port_m is not None:
-        spec.worldbody.add_site(name="port", pos=np.asarray(port_m, dtype=np.float64),
-                                size=[0.01, 0, 0], rgba=[0.1, 0.1, 0.8, 1.0])
-        cable = spec.add_tendon(name="cable", width=CABLE_WIDTH_M, rgba=[0.2, 0.2, 0.2, 1.0])
-        cable.wrap_site("port")
-        cable.wrap_site(end)
-        if physics.stiffness_nm_per_rad is not None:
-            # gear −1: a positive control (N) shortens the cable, i.e. pulls the flange.
-            tension = spec.add_actuator(name="tension", target="cable",
-                                        trntype=mujoco.mjtTrn.mjTRN_TENDON)
-            tension.gear = [-1.0, 0, 0, 0, 0, 0]
-            tension.ctrlrange = [0.0, max(10.0 * physics.tension_n, 1.0)]
-            tension.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    return spec
+        # gear −1: a positive control (N) shortens the cable, i.e. pulls the flange.
+        tension = spec.add_actuator(name="tension", target="cable",
+                                    trntype=mujoco.mjtTrn.mjTRN_TENDON)
+        tension.gear = [-1.0, 0, 0, 0, 0, 0]
+        tension.ctrlrange = [0.0, max(10.0 * physics.tension_n, 1.0)]
+        tension.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
 
 
 def _exact(values: object) -> str:
