@@ -1,5 +1,5 @@
-"""The package's layers: the core and every pure module import without the adapters'
-libraries, and the import graph has no cycle."""
+"""The package's layers: one import rule per subpackage (imports point inward), the core and
+every pure module import without the adapters' libraries, and the import graph has no cycle."""
 
 from __future__ import annotations
 
@@ -106,3 +106,90 @@ def test_the_import_graph_has_no_cycle() -> None:
     for name in files:
         found = None if name in done else cycle([name])
         assert found is None, "import cycle: " + " -> ".join(found or [])
+
+
+FOUNDATIONS = {"twin.errors", "twin.units", "twin.arrays", "twin.distribution",
+               "twin.report.display"}
+"""Imported by every layer: one exception root, SI conversions, the array type, the
+distribution's extras and plug-in registry, and how a number is shown."""
+VALUES = {"twin.robot", "twin.rig", "twin.dataset"}
+SPINE = {"twin.model", "twin.problem", "twin.loss", "twin.stopping"}
+HELPERS = {"twin": "package", "twin.__main__": "main", "twin.synthetic": "synthetic",
+           "twin.testing": "testing"}
+"""The root's public helpers, each its own layer."""
+
+
+def layer(name: str) -> str:
+    """The layer of a module: a root group or its subpackage."""
+    if name in FOUNDATIONS:
+        return "foundations"
+    if name in VALUES:
+        return "values"
+    if name in SPINE:
+        return "spine"
+    if name in HELPERS:
+        return HELPERS[name]
+    return name.split(".")[1]
+
+
+_BELOW_FAMILIES = {"foundations", "geometry", "values"}
+_FAMILIES = {"kinds", "unknowns"}
+_CORE = {*_BELOW_FAMILIES, *_FAMILIES, "spine", "solvers", "analysis", "design", "compensation",
+         "calibration"}
+RULES: dict[str, set[str]] = {
+    "foundations": set(),
+    # Pure numpy geometry: nothing of the model above it.
+    "geometry": {"foundations"},
+    "values": {"foundations", "geometry"},
+    # A family member sees the values it acts on; the model assembles the families.
+    "kinds": _BELOW_FAMILIES,
+    "unknowns": _BELOW_FAMILIES,
+    "spine": {*_BELOW_FAMILIES, *_FAMILIES},
+    "analysis": {*_BELOW_FAMILIES, *_FAMILIES, "spine"},
+    # lm-base fits the base parameters analysis names.
+    "solvers": {*_BELOW_FAMILIES, *_FAMILIES, "spine", "analysis"},
+    # Design and compensation take their MuJoCo sampler or twin from the caller: no sim.
+    "design": {*_BELOW_FAMILIES, *_FAMILIES, "spine", "analysis"},
+    "compensation": {*_BELOW_FAMILIES, *_FAMILIES, "spine", "analysis"},
+    "calibration": {*_BELOW_FAMILIES, *_FAMILIES, "spine", "solvers", "analysis", "design"},
+    # What a user reads is made from the core's values; files are written by the caller.
+    "report": _CORE,
+    # Every file format, for every room above the core.
+    "io": _CORE,
+    # Pure descriptions of what the twin simulates, read through io's one config reader.
+    "scenario": {*_CORE, "io"},
+    # The adapters: each imports the core, io and what it adapts, never the top.
+    "sim": {*_CORE, "io", "scenario"},
+    "export": {*_CORE, "io", "sim"},
+    "viz": {*_CORE, "io", "report"},
+    "hardware": {*_CORE, "io", "scenario", "sim"},
+    # The top wires everything.
+    "study": {*_CORE, "io", "report", "scenario", "sim"},
+    "cli": {*_CORE, "io", "report", "scenario", "sim", "export", "viz", "hardware", "study",
+            "testing"},
+    "package": {*_CORE, "io"},
+    "synthetic": _CORE,
+    "testing": {"study"},
+    "main": {"cli"},
+}
+"""The layers each layer may import besides its own."""
+
+
+def test_every_layer_imports_only_what_its_rule_allows() -> None:
+    """Each module's imports (outside ``if TYPE_CHECKING:``) lie in its own layer or in the
+    layers its rule allows; every module of every subpackage has a rule."""
+    files = modules()
+    assert {layer(name) for name in files} == set(RULES), "a layer without a rule, or a rule " \
+        "without a layer"
+    broken = sorted(f"{name} -> {dep}" for name, path in files.items()
+                    for dep in _imports(name, path, set(files))
+                    if layer(dep) != layer(name) and layer(dep) not in RULES[layer(name)])
+    assert broken == []
+
+
+def test_the_core_imports_no_io_and_no_adapter() -> None:
+    """The rules keep io, the scenario, the adapters and the top out of the core, and MuJoCo
+    out of design and compensation (a check of the rules themselves)."""
+    outside = {"io", "scenario", "sim", "hardware", "viz", "export", "study", "cli", "report"}
+    assert all(not RULES[name] & outside for name in _CORE)
+    assert "sim" not in RULES["design"] | RULES["compensation"]

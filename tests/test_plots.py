@@ -9,7 +9,8 @@ import pytest
 from matplotlib.image import imread
 
 from twin.errors import InputError
-from twin.report.plots import DPI, pyplot, save_png
+from twin.io.png import DPI, save_png
+from twin.report.plots import pyplot
 
 
 def test_png_has_the_resolution_and_replaces_the_file_whole(tmp_path: Path) -> None:

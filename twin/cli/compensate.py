@@ -38,6 +38,7 @@ from twin.errors import InputError
 from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import load_poses
 from twin.io.paths import InputPath
+from twin.io.png import save_png
 from twin.io.pose_tables import load_targets, write_corrected
 from twin.report.display import deg, deg_values, mm
 from twin.report.plots import compensation_histogram
@@ -152,8 +153,9 @@ def _verify(args: argparse.Namespace) -> int:
         print(f"  ({verification.approach_moves} targets reached with an approach move: "
               "a joint moves less than its backlash from the target before)")
     if args.figure is not None:
-        compensation_histogram(args.figure, verification.checks,
-                               f"{scenario.name}, seed {verification.simulation.seed}")
+        save_png(compensation_histogram(
+            verification.checks, f"{scenario.name}, seed {verification.simulation.seed}"),
+            args.figure)
         print(f"wrote {args.figure}")
     return 0
 

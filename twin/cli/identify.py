@@ -17,6 +17,7 @@ from twin.cli.arguments import (
 )
 from twin.cli.inputs import add_input_flags, make_split, resolve_inputs, truth_of
 from twin.io.measurements import load_measurements
+from twin.io.png import save_png
 from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
 from twin.report.display import SIGMA_DECIMALS, SIGNIFICANT, mm, slot
@@ -140,10 +141,10 @@ def run(args: argparse.Namespace) -> int:
     ]
     print("\n".join(lines))
     if args.map:
-        accuracy_map(args.map, *flange_error_map(result.model, result.solver.x,
-                                                 uncertainty.covariance),
-                     f"{robot.name}: predicted flange error after lm-base, {len(data)} poses "
-                     "(q1 = q4 = q5 = q6 = 0)")
+        save_png(accuracy_map(*flange_error_map(result.model, result.solver.x,
+                                                uncertainty.covariance),
+                              f"{robot.name}: predicted flange error after lm-base, "
+                              f"{len(data)} poses (q1 = q4 = q5 = q6 = 0)"), args.map)
         print(f"map: {args.map}")
     if args.json:
         write_json(args.json, assessment_to_dict(

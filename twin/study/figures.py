@@ -22,8 +22,9 @@ from typing import Any
 
 import numpy as np
 
+from twin.io.png import save_png
 from twin.report.display import LENGTH_DECIMALS, plain
-from twin.report.plots import pyplot, save_png
+from twin.report.plots import pyplot
 
 FLOOR = 1e-4
 """Parameter-error plots stop this fraction below their largest value."""
