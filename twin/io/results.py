@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
-from twin.analysis.misfit import ALPHA, FAR
+from twin.analysis.misfit import ALPHA
 from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
@@ -187,7 +187,8 @@ def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict
             "noise": _mm(misfit.noise_m)[0],
             "noise_source": misfit.noise_source,
             "test": "chi-square of the training residuals against the noise: misfit when "
-                    f"chi2 > its {1 - ALPHA:g} quantile and RMSE > {FAR:g} x noise",
+                    f"chi2 > its {1 - ALPHA:g} quantile",
+            "implied_noise": _mm(misfit.implied_sigma_m)[0],
             "chi2": significant(misfit.statistic),
             "dof": misfit.dof,
             "threshold": significant(misfit.threshold),

@@ -29,6 +29,7 @@ from twin.units import (
     rad_to_arcsec,
     rad_to_deg,
     slot_label,
+    to_display,
 )
 
 if TYPE_CHECKING:
@@ -46,19 +47,64 @@ def _metric_row(label: str, m: Metrics) -> str:
     return f"  {label:<18}" + "".join(f"{v:>10.4f}" for v in values)
 
 
-ARBITRARY = "their values are arbitrary: compare flange positions, not raw parameters"
-
-
-def _nominal_lines(nominal: Identifiability, along: str) -> list[str]:
-    lines = [
+def _nominal_lines(nominal: Identifiability) -> list[str]:
+    return [
         f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
         f"{nominal.n_params}, condition {nominal.condition:.3g} "
         f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
         "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
     ]
-    if nominal.unidentifiable:
-        lines.append(f"    (directions in column-scaled units; {along})")
+
+
+def _held_lines(result: CalibrationResult) -> list[str]:
+    """What was held at the nominal, what that cost, and a start kept instead of the answer."""
+    held, unseen = result.held, result.unseen
+    if held is None or unseen is None:
+        return []
+    lines = []
+    if unseen.names:
+        lines.append("  held at the nominal (not seen by these data: the minimum-norm solution "
+                     "in the bound-scaled unknowns, so nothing unseen leaves the tool): "
+                     + ", ".join(unseen.names)
+                     + f"; training objective {100 * held.cost_change:+.3g} %")
+    if held.kept_start:
+        lines.append(f"  returned the start, not the method's point: {held.kept_start}")
     return lines
+
+
+def _weak_lines(nominal: Identifiability, result: CalibrationResult) -> list[str]:
+    """The combinations the training poses see only weakly, each with its σ from the noise
+    estimate: those weak at the nominal geometry (in the unit of their leading unknown), and
+    the nominal's null directions the identified geometry lets them see (in half-ranges of
+    the search box)."""
+    if result.uncertainty is None:
+        return []
+    noise = result.uncertainty.noise_sigma_m
+    shown = []
+    for name, leading, factor in zip(nominal.weak_names, nominal.weak_leading,
+                                     nominal.weak_sigma_per_noise, strict=True):
+        value, unit = to_display([noise * factor], [result.model.units[leading]])
+        shown.append(f"{name} ±{value[0]:.3g} {unit[0]}")
+    if result.unseen is not None:
+        shown += [f"{name} ±{sigma:.2g} of its box" for name, sigma
+                  in zip(result.unseen.weak_names, result.unseen.weak_sigma, strict=True)]
+    return ["  weakly seen (σ from the noise estimate): " + ", ".join(shown)] if shown else []
+
+
+def _accuracy_line(result: CalibrationResult) -> str:
+    """The predicted accuracy, for the flange when the data pin it, else for the point they
+    measure (an estimated attachment leaves the flange free to slide under it)."""
+    assert result.uncertainty is not None
+    uncertainty, gauge = result.uncertainty, result.gauge
+    noise = f"  noise estimate {float(m_to_mm(uncertainty.noise_sigma_m)):.4f} mm; "
+    if result.model.has("attachment"):
+        return (noise + "predicted RMS error of the measured point (the attachment) over the "
+                f"workspace {float(m_to_mm(uncertainty.point_rms_m)):.4f} mm (the flange is not "
+                "pinned by these data: no flange figure)")
+    modulo = f", modulo {gauge.describe()}" if gauge is not None and gauge.names else ""
+    return (noise + "predicted flange RMS error over the workspace "
+            f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm{modulo} (the identifiable "
+            "combinations only)")
 
 
 def format_identifiability(result: CalibrationResult) -> list[str]:
@@ -66,23 +112,19 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     nominal, identified = result.identifiability, result.identified_identifiability
     lines = []
     if nominal is not None:
-        held = result.method == "lm-base"
-        lines += _nominal_lines(nominal, "held at their start values" if held else ARBITRARY)
+        lines += _nominal_lines(nominal)
+        lines += _held_lines(result)
+        lines += _weak_lines(nominal, result)
     if identified is not None:
+        lifted = " (the identified geometry lifts held directions off zero)" \
+            if nominal is not None and identified.rank > nominal.rank else ""
         lines.append(
             f"  at the identified geometry: rank {identified.rank} of {identified.n_params}, "
             f"condition {identified.condition:.3g}, {identified.weak} weak "
-            f"(singular value below {WEAK_RTOL:g} of the largest)"
+            f"(singular value below {WEAK_RTOL:g} of the largest){lifted}"
         )
     if result.uncertainty is not None:
-        lines.append(
-            f"  noise estimate {float(m_to_mm(result.uncertainty.noise_sigma_m)):.4f} mm; "
-            "predicted flange RMS error over the workspace "
-            f"{float(m_to_mm(result.uncertainty.flange_rms_m)):.4f} mm"
-        )
-        if result.model.has("attachment"):
-            lines[-1] += (", measured point "
-                          f"{float(m_to_mm(result.uncertainty.point_rms_m)):.4f} mm")
+        lines.append(_accuracy_line(result))
     return lines
 
 
@@ -168,7 +210,8 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
             if causes else ""
         lines.append(f"  MISFIT: the model does not fit these data — training RMSE "
                      f"{float(m_to_mm(misfit.rmse_m)):.4g} mm against a noise of "
-                     f"{float(m_to_mm(misfit.noise_m)):.4g} mm ({misfit.describe()}){likely}")
+                     f"{float(m_to_mm(misfit.noise_m)):.4g} mm ({misfit.describe()}): "
+                     f"{misfit.readings()}{likely}")
     if result.loss.robust:
         rows = result.rejected_rows
         shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
@@ -337,21 +380,29 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         )
     lines.append("  " + MAE_NOTE)
     if first.identifiability is not None:
-        lines += _nominal_lines(first.identifiability, "lm-base holds them at their start "
-                                "values; for the others " + ARBITRARY)
+        lines += _nominal_lines(first.identifiability)
+        lines += _held_lines(first)[:1]
+    kept = [name for name, result in results.items()
+            if result.held is not None and result.held.kept_start]
+    if kept:
+        lines.append(f"  returned their start (no better than it on the training poses, by BIC): "
+                     f"{', '.join(kept)}")
+    point = first.model.has("attachment")
     predicted = [
-        f"{name} {float(m_to_mm(result.uncertainty.flange_rms_m)):.4f}"
-        for name, result in results.items() if result.uncertainty is not None
+        f"{name} {float(m_to_mm(u.point_rms_m if point else u.flange_rms_m)):.4f}"
+        for name, u in ((name, result.uncertainty) for name, result in results.items())
+        if u is not None
     ]
     if predicted:
-        lines.append("  predicted flange RMS error over the workspace [mm]: "
+        what = "measured point (the flange is not pinned)" if point else "flange"
+        lines.append(f"  predicted {what} RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
     misfits = [name for name, result in results.items()
                if result.misfit is not None and result.misfit.misfit]
     if misfits:
-        lines.append(f"  MISFIT: {', '.join(misfits)} do(es) not fit these data (training RMSE "
-                     f"far above the noise, chi-square at {1 - ALPHA:g}): calibrate with one "
-                     "method for the likely causes")
+        lines.append(f"  MISFIT: {', '.join(misfits)} do(es) not fit these data (chi-square of "
+                     f"the training residuals above its {1 - ALPHA:g} quantile): calibrate with "
+                     "one method for the likely causes")
     if first.loss.robust:
         lines.append(f"  rows rejected by the {first.loss.name} loss (scale "
                      f"{float(m_to_mm(first.loss.scale_m)):.4g} mm): " + ", ".join(
