@@ -14,6 +14,7 @@ from twin.cli.arguments import (
 from twin.errors import InputError
 from twin.solvers import solver_choices
 from twin.stopping import PROTOCOLS
+from twin.study.definition import MAX_TRIALS
 from twin.study.executors.cluster import reach_scheduler
 from twin.viz import add_rerun_flags, open_from_args
 
@@ -23,8 +24,6 @@ if TYPE_CHECKING:
 TRIAL_REPORT = "study/trial"
 """Rerun entity of each trial's table, on the ``case`` and ``trial`` timelines."""
 
-
-MAX_TRIALS = 100_000
 MAX_WORKERS = 1024
 
 
