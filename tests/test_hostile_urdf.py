@@ -108,8 +108,8 @@ def test_a_chain_pinocchio_reads_otherwise_is_refused(tmp_path: Path) -> None:
     turned = fixed.copy()
     turned[2, :3, :3] = turned[2, :3, :3] @ np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
     for wrong in (moved, turned):
-        with pytest.raises(InputError, match="found a chain Pinocchio reads .* away from the "
-                           "XML"):
+        with pytest.raises(InputError, match=r"found a chain Pinocchio reads .* away from the "
+                           r"XML"):
             urdf_reader._check_same_chain(wrong, chain, path)
 
 
@@ -182,7 +182,8 @@ def test_a_mimic_joint_off_the_chain_is_kept(tmp_path: Path) -> None:
 
 def test_an_attribute_is_quoted_short(tmp_path: Path, refusals: Refusals) -> None:
     """An error quotes the field it refuses, not a megabyte of it."""
-    error = _plan(refusals, tmp_path, _urdf({2: {"xyz": "1 " * 100_000}}), "joint 'j2' <origin>: found xyz='1 1 1 ")
+    error = _plan(refusals, tmp_path, _urdf({2: {"xyz": "1 " * 100_000}}),
+                  "joint 'j2' <origin>: found xyz='1 1 1 ")
     assert len(error) < 300
 
 
@@ -196,7 +197,8 @@ def test_a_urdf_too_big_for_pinocchio(tmp_path: Path, refusals: Refusals) -> Non
           f"found {count + len(LINKS)} <link> elements, expected a URDF file of at most "
           f"{MAX_URDF_ELEMENTS}", process=True)
     joints = "".join(_joint(f"x{i}", "g", f"x{i}", "fixed") for i in range(count))
-    _plan(refusals, tmp_path, _urdf(more=joints), f"found {count + len(LINKS) - 1} <joint> elements")
+    _plan(refusals, tmp_path, _urdf(more=joints),
+          f"found {count + len(LINKS) - 1} <joint> elements")
     text = "<!--" + "x" * MAX_URDF_BYTES + "-->" + _urdf()
     _plan(refusals, tmp_path, text, f"found {len(text)} bytes, expected a URDF file of at "
           f"most {MAX_URDF_BYTES} bytes", process=True)

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, NamedTuple, TextIO
 
 from twin.errors import InputError
+from twin.io.lock import folder_lock
 from twin.study.baseline import (
     MIN_CHANGED,
     Comparison,
@@ -276,8 +277,9 @@ def check(
         from twin.study.executors.local import LocalProcesses
 
         executor = LocalProcesses()
-    store = run_trials(plan, out, executor, stream=stream)
-    write_report(plan, store, figures=figures)
+    with folder_lock(out, "twin check"):
+        store = run_trials(plan, out, executor, stream=stream)
+        write_report(plan, store, figures=figures)
     rows = store.rows(plan.keys)
     grouped: dict[TrialKey, list[TrialRow]] = {}
     for row in rows:
