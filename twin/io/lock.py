@@ -25,14 +25,13 @@ from pathlib import Path
 from twin.errors import InputError
 from twin.io.atomic import remove_stale_temporaries
 from twin.io.paths import os_error
+from twin.io.table import SHOWN_CHARS, shown
 
 LOCK_NAME = ".lock"
 ATTEMPTS = 10
 """Tries to take a lock whose file a finishing holder removes under us (a new file each time)."""
 HOLDER_BYTES = 4096
 """Longest holder record read back."""
-SHOWN_CHARS = 64
-"""Longest command or host name a message quotes from a lock file."""
 
 
 def _created_folders(folder: Path) -> list[Path]:
@@ -59,8 +58,9 @@ def _holder(fd: int) -> str:
         record = json.loads(os.pread(fd, HOLDER_BYTES, 0).decode("utf-8"))
         started = time.strftime("%Y-%m-%d %H:%M:%S %Z",
                                 time.localtime(float(record["started"])))
-        command, host = (str(record[key])[:SHOWN_CHARS] for key in ("command", "host"))
-        return f"{command}, pid {int(record['pid'])} on host {host!r}, started {started}"
+        command = str(record["command"])[:SHOWN_CHARS]
+        return (f"{command}, pid {int(record['pid'])} on host {shown(str(record['host']))}, "
+                f"started {started}")
     except (OSError, ValueError, KeyError, TypeError, OverflowError):
         return "a process that has not said which yet"
 

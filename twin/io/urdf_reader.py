@@ -49,6 +49,7 @@ from twin.errors import InputError
 from twin.geometry.kinematics import fixed_transforms, rigid_transform
 from twin.geometry.parametrisation import AUTO, convert, joint_frames
 from twin.io.paths import read_text
+from twin.io.table import shown
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
 from twin.units import MAX_ANGLE_RAD, MAX_LENGTH_M
 
@@ -74,8 +75,6 @@ zero axis, not a direction."""
 AGREEMENT_TOLERANCE = 1e-9
 """How far Pinocchio's chain at q = 0 (base_T_tip, m per m of the origins' lengths, and each
 joint axis) may be from the one read here before the two parses are taken to disagree."""
-SHOWN_CHARS = 40
-"""Longest attribute value an error quotes."""
 
 
 class Chain(NamedTuple):
@@ -166,11 +165,6 @@ def find_chain(root: ET.Element, base_link: str | None, tip_link: str | None,
     return Chain(base_link, tip_link, tuple(reversed(path)))
 
 
-def _shown(text: str) -> str:
-    """An attribute as written, cut short: an error names the field, not the whole file."""
-    return text if len(text) <= SHOWN_CHARS else text[:SHOWN_CHARS] + "…"
-
-
 def _triple(element: ET.Element | None, attribute: str, default: str,
             largest: tuple[float, str] | None, source: str | Path, where: str) -> Array:
     """Three finite numbers from an attribute, each within ±largest (a bound and its unit)
@@ -184,7 +178,7 @@ def _triple(element: ET.Element | None, attribute: str, default: str,
     if values.shape != (3,) or not np.all(np.isfinite(values) & (np.abs(values) <= bound)):
         expected = "three finite numbers" if largest is None else \
             f"three numbers within ±{largest[0]:g} {largest[1]}"
-        raise InputError(f"{attribute}={_shown(written)!r}", expected, source=source,
+        raise InputError(f"{attribute}={shown(written)}", expected, source=source,
                          where=where)
     return values
 
@@ -255,13 +249,14 @@ def _captured_stderr() -> Iterator[list[str]]:
 def _pinocchio_model(text: str, source: str | Path) -> pin.Model:
     import pinocchio as pin
 
+    failure = ""
     with _captured_stderr() as messages:
         try:
             return pin.buildModelFromXML(text)
-        except (RuntimeError, ValueError):
-            pass
+        except (RuntimeError, ValueError) as exc:
+            failure = str(exc).strip()
     reasons = [line.split("Error:", 1)[1].strip() for line in messages if "Error:" in line]
-    reason = reasons[0] if reasons else "no reason given"
+    reason = reasons[0] if reasons else failure or "Pinocchio's parser says nothing more"
     raise InputError(f"a URDF Pinocchio cannot read ({reason})", WHAT, source=source)
 
 
@@ -381,7 +376,7 @@ def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
             except ValueError:
                 value = math.nan
             if not abs(value) <= MAX_ANGLE_RAD:
-                raise InputError(f"{key}={_shown(written)!r}", f"a number within "
+                raise InputError(f"{key}={shown(written)}", f"a number within "
                                  f"±{MAX_ANGLE_RAD:g} rad (two turns)", source=source,
                                  where=where)
             bounds.append(value)
