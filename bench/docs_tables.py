@@ -748,12 +748,16 @@ def check_example(folder: Path) -> dict[str, str]:
     baseline, block ``check-base``), then with every method capped at :data:`CHECK_CAP`
     iterations, compared with it on all trials and on a few (block ``check-baseline``).
 
-    The capped scenario is written beside the original, as the docs tell the user to, so that
-    its relative robot path resolves, and removed afterwards."""
+    The capped scenario is written under ``folder`` (under out/, as every doc example writes:
+    never into scenarios/, whose every file tests/test_check_scenarios.py checks), with its
+    relative robot path rewritten to reach models/ from there."""
     out = Path(os.path.relpath(folder, ROOT)).as_posix()
-    capped = ROOT / "scenarios" / "geometric_capped.toml"
+    capped = folder / "geometric_capped.toml"
+    shown = f"{out}/geometric_capped.toml"
+    models = Path(os.path.relpath(ROOT / "models", folder)).as_posix()
     common = ["--methods", "lm,ekf", "--expect", "examples/check/lm_ekf.toml", "--no-figures"]
-    sed = f"s/^train_fraction = 0.8$/&\\nmax_iterations = {CHECK_CAP}/"
+    sed = (f"s/^train_fraction = 0.8$/&\\nmax_iterations = {CHECK_CAP}/; "
+           f"s#^robot = \"../models/#robot = \"{models}/#")
 
     def run(*args: str) -> str:
         done = subprocess.run([sys.executable, "-m", "twin", *args], cwd=ROOT, text=True,
@@ -764,24 +768,22 @@ def check_example(folder: Path) -> dict[str, str]:
                 f"{done.returncode}\n")
 
     base = run("check", "scenarios/geometric_irb120.toml", "--out", f"{out}/base", *common)
-    text, count = re.subn(r"(?m)^train_fraction = 0\.8$", rf"\g<0>\nmax_iterations = {CHECK_CAP}",
-                          (ROOT / "scenarios" / "geometric_irb120.toml").read_text(
-                              encoding="utf-8"))
-    if count != 1:
-        raise SystemExit("docs: scenarios/geometric_irb120.toml has no 'train_fraction = 0.8'")
+    text = (ROOT / "scenarios" / "geometric_irb120.toml").read_text(encoding="utf-8")
+    text, capped_count = re.subn(r"(?m)^train_fraction = 0\.8$",
+                                 rf"\g<0>\nmax_iterations = {CHECK_CAP}", text)
+    text, robot_count = re.subn(r'(?m)^robot = "\.\./models/', f'robot = "{models}/', text)
+    if (capped_count, robot_count) != (1, 1):
+        raise SystemExit("docs: scenarios/geometric_irb120.toml has no 'train_fraction = 0.8' "
+                         "or no 'robot = \"../models/…'")
     write_atomic(capped, text)
-    try:
-        compared = run("check", "scenarios/geometric_capped.toml", "--out", f"{out}/capped",
-                       *common, "--baseline", f"{out}/base", "--junit", f"{out}/capped.xml")
-        few = run("check", "scenarios/geometric_capped.toml", "--out", f"{out}/capped-few",
-                  "--trials", str(CHECK_FEW_TRIALS), *common, "--baseline", f"{out}/base")
-    finally:
-        capped.unlink(missing_ok=True)
+    compared = run("check", shown, "--out", f"{out}/capped", *common, "--baseline",
+                   f"{out}/base", "--junit", f"{out}/capped.xml")
+    few = run("check", shown, "--out", f"{out}/capped-few", "--trials", str(CHECK_FEW_TRIALS),
+              *common, "--baseline", f"{out}/base")
     note = stamp("Run by `make docs` from a fresh output folder.")
     return {"check-base": f"```\n{base}```\n\n{note}",
             "check-baseline": (f"```\n$ sed '{sed}' scenarios/geometric_irb120.toml > "
-                               f"scenarios/geometric_capped.toml\n{compared}{few}"
-                               f"$ rm scenarios/geometric_capped.toml\n```\n\n{note}")}
+                               f"{shown}\n{compared}{few}```\n\n{note}")}
 
 
 def main() -> None:

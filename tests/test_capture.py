@@ -8,6 +8,7 @@ Captures run in-process (the CLI's ``main``) unless they must be killed, then as
 from __future__ import annotations
 
 import io
+import os
 import signal
 import subprocess
 import sys
@@ -261,14 +262,16 @@ def test_device_closed_mid_capture_then_resumed(
 def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
         tmp_path: Path) -> None:
-    """A capture process killed by SIGKILL, then one stopped by Ctrl-C (SIGINT), then a final
-    run: every pose exactly once, the same file byte for byte as one uninterrupted capture,
-    hence the same calibration; and that calibration is real (5x below the nominal RMSE)."""
+    """A capture process killed by SIGKILL, then one stopped by SIGTERM (as Ctrl-C: it says
+    which poses are saved), then one by Ctrl-C (SIGINT), then a final run: every pose exactly
+    once, the same file byte for byte as one uninterrupted capture, hence the same calibration;
+    and that calibration is real (5x below the nominal RMSE)."""
     device = devices["ascii"]
     whole, pieces = tmp_path / "whole", tmp_path / "pieces"
     assert main(capture_args(folder, device, whole, plan="plan_long.csv")) == 0
     args = capture_args(folder, device, pieces, plan="plan_long.csv")
-    for stop_at, sig, code in ((8, signal.SIGKILL, -signal.SIGKILL), (20, signal.SIGINT, 130)):
+    for stop_at, sig, code in ((8, signal.SIGKILL, -signal.SIGKILL),
+                               (14, signal.SIGTERM, 143), (20, signal.SIGINT, 130)):
         process = subprocess.Popen([*TWIN, *args, "--settle-interval", "0.03"],
                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         wait_for_rows(pieces, stop_at)
@@ -276,8 +279,9 @@ def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         output, _ = process.communicate(timeout=30)
         assert process.returncode == code, output
         assert len(rows(pieces)) < N_LONG
-        if sig == signal.SIGINT:
+        if sig != signal.SIGKILL:
             assert "interrupted at pose" in output and "run the same command again" in output
+            assert not (pieces / ".lock").exists()
     assert main(args) == 0
     check_complete(pieces, N_LONG, true_lengths_mm)
     assert (pieces / "measurements.csv").read_bytes() == (whole / "measurements.csv").read_bytes()
@@ -298,7 +302,8 @@ def test_second_capture_on_the_same_folder_is_refused(
     out = tmp_path / "run"
     with locked(out):
         assert main(capture_args(folder, devices["ascii"], out)) == 2
-    assert "another capture running" in capsys.readouterr().err
+    assert f"found another command writing this folder (twin capture, pid {os.getpid()} " \
+        in capsys.readouterr().err
     assert not (out / "measurements.csv").exists()
 
 

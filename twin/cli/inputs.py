@@ -31,7 +31,7 @@ from twin.errors import InputError, UnknownChoiceError
 from twin.io.capture_file import (
     CalibrationSettings,
     load_capture,
-    parse_distance,
+    parse_distances,
     parse_named_port,
     parse_port_mm,
 )
@@ -115,8 +115,7 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     if getattr(args, "attachment", None) is not None:
         rig = replace(rig, attachment_m=parse_port_mm(args.attachment, "--attachment", ""))
     if getattr(args, "distance", None):
-        rig = replace(rig, distances=tuple(parse_distance(value, "--distance", "")
-                                           for value in args.distance))
+        rig = replace(rig, distances=parse_distances(args.distance, "--distance"))
     estimated = [name for name in (getattr(args, "estimate_port", None) or [])
                  if name != ALL_PORTS]
     for name in estimated:

@@ -11,8 +11,9 @@ Files in the output folder ``DIR``:
   also when it resumes — as the simulated robot does; backlash depends on it.
 - ``robot.toml``, ``capture.toml`` — so that ``twin calibrate DIR/capture.toml`` needs nothing
   else (written atomically).
-- ``.lock`` — an exclusive ``flock`` held while a capture runs; the kernel drops it when the
-  process dies, even by SIGKILL.
+- ``.lock`` — an exclusive ``flock`` held while a capture runs (:mod:`twin.io.lock`); the
+  kernel drops it when the process dies, even by SIGKILL, and the capture removes it when it
+  ends.
 
 Resume: running the same command again reads ``measurements.csv``, drops a partial last line
 (a crash in the middle of a write, e.g. a power cut), and measures the plan poses that have no
@@ -23,11 +24,10 @@ row is never measured or written again.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import math
 import os
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +44,7 @@ from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
 from twin.io.capture_file import write_capture
 from twin.io.journal import Journal
+from twin.io.lock import folder_lock
 from twin.io.measurements import (
     COLUMNS,
     JOINT_COLUMNS,
@@ -52,7 +53,7 @@ from twin.io.measurements import (
     load_plan,
     read_table,
 )
-from twin.io.paths import os_error, read_bytes, read_text
+from twin.io.paths import OutputFile, os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot, robot_files, robot_to_toml
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.rig import Rig
@@ -67,7 +68,10 @@ MEASUREMENTS_NAME = "measurements.csv"
 PLAN_NAME = "plan.csv"
 ROBOT_NAME = "robot.toml"
 CAPTURE_NAME = "capture.toml"
-LOCK_NAME = ".lock"
+CAPTURE_FILES = (MEASUREMENTS_NAME, PLAN_NAME, CAPTURE_NAME, ROBOT_NAME, "robot.urdf",
+                 TRUTH_FILE)
+"""What a capture folder holds (a robot read from a URDF: its reference and its URDF)."""
+KEPT_PREFIX = "kept-"
 JOURNAL = "a capture measurement CSV (pose, q1..q6, length, approach1..approach6)"
 RECONNECT_POLL_S = 0.5
 """How often a lost port is tried again, s."""
@@ -116,24 +120,10 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
     return done, note
 
 
-@contextlib.contextmanager
-def locked(folder: Path) -> Iterator[None]:
-    """Hold the capture folder's lock, or fail at once if another capture holds it."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(folder / LOCK_NAME, os.O_WRONLY | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise os_error(folder / LOCK_NAME, "creating it", exc, "a folder to write into") \
-            from None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise InputError("another capture running on this folder", "one capture per "
-                             "folder at a time", source=folder) from None
-        yield
-    finally:
-        os.close(fd)
+def locked(folder: Path) -> contextlib.AbstractContextManager[None]:
+    """Hold the capture folder's lock (:mod:`twin.io.lock`), or fail at once if another
+    command holds it."""
+    return folder_lock(folder, "twin capture")
 
 
 def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
@@ -161,10 +151,84 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         first = read_bytes(measurements, JOURNAL, journal=True).split(b"\n", 1)
         head = first[0] + (b"\n" if len(first) > 1 else b"")
         if not HEADER.encode("utf-8").startswith(head.lstrip()):
-            text = head[:60].decode("utf-8", errors="replace").strip()
-            raise InputError(f"a measurement file of another kind ({text!r})",
-                             f"the header {HEADER.strip()} of a capture, or a new --out folder",
-                             source=measurements, where="line 1")
+            # Its first line is not quoted: whatever file it is, its content stays its own.
+            raise InputError("a measurement file of another kind (its first line is not a "
+                             "capture's header)", f"the header {HEADER.strip()} of a "
+                             "capture, or a new --out folder", source=measurements,
+                             where="line 1")
+
+
+def _starts_as_journal(path: Path) -> bool:
+    """Whether a regular file begins with the header of a capture's measurements."""
+    if not path.is_file():
+        return False
+    try:
+        with open(path, "rb") as handle:
+            return handle.read(len(HEADER)) == HEADER.encode("utf-8")
+    except OSError:
+        return False
+
+
+def real_measurements(folder: Path) -> tuple[Path, str] | None:
+    """What makes ``folder`` hold real measurements, which only `twin capture` may write to:
+    a capture's plan or journal, or a measurement file no simulation wrote (no truth.json
+    beside it). None for a folder a simulation may write (new, or another simulation's).
+
+    Returns:
+        The file, and what it is.
+    """
+    plan, measurements = folder / PLAN_NAME, folder / MEASUREMENTS_NAME
+    if _starts_as_journal(measurements):
+        return measurements, "a capture's measurements"
+    if os.path.lexists(plan):
+        return plan, "the plan of a capture"
+    if os.path.lexists(measurements) and not (folder / TRUTH_FILE).exists():
+        return measurements, "measurements no simulation wrote (no truth.json beside them)"
+    return None
+
+
+def set_aside(folder: Path) -> tuple[Path, list[str]]:
+    """Move a capture's files out of the way, into a new ``folder/kept-<UTC time>/``; nothing
+    is deleted.
+
+    Returns:
+        The new folder, and the names moved into it.
+    """
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    kept = folder / f"{KEPT_PREFIX}{stamp}"
+    suffix = 1
+    while True:
+        try:
+            kept.mkdir()
+            break
+        except FileExistsError:
+            suffix += 1
+            kept = folder / f"{KEPT_PREFIX}{stamp}-{suffix}"
+        except OSError as exc:
+            raise os_error(kept, "creating it", exc, "a folder to write into") from None
+    moved = [name for name in CAPTURE_FILES if os.path.lexists(folder / name)]
+    try:
+        for name in moved:
+            os.rename(folder / name, kept / name)
+        fsync_directory(kept)
+        fsync_directory(folder)
+    except OSError as exc:
+        raise os_error(kept, "moving the capture into it", exc, "a folder to write into") \
+            from None
+    return kept, moved
+
+
+def refuse_capture_journal(values: Iterable[object]) -> None:
+    """Refuse an output file that would replace a capture's measurements (only the capture
+    appends to them).
+
+    Raises:
+        InputError: naming the file.
+    """
+    for value in values:
+        if isinstance(value, OutputFile) and _starts_as_journal(value):
+            raise InputError("a capture's measurements", "an output that is not a "
+                             "capture's journal (it would be replaced)", source=value)
 
 
 def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],

@@ -31,6 +31,7 @@ from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
+from twin.io.table import shown
 from twin.robot import RobotModel
 from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 
@@ -117,10 +118,10 @@ def read_columns(
     header = [name.strip() for name in header]
     missing = [name for name in columns if name not in header]
     if missing:
-        raise InputError(
-            f"columns {','.join(header)} (no {','.join(missing)})", expected_header,
-            source=path, where=f"line {header_line}",
-        )
+        # The line is not quoted: a file of another kind (`--joints /etc/passwd`) keeps its
+        # content to itself.
+        raise InputError(f"a header without {','.join(missing)}", expected_header,
+                         source=path, where=f"line {header_line}")
     duplicated = sorted({name for name in (*columns, *optional, *labels)
                          if header.count(name) > 1})
     if duplicated:
@@ -144,7 +145,7 @@ def read_columns(
             try:
                 value = float(text_value)
             except ValueError:
-                raise InputError(f"{text_value!r}", "a number", source=path,
+                raise InputError(shown(text_value), "a number", source=path,
                                  where=f"line {number}, column {name}") from None
             if not math.isfinite(value):
                 raise InputError(f"{text_value!r}", "a finite number", source=path,
@@ -153,7 +154,7 @@ def read_columns(
         for name in named:
             label = fields[header.index(name)].strip()
             if not label or len(label) > MAX_LABEL_CHARS:
-                raise InputError(f"{label!r}", f"a name of 1 to {MAX_LABEL_CHARS} characters",
+                raise InputError(shown(label), f"a name of 1 to {MAX_LABEL_CHARS} characters",
                                  source=path, where=f"line {number}, column {name}")
             texts[name].append(label)
         lines.append(number)
@@ -209,7 +210,8 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
         not all(c in table.optional for c in POSITION_COLUMNS)
     header_line = f"line {table.header_line}"
     if len(given) != 1 or partial:
-        raise InputError(f"columns {','.join(table.header)}",
+        known = (*joints, LENGTH_COLUMN, *POSITION_COLUMNS, PORT_COLUMN, POINT_COLUMN)
+        raise InputError(f"columns {','.join(name for name in table.header if name in known)}",
                          f"exactly one of {kinds} beside {joints[0]}..{joints[-1]}",
                          source=path, where=header_line)
     q_deg = table.values

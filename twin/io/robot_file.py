@@ -48,7 +48,6 @@ The model is :class:`twin.robot.RobotModel`; the URDF adapter :mod:`twin.io.urdf
 from __future__ import annotations
 
 import json
-import math
 import tomllib
 from dataclasses import replace
 from importlib import resources
@@ -78,6 +77,7 @@ from twin.units import (
     FILE_DEG_DECIMALS,
     FILE_MM_DECIMALS,
     LENGTH_FACTORS,
+    MAX_ANGLE_RAD,
     MAX_LENGTH_M,
     m_to_mm,
     rad_to_deg,
@@ -139,8 +139,6 @@ _TOP_KEYS = ("name", "parametrisation", "convention", "length_unit", "angle_unit
 _LIMIT_KEYS = ("lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius", "velocity", "effort")
 _COM_KEY = "com"
-MAX_ANGLE_RAD = 4 * math.pi
-"""Largest |alpha|, |theta| and |joint limit| accepted from a model file: two turns."""
 MAX_MASS_KG = 1e4
 MAX_VELOCITY_RAD_S = 100.0
 """Largest joint velocity limit accepted from a model file, rad/s (some 950 rpm)."""

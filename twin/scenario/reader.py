@@ -208,7 +208,12 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
             if poses.has(key):
                 raise poses.error(key, f"{key} with fixed points",
                                   "[fixture] placements and touches (they set the poses)")
-        count = len(instrument.points_m) * instrument.touches
+        points = len(instrument.sockets_m) * len(instrument.placements)
+        count = points * instrument.touches
+        if count > MAX_POSES:
+            raise tables["fixture"].error("touches", f"{instrument.touches} touches of "
+                                          f"{points} sockets ({count} poses)",
+                                          f"at most {MAX_POSES} poses in all")
     else:
         if plan is None:
             poses.required("count", "the number of poses (or a plan)")

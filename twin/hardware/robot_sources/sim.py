@@ -72,8 +72,8 @@ def read_pose(path: str | Path) -> CommandedPose | None:
         return CommandedPose(int(document["pose"]), deg_to_rad(document["q_deg"]),
                              deg_to_rad(document["from_q_deg"]), str(document["command"]))
     except (ValueError, KeyError, TypeError):
-        raise InputError(f"{text[:60]!r}", 'a pose file {"pose", "q_deg", "from_q_deg", '
-                         '"command"}', source=path) from None
+        raise InputError("a file that is not a pose file", 'a pose file {"pose", "q_deg", '
+                         '"from_q_deg", "command"}', source=path) from None
 
 
 class SimRobot(RobotSource):
