@@ -117,7 +117,7 @@ def plan_module(robot: RobotModel, q_rad: Array, options: PlanOptions,
     from twin.compensation.ik import home_pose
 
     q_deg = np.array([[float(format_number(v, FILE_DEG_DECIMALS)) for v in row]
-                      for row in rad_to_deg(q_rad)])
+                      for row in rad_to_deg(q_rad)]).reshape(-1, robot.n_joints)
     home_deg = rad_to_deg(home_pose(robot) if options.home_rad is None else options.home_rad)
     _check_limits(robot, q_deg, "pose")
     _check_limits(robot, home_deg[None, :], "home")
