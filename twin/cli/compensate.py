@@ -115,7 +115,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.verify is not None:
-        for flag in ("identified", "out", "robot", "cable_tension", "tool", "wobj",
+        for flag in ("identified", "out", "robot", "xacro_arg", "cable_tension", "tool", "wobj",
                      "tool0_in_flange"):
             if getattr(args, flag) is not None:
                 option = "--" + flag.replace("_", "-")

@@ -213,7 +213,8 @@ def frame_offsets(urdf_frames: Array, table_frames: Array) -> Array:
 
 
 def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None,
-              parametrisation: str | Sequence[str] = AUTO) -> RobotModel:
+              parametrisation: str | Sequence[str] = AUTO, text: str | None = None
+              ) -> RobotModel:
     """The serial chain of a URDF as a robot, in the parametrisation asked for.
 
     Args:
@@ -223,6 +224,8 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
         parametrisation: ``auto`` (Hayati where consecutive axes are nearly parallel, standard
             D-H elsewhere), ``dh``, ``mdh``, or one per joint
             (:mod:`twin.geometry.parametrisation`).
+        text: The URDF's text when it does not come from ``path`` itself (a xacro expanded,
+            :mod:`twin.io.xacro_reader`); ``path`` then names it in messages.
 
     Returns:
         The robot, its forward kinematics equal to Pinocchio's to 1e-9 m, with the URDF kept.
@@ -232,7 +235,7 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
             chain of other joints than revolute and fixed, fewer than 4 or more than 7
             revolute joints, or a parametrisation the chain cannot take.
     """
-    text = read_text(path, WHAT)
+    text = read_text(path, WHAT) if text is None else text
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
