@@ -18,9 +18,11 @@ Each entry is the ``<origin>`` of one revolute joint in ``ur_description``'s ``u
 commit 2221ec0, ``urdf/inc/ur_common.xacro``; BSD-3-Clause; layout facts only, no code). The
 fixed joints after ``wrist_3_link`` (``flange``, ``tool0``) are constants of the macro: the
 calibrated flange must be a turn about and a shift along the last axis from them, which folds
-into ``wrist_3`` exactly; what moves it off that axis (the last row's a and α) has no place in
-the file. Such a remainder up to :data:`OFF_AXIS_TOLERANCE_M` is dropped with a warning naming
-its size (``ur_calibration`` itself drops the last row's a and α); a larger one is refused.
+into ``wrist_3`` exactly; what moves it off that axis (the last row's a and α: a cable sees a)
+has no place in the file (``ur_calibration`` itself drops the last row's a and α). It is a fixed
+transform after the last joint, so a TCP holds it: the export warns with that offset in tool0
+(mm, and a rotation vector in rad, PolyScope's TCP convention), :func:`tcp_remainder`; the file
+and that TCP offset together are the identified robot.
 
 The ``hash`` is what the driver compares with the one the robot reports for its own factory
 calibration (``kinematics/hash``; Universal_Robots_ROS_Driver ``hardware_interface.cpp``): on a
@@ -36,14 +38,16 @@ import hashlib
 import io
 import warnings
 import xml.etree.ElementTree as ET
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 from twin.errors import InputError
 from twin.export.urdf import joint_origins
 from twin.geometry.kinematics import rigid_transform, xyz_rpy
+from twin.io.urdf_reader import find_chain
 from twin.robot import RobotModel
 
 UR_LINKS = {"shoulder_pan_joint": "shoulder", "shoulder_lift_joint": "upper_arm",
@@ -51,11 +55,8 @@ UR_LINKS = {"shoulder_pan_joint": "shoulder", "shoulder_lift_joint": "upper_arm"
             "wrist_3_joint": "wrist_3"}
 """ur_description's revolute joints (after any tf_prefix) and the kinematics entry of each."""
 KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
-OFF_AXIS_TOLERANCE_M = 1e-5
-"""Largest move of the flange off the last axis (m, or rad × 1 m for a tilt) dropped with a
-warning: 10 µm, a good cable calibration's noise."""
 NEGLIGIBLE_M = 1e-12
-"""A remainder below this is rounding, not a calibration: nothing to warn about."""
+"""A remainder below this (m, or rad) is rounding, not a calibration: nothing to warn about."""
 NOMINAL_TOLERANCE = 1e-6
 """How far (m, rad) a --base file's numbers may be from the nominal robot's before a warning."""
 
@@ -88,46 +89,66 @@ def _origin(joint: ET.Element) -> Array:
                            [float(v) for v in origin.get("rpy", "0 0 0").split()])
 
 
-def ur_origins(robot: RobotModel) -> dict[str, Array]:
-    """The six joint origins of UR's file (4, 4), m, by entry name, for the robot's calibrated
-    chain with the macro's fixed flange (see the module docstring).
+class UrOrigins(NamedTuple):
+    """What UR's file holds of a calibrated chain, and what it cannot."""
+
+    origins: dict[str, Array]
+    """The six joint origins (4, 4), m, by entry name."""
+    tcp_remainder: Array
+    """tool0 as calibrated, in tool0 as the file gives it (4, 4): the TCP offset that makes
+    the file the identified robot (the identity when the flange stays on the last axis)."""
+
+
+def _fixed_product(joints: list[ET.Element]) -> Array:
+    transform = np.eye(4)
+    for joint in joints:
+        transform = transform @ _origin(joint)
+    return transform
+
+
+def ur_origins(robot: RobotModel) -> UrOrigins:
+    """The six joint origins of UR's file for the robot's calibrated chain with the macro's
+    fixed flange, and the TCP offset it cannot hold (see the module docstring).
 
     Raises:
-        InputError: for a robot that is not a UR from its URDF, or a calibration that moves the
-            flange off the last axis by more than :data:`OFF_AXIS_TOLERANCE_M`.
+        InputError: for a robot that is not a UR read from its URDF (or xacro).
     """
     names = _ur_names(robot)
     assert robot.urdf is not None
     origins = joint_origins(robot)
     root = ET.fromstring(robot.urdf.text)
-    joints = {str(j.get("name")): j for j in root.iter("joint")}
-    last = robot.joint_names[-1]
-    axis = joints[last].find("axis")
+    chain = find_chain(root, robot.urdf.base_link, robot.urdf.tip_link, "the robot's URDF")
+    last = chain.revolute[-1]
+    axis = last.find("axis")
     if axis is None or not np.allclose([float(v) for v in axis.get("xyz", "1 0 0").split()],
                                        [0.0, 0.0, 1.0], rtol=0.0, atol=1e-12):
-        raise InputError(f"joint {last} turning about another axis than z", "a UR description "
-                         "(every joint about z)", source="--format")
-    tail = [name for name in origins if name not in robot.joint_names]
+        raise InputError(f"joint {last.get('name')} turning about another axis than z",
+                         "a UR description (every joint about z)", source="--format")
     result = {names[joint]: origins[joint] for joint in robot.joint_names}
-    if tail:
-        # The flange's change, seen from wrist_3_link: only its screw about z fits in wrist_3.
-        change = origins[tail[0]] @ np.linalg.inv(_origin(joints[tail[0]]))
-        turn = np.arctan2(change[1, 0], change[0, 0])
-        screw = rigid_transform([0.0, 0.0, change[2, 3]], [0.0, 0.0, turn])
-        rest = np.linalg.inv(screw) @ change
-        off = max(float(np.abs(rest[:3, 3]).max()),
-                  float(np.abs(rest[:3, :3] - np.eye(3)).max()))
-        if off > OFF_AXIS_TOLERANCE_M:
-            raise InputError(f"a calibration that moves the flange {off * 1e3:.4g} mm off the "
-                             "last axis", "one UR's file can hold (its flange is fixed to "
-                             "wrist_3_link): export --format urdf, which holds it",
-                             source="--format")
-        if off > NEGLIGIBLE_M:
-            warnings.warn(f"the calibrated flange sits {off * 1e3:.3g} mm (or mrad) off the last "
-                          "axis, which UR's file cannot hold: dropped", UrCalibrationWarning,
-                          stacklevel=2)
-        result["wrist_3"] = result["wrist_3"] @ screw
-    return result
+    tail = list(chain.joints[chain.joints.index(last) + 1:])
+    if not tail:
+        return UrOrigins(result, np.eye(4))
+    # The flange's change, seen from wrist_3_link: its screw about z folds into wrist_3.
+    nominal = _origin(tail[0])
+    change = origins[str(tail[0].get("name"))] @ np.linalg.inv(nominal)
+    screw = rigid_transform([0.0, 0.0, change[2, 3]],
+                            [0.0, 0.0, np.arctan2(change[1, 0], change[0, 0])])
+    result["wrist_3"] = result["wrist_3"] @ screw
+    to_tool0 = nominal @ _fixed_product(tail[1:])
+    remainder = np.linalg.inv(to_tool0) @ np.linalg.inv(screw) @ change @ to_tool0
+    return UrOrigins(result, remainder)
+
+
+def _warn_remainder(remainder: Array) -> None:
+    shift = remainder[:3, 3]
+    turn = Rotation.from_matrix(remainder[:3, :3]).as_rotvec()
+    if max(float(np.abs(shift).max()), float(np.abs(turn).max())) <= NEGLIGIBLE_M:
+        return
+    warnings.warn("the calibration moves tool0 off the last axis, which UR's file cannot hold "
+                  "(its flange is fixed to wrist_3_link): add it to the TCP, in tool0: "
+                  f"x,y,z = {', '.join(f'{v:.6g}' for v in shift * 1e3)} mm, rotation vector "
+                  f"{', '.join(f'{v:.6g}' for v in turn)} rad (or export --format urdf, which "
+                  "holds it)", UrCalibrationWarning, stacklevel=3)
 
 
 def _values(transform: Array) -> list[float]:
@@ -137,8 +158,9 @@ def _values(transform: Array) -> list[float]:
 
 def export(robot: RobotModel) -> str:
     """The file's text, with a ``twin_…`` hash (no robot's)."""
-    origins = ur_origins(robot)
-    values = {name: _values(origin) for name, origin in origins.items()}
+    found = ur_origins(robot)
+    _warn_remainder(found.tcp_remainder)
+    values = {name: _values(origin) for name, origin in found.origins.items()}
     digest = hashlib.sha256(repr(sorted(values.items())).encode()).hexdigest()[:16]
     lines = [f"# {robot.name}: joint origins calibrated by twin (x, y, z in m; roll, pitch, yaw "
              "in rad),", "# for ur_description's kinematics_parameters_file. The hash is no "
@@ -196,7 +218,9 @@ def export_with_base(robot: RobotModel, base_text: str, source: str) -> str:
         warnings.warn(f"{source}: its kinematics are {apart:.3g} (m or rad) from the nominal "
                       f"robot's the result was identified for ({robot.name}): replaced by the "
                       "identified ones", UrCalibrationWarning, stacklevel=2)
-    for name, origin in ur_origins(robot).items():
+    found = ur_origins(robot)
+    _warn_remainder(found.tcp_remainder)
+    for name, origin in found.origins.items():
         for key, value in zip(KEYS, _values(origin), strict=True):
             kinematics[name][key] = value
     stream = io.StringIO()
