@@ -84,12 +84,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.calibration.settings import CalibrationSettings
     from twin.errors import InputError
     from twin.hardware.capture_session import CAPTURE_NAME, MEASUREMENTS_NAME, capture_folder
     from twin.hardware.encoders import resolve
     from twin.hardware.encoders.settle import SettleRule
     from twin.hardware.robot_sources.base import RobotSource
-    from twin.io.capture_file import CalibrationSettings, parse_port_mm
+    from twin.io.capture_file import parse_port_mm
     from twin.io.measurements import load_plan
     from twin.io.robot_file import load_robot_or_default
     from twin.rig import Rig
@@ -120,8 +121,8 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"a {sim.measurements.kind} scenario with "
                              f"{len(sim.rig.ports_m)} ports", "a scenario of one cable port "
                              "(the virtual encoder serves one cable)", source=args.scenario)
-        robot, rig, truth = sim.robot, sim.rig_told, sim.capture_truth
-        calibration = sim.calibration_settings
+        robot, rig, truth = sim.robot, sim.rig_told_pulled, sim.capture_truth
+        calibration = sim.scenario.calibration
     else:
         robot = load_robot_or_default(args.robot)
         if args.port is None:
@@ -129,9 +130,10 @@ def run(args: argparse.Namespace) -> int:
                              source="command line")
         rig = Rig.cable(parse_port_mm(args.port, "--port", ""),
                         None if args.attachment is None
-                        else parse_port_mm(args.attachment, "--attachment", ""))
+                        else parse_port_mm(args.attachment, "--attachment", ""),
+                        tension_n=args.cable_tension or 0.0)
         if args.cable_tension:
-            calibration = CalibrationSettings(cable_tension_n=args.cable_tension)
+            calibration = CalibrationSettings()
     if robot.urdf is not None or robot.n_joints != CAPTURE_JOINTS:
         # The capture journal's columns are pose, q1..q6, length (twin.hardware.capture_session).
         raise InputError(f"a {robot.n_joints}-joint robot"
