@@ -15,7 +15,7 @@ import numpy as np
 from _timing import median_time
 from scipy.spatial.transform import Rotation
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.setup import make_model
 from twin.compensation.configuration import configuration
 from twin.compensation.poses import controller_tool0
 from twin.compensation.targets import reachable_targets
