@@ -347,3 +347,27 @@ def test_filtered_module_brings_the_true_robot_to_every_target(calibrated: dict)
     assert np.all(e["after"] <= 2.0 * e["model"] + 1e-6), (e["after"], e["model"])
     assert np.max(e["after"]) < np.min(e["before"]) / 20.0
     assert np.all(e["tcp_after"] <= 2.0 * e["tcp_model"] + 1e-6), (e["tcp_after"], e["tcp_model"])
+
+
+def test_filtering_refusals(calibrated: dict, tmp_path: Path, refusals: Refusals) -> None:
+    """A robtarget that is not one, a module for a robot whose tool0 twin does not know, an
+    output that is not a module: one line naming the line or flag, exit 2, nothing written."""
+    result = calibrated["folder"] / "result.json"
+    out = tmp_path / "out.mod"
+    bad = tmp_path / "bad.mod"
+    bad.write_text("MODULE Bad\n  CONST robtarget p := [[1,2,3],[1,0,0,0],[0,0,0,0]];\nENDMODULE\n")
+    refusals.cli(["compensate", "--identified", result, "--rapid", bad, "--out", out], [bad],
+                 "line 2")
+    good = tmp_path / "good.mod"
+    good.write_text(_cell_module(default_robot(), np.random.default_rng(1))[0])
+    refusals.cli(["compensate", "--identified", result, "--rapid", good, "--out",
+                  tmp_path / "out.csv"], [good], "an output RAPID module")
+    renamed = tmp_path / "arm.toml"
+    renamed.write_text((ROOT / "models" / "irb120.toml").read_text().replace(
+        'name = "ABB IRB 120"', 'name = "my arm"'))
+    mine = tmp_path / "mine.json"
+    assert main(["calibrate", str(ROOT / "examples" / "irb120_lm" / "measurements.csv"),
+                 "--robot", str(renamed), "--port", "600,-400,100", "--json", str(mine)]) == 0
+    refusals.cli(["compensate", "--identified", mine, "--robot", renamed, "--rapid", good,
+                  "--out", out], [good, mine], "--tool0-in-flange")
+    assert not out.exists()
