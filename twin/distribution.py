@@ -22,6 +22,8 @@ EXTRAS = {
     "serial": "hardware",
     "minimalmodbus": "hardware",
     "pymodbus": "hardware",
+    "xacro": "ros",
+    "ruamel": "ros",
     "dask": "cluster",
     "distributed": "cluster",
 }

@@ -238,8 +238,10 @@ def add_cable_tension(parser: argparse.ArgumentParser, help: str,
 
 def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") -> None:
     """``--robot`` (a model TOML or a URDF) and, for a URDF, ``--base-link`` / ``--tip-link``."""
-    parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file or a "
-                        ".urdf, 4 to 7 revolute joints (default: the ABB IRB 120)")
+    parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file, a .urdf "
+                        "or a .xacro, 4 to 7 revolute joints (default: the ABB IRB 120)")
+    parser.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE",
+                        help="with a .xacro --robot: an argument of the description, repeated")
     parser.add_argument("--base-link", metavar="LINK", help="with a URDF --robot: the link "
                         "the chain starts from (default: the URDF's root link)")
     parser.add_argument("--tip-link", metavar="LINK", help="with a URDF --robot: the flange "
@@ -254,11 +256,13 @@ def robot_from_flags(args: argparse.Namespace) -> RobotModel:
     """
     from twin.errors import InputError
     from twin.io.robot_file import load_robot_or_default
+    from twin.io.xacro_reader import parse_xacro_args
 
     if args.robot is None and (args.base_link or args.tip_link):
         flag = "--base-link" if args.base_link else "--tip-link"
         raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it", source=flag)
-    return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link)
+    return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link,
+                                 xacro_args=parse_xacro_args(getattr(args, "xacro_arg", None)))
 
 
 AUTO = "auto"

@@ -12,7 +12,10 @@ the
   robot from a model file;
 - ``yaml``: the calibrated joint origins as an overlay in the style of Universal Robots'
   calibration files;
-- ``mjcf``: MJCF for MuJoCo, with a site ``flange`` (the twin's own builder).
+- ``mjcf``: MJCF for MuJoCo, with a site ``flange`` (the twin's own builder);
+- ``ur-calibration``: a UR robot's calibration in the layout of Universal Robots'
+  ``ur_calibration`` (``kinematics: shoulder … wrist_3, hash``), which ``ur_description`` reads;
+- ``xacro``: the calibrated joint origins as xacro properties a description includes.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import importlib
 from twin.errors import UnknownChoiceError
 from twin.robot import RobotModel
 
-FORMATS = ("dh", "urdf", "yaml", "mjcf")
+FORMATS = ("dh", "urdf", "yaml", "mjcf", "ur-calibration", "xacro")
 
 
 def export_text(robot: RobotModel, format_name: str) -> str:
@@ -33,5 +36,5 @@ def export_text(robot: RobotModel, format_name: str) -> str:
     """
     if format_name not in FORMATS:
         raise UnknownChoiceError("export format", format_name, FORMATS, source="--format")
-    module = importlib.import_module(f"twin.export.{format_name}")
+    module = importlib.import_module(f"twin.export.{format_name.replace('-', '_')}")
     return str(module.export(robot))

@@ -35,12 +35,15 @@ joint's rated limits, for exported URDFs.
 
 A model file may instead name a URDF (:mod:`twin.io.urdf_reader`, through Pinocchio)::
 
-    urdf = "ur5e.urdf"               # relative to this file
+    urdf = "ur5e.urdf"               # relative to this file (or a .xacro, with
+                                     # xacro_args = { name = "value" })
     base_link = "base_link"          # optional: the URDF's root link
     tip_link = "tool0"               # optional: tool0, else flange, else the one leaf link
     parametrisation = "auto"         # optional: "auto" (default), "dh", "mdh" or one per joint
 
-and a robot file given as ``--robot arm.urdf`` is read with those defaults.
+and a robot file given as ``--robot arm.urdf`` is read with those defaults; ``--robot
+arm.urdf.xacro`` (with ``--xacro-arg NAME:=VALUE``) is expanded by xacro first
+(:mod:`twin.io.xacro_reader`).
 
 The model is :class:`twin.robot.RobotModel`; the URDF adapter :mod:`twin.io.urdf_reader`.
 """
@@ -49,6 +52,7 @@ from __future__ import annotations
 
 import json
 import tomllib
+from collections.abc import Mapping
 from dataclasses import replace
 from importlib import resources
 from pathlib import Path
@@ -71,6 +75,7 @@ from twin.geometry.parametrisation import AUTO, REQUESTS, check_mix, convert
 from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.io.urdf_reader import load_urdf
+from twin.io.xacro_reader import XACRO_SUFFIX, expand_xacro
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
 from twin.units import (
     ANGLE_FACTORS,
@@ -84,7 +89,7 @@ from twin.units import (
     rounded,
 )
 
-URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
+URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation", "xacro_args")
 """The keys of a model file that names a URDF."""
 
 
@@ -92,26 +97,43 @@ def _urdf_reference(document: dict[str, Any], source: str | Path) -> RobotModel:
     """A model file that names a URDF: read the URDF with the file's links and parametrisation."""
     doc = Table(document, source, allowed=URDF_KEYS, kind="a model file that names a URDF")
     links = {key: doc.text(key) if doc.has(key) else None for key in ("base_link", "tip_link")}
-    robot = load_urdf(Path(source).parent / doc.text("urdf"), base_link=links["base_link"],
-                      tip_link=links["tip_link"],
-                      parametrisation=parametrisation_request(doc, AUTO))
+    path = Path(source).parent / doc.text("urdf")
+    text = None
+    if path.suffix.lower() == XACRO_SUFFIX:
+        arguments = doc.table("xacro_args", expected="{ NAME = \"VALUE\", … }") \
+            if doc.has("xacro_args") else None
+        text = expand_xacro(path, {key: arguments.text(key) for key in arguments.values}
+                            if arguments is not None else {})
+    elif doc.has("xacro_args"):
+        raise doc.error("xacro_args", "xacro_args for a URDF", "them for a .xacro only")
+    robot = load_urdf(path, base_link=links["base_link"], tip_link=links["tip_link"],
+                      parametrisation=parametrisation_request(doc, AUTO), text=text)
     return replace(robot, name=doc.text("name")) if doc.has("name") else robot
 
 
-def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None
-               ) -> RobotModel:
-    """Read and validate a robot model: a TOML model file, or a URDF (``.urdf``).
+def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None,
+               xacro_args: Mapping[str, str] | None = None) -> RobotModel:
+    """Read and validate a robot model: a TOML model file, a URDF (``.urdf``) or a xacro
+    description (``.xacro``, expanded by :mod:`twin.io.xacro_reader` with ``xacro_args``).
 
     Args:
         path: The file.
         base_link: For a URDF: the link the chain starts from (default: the root).
         tip_link: For a URDF: the flange link (default: tool0, flange or the one leaf).
+        xacro_args: For a xacro: its arguments, NAME to VALUE.
 
     Raises:
-        InputError: if the file is missing, not TOML (or URDF), or not a valid model.
+        InputError: if the file is missing, not TOML (or URDF, or xacro), or not a valid model.
     """
     path = Path(path)
-    if path.suffix.lower() == ".urdf":
+    suffix = path.suffix.lower()
+    if xacro_args and suffix != XACRO_SUFFIX:
+        raise InputError("--xacro-arg with a robot that is not a .xacro", "it with --robot "
+                         "ARM.urdf.xacro", source="--xacro-arg")
+    if suffix == XACRO_SUFFIX:
+        return load_urdf(path, base_link=base_link, tip_link=tip_link,
+                         text=expand_xacro(path, xacro_args or {}))
+    if suffix == ".urdf":
         return load_urdf(path, base_link=base_link, tip_link=tip_link)
     if base_link is not None or tip_link is not None:
         raise InputError("--base-link or --tip-link with a model TOML file",
@@ -124,15 +146,19 @@ def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str 
 
 
 def load_robot_or_default(path: str | Path | None, *, base_link: str | None = None,
-                          tip_link: str | None = None) -> RobotModel:
+                          tip_link: str | None = None,
+                          xacro_args: Mapping[str, str] | None = None) -> RobotModel:
     """The robot of a file (:func:`load_robot`), or the packaged ABB IRB 120 without one.
 
     Raises:
         InputError: as :func:`load_robot`.
     """
     if path is None:
+        if xacro_args:
+            raise InputError("--xacro-arg without --robot", "--robot ARM.urdf.xacro beside it",
+                             source="--xacro-arg")
         return default_robot()
-    return load_robot(path, base_link=base_link, tip_link=tip_link)
+    return load_robot(path, base_link=base_link, tip_link=tip_link, xacro_args=xacro_args)
 
 _TOP_KEYS = ("name", "parametrisation", "convention", "length_unit", "angle_unit", "joints",
              "base", "tool")

@@ -426,7 +426,8 @@ def _check_same_chain(fixed: Array, chain: Chain, source: str | Path) -> None:
 
 
 def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None,
-              parametrisation: str | Sequence[str] = AUTO) -> RobotModel:
+              parametrisation: str | Sequence[str] = AUTO, text: str | None = None
+              ) -> RobotModel:
     """The serial chain of a URDF as a robot, in the parametrisation asked for.
 
     Args:
@@ -436,6 +437,8 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
         parametrisation: ``auto`` (Hayati where consecutive axes are nearly parallel, standard
             D-H elsewhere), ``dh``, ``mdh``, or one per joint
             (:mod:`twin.geometry.parametrisation`).
+        text: The URDF's text when it does not come from ``path`` itself (a xacro expanded,
+            :mod:`twin.io.xacro_reader`); ``path`` then names it in messages.
 
     Returns:
         The robot, its forward kinematics equal to Pinocchio's to 1e-9 m, with the URDF kept.
@@ -449,7 +452,7 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
             (:func:`origin_transform`, :func:`joint_axis`), or a parametrisation the chain
             cannot take.
     """
-    text = read_text(path, WHAT)
+    text = read_text(path, WHAT) if text is None else text
     root = _parse(text, path)
     chain = find_chain(root, base_link, tip_link, path)
     revolute = chain.revolute

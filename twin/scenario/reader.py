@@ -159,7 +159,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         raise top.error("robot_base_link", "robot_base_link or robot_tip_link without robot",
                         "robot = \"arm.urdf\" beside them")
     robot = load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
-                                  **links)
+                                  base_link=links["base_link"], tip_link=links["tip_link"])
     n = robot.n_joints
     if not top.has("seed"):
         top.required("seed", "an integer seed")
