@@ -38,6 +38,7 @@ from twin.cli import (
     predict,
     simulate,
     study,
+    virtual_controller,
     virtual_encoder,
 )
 from twin.cli.arguments import ArgumentParser, UsageError
@@ -46,7 +47,7 @@ from twin.errors import InputError, TwinError
 from twin.io.paths import check_command_paths, command_scope
 
 SUBCOMMANDS = (calibrate, simulate, identify, plan, predict, compensate, export, study, check,
-               capture, virtual_encoder)
+               capture, virtual_encoder, virtual_controller)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141

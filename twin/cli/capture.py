@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from typing import Any
 
 from twin.cli.arguments import (
     add_cable_tension,
@@ -134,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _rws(args: argparse.Namespace) -> dict[str, object]:
+def _rws(args: argparse.Namespace) -> dict[str, Any]:
     """The ABB controller's connection and capture settings, for an rws:// source."""
     if not args.robot_source.startswith(("rws://", "rws2://")):
         return {}

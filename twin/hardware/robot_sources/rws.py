@@ -45,6 +45,8 @@ from twin.units import deg_to_rad, rad_to_deg
 
 MODULE_FILE = f"{MODULE}.mod"
 """The plan module's file in the capture folder."""
+WAITING_NOTE_S = 2.0
+"""After this long without the robot at the pose, say what twin waits for, s."""
 
 
 @dataclass(frozen=True)
@@ -112,7 +114,7 @@ class RwsRobot(RobotSource):
 
     def _handshake(self, pose: int, n_poses: int) -> None:
         """Wait until the plan module stands at ``pose``, acknowledging poses twin has."""
-        deadline, waiting_told = self._deadline(), False
+        started, deadline, waiting_told = time.monotonic(), self._deadline(), False
         while True:
             waiting = self._waiting_pose()
             if waiting is not None and waiting < pose:
@@ -130,7 +132,7 @@ class RwsRobot(RobotSource):
                 raise TwinError(f"the controller stopped the plan module before standing at "
                                 f"pose {pose}/{n_poses} (RAPID execution stopped): it refused "
                                 "the pose, or was stopped; see its event log")
-            if not waiting_told:
+            if not waiting_told and time.monotonic() - started > WAITING_NOTE_S:
                 self.report(f"waiting for the plan module {self.settings.module} in "
                             f"{self.settings.task} to stand at pose {pose}/{n_poses}")
                 waiting_told = True

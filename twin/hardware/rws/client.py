@@ -43,8 +43,15 @@ class ControllerError(TwinError):
     """The controller could not be reached, refused the request, or answered off the protocol."""
 
 
-class AuthenticationError(ControllerError):
-    """The controller refused the credentials."""
+class AuthenticationError(ControllerError, InputError):
+    """The controller refused the credentials (a user mistake: exit code 2)."""
+
+    def __init__(self, connection: RwsConnection) -> None:
+        InputError.__init__(
+            self, f"credentials that the controller at {connection.url} refused (HTTP 401) "
+            f"for user {connection.user!r}", f"those of an RWS user, with --rws-user and "
+            f"--rws-password or {USER_VARIABLE} and {PASSWORD_VARIABLE}",
+            source="--robot-source")
 
 
 @dataclass(frozen=True)
@@ -146,8 +153,8 @@ class RwsClient:
         import requests
 
         query = dict(params or {})
-        if self.connection.version == 1 and self.connection.payload == "json":
-            query["json"] = "1"
+        if self.connection.version == 1 and self.connection.payload == "json" and verb == "GET":
+            query["json"] = "1"  # a common URL parameter; a POST answers with no body
         headers = {} if data is None else {"Content-Type":
                                            protocol.form_type(self.connection.version)}
         deadline = time.monotonic() + self.connection.retry_s
@@ -169,10 +176,7 @@ class RwsClient:
                 time.sleep(RETRY_S)
         content_type = answer.headers.get("Content-Type", "")
         if answer.status_code == 401:
-            raise AuthenticationError(
-                f"the controller at {self.connection.url} refused the credentials of user "
-                f"{self.connection.user!r} (HTTP 401): give them with --rws-user and "
-                f"--rws-password or {USER_VARIABLE} and {PASSWORD_VARIABLE}")
+            raise AuthenticationError(self.connection)
         if answer.status_code >= 400:
             status = protocol.parse_status(answer.content, content_type)
             raise ControllerError(f"{verb} {path}: the controller answered HTTP "
