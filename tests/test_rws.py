@@ -10,7 +10,6 @@ documentation's own sample answers and an XML/JSON reader written here.
 
 from __future__ import annotations
 
-import json
 import signal
 import subprocess
 import sys
@@ -34,7 +33,7 @@ from twin.io.measurements import load_measurements, read_table
 from twin.io.rapid_handshake import axes_deg, module_text, read_module
 from twin.scenario import load_scenario
 from twin.sim import Twin, simulate
-from twin.units import deg_to_rad, m_to_mm, rad_to_deg
+from twin.units import deg_to_rad, rad_to_deg
 
 SCENARIO = """
 name = "rws_test"
@@ -287,3 +286,128 @@ def check_calibration(cell: dict[str, object], out: Path, reference: Path) -> No
     assert np.sqrt(np.mean(theirs**2)) < 0.2 * np.sqrt(np.mean(nominal**2))
     assert abs(np.sqrt(np.mean(ours**2)) - np.sqrt(np.mean(theirs**2))) < 0.3 * np.sqrt(
         np.mean(theirs**2)) + 1e-5
+
+
+def short_plan(cell: dict[str, object], tmp_path: Path, n: int = 3) -> Path:
+    plan = tmp_path / "short.csv"
+    plan.write_text("".join(Path(cell["plan"]).read_text().splitlines(keepends=True)[:n + 1]))
+    return plan
+
+
+@pytest.mark.parametrize("fault", ["unreachable", "auth", "creep", "refuse"])
+def test_controller_faults_are_one_line_and_lose_nothing(
+        fault: str, cell: dict[str, object], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A controller that is not there, refuses the credentials, never stops moving, or stops
+    the program before a pose: one line naming it, exit code 1, every pose before it kept."""
+    out = tmp_path / "cap"
+    faults = {"creep": {"creep_pose": 3}, "refuse": {"refuse_pose": 4}}.get(fault, {})
+    running = controller(cell, out, password="secret" if fault == "auth" else PASSWORD,
+                         **faults)
+    url = running.url
+    if fault == "unreachable":
+        running.stop()
+    try:
+        code = main([*capture_args(cell, url, out), "--robot-wait", "3",
+                     "--rws-password", PASSWORD])
+    finally:
+        if fault != "unreachable":
+            running.stop()
+    error = capsys.readouterr().err
+    assert code == 1 and error.count("\n") == 1, error
+    expected = {"unreachable": "cannot reach the controller at http://127.0.0.1:",
+                "auth": "refused (HTTP 401) for user 'Default User'",
+                "creep": "pose 3/40: the joints did not stand still within 3 s: joint 1 moved",
+                "refuse": "the controller stopped the plan module before standing at pose "
+                          "4/40 (RAPID execution stopped)"}[fault]
+    assert expected in error and PASSWORD not in error and "secret" not in error
+    kept = {"unreachable": 0, "auth": 0, "creep": 2, "refuse": 3}[fault]
+    assert rows(out)[:, 0].tolist() == list(range(1, kept + 1))
+
+
+def test_rws2_over_https_with_the_controllers_ca(cell: dict[str, object], tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """RWS 2.0: HTTPS with a certificate from a CA made here, basic authentication, HAL JSON
+    and …;v=2.0 bodies; without --ca-file or --insecure the command refuses in one line; with
+    another CA the TLS check fails in one line."""
+    import trustme
+
+    authority, other = trustme.CA(), trustme.CA()
+    certificate = authority.issue_cert("127.0.0.1")
+    chain, key, ca_file, other_ca = (tmp_path / name for name in (
+        "chain.pem", "key.pem", "ca.pem", "other.pem"))
+    certificate.private_key_and_cert_chain_pem.write_to_path(str(chain))
+    certificate.private_key_pem.write_to_path(str(key))
+    authority.cert_pem.write_to_path(str(ca_file))
+    other.cert_pem.write_to_path(str(other_ca))
+    out = tmp_path / "cap"
+    running = controller(cell, out, version=2, tls=(chain, key))
+    plan = short_plan(cell, tmp_path)
+    try:
+        args = capture_args(cell, running.url, out)
+        args[args.index("--plan") + 1] = str(plan)
+        assert main(args) == 2
+        assert "found neither --ca-file nor --insecure" in capsys.readouterr().err
+        assert main([*args, "--ca-file", str(other_ca), "--robot-wait", "2"]) == 1
+        assert "the TLS handshake failed" in capsys.readouterr().err
+        assert main([*args, "--ca-file", str(ca_file)]) == 0
+        requests_made = list(running.server.requests)
+    finally:
+        running.stop()
+    assert rows(out)[:, 0].tolist() == [1, 2, 3]
+    made = [r for r in requests_made if r["auth"] or r["method"] == "POST"]
+    assert made and all(documented(r, 2) for r in made)
+
+
+def test_jogging_without_a_program_reads_the_joints_once_they_stand_at_the_pose(
+        cell: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--jog: nobody types; a pose jogged 1° off is not taken ("keep jogging"), the pose jogged
+    to within the tolerance is, with the joints the controller reports."""
+    out = tmp_path / "cap"
+    plan = short_plan(cell, tmp_path, 2)
+    plan_deg, _ = read_table(plan, ("q1", "q2", "q3", "q4", "q5", "q6"), "")
+    running = controller(cell, out, jog=True)
+    operator = RwsClient(RwsConnection.from_spec(running.url))
+    jogged = plan_deg + 0.01
+
+    def jog() -> None:
+        for k, target in enumerate(jogged, start=1):
+            operator.set_position(axes_deg(target + np.r_[0, 1.0, 0, 0, 0, 0]))
+            time.sleep(0.6)
+            operator.set_position(axes_deg(target))
+            while len(rows(out)) < k:
+                time.sleep(0.02)
+
+    operator_thread = threading.Thread(target=jog, daemon=True)
+    operator_thread.start()
+    try:
+        args = capture_args(cell, running.url, out, "--jog", "--joint-tol", "0.05")
+        args[args.index("--plan") + 1] = str(plan)
+        assert main(args) == 0
+    finally:
+        operator_thread.join(timeout=10)
+        operator.close()
+        running.stop()
+    printed = capsys.readouterr().out
+    assert "pose 1/2: jog to q = [" in printed and "keep jogging" in printed
+    assert not (out / "TwinPlan.mod").exists()
+    assert np.max(np.abs(rows(out)[:, 1:7] - jogged)) < 1e-9
+
+
+def test_twin_virtual_controller_serves_as_a_process(cell: dict[str, object],
+                                                     tmp_path: Path) -> None:
+    """The command prints its URL; the jointtarget it serves is home; SIGTERM stops it."""
+    process = subprocess.Popen([*TWIN, "virtual-controller", str(cell["scenario"]),
+                                "--pose-file", str(tmp_path / "pose.json")],
+                               stdout=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        url = process.stdout.readline().strip()
+        assert url.startswith("rws://127.0.0.1:")
+        client = RwsClient(RwsConnection.from_spec(url))
+        assert client.axes_deg().tolist() == [0.0] * 6 + [9e9] * 6
+        assert client.execution_state() == "stopped"
+        client.close()
+    finally:
+        process.send_signal(signal.SIGTERM)
+        process.wait(timeout=10)

@@ -22,6 +22,9 @@ EXTRAS = {
     "serial": "hardware",
     "minimalmodbus": "hardware",
     "pymodbus": "hardware",
+    "requests": "hardware",
+    "urllib3": "hardware",
+    "rosbags": "ros",
     "dask": "cluster",
     "distributed": "cluster",
 }

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from twin.errors import TwinError
 from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
-from twin.hardware.rws.client import ControllerError, RwsClient
+from twin.hardware.rws.client import RefusedError, RwsClient
 from twin.io.rapid_handshake import (
     ACK_SYMBOL,
     MODULE,
@@ -101,10 +101,10 @@ class RwsRobot(RobotSource):
         try:
             ready = self._symbol(READY_SYMBOL).strip().upper() == "TRUE"
             pose, ack = (int(float(self._symbol(name))) for name in (POSE_SYMBOL, ACK_SYMBOL))
-        except ControllerError:
+        except RefusedError:
             if self._ran:
                 raise
-            return None  # the module is not loaded yet
+            return None  # the module is not loaded yet: its symbols are unknown
         self._ran = True
         return pose if ready and pose >= 1 and pose != ack else None
 

@@ -43,6 +43,10 @@ class ControllerError(TwinError):
     """The controller could not be reached, refused the request, or answered off the protocol."""
 
 
+class RefusedError(ControllerError):
+    """The controller answered a request with an error (HTTP 4xx/5xx)."""
+
+
 class AuthenticationError(ControllerError, InputError):
     """The controller refused the credentials (a user mistake: exit code 2)."""
 
@@ -138,8 +142,10 @@ class RwsClient:
         self.session = requests.Session()
         self.session.auth = (HTTPDigestAuth if connection.version == 1 else HTTPBasicAuth)(
             connection.user, connection.password)
+        # Given with each request: a session's own setting gives way to REQUESTS_CA_BUNDLE.
+        self.verify: str | bool = True
         if connection.version == 2:
-            self.session.verify = str(connection.ca_file) if connection.ca_file else False
+            self.verify = str(connection.ca_file) if connection.ca_file else False
             if connection.insecure:
                 import urllib3
 
@@ -161,7 +167,7 @@ class RwsClient:
         while True:
             try:
                 answer = self.session.request(verb, self.connection.url + path, params=query,
-                                              data=data, headers=headers,
+                                              data=data, headers=headers, verify=self.verify,
                                               timeout=self.connection.timeout_s)
                 break
             except requests.exceptions.SSLError as exc:
@@ -179,8 +185,8 @@ class RwsClient:
             raise AuthenticationError(self.connection)
         if answer.status_code >= 400:
             status = protocol.parse_status(answer.content, content_type)
-            raise ControllerError(f"{verb} {path}: the controller answered HTTP "
-                                  f"{answer.status_code}" + (f" ({status})" if status else ""))
+            raise RefusedError(f"{verb} {path}: the controller answered HTTP "
+                               f"{answer.status_code}" + (f" ({status})" if status else ""))
         return answer.content, content_type
 
     def _state(self, path: str, state_type: str) -> protocol.State:
@@ -243,4 +249,5 @@ def _reason(exc: Exception) -> str:
     while reason.__context__ is not None and not isinstance(reason, OSError):
         reason = reason.__context__
     text = str(reason)
-    return text.rsplit("] ", 1)[-1] if "]" in text else text
+    text = text.rsplit("] ", 1)[-1] if "] " in text else text
+    return text.rstrip("')\"").strip()
