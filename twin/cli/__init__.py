@@ -34,6 +34,7 @@ from twin.cli import (
     compensate,
     export,
     identify,
+    import_,
     plan,
     predict,
     simulate,
@@ -47,7 +48,7 @@ from twin.errors import InputError, TwinError
 from twin.io.paths import check_command_paths, command_scope
 
 SUBCOMMANDS = (calibrate, simulate, identify, plan, predict, compensate, export, study, check,
-               capture, virtual_encoder, virtual_controller)
+               capture, virtual_encoder, virtual_controller, import_)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141
