@@ -12,7 +12,7 @@ import numpy as np
 from _timing import median_time
 from scipy.optimize import least_squares
 
-from twin.calibration.pipeline import make_problem
+from twin.calibration.setup import make_problem
 from twin.io.robot_file import default_robot
 from twin.robot import random_poses
 from twin.solvers.lm import SOLVER as LM
@@ -32,7 +32,7 @@ def main() -> None:
     })
     port = mm_to_m([600.0, -400.0, 100.0])
     data = synthesize(robot.perturbed(delta), random_poses(robot, 120, rng), port, 1e-5, rng)
-    problem, _, _ = make_problem(robot, data, port, seed=0)
+    problem = make_problem(robot, data, port, seed=0).problem
     model, train = problem.model, problem.train
 
     def residuals(x: np.ndarray) -> np.ndarray:

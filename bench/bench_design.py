@@ -21,7 +21,8 @@ from _timing import median_time
 
 from twin.analysis.identifiability import measurement_identifiability
 from twin.analysis.uncertainty import rms_distance
-from twin.calibration.pipeline import make_model
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements
 from twin.design.optimal import choose_port, plan_poses, score_poses
 from twin.io.robot_file import default_robot
@@ -53,7 +54,9 @@ def main() -> None:
     q = random_poses(robot, 200, rng)
     data = Measurements(q, np.ones(len(q)))
     for port, offset in [(False, False), (True, False), (False, True), (True, True)]:
-        model = make_model(robot, Rig.cable(PORT_M), estimate_port=port, estimate_offset=offset)
+        model = make_model(robot, Rig.cable(PORT_M),
+                           settings=CalibrationSettings(estimate=(*(["port"] if port else []),
+                                                                  *(["offset"] if offset else []))))
         ident = measurement_identifiability(model, np.zeros(model.n_params), data)
         label = "known port" + (" +port" if port else "") + (" +offset" if offset else "")
         print(f"  {label:<24} rank {ident.rank:>2} of {ident.n_params}, condition "

@@ -44,7 +44,8 @@ import numpy as np
 from _timing import median_time
 from scipy.optimize import least_squares
 
-from twin.calibration.pipeline import make_problem
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_problem
 from twin.rig import Rig
 from twin.scenario import parse_scenario
 from twin.sim import simulate
@@ -87,8 +88,8 @@ def main() -> None:
     scenario = parse_scenario(document, path)
     sim = simulate(scenario)
     rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
-    problem = make_problem(sim.robot, sim.measurements, rig=rig, errors=ERRORS,
-                           seed=sim.seed).problem
+    problem = make_problem(sim.robot, sim.measurements, rig=rig, seed=sim.seed,
+                           settings=CalibrationSettings(errors=ERRORS)).problem
     model, train = problem.model, problem.train
     lower, upper = problem.lower, problem.upper
 

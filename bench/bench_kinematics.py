@@ -19,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 from _timing import median_time
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.setup import make_model
 from twin.compensation.joints import compensate_program
 from twin.compensation.targets import reachable_targets
 from twin.export.pinocchio import FLANGE_FRAME, build_model

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from twin.calibration.pipeline import make_problem
+from twin.calibration.setup import make_problem
 from twin.io.robot_file import default_robot
 from twin.problem import Problem
 from twin.robot import random_poses

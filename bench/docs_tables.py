@@ -35,13 +35,16 @@ import sys
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import calibrate, make_problem
+from twin.calibration.pipeline import calibrate
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_problem
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.rig import Rig
@@ -264,10 +267,7 @@ def bipso_changes(regime: str, scenario: Scenario, trial: int) -> list[StageChan
     sim = simulate(scenario, seed)
     # As the studies calibrate: the scenario's loss (the outliers regime's Cauchy) and noise.
     problem = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=seed,
-                           estimate_port=scenario.estimate_port,
-                           estimate_offset=scenario.estimate_offset,
-                           loss=scenario.calibration_loss,
-                           sigma_m=scenario.reading_sigma_m).problem
+                           settings=scenario.calibration).problem
     q_workspace = workspace(TrialSpec(scenario, (), 500))
     model = problem.model
 
@@ -389,10 +389,9 @@ def _error_model_job(job: tuple[str, Scenario, int]) -> list[ErrorModelRun]:
     models = (("dh",), EXTENDED) + ((EXTENDED_BY_LINK,) if not scenario.physics.rigid else ())
     for errors in models:
         try:
-            result = calibrate(sim.robot, sim.measurements, rig=rig, errors=errors, seed=seed,
-                               estimate_port=scenario.estimate_port,
-                               estimate_offset=scenario.estimate_offset,
-                               budget=Budget.named("converge", scenario.max_iterations))
+            settings = replace(scenario.calibration, errors=errors, stop="converge")
+            result = calibrate(sim.robot, sim.measurements, rig=rig, settings=settings,
+                               seed=seed)
         except InputError:  # fewer poses than the extended model's unknowns
             continue
         model, train = result.model, sim.measurements.subset(result.train_rows)
@@ -482,7 +481,9 @@ def parametrisation_table() -> str:
 
     from twin.analysis.identifiability import measurement_identifiability
     from twin.analysis.uncertainty import cramer_rao_flange_rms
-    from twin.calibration.pipeline import calibrate, make_model, split_rows
+    from twin.calibration.pipeline import calibrate
+    from twin.calibration.setup import make_model
+    from twin.calibration.split import split_rows
     from twin.rig import Rig
     from twin.robot import random_poses
     from twin.synthetic import synthesize
@@ -511,7 +512,7 @@ def parametrisation_table() -> str:
                 data = synthesize(truth, sim.measurements.q_rad, sim.port_nominal_m, 1e-5,
                                   np.random.default_rng(k))
                 result = calibrate(robot, data, sim.port_nominal_m, method="lm", seed=sim.seed)
-                errors.append(rms_distance(result.identified_robot.flange_positions(q_ws),
+                errors.append(rms_distance(result.identified_geometry.flange_positions(q_ws),
                                            truth.flange_positions(q_ws)))
             kinds = robot.structure.parametrisation
             shown = request if request != "auto" else "auto: " + ", ".join(
@@ -576,7 +577,7 @@ def stations_table() -> str:
     from twin.analysis.gauge import unobservable_motions
     from twin.analysis.identifiability import measurement_identifiability
     from twin.analysis.uncertainty import base_covariance, parameter_sigma
-    from twin.calibration.pipeline import make_model
+    from twin.calibration.setup import make_model
     from twin.design.optimal import score_poses
     from twin.io.robot_file import default_robot
     from twin.rig import Rig
@@ -603,7 +604,8 @@ def stations_table() -> str:
         configurations = [(), names[:count]] + ([names[1:count]] if count > 1 else [])
         for estimated in configurations:
             rig = Rig(ports[:count], names[:count], estimated_ports=estimated)
-            model = make_model(robot, rig, estimate_port=bool(estimated))
+            settings = CalibrationSettings(estimate=("port",) if estimated else ())
+            model = make_model(robot, rig, settings=settings)
             x0 = np.zeros(model.n_params)
             data = model.poses(q, port)
             ident = measurement_identifiability(model, x0, data)
@@ -651,7 +653,7 @@ def paper_rig_table() -> str:
         rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
         # Split seed 0, as `twin calibrate` on the capture (its --seed default).
         return calibrate(sim.robot, sim.measurements, rig=rig, method="lm", seed=0,
-                         budget=scenario.budget).metrics
+                         settings=scenario.calibration).metrics
 
     paper = PAPER_TABLE6
     before = " / ".join(f"{paper['before'][k]:g}" for k in ("rmse", "mae", "max"))
@@ -689,7 +691,7 @@ def unknown_sets_table() -> str:
     """Rank and unidentifiable combinations of the IRB 120's unknowns with and without the port
     and the length offset, at the nominal geometry."""
     from twin.analysis.identifiability import measurement_identifiability
-    from twin.calibration.pipeline import make_model
+    from twin.calibration.setup import make_model
     from twin.io.robot_file import default_robot
     from twin.robot import random_poses
 
@@ -697,8 +699,9 @@ def unknown_sets_table() -> str:
     q = random_poses(robot, RANK_POSES, np.random.default_rng(0))
     rows = []
     for name, port, offset in UNKNOWN_SETS:
-        model = make_model(robot, Rig.cable([0.6, -0.4, 0.1]), estimate_port=port,
-                           estimate_offset=offset)
+        model = make_model(robot, Rig.cable([0.6, -0.4, 0.1]),
+                           settings=CalibrationSettings(estimate=(*(["port"] if port else []),
+                                                                  *(["offset"] if offset else []))))
         found = measurement_identifiability(model, np.zeros(model.n_params), model.poses(q))
         rows.append([name, f"{found.rank} of {found.n_params}",
                      ", ".join(f"`{combination}`" for combination in found.unidentifiable)])

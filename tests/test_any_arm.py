@@ -17,8 +17,9 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import CalibrationResult, calibrate
+from twin.calibration.pipeline import calibrate
 from twin.calibration.predict import predict
+from twin.calibration.result import CalibrationResult
 from twin.cli import main
 from twin.compensation.check import check_compensation
 from twin.compensation.joints import compensate_program, compensate_targets
@@ -126,12 +127,12 @@ def test_seven_and_four_axes_end_to_end(name: str) -> None:
     assert rms_distance(predicted, true_at_new) < 0.05 * rms_distance(
         robot.flange_positions(q_new), true_at_new)
     # Compensate Cartesian targets, moving the true robot in the twin.
-    solved = compensate_targets(result.identified_robot, target_m, q_new)
+    solved = compensate_targets(result.identified_geometry, target_m, q_new)
     check = check_compensation(target_m, true_at_new, twin.flange_positions(solved.q_rad), solved)
     assert check.n_failed <= 10
     assert check.compensated.rmse < 0.05 * check.nominal.rmse and check.compensated.rmse < 5e-5
     # Compensate a program: full pose on 7 joints, position on 4.
-    program = compensate_program(robot, result.identified_robot, q_new)
+    program = compensate_program(robot, result.identified_geometry, q_new)
     assert np.mean(program.ok) > 0.95
     reached = twin.flange_positions(program.q_rad[program.ok])
     assert rms_distance(reached, target_m[program.ok]) < 5e-5

@@ -7,17 +7,13 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import (
-    CalibrationResult,
-    calibrate,
-    calibrate_many,
-    required_poses,
-    split_rows,
-)
+from twin.calibration.pipeline import calibrate, calibrate_many
+from twin.calibration.result import CalibrationResult
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.split import required_poses, split_rows
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.robot import RobotModel, random_poses
-from twin.stopping import Budget
 from twin.synthetic import synthesize
 
 
@@ -38,7 +34,7 @@ def test_lm_recovers_flange_positions_within_twice_the_cramer_rao_bound(
     poses is within 2× the Cramér–Rao bound computed from the true Jacobian (~0.01 mm)."""
     result = calibrate(irb120, measurements, port_m, method="lm", seed=0)
     workspace = random_poses(irb120, 1000, np.random.default_rng(11))
-    error = rms_distance(result.identified_robot.flange_positions(workspace),
+    error = rms_distance(result.identified_geometry.flange_positions(workspace),
                          true_robot.flange_positions(workspace))
     bound = cramer_rao_flange_rms(
         result.model, true_delta.ravel(), measurements.subset(result.train_rows), 1e-5, workspace
@@ -80,7 +76,7 @@ def test_noise_free_data_fits_exactly(
     numerical zero (the paper's 0.001 mm² rule alone stops at a few µm)."""
     rng = np.random.default_rng(9)
     data = synthesize(true_robot, random_poses(irb120, 60, rng), port_m, 0.0, rng)
-    result = calibrate(irb120, data, port_m, budget=Budget())
+    result = calibrate(irb120, data, port_m, settings=CalibrationSettings())
     assert result.metrics["validation"].rmse < 1e-10
 
 
@@ -100,7 +96,7 @@ def test_lm_reaches_the_bounded_optimum_when_the_truth_is_outside_the_box(
     delta = np.zeros((4, 6))
     delta[0, 1], delta[1, 0], delta[3, 2] = 6e-3, -2e-3, np.deg2rad(1.0)
     data = synthesize(irb120.perturbed(delta), random_poses(irb120, 80, rng), port_m, 1e-5, rng)
-    result = calibrate(irb120, data, port_m, budget=Budget())
+    result = calibrate(irb120, data, port_m, settings=CalibrationSettings())
     train = data.subset(result.train_rows)
     model = result.model
     reference = least_squares(

@@ -451,7 +451,7 @@ def test_the_virtual_rig_hooks_the_cable_on_the_eyelet_and_the_capture_says_so(
     assert np.max(np.abs(m_to_mm(to_flange - to_eyelet))) > 1.0
     capture = load_capture(out / "capture.toml")
     np.testing.assert_allclose(capture.rig.attachment_m, [0.025, -0.015, 0.040], atol=1e-9)
-    assert capture.calibration.cable_tension_n == pytest.approx(5.0)
+    assert capture.rig.tension_n == pytest.approx(5.0)
 
 
 def test_capture_refuses_rig_flags_with_the_scenarios_rig(folder: Path, tmp_path: Path,

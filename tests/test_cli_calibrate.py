@@ -110,14 +110,15 @@ def test_capture_calibration_table_sets_unknowns_and_split(
     csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A capture's [calibration] table chooses the unknowns and the split; flags win."""
-    from twin.io.capture_file import CalibrationSettings, write_capture
+    from twin.calibration.settings import CalibrationSettings
+    from twin.io.capture_file import write_capture
     from twin.io.robot_file import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))
     capture = tmp_path / "capture.toml"
     write_capture(capture, robot="robot.toml", port_m=np.array([0.6, -0.4, 0.1]),
                   measurements=csv_path.name,
-                  calibration=CalibrationSettings(estimate_offset=True, train_fraction=0.75))
+                  calibration=CalibrationSettings(estimate=("offset",), train_fraction=0.75))
     out = tmp_path / "r.json"
     assert main(["calibrate", str(capture), "--json", str(out)]) == 0
     document = json.loads(out.read_text())
@@ -157,7 +158,8 @@ def test_stop_protocol_from_capture_and_flag(
 ) -> None:
     """The capture's stop protocol is used and reported; --stop and --max-iterations win; the
     JSON says which test stopped each stage."""
-    from twin.io.capture_file import CalibrationSettings, write_capture
+    from twin.calibration.settings import CalibrationSettings
+    from twin.io.capture_file import write_capture
     from twin.io.robot_file import default_robot, robot_to_toml
 
     (tmp_path / "robot.toml").write_text(robot_to_toml(default_robot()))

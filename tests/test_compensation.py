@@ -113,7 +113,7 @@ def test_compensation_with_identified_model_reaches_identification_accuracy(
     """After LM on core-made data, compensated targets miss by the identified model's own
     flange error (hundredths of a mm), against millimetres uncompensated."""
     result = calibrate(irb120, measurements, port_m, method="lm", seed=0)
-    identified = result.identified_robot
+    identified = result.identified_geometry
     rng = np.random.default_rng(11)
     q, target = reachable_targets(irb120, 1000, rng)
     solved = compensate_targets(identified, target, q)
@@ -154,7 +154,7 @@ def _write_result(path: Path, robot: RobotModel, measurements: Measurements,
                   port_m: np.ndarray) -> RobotModel:
     result = calibrate(robot, measurements, port_m, method="lm", seed=0)
     write_json(path, result_to_dict(result))
-    return result.identified_robot
+    return result.identified_geometry
 
 
 def test_cli_corrects_a_program(
@@ -266,5 +266,5 @@ def test_cli_compensates_a_four_axis_program_for_position(tmp_path: Path) -> Non
     assert [line.split(",")[4] for line in lines[1:]] == [STATUS_OK, STATUS_OK]
     corrected = np.deg2rad([[float(v) for v in line.split(",")[:4]] for line in lines[1:]])
     wanted = robot.flange_positions(np.deg2rad([[10, 45, -30, 20], [-60, -90, 40, 0]]))
-    np.testing.assert_allclose(result.identified_robot.flange_positions(corrected), wanted,
+    np.testing.assert_allclose(result.identified_geometry.flange_positions(corrected), wanted,
                                atol=5e-8)

@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.setup import make_model
 from twin.design.optimal import choose_port, d_optimal_rows, plan_poses, score_poses
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses

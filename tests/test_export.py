@@ -25,7 +25,7 @@ N_POSES = 1000
 @pytest.fixture(scope="module")
 def identified(irb120: RobotModel, measurements: Measurements, port_m: np.ndarray) -> RobotModel:
     """The IRB 120 identified by LM from core-made data."""
-    return calibrate(irb120, measurements, port_m, method="lm", seed=0).identified_robot
+    return calibrate(irb120, measurements, port_m, method="lm", seed=0).identified_geometry
 
 
 @pytest.fixture(scope="module")

@@ -193,7 +193,7 @@ def test_export_cli_writes_the_calibrated_urdf_with_its_names(tmp_path: Path) ->
     out = tmp_path / "calibrated.urdf"
     assert main(["export", str(tmp_path / "result.json"), "--robot", str(URDFS["ur5e"]),
                  "--format", "urdf", "--out", str(out)]) == 0
-    identified = result.identified_robot
+    identified = result.identified_geometry
     found = urdf_flange(out.read_text(), robot.joint_names, q, "tool0", "world")
     # The result file keeps 1e-6 mm and 1e-6 degree: that is the agreement to expect.
     np.testing.assert_allclose(found[:, :3, 3], identified.flange_transforms(q)[:, :3, 3],

@@ -11,7 +11,8 @@ from twin.analysis.identifiability import (
     name_direction,
     observability,
 )
-from twin.calibration.pipeline import make_model
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
@@ -28,7 +29,9 @@ def poses(irb120: RobotModel) -> Measurements:
 
 def _at_nominal(robot: RobotModel, port_m: np.ndarray, data: Measurements,
                 port: bool = False, offset: bool = False):
-    model = make_model(robot, Rig.cable(port_m), estimate_port=port, estimate_offset=offset)
+    model = make_model(robot, Rig.cable(port_m),
+                       settings=CalibrationSettings(estimate=(*(('port',) if port else ()),
+                                                              *(('offset',) if offset else ()))))
     return model, measurement_identifiability(model, np.zeros(model.n_params), data)
 
 

@@ -11,8 +11,10 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import calibrate, make_model
+from twin.calibration.pipeline import calibrate
 from twin.calibration.predict import predict
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.cli import main
 from twin.dataset import Measurements, approach_directions
 from twin.io.identified import load_result
@@ -42,7 +44,8 @@ def core_case(irb120: RobotModel, port_m: np.ndarray, true_delta: np.ndarray
               ) -> tuple[object, np.ndarray, Measurements]:
     """400 poses of the core's extended model (cable pulling with 5 N), σ = 5 µm."""
     rng = np.random.default_rng(21)
-    model = make_model(irb120, Rig.cable(port_m, tension_n=5.0), errors=EXTENDED)
+    model = make_model(irb120, Rig.cable(port_m, tension_n=5.0),
+                       settings=CalibrationSettings(errors=EXTENDED))
     x_true = true_unknowns(model, rng, true_delta)
     q = random_poses(irb120, 400, rng)
     exact = model.measure(x_true, q, approach=approach_directions(q))
@@ -60,7 +63,7 @@ def test_extended_fit_recovers_the_flange_and_scipy_agrees(
     flange to a fraction of the bound. (The bench compares with a finite-difference TRF.)"""
     model, x_true, data = core_case
     rig = model.rig
-    result = calibrate(irb120, data, rig=rig, errors=EXTENDED, seed=1)
+    result = calibrate(irb120, data, rig=rig, seed=1, settings=CalibrationSettings(errors=EXTENDED))
     train = data.subset(result.train_rows)
     validation = data.subset(result.validation_rows)
     floor = float(np.sqrt(np.mean(model.residuals(x_true, validation) ** 2)))
@@ -90,7 +93,8 @@ def test_the_papers_methods_run_on_the_extended_problem(
     """EKF, AMLM and M9 fit the 60 unknowns with their own stopping rules and predict the true
     flange within 3× the Cramér–Rao bound, as LM does."""
     model, x_true, data = core_case
-    result = calibrate(irb120, data, rig=model.rig, errors=EXTENDED, seed=1, method=method)
+    result = calibrate(irb120, data, rig=model.rig, seed=1, method=method,
+                       settings=CalibrationSettings(errors=EXTENDED))
     train = data.subset(result.train_rows)
     q_ws = random_poses(irb120, 300, np.random.default_rng(2))
     at_ws = model.poses(q_ws)
@@ -323,7 +327,8 @@ def test_compensation_puts_the_twins_robot_on_its_targets(tmp_path: Path) -> Non
     scenario = load_scenario(scenario_with_joint_errors(tmp_path, poses=300))
     sim = simulate(scenario)
     rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
-    result = calibrate(sim.robot, sim.measurements, rig=rig, errors=scenario.errors, seed=3)
+    result = calibrate(sim.robot, sim.measurements, rig=rig, seed=3,
+                       settings=CalibrationSettings(errors=scenario.calibration.errors))
     twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors)
     q, targets = reachable_targets(sim.robot, 200, np.random.default_rng(5))
     ordered = solve_in_order(result.model, result.x, lambda arm, joints: compensate_targets(
@@ -334,7 +339,7 @@ def test_compensation_puts_the_twins_robot_on_its_targets(tmp_path: Path) -> Non
     assert result.uncertainty is not None
     error_m = rms_distance(reached, targets)
     assert error_m < 3 * result.uncertainty.flange_rms_m, (error_m, result.uncertainty)
-    plain = compensate_targets(result.identified_robot, targets, q)
+    plain = compensate_targets(result.identified_geometry, targets, q)
     assert rms_distance(twin.flange_positions(plain.q_rad, approach_directions(plain.q_rad)),
                         targets) > 30 * error_m
 
@@ -434,7 +439,8 @@ def test_link_compliance_holds_masses_off_link_by_link(tmp_path: Path) -> None:
     errors = {}
     for compliant in ("compliance", "link_compliance"):
         result = calibrate(sim.robot, sim.measurements, rig=rig, seed=1,
-                           errors=("dh", "transmission", "backlash", compliant))
+                           settings=CalibrationSettings(errors=("dh", "transmission", "backlash",
+                                                                compliant)))
         predicted = result.model.flange_positions(result.x, result.model.poses(q_ws))
         assert result.uncertainty is not None
         errors[compliant] = (rms_distance(predicted, truth), result.uncertainty.flange_rms_m)

@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements
 from twin.geometry.rigid import transform
 from twin.kinds.point import DISTANCE_WEIGHT
@@ -42,7 +43,7 @@ def test_position_jacobian_matches_differences(irb120: RobotModel, q_rad: np.nda
                                                estimate: tuple[str, ...]) -> None:
     """Tracker rows: ∂r/∂x of the D-H errors, the target point and the tracker frame."""
     rig = Rig(attachment_m=EYELET_M, base_in_tracker=BASE_IN_TRACKER)
-    model = make_model(irb120, rig, "position", errors=("dh", *estimate))
+    model = make_model(irb120, rig, "position", settings=CalibrationSettings(estimate=estimate))
     data = model.measure(np.zeros(model.n_params), q_rad)
     assert model.kind.rows_per_pose == 3 and model.residuals(np.zeros(model.n_params),
                                                              data).shape == (36,)
@@ -70,7 +71,7 @@ def test_point_jacobian_matches_differences(irb120: RobotModel, q_rad: np.ndarra
     points = np.array([[0.4, 0.0, 0.3], [0.45, 0.0, 0.3], [0.4, 0.1, 0.35]])
     rig = Rig(attachment_m=EYELET_M, point_names=("a", "b", "c"), points_m=points,
               distances=distances)
-    model = make_model(irb120, rig, "point", errors=("dh", "attachment", "points"))
+    model = make_model(irb120, rig, "point", settings=CalibrationSettings(estimate=("attachment",)))
     place = np.arange(len(q_rad)) % 3
     data = model.measure(np.zeros(model.n_params), q_rad, point=place)
     r = model.residuals(np.zeros(model.n_params), data)
@@ -90,7 +91,7 @@ def test_estimated_ports_are_a_subset(irb120: RobotModel, q_rad: np.ndarray) -> 
     Jacobian matches differences."""
     ports = np.array([[0.6, -0.4, 0.1], [0.5, 0.5, 0.0], [-0.3, 0.6, 0.2]])
     rig = Rig(ports, ("front", "left", "back"), EYELET_M, estimated_ports=("front", "back"))
-    model = make_model(irb120, rig, errors=("dh", "port"))
+    model = make_model(irb120, rig, settings=CalibrationSettings(estimate=("port",)))
     assert model.names[24:] == ("front_x", "front_y", "front_z", "back_x", "back_y", "back_z")
     data = model.measure(np.zeros(model.n_params), q_rad, port=np.arange(len(q_rad)) % 3)
     _check_jacobian(model, data, 3)
@@ -105,7 +106,8 @@ def test_measured_point_jacobian(irb120: RobotModel, q_rad: np.ndarray) -> None:
     """∂(measured point)/∂x equals differences: the table and the attachment move it, the
     tracker frame does not."""
     rig = Rig(attachment_m=EYELET_M, base_in_tracker=BASE_IN_TRACKER)
-    model = make_model(irb120, rig, "position", errors=("dh", "attachment", "base"))
+    model = make_model(irb120, rig, "position", settings=CalibrationSettings(estimate=("attachment",
+                                                                                       "base")))
     data = model.poses(q_rad)
     x = np.random.default_rng(4).normal(scale=1e-3, size=model.n_params)
     jacobian = model.position_jacobian(x, data)
@@ -121,9 +123,8 @@ def test_batched_residuals_of_every_kind(irb120: RobotModel, q_rad: np.ndarray) 
     rig = Rig(attachment_m=EYELET_M, base_in_tracker=BASE_IN_TRACKER, point_names=("a", "b"),
               points_m=[[0.4, 0.0, 0.3], [0.45, 0.0, 0.3]],
               distances=(Distance("a", "b", 0.05),))
-    for kind, groups in (("position", ("dh", "attachment", "base")),
-                         ("point", ("dh", "attachment", "points"))):
-        model = make_model(irb120, rig, kind, errors=groups)
+    for kind, estimate in (("position", ("attachment", "base")), ("point", ("attachment",))):
+        model = make_model(irb120, rig, kind, settings=CalibrationSettings(estimate=estimate))
         data = model.poses(q_rad, point=np.arange(len(q_rad)) % 2)
         x = np.random.default_rng(5).normal(scale=1e-3, size=(4, model.n_params))
         batched = model.residuals(x, data)

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import calibrate, make_model
+from twin.calibration.pipeline import calibrate
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
@@ -31,8 +33,9 @@ def test_lm_base_holds_the_dependent_unknowns_and_meets_the_bound(
     """The dependent unknowns stay exactly at the start; the cable fit is within 5 % of plain
     LM's (which also fits the weakly seen directions, so a little lower); the flange error
     against the truth over the workspace is within 3× the Cramér–Rao bound."""
-    result = calibrate(irb120, measurements, port_m, method="lm-base", budget=CONVERGED)
-    plain = calibrate(irb120, measurements, port_m, method="lm", budget=CONVERGED)
+    result = calibrate(irb120, measurements, port_m, method="lm-base",
+                       settings=CalibrationSettings())
+    plain = calibrate(irb120, measurements, port_m, method="lm", settings=CalibrationSettings())
     ident = result.identifiability
     assert ident is not None
     assert np.all(result.solver.x[ident.dependent] == 0.0)
@@ -41,7 +44,7 @@ def test_lm_base_holds_the_dependent_unknowns_and_meets_the_bound(
     model = make_model(irb120, Rig.cable(port_m))
     train = measurements.subset(result.train_rows)
     bound = cramer_rao_flange_rms(model, true_delta.ravel(), train, SIGMA_M, q)
-    error = rms_distance(result.identified_robot.flange_positions(q),
+    error = rms_distance(result.identified_geometry.flange_positions(q),
                          true_robot.flange_positions(q))
     assert error < 3 * bound
 
@@ -63,10 +66,10 @@ def test_unknown_port_and_offset_are_fitted(
     """Without the extra unknowns the wrong port and zero leave mm-sized residuals; with them
     the fit reaches the noise, the offset is recovered within 5σ, and so is the identifiable
     combination d1 − port_z (their sum is invisible)."""
-    wrong = calibrate(irb120, shifted_data, port_m, method=method, budget=CONVERGED)
+    wrong = calibrate(irb120, shifted_data, port_m, method=method, settings=CalibrationSettings())
     assert wrong.metrics["validation"].rmse > 20 * SIGMA_M
-    result = calibrate(irb120, shifted_data, port_m, method=method, budget=CONVERGED,
-                       estimate_port=True, estimate_offset=True)
+    result = calibrate(irb120, shifted_data, port_m, method=method,
+                       settings=CalibrationSettings(estimate=('port', 'offset')))
     assert result.metrics["validation"].rmse < 2 * SIGMA_M
     assert result.identifiability is not None and result.identifiability.rank == 21
     uncertainty = result.uncertainty
@@ -89,8 +92,8 @@ def test_port_carries_what_it_trades_with_a_bounded_dh_error(
     rng = np.random.default_rng(8)
     data = synthesize(true_robot, random_poses(irb120, 120, rng), port_m, SIGMA_M, rng)
     told = port_m + np.array([0.0, 0.0, 8e-3])
-    result = calibrate(irb120, data, told, method="lm-base", estimate_port=True,
-                       budget=CONVERGED)
+    result = calibrate(irb120, data, told, method="lm-base",
+                       settings=CalibrationSettings(estimate=('port',)))
     assert result.identifiability is not None
     assert "port_z" in result.identifiability.base_names
     assert "d1" not in result.identifiability.base_names

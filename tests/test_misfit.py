@@ -10,6 +10,7 @@ from scipy.stats import chi2
 
 from twin.analysis.misfit import ALPHA, FAR, chi2_quantile, misfit_test, reading_sigma, repeat_sigma
 from twin.calibration.pipeline import calibrate
+from twin.calibration.settings import CalibrationSettings
 from twin.dataset import Measurements
 from twin.robot import RobotModel, random_poses
 from twin.synthetic import synthesize
@@ -44,7 +45,8 @@ def test_repeat_readings_measure_the_noise(irb120: RobotModel, true_robot: Robot
         synthesize(true_robot, q[::3], port_m, 0.0, rng).lengths, 3), 1)
     assert measured is not None and measured[1] == 80
     assert measured[0] == pytest.approx(5e-5, rel=0.2)
-    result = calibrate(irb120, Measurements(q, data.lengths), port_m, sigma_m=1e-5)
+    result = calibrate(irb120, Measurements(q, data.lengths), port_m,
+                       settings=CalibrationSettings(sigma_m=1e-5))
     assert result.misfit is not None and not result.misfit.misfit
     assert result.misfit.noise_source.startswith("repeat readings")
     assert result.misfit.noise_m == pytest.approx(5e-5, rel=0.3)
@@ -66,8 +68,10 @@ def test_the_robots_repeatability_is_noise() -> None:
     encoder_m, repeatability_m = 2e-6, 1e-5
     told = reading_sigma(encoder_m, repeatability_m)
     assert told == pytest.approx(np.hypot(2e-6, 1e-5 / np.sqrt(3)))
-    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, sigma_m=told)
+    result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m,
+                       settings=CalibrationSettings(sigma_m=told))
     assert result.misfit is not None and not result.misfit.misfit, result.misfit
     assert 0.8 * told < result.metrics["validation"].rmse < 1.25 * told
-    alone = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, sigma_m=encoder_m)
+    alone = calibrate(sim.robot, sim.measurements, sim.port_nominal_m,
+                      settings=CalibrationSettings(sigma_m=encoder_m))
     assert alone.misfit is not None and alone.misfit.misfit, alone.misfit

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, UnknownChoiceError
 from twin.kinds.length import cable_length
@@ -36,7 +37,9 @@ def test_jacobian_matches_finite_differences(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray, port: bool, offset: bool
 ) -> None:
     """∂r/∂x equals central differences for every unknown layout."""
-    model = make_model(irb120, Rig.cable(port_m), estimate_port=port, estimate_offset=offset)
+    model = make_model(irb120, Rig.cable(port_m),
+                       settings=CalibrationSettings(estimate=(*(('port',) if port else ()),
+                                                              *(('offset',) if offset else ()))))
     x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
     data = measurements.subset(np.arange(15))
     r, jacobian = model.jacobian(x, data)
@@ -52,7 +55,7 @@ def test_several_ports_and_an_attachment(irb120: RobotModel, measurements: Measu
     attachment = np.array([0.025, -0.015, 0.04])
     rig = Rig(ports, ("front", "left", "back"), attachment)
     which = rng.integers(0, 3, len(measurements))
-    model = make_model(irb120, rig, estimate_port=True, estimate_offset=True)
+    model = make_model(irb120, rig, settings=CalibrationSettings(estimate=('port', 'offset')))
     assert model.names[24:27] == ("front_x", "front_y", "front_z")
     data = model.measure(np.zeros(model.n_params), measurements.q_rad, port=which)
     flange = irb120.flange_transforms(measurements.q_rad)
@@ -67,7 +70,8 @@ def test_several_ports_and_an_attachment(irb120: RobotModel, measurements: Measu
 
 def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
     """Names and bounds follow eq. 7's order, then port, then offset; units per unknown."""
-    model = make_model(irb120, Rig.cable(port_m), estimate_port=True, estimate_offset=True)
+    model = make_model(irb120, Rig.cable(port_m), settings=CalibrationSettings(estimate=('port',
+                                                                                         'offset')))
     assert model.n_params == 28
     assert model.names[:2] == ("a1", "a2") and model.names[-4:] == (
         "port_x", "port_y", "port_z", "offset")
@@ -84,7 +88,8 @@ def test_batched_residuals(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:
     """Residuals of K candidates in one call equal K single calls."""
-    model = make_model(irb120, Rig.cable(port_m), estimate_port=True, estimate_offset=True)
+    model = make_model(irb120, Rig.cable(port_m), settings=CalibrationSettings(estimate=('port',
+                                                                                         'offset')))
     x = np.random.default_rng(4).normal(scale=1e-3, size=(5, model.n_params))
     batched = model.residuals(x, measurements)
     for k in range(5):
@@ -95,7 +100,8 @@ def test_offset_adds_to_every_length(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:
     """The offset unknown shifts every model length by its value."""
-    model = make_model(irb120, Rig.cable(port_m), estimate_offset=True)
+    model = make_model(irb120, Rig.cable(port_m),
+                       settings=CalibrationSettings(estimate=('offset',)))
     x = np.zeros(25)
     x[-1] = 0.002
     plain = np.linalg.norm(irb120.flange_positions(measurements.q_rad) - port_m, axis=-1)
@@ -107,7 +113,7 @@ def test_flange_jacobian_sees_the_table_not_the_rig(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:
     """The flange moves with the D-H errors as differences say, and not with the port."""
-    model = make_model(irb120, Rig.cable(port_m), estimate_port=True)
+    model = make_model(irb120, Rig.cable(port_m), settings=CalibrationSettings(estimate=('port',)))
     x = np.random.default_rng(9).normal(scale=1e-3, size=model.n_params)
     data = measurements.subset(np.arange(6))
     jacobian = model.flange_jacobian(x, data)
@@ -144,8 +150,9 @@ def test_joint_groups_jacobian_matches_finite_differences(
     pulling: ∂r/∂x and ∂(flange)/∂x equal central differences."""
     errors = ["dh", *(JOINT_GROUPS if group == "all" else [group])]
     rig = Rig.cable(port_m, [0.01, -0.02, 0.03], tension_n=5.0)
-    model = make_model(irb120, rig, errors=errors, estimate_port=group == "all",
-                       estimate_offset=group == "all")
+    estimate = ("port", "offset") if group == "all" else ()
+    model = make_model(irb120, rig, settings=CalibrationSettings(errors=errors,
+                                                                 estimate=estimate))
     x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     data = _with_approach(measurements.subset(np.arange(15)))
@@ -166,7 +173,7 @@ def test_joint_groups_move_the_joints_as_stated(
     """Transmission adds its harmonics of the recorded angle, backlash b·s, compliance c·τ:
     the model's joints equal those written out by hand."""
     rig = Rig.cable(port_m, tension_n=4.0)
-    model = make_model(irb120, rig, errors=["dh", *JOINT_GROUPS])
+    model = make_model(irb120, rig, settings=CalibrationSettings(errors=["dh", *JOINT_GROUPS]))
     data = _with_approach(measurements.subset(np.arange(10)))
     rng = np.random.default_rng(5)
     x = np.zeros(model.n_params)
@@ -190,7 +197,8 @@ def test_joint_groups_need_what_they_read(
 ) -> None:
     """Backlash needs the approach directions (a model's own poses get those of visiting them
     in order); compliance needs the links' masses and centres of mass."""
-    model = make_model(irb120, Rig.cable(port_m), errors=["dh", "backlash"])
+    model = make_model(irb120, Rig.cable(port_m), settings=CalibrationSettings(errors=["dh",
+                                                                                       "backlash"]))
     assert model.needs_approach
     with pytest.raises(ValueError, match="approach"):
         model.residuals(np.zeros(model.n_params), measurements)
@@ -201,9 +209,10 @@ def test_joint_groups_need_what_they_read(
                       mass_kg=irb120.mass_kg)
     for compliant in ("compliance", "link_compliance"):
         with pytest.raises(InputError, match="without centres of mass"):
-            make_model(bare, Rig.cable(port_m), errors=["dh", compliant])
+            make_model(bare, Rig.cable(port_m),
+                       settings=CalibrationSettings(errors=("dh", compliant)))
     with pytest.raises(InputError, match="compliance with link_compliance"):
-        make_model(irb120, Rig.cable(port_m), errors=["dh", "compliance", "link_compliance"])
+        CalibrationSettings(errors=("dh", "compliance", "link_compliance"))
 
 
 def test_link_compliance_holds_compliance(
@@ -221,8 +230,8 @@ def test_link_compliance_holds_compliance(
         irb120.structure, irb120.dh, q, irb120.mass_kg, irb120.com_m), atol=1e-12)
     np.testing.assert_array_equal(np.tril(np.ones((6, 6)), -1) * by_link, 0.0)
     rig = Rig.cable(port_m, tension_n=5.0)
-    plain = make_model(irb120, rig, errors=["dh", "compliance"])
-    split = make_model(irb120, rig, errors=["dh", "link_compliance"])
+    plain = make_model(irb120, rig, settings=CalibrationSettings(errors=["dh", "compliance"]))
+    split = make_model(irb120, rig, settings=CalibrationSettings(errors=["dh", "link_compliance"]))
     c = np.random.default_rng(2).uniform(1e-6, 5e-5, 6)
     x_plain = np.zeros(plain.n_params)
     x_plain[plain.slice("compliance")] = c

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.cli import main
 from twin.design.optimal import plan_stations
 from twin.rig import Rig
@@ -40,7 +41,8 @@ def test_plan_stations_is_d_optimal_over_pairs(irb120: RobotModel) -> None:
     rng = np.random.default_rng(5)
     ports = np.array([[0.6, -0.4, 0.1], [0.3, 0.6, 0.05], [-0.5, -0.3, 0.15]])
     candidates = np.stack([random_poses(irb120, 200, rng) for _ in ports])
-    model = make_model(irb120, Rig(ports, ("front", "left", "back")), estimate_port=True)
+    model = make_model(irb120, Rig(ports, ("front", "left", "back")),
+                       settings=CalibrationSettings(estimate=('port',)))
     x0 = np.zeros(model.n_params)
     plan = plan_stations(model, x0, candidates, 45)
     np.testing.assert_array_equal(plan.q_rad, candidates[plan.port, plan.selection.rows % 200])

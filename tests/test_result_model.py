@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from twin.calibration.pipeline import calibrate
+from twin.calibration.settings import CalibrationSettings
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.identified import load_result
@@ -21,7 +22,8 @@ def test_result_rebuilds_the_identified_model(
 ) -> None:
     """Every unknown comes back to the rounding of the file (1e-6 mm, 1e-6 deg), with the
     groups, the rig and σ; the rebuilt model predicts the same residuals."""
-    result = calibrate(irb120, measurements, port_m, estimate_port=True, estimate_offset=True)
+    result = calibrate(irb120, measurements, port_m, settings=CalibrationSettings(estimate=('port',
+                                                                                            'offset')))
     path = tmp_path / "result.json"
     write_json(path, result_to_dict(result))
     loaded = load_result(path, irb120)
@@ -53,7 +55,8 @@ def test_a_result_that_cannot_be_right_is_refused(
     change, message: str,
 ) -> None:
     """Unknown groups, a missing unknown, a value beyond its bound, a foreign unit: one line."""
-    result = calibrate(irb120, measurements, port_m, estimate_port=True, estimate_offset=True)
+    result = calibrate(irb120, measurements, port_m, settings=CalibrationSettings(estimate=('port',
+                                                                                            'offset')))
     document = result_to_dict(result)
     change(document)
     path = tmp_path / "result.json"
@@ -68,7 +71,7 @@ def test_results_of_every_rig_rebuild_their_model(tmp_path: Path, irb120: RobotM
     """A tracker result keeps its tracker frame exactly (the rigid-fit start), a fixed-point
     result its points and distances, a stations result which ports were estimated: the
     rebuilt model predicts the same residuals."""
-    from twin.calibration.pipeline import make_model
+    from twin.calibration.setup import make_model
     from twin.geometry.rigid import transform
     from twin.rig import Distance, Rig
     from twin.robot import random_poses
@@ -80,19 +83,19 @@ def test_results_of_every_rig_rebuild_their_model(tmp_path: Path, irb120: RobotM
         truth = Rig(attachment_m=attachment,
                     base_in_tracker=transform([1.5, 0.2, 0.3], [0.01, -0.02, 2.0]))
         data = make_model(irb120, truth, "position").measure(np.zeros(24), q)
-        rig, flags = Rig(), {"estimate_base": True, "estimate_attachment": True}
+        rig, estimate = Rig(), ("base", "attachment")
     elif kind == "point":
         points = irb120.flange_positions(q[:2])
         place = np.arange(60) % 2
         data = Measurements(q, point=place, point_names=("a", "b"))
         rig = Rig(distances=(Distance("a", "b", float(np.linalg.norm(points[0] - points[1]))),))
-        flags = {"estimate_attachment": True}
+        estimate = ("attachment",)
     else:
         ports = np.array([[0.6, -0.4, 0.1], [0.3, 0.6, 0.05]])
         rig = Rig(ports, ("front", "left"), estimated_ports=("left",))
         data = make_model(irb120, rig, "length").measure(np.zeros(24), q, port=np.arange(60) % 2)
-        flags = {"estimate_port": True}
-    result = calibrate(irb120, data, rig=rig, **flags)
+        estimate = ("port",)
+    result = calibrate(irb120, data, rig=rig, settings=CalibrationSettings(estimate=estimate))
     path = tmp_path / "result.json"
     write_json(path, result_to_dict(result))
     loaded = load_result(path, irb120)

@@ -20,13 +20,11 @@ from scipy.optimize import least_squares
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
 from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.calibration.accuracy import truth_errors
-from twin.calibration.pipeline import (
-    CalibrationResult,
-    calibrate,
-    make_problem,
-    solve_many,
-)
+from twin.calibration.pipeline import calibrate, solve_many
+from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import FewPosesWarning, warn_few_poses
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_problem
 from twin.cli import main
 from twin.io.robot_file import load_robot
 from twin.loss import Loss
@@ -45,12 +43,11 @@ def _simulate(name: str) -> Simulation:
 
 
 def _calibrate(sim: Simulation, loss: Loss | None = None) -> CalibrationResult:
-    scenario = sim.scenario
+    settings = CalibrationSettings(estimate=sim.scenario.calibration.estimate)
+    if loss is not None:
+        settings = replace(settings, loss=loss.name, loss_scale_m=loss.scale_m)
     return calibrate(sim.robot, sim.measurements, rig=sim.rig_told, method="lm",
-                     estimate_port=scenario.estimate_port,
-                     estimate_attachment=scenario.estimate_attachment,
-                     estimate_base=scenario.estimate_base,
-                     **({"loss": loss} if loss is not None else {}))
+                     settings=settings)
 
 
 def _referee(result: CalibrationResult, sim: Simulation, loss: str = "linear",
@@ -182,7 +179,7 @@ def test_fixed_points_predict_the_tool_point_on_new_configurations() -> None:
     assert _gauge_free_points(result.model, referee, null, q, _true_points(sim, q)) \
         < 2 * bound
     loose = calibrate(sim.robot, sim.measurements, rig=replace(sim.rig_told, distances=()),
-                      estimate_attachment=True)
+                      settings=CalibrationSettings(estimate=('attachment',)))
     assert loose.gauge is not None
     assert "scale about the base origin" in loose.gauge.names
 
@@ -260,7 +257,7 @@ def test_filters_read_the_loss_as_their_noise_model() -> None:
     errors, bound = {}, 0.0
     for loss in (Loss("huber", 3e-5), Loss()):
         result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, method="ekf",
-                           loss=loss)
+                           settings=CalibrationSettings(loss=loss.name, loss_scale_m=loss.scale_m))
         model = result.model
         errors[loss.name] = rms_distance(model.flange_positions(result.solver.x,
                                                                 model.poses(q)), true_flange)

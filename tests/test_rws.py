@@ -277,7 +277,7 @@ def check_calibration(cell: dict[str, object], out: Path, reference: Path) -> No
     referee = least_squares(residual, np.zeros(24), x_scale=1e-3, method="lm")
     workspace = sim.measurements.q_rad  # type: ignore[attr-defined]
     truth = Twin.build(sim.true_robot, sim.port_m).flange_positions(workspace)  # type: ignore
-    ours = np.linalg.norm(result.identified_robot.flange_positions(workspace) - truth, axis=1)
+    ours = np.linalg.norm(result.identified_geometry.flange_positions(workspace) - truth, axis=1)
     theirs = np.linalg.norm(robot.perturbed(referee.x).flange_positions(workspace) - truth,
                             axis=1)
     nominal = np.linalg.norm(robot.flange_positions(workspace) - truth, axis=1)

@@ -116,7 +116,7 @@ def test_units_are_converted_once() -> None:
     assert scenario.joint_errors.transmission_rad[0] == pytest.approx(np.deg2rad(240 / 3600))
     assert scenario.joint_errors.harmonic.tolist() == [1, 1, 1, 2, 2, 2]
     assert scenario.physics.stiffness_nm_per_rad is not None
-    assert scenario.train_fraction == 0.8
+    assert scenario.calibration.train_fraction == 0.8
 
 
 def test_perturbation_draws_each_slot_in_its_unit() -> None:

@@ -10,7 +10,10 @@ import numpy as np
 import pytest
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import calibrate, make_model, split_rows
+from twin.calibration.pipeline import calibrate
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
+from twin.calibration.split import split_rows
 from twin.cli import main
 from twin.errors import InputError
 from twin.io.capture_file import load_capture
@@ -22,7 +25,6 @@ from twin.rig import Rig
 from twin.robot import random_poses
 from twin.scenario import load_scenario, parse_scenario
 from twin.sim import simulate, write_simulation
-from twin.stopping import Budget
 
 ROOT = Path(__file__).parents[1]
 GEOMETRIC = ROOT / "scenarios" / "geometric_irb120.toml"
@@ -119,14 +121,14 @@ def test_geometric_scenario_lm_recovers_flange_within_cramer_rao() -> None:
     scenario = load_scenario(GEOMETRIC)
     sim = simulate(scenario)
     result = calibrate(sim.robot, sim.measurements, sim.port_nominal_m, method="lm", seed=0,
-                       budget=Budget())
+                       settings=CalibrationSettings())
     sigma = scenario.noise.sigma_m
     assert result.metrics["validation"].rmse < 1.5 * sigma
     workspace = random_poses(sim.robot, 1000, np.random.default_rng(1))
     train_rows, _ = split_rows(len(sim.measurements), 0)
     bound = cramer_rao_flange_rms(make_model(sim.robot, Rig.cable(sim.port_m)), sim.delta.ravel(),
                                   sim.measurements.subset(train_rows), sigma, workspace)
-    error = rms_distance(result.identified_robot.flange_positions(workspace),
+    error = rms_distance(result.identified_geometry.flange_positions(workspace),
                          sim.true_robot.flange_positions(workspace))
     assert error < 2.0 * bound
 

@@ -9,7 +9,10 @@ import pytest
 from numpy.typing import ArrayLike
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import CalibrationResult, calibrate_many, make_problem
+from twin.calibration.pipeline import calibrate_many
+from twin.calibration.result import CalibrationResult
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_problem
 from twin.problem import Problem
 from twin.robot import random_poses
 from twin.scenario import load_scenario
@@ -72,7 +75,7 @@ def test_lm_family_reaches_the_noise_floor(
     train = sim.measurements.subset(result.train_rows)
     workspace = random_poses(sim.robot, 300, np.random.default_rng(1))
     bound = cramer_rao_flange_rms(result.model, sim.delta.reshape(-1), train, sigma_m, workspace)
-    error = rms_distance(result.identified_robot.flange_positions(workspace),
+    error = rms_distance(result.identified_geometry.flange_positions(workspace),
                          sim.true_robot.flange_positions(workspace))
     assert error < 2.0 * bound
 
@@ -100,7 +103,7 @@ class _Recording(Tracker):
 def test_history_validation_is_each_iterates_own(sim: Simulation, method: str) -> None:
     """The history's validation RMSEs, evaluated in batches when the result is made, are those
     of each recorded x evaluated on its own (LM; and a swarm run past one batch)."""
-    problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
+    problem = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0).problem
     tracker = _Recording(problem)
     if method == "lm":
         outcome = levenberg_marquardt(tracker, problem.x0, Budget())
@@ -121,7 +124,7 @@ def test_first_stage_of_amlm_bipso_is_amlm(sim: Simulation, budget: Budget) -> N
     """M9's history starts exactly as M7 run with the stage's budget (paper: 30 iterations with
     the f-change rule off; converge: to its own stopping test), its BIPSO stage never ends worse
     than the AMLM stage did, and each stage says why it stopped."""
-    problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
+    problem = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0).problem
     amlm = get_solver("m7").solve(problem, budget.stage(), np.random.default_rng(0))
     cascade = get_solver("m9").solve(problem, budget, np.random.default_rng(0))
     n = len(amlm.history)
@@ -142,10 +145,9 @@ def test_first_stage_of_amlm_bipso_is_amlm(sim: Simulation, budget: Budget) -> N
 @pytest.mark.parametrize("method", STOCHASTIC)
 def test_same_seed_same_result(sim: Simulation, method: str) -> None:
     """Two runs with one seed agree bit for bit; every random draw comes from the seed."""
-    budget = Budget(max_iterations=4, stage_iterations=3)
     runs = [
         calibrate_many(sim.robot, sim.measurements, sim.port_nominal_m, [method], seed=7,
-                       budget=budget)[method].solver
+                       settings=CalibrationSettings(max_iterations=4))[method].solver
         for _ in range(2)
     ]
     np.testing.assert_array_equal(runs[0].x, runs[1].x)
@@ -154,7 +156,7 @@ def test_same_seed_same_result(sim: Simulation, method: str) -> None:
 
 def test_different_seeds_give_different_swarms(sim: Simulation) -> None:
     """The swarm's draws do depend on the seed (the test above is not vacuous)."""
-    problem, _, _ = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0)
+    problem = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0).problem
     budget = Budget(max_iterations=3)
     a, b = (get_solver("pso").solve(problem, budget, np.random.default_rng(s)) for s in (1, 2))
     assert not np.array_equal(a.x, b.x)
@@ -165,7 +167,8 @@ def test_adaptive_momentum_follows_eqs_10_to_12() -> None:
     rule = AdaptiveMomentum()
     step, previous = np.array([1.0, 0.0]), np.array([0.0, 2.0])
     assert rule.gamma == 0.0
-    np.testing.assert_array_equal(rule.propose(None, np.zeros(2), step), step)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(rule.propose(None, np.zeros(2), step),
+                                  step)  # type: ignore[arg-type]
     rule.accepted(previous, 4.0, 1.0)
     gamma = GAMMA_MAX * np.exp(-0.6 * abs(0.75 - 1.0))
     assert rule.gamma == pytest.approx(gamma, rel=1e-15)
@@ -183,7 +186,7 @@ def test_thirty_filter_passes_stay_put_with_non_geometric_errors() -> None:
     paper = simulate(load_scenario(SCENARIO.parent / "paper_irb120.toml"), 534926514)
     results = calibrate_many(paper.robot, paper.measurements, paper.port_nominal_m,
                              ["lm", "ukf-vslm", "ekf-qibas"], seed=534926514,
-                             budget=Budget.paper())
+                             settings=CalibrationSettings(stop="paper"))
     lm = results["lm"].metrics["validation"].rmse
     for method in ("ukf-vslm", "ekf-qibas"):
         history = results[method].solver.history

@@ -13,7 +13,7 @@ import pytest
 from scipy.optimize import least_squares, lsq_linear
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
-from twin.calibration.pipeline import make_problem
+from twin.calibration.setup import make_problem
 from twin.robot import random_poses
 from twin.scenario import parse_scenario
 from twin.sim import Simulation, simulate

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.calibration.pipeline import make_model
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements
 from twin.io.robot_file import default_robot
 from twin.problem import Problem

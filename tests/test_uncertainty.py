@@ -16,11 +16,12 @@ from twin.analysis.uncertainty import (
     rms_distance,
     workspace_grid,
 )
-from twin.calibration.pipeline import calibrate, make_model
+from twin.calibration.pipeline import calibrate
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
-from twin.stopping import Budget
 
 SIGMA_M = 1e-5
 
@@ -96,12 +97,12 @@ def test_calibration_carries_covariance_and_an_honest_accuracy(
     flange accuracy is within a factor of 3 of the true flange error over the workspace, and
     every base parameter's true error lies within 5 σ of its estimate up to the null space."""
     result = calibrate(irb120, measurements, port_m, method="lm-base",
-                       budget=Budget())
+                       settings=CalibrationSettings())
     uncertainty = result.uncertainty
     assert uncertainty is not None and result.identifiability is not None
     assert 0.7 * SIGMA_M < uncertainty.noise_sigma_m < 1.4 * SIGMA_M
     q = random_poses(irb120, 500, np.random.default_rng(2))
-    true_error = rms_distance(result.identified_robot.flange_positions(q),
+    true_error = rms_distance(result.identified_geometry.flange_positions(q),
                               true_robot.flange_positions(q))
     assert uncertainty.flange_rms_m / 3 < true_error < 3 * uncertainty.flange_rms_m
     assert uncertainty.covariance.shape == (24, 24)

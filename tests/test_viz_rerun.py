@@ -24,7 +24,8 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
-from twin.calibration.pipeline import CalibrationResult, calibrate_many
+from twin.calibration.pipeline import calibrate_many
+from twin.calibration.result import CalibrationResult
 from twin.cli import main
 from twin.geometry.kinematics import Structure, frames
 from twin.io.capture_file import load_capture
@@ -133,7 +134,7 @@ def test_every_family_round_trips(calibrated: tuple[Path, CalibrationResult],
 
     # world/robot: one polyline per pose, the frame origins of the core's FK.
     for label, dh in (("nominal", result.robot.dh), ("true", result.robot.dh + truth),
-                      ("identified/lm", result.identified_robot.dh)):
+                      ("identified/lm", result.identified_geometry.dh)):
         strips = np.array([row[0] for row in column(batches, entities.robot(label),
                                                     "LineStrips3D:strips")])
         assert strips.shape == (n_poses, 7, 3)

@@ -6,8 +6,9 @@ are SI (m, rad) inside; files and the command line use mm and degrees.
 """
 
 from twin.analysis.metrics import Metrics
-from twin.calibration.pipeline import CalibrationResult, calibrate, calibrate_many
+from twin.calibration.pipeline import calibrate, calibrate_many
 from twin.calibration.predict import Prediction, predict
+from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
 from twin.errors import InputError, TwinError, UnknownChoiceError
 from twin.geometry.kinematics import Structure, flange_transform, point_jacobian, point_position
@@ -23,6 +24,7 @@ from twin.stopping import Budget, StopReason
 __all__ = [
     "Budget",
     "CalibrationResult",
+    "CalibrationSettings",
     "Distance",
     "InputError",
     "Loss",

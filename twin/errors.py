@@ -40,6 +40,15 @@ class InputError(TwinError):
         prefix = ": ".join(parts) + ": " if parts else ""
         super().__init__(f"{prefix}found {found}, expected {expected}")
 
+    def at(self, source: str | Path, where: str | None = None) -> InputError:
+        """This mistake as made in ``source`` (the flag or file a value came from), unless it
+        already names its source; ``where`` replaces the field it names, if given (``""``:
+        none, as for a flag)."""
+        if self.source is not None:
+            return self
+        return InputError(self.found, self.expected, source=source,
+                          where=self.where if where is None else where or None)
+
 
 class UnknownChoiceError(InputError):
     """A name that is not one of a fixed set of choices (method, protocol, format…)."""

@@ -30,6 +30,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from docs_tables import commit, markdown_table, replace_block  # noqa: E402
 
 from twin.calibration.pipeline import calibrate  # noqa: E402
+from twin.calibration.settings import CalibrationSettings  # noqa: E402
 from twin.cli import main as twin  # noqa: E402
 from twin.dataset import Measurements  # noqa: E402
 from twin.io.atomic import write_atomic  # noqa: E402
@@ -101,11 +102,12 @@ def evaluate(measurements: Path) -> list[list[str]]:
         training = tuple(p for p in PLACEMENTS if p != placement)
         rig = Rig(attachment_m=nominal_ball, distances=tuple(
             (f"{p}/hole_0", f"{p}/hole_1", mm_to_m(SPACING_MM)) for p in training))
-        result = calibrate(robot, subset(data, training), rig=rig, estimate_attachment=True,
-                           train_fraction=TRAIN_FRACTION, seed=0)
+        result = calibrate(robot, subset(data, training), rig=rig, seed=0,
+                           settings=CalibrationSettings(estimate=("attachment",),
+                                                        train_fraction=TRAIN_FRACTION))
         test = subset(data, (placement,))
         before = held_out(robot, nominal_ball, test)
-        after = held_out(result.identified_robot, result.attachment_m, test)
+        after = held_out(result.identified_geometry, result.attachment_m, test)
         figures.append((*before, *after))
         rows.append([placement, f"{', '.join(training)}", str(len(test.q_rad)),
                      f"{before[0]:.3f}", f"{after[0]:.3f}", f"{before[1]:+.3f}",
@@ -115,7 +117,8 @@ def evaluate(measurements: Path) -> list[list[str]]:
                  f"{mean[3]:.3f}*"])
     rig = Rig(attachment_m=nominal_ball, distances=tuple(
         (f"{p}/hole_0", f"{p}/hole_1", mm_to_m(SPACING_MM)) for p in PLACEMENTS))
-    split = calibrate(robot, data, rig=rig, estimate_attachment=True, seed=0)
+    split = calibrate(robot, data, rig=rig, seed=0,
+                      settings=CalibrationSettings(estimate=("attachment",)))
     rows.append(["random 20 % of all", "the other 80 %", str(len(split.validation_rows)),
                  f"{m_to_mm(split.metrics['before'].rmse):.3f}",
                  f"{m_to_mm(split.metrics['validation'].rmse):.3f}", "", ""])

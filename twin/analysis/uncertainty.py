@@ -26,6 +26,8 @@ from twin.dataset import Measurements
 from twin.model import Model
 from twin.robot import RobotModel
 
+WORKSPACE_POSES = 1000
+"""Random poses within the joint limits over which the flange accuracy is predicted."""
 
 def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK_RTOL) -> Array:
     """Covariance σ² (JᵀJ)⁺ of the unknowns, shape (p, p), in m² / rad² units of x.

@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
-from twin.analysis.uncertainty import rms_distance
-from twin.calibration.pipeline import WORKSPACE_POSES, CalibrationResult
+from twin.analysis.uncertainty import WORKSPACE_POSES, rms_distance
+from twin.calibration.result import CalibrationResult
 from twin.robot import RobotModel, random_poses
 
 

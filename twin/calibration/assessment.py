@@ -13,20 +13,15 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
-from twin.analysis.uncertainty import flange_sigma, workspace_grid
+from twin.analysis.uncertainty import WORKSPACE_POSES, flange_sigma, workspace_grid
 from twin.arrays import Array
-from twin.calibration.pipeline import (
-    WORKSPACE_POSES,
-    CalibrationResult,
-    SplitProblem,
-    match_ports,
-    solve_many,
-)
+from twin.calibration.pipeline import solve_many
+from twin.calibration.result import CalibrationResult, SplitProblem
+from twin.calibration.start import match_ports
 from twin.dataset import Measurements
 from twin.design.optimal import DesignScore, score_poses
 from twin.model import Model
 from twin.robot import RobotModel, random_poses
-from twin.stopping import Budget
 
 METHOD = "lm-base"
 """The calibration an assessment runs: LM on the base parameters, with their uncertainty."""
@@ -48,25 +43,24 @@ class Assessment(NamedTuple):
     geometry)."""
 
 
-def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, sigma_m: float,
-           *, seed: int, budget: Budget) -> Assessment:
+def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *, seed: int
+           ) -> Assessment:
     """Identifiability at the nominal geometry, then an lm-base calibration.
 
     Args:
         robot: The nominal robot.
         split: The calibration problem of the measurements, split into training and validation.
         measurements: Every pose measured.
-        sigma_m: Noise 1σ of the Cramér–Rao bound, m.
         seed: Seed of the workspace poses and of the calibration.
-        budget: Iteration limits of the calibration.
     """
     model = split.problem.model
     data = match_ports(measurements, model.rig)
     x0 = np.zeros(model.n_params)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
     nominal = measurement_identifiability(model, x0, data)
-    score = score_poses(model, x0, data.q_rad, nominal.base_mask, sigma_m, q_workspace)
-    result = solve_many(robot, split, [METHOD], seed=seed, budget=budget)[METHOD]
+    score = score_poses(model, x0, data.q_rad, nominal.base_mask, split.problem.sigma_m,
+                        q_workspace)
+    result = solve_many(robot, split, [METHOD], seed=seed)[METHOD]
     return Assessment(data, nominal, score, result)
 
 

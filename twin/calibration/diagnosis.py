@@ -18,7 +18,8 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.misfit import FAR
-from twin.calibration.pipeline import CalibrationResult, SplitProblem, make_model
+from twin.calibration.result import CalibrationResult, SplitProblem
+from twin.calibration.setup import make_model
 from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
 from twin.problem import Problem
 from twin.solvers import get_solver
@@ -69,8 +70,9 @@ def _refit(split: SplitProblem, result: CalibrationResult, group: str) -> float 
             or (group not in model.kind.groups and group != "attachment"):
         return None
     wider_rig = replace(rig, estimated_ports=()) if group == "port" else rig
-    names = list(dict.fromkeys([*(g.name for g in model.groups if g.name != "points"), group]))
-    wider = make_model(model.robot, wider_rig, model.kind.name, errors=names)
+    settings = split.settings
+    wider = make_model(model.robot, wider_rig, model.kind.name, replace(
+        settings, estimate=(*settings.estimate, group)))
     start = np.zeros(wider.n_params)
     for found in model.groups:
         block = model.block(x, found.name)

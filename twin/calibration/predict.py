@@ -2,7 +2,8 @@
 reads. This is how a model is checked against anything else (a tracker, another capture, the
 twin's truth)::
 
-    result = twin.calibrate(robot, data, rig=rig, errors=["dh", "compliance"])
+    settings = twin.CalibrationSettings(errors=("dh", "compliance"))
+    result = twin.calibrate(robot, data, rig=rig, settings=settings)
     prediction = twin.predict(result, q_rad, approach=None)   # or a load_result(...) model
     prediction.position_m    # (m, 3) measured point, base frame, m
     prediction.length_m      # (m,) cable length, m, when the rig has one port
@@ -22,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.calibration.pipeline import check_approach
+from twin.calibration.start import check_approach
 from twin.model import Model
 
 

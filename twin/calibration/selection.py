@@ -28,24 +28,21 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from twin.analysis.identifiability import measurement_identifiability, warn_rank_deficient
-from twin.calibration.pipeline import (
-    TRAIN_FRACTION,
-    CalibrationResult,
-    SplitProblem,
-    calibrate,
-    make_model,
-    required_poses,
-)
+from twin.calibration.pipeline import calibrate
+from twin.calibration.result import CalibrationResult, SplitProblem
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import DEFAULT_SETTINGS, make_model
+from twin.calibration.split import required_poses
 from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.stopping import Budget
 
 NESTED = ("dh", "compliance", "backlash", "transmission")
 """The order in which candidates add groups: fewest unknowns first."""
@@ -142,17 +139,14 @@ def choose_errors(
     rig: Rig,
     *,
     method: str = "lm",
+    settings: CalibrationSettings = DEFAULT_SETTINGS,
     seed: int = 0,
-    estimate_port: bool = False,
-    estimate_offset: bool = False,
-    budget: Budget | None = None,
-    train_fraction: float = TRAIN_FRACTION,
     candidates: Sequence[tuple[str, ...]] | None = None,
 ) -> ErrorChoice:
     """Fit every nested error model on the same split and choose by BIC (module docstring).
 
-    Takes the arguments of :func:`twin.calibration.pipeline.calibrate`; ``candidates`` replaces the
-    nested error models.
+    Takes the arguments of :func:`twin.calibration.pipeline.calibrate` (the settings' error
+    groups are each candidate's); ``candidates`` replaces the nested error models.
 
     Raises:
         InputError: if not even the first candidate (D-H alone) can be fitted to so few
@@ -162,21 +156,20 @@ def choose_errors(
         else nested_errors(measurements.approach is not None)
     skipped = [] if candidates is not None or measurements.approach is not None else [
         "backlash: the measurements do not carry the approach directions"]
+    train_fraction = settings.train_fraction
     n_train = round(train_fraction * len(measurements))
     fitted: list[Candidate] = []
     for errors in models:
-        model = make_model(robot, rig, measurements.kind, errors=errors,
-                           estimate_port=estimate_port, estimate_offset=estimate_offset)
+        candidate = replace(settings, errors=errors)
+        model = make_model(robot, rig, measurements.kind, candidate)
         needed = required_poses(model.n_params, train_fraction, model.kind.rows_per_pose)
         if fitted and len(measurements) < needed:
             skipped.append(f"{'+'.join(errors)}: {len(measurements)} poses, fewer than the "
                            f"{needed} its {model.n_params} unknowns need")
             continue
         # The first candidate (D-H alone) raises InputError if even it cannot be fitted.
-        result = calibrate(robot, measurements, rig=rig, errors=errors, method=method,
-                           seed=seed, estimate_port=estimate_port,
-                           estimate_offset=estimate_offset, budget=budget,
-                           train_fraction=train_fraction)
+        result = calibrate(robot, measurements, rig=rig, method=method, settings=candidate,
+                           seed=seed)
         nominal = result.identifiability
         rank = nominal.rank if nominal is not None else model.n_params
         warn_few_poses(n_train, rank, errors, model.kind.rows_per_pose)

@@ -207,7 +207,8 @@ AUTO = "auto"
 def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:
     """An argparse type: comma-separated error groups among :data:`twin.unknowns.ERRORS` (in the
     registry's order), or ``auto`` (returned as ``("auto",)``) when ``auto``."""
-    from twin.unknowns import ERRORS
+    from twin.errors import InputError
+    from twin.unknowns import ERRORS, check_errors
 
     choices = ",".join(ERRORS) + (f" (any of them, comma-separated) or {AUTO}" if auto
                                   else " (any of them, comma-separated)")
@@ -216,9 +217,12 @@ def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:
         names = [name.strip().lower() for name in text.split(",")]
         if auto and names == [AUTO]:
             return (AUTO,)
-        if not names or any(name not in ERRORS for name in names) \
-                or len(set(names)) != len(names):
+        if any(name not in ERRORS for name in names):
             raise argparse.ArgumentTypeError(f"found {text!r}, expected {choices}")
-        return tuple(name for name in ERRORS if name in names)
+        try:
+            return check_errors(names)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(f"found {exc.found}, expected {exc.expected}"
+                                             ) from None
 
     return parse

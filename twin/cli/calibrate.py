@@ -119,7 +119,6 @@ def run(args: argparse.Namespace) -> int:
     with calibration_log(args, methods, robot, split.problem.model.rig, measurements, truth,
                          fallback_dir=fallback_dir) as live:
         results = solve_many(robot, split, methods, seed=args.seed,
-                             budget=inputs.calibration.budget,
                              on_result=None if live is None else live.add)
         if len(results) == 1:
             (result,) = results.values()
@@ -147,9 +146,7 @@ def _run_auto(args: argparse.Namespace, inputs: Inputs, measurements: Measuremen
     try:
         choice = choose_errors(
             inputs.robot, measurements, inputs.rig, method=get_solver(args.method).name,
-            seed=args.seed, estimate_port=settings.estimate_port,
-            estimate_offset=settings.estimate_offset, budget=settings.budget,
-            train_fraction=settings.train_fraction)
+            settings=settings, seed=args.seed)
     except InputError as exc:
         if exc.source is not None:
             raise

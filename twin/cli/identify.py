@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.analysis.identifiability import WEAK_RTOL, Identifiability
+from twin.analysis.uncertainty import WORKSPACE_POSES
 from twin.calibration.assessment import assess, flange_error_map
-from twin.calibration.pipeline import WORKSPACE_POSES
 from twin.cli.arguments import (
     add_output,
     add_seed,
@@ -21,7 +21,7 @@ from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
 from twin.report.plots import accuracy_map
 from twin.report.text import describe_rig, format_fit, format_joint_groups, format_truth, has_point
-from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, mm_to_m, slot_label
+from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, slot_label
 from twin.unknowns import ERRORS
 
 NAME = "identify"
@@ -44,8 +44,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "else 0)")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
-    parser.add_argument("--sigma", type=sigma_mm, default=0.01, metavar="MM",
-                        help="length noise 1σ in mm for the Cramér–Rao bound (default 0.01)")
+    parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
+                        help="the instrument's noise 1σ in mm, for the Cramér–Rao bound and the "
+                        "misfit test (default: the capture's [encoder] sigma_mm with its "
+                        "resolution, else 0.01)")
     add_seed(parser, "seed of the split, of the calibration and of the workspace poses",
              default=0)
     add_output(parser, "OUT.png", "write a map of the predicted flange error over joints 2 and 3",
@@ -91,8 +93,8 @@ def run(args: argparse.Namespace) -> int:
     robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)
     split = make_split(inputs, data, args.seed)
-    assessment = assess(robot, split, data, float(mm_to_m(args.sigma)), seed=args.seed,
-                        budget=inputs.calibration.budget)
+    sigma_mm = float(m_to_mm(inputs.calibration.sigma_m))
+    assessment = assess(robot, split, data, seed=args.seed)
     data, nominal, score, result = assessment
     model = split.problem.model
     indices = score.observability
@@ -106,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
         f"  base parameters ({nominal.rank}): " + ", ".join(nominal.base_names),
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
-        f"  Cramér–Rao bound at σ = {args.sigma:g} mm: flange RMS error over "
+        f"  Cramér–Rao bound at σ = {sigma_mm:.4g} mm: flange RMS error over "
         f"{WORKSPACE_POSES} workspace poses {float(m_to_mm(score.flange_rms_m)):.4f} mm",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
@@ -143,5 +145,5 @@ def run(args: argparse.Namespace) -> int:
                      "(q1 = q4 = q5 = q6 = 0)")
         print(f"map: {args.map}")
     if args.json:
-        write_json(args.json, assessment_to_dict(assessment, args.sigma, truth))
+        write_json(args.json, assessment_to_dict(assessment, sigma_mm, truth))
     return 0

@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 
 from twin.analysis.misfit import reading_sigma
 from twin.calibration.accuracy import TruthErrors, workspace_truth_errors
-from twin.calibration.pipeline import TRAIN_FRACTION, CalibrationResult, SplitProblem, make_problem
+from twin.calibration.result import CalibrationResult, SplitProblem
+from twin.calibration.setup import make_problem
 from twin.cli.arguments import (
     AUTO,
     add_cable_tension,
@@ -35,11 +36,9 @@ from twin.io.capture_file import (
     parse_port_mm,
 )
 from twin.io.truth import load_truth_attachment, load_truth_delta
-from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.stopping import PROTOCOLS
 from twin.units import mm_to_m
 
 
@@ -90,22 +89,13 @@ class Inputs(NamedTuple):
     measurements_path: Path
     truth_path: Path | None
     calibration: CalibrationSettings
-    sigma_m: float
-    """The noise 1σ of one reading, m: the instrument's and the robot's repeatability
+    """What to estimate and how; its noise the instrument's and the robot's repeatability
     (:func:`twin.analysis.misfit.reading_sigma`)."""
 
     @property
     def port_m(self) -> NDArray[np.float64] | None:
         """The first port, shape (3,), m; None without one."""
         return self.rig.ports_m[0] if len(self.rig.ports_m) else None
-
-    @property
-    def loss(self) -> Loss:
-        """The loss the settings ask for, its scale defaulting to 3 σ."""
-        settings = self.calibration
-        scale = float(mm_to_m(settings.loss_scale_mm)) if settings.loss_scale_mm is not None \
-            else DEFAULT_SCALE_SIGMAS * self.sigma_m
-        return Loss(settings.loss, scale)
 
 
 def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
@@ -135,6 +125,46 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     return replace(rig, estimated_ports=tuple(dict.fromkeys(estimated)))
 
 
+FLAGS = {"errors": "--errors", "estimate": "--estimate-port", "sigma_m": "--sigma",
+         "loss": "--loss", "loss_scale_m": "--loss-scale", "stop": "--stop",
+         "max_iterations": "--max-iterations", "train_fraction": "--train-fraction"}
+"""The flag that sets each calibration setting, named by an error in it."""
+
+
+def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
+                        instrument_sigma_m: float, repeatability_m: float
+                        ) -> CalibrationSettings:
+    """``base`` (a capture's ``[calibration]``, or the defaults) with what the flags set; the
+    noise of a reading from ``--sigma`` and ``--repeatability`` or, where absent, the given
+    instrument noise and repeatability (m).
+
+    Raises:
+        InputError: naming the flag of a setting that is wrong.
+    """
+    flagged = {"estimate_port": "port", "estimate_offset": "offset",
+               "estimate_attachment": "attachment", "estimate_base": "base"}
+    estimate = {*base.estimate, *(name for flag, name in flagged.items()
+                                  if getattr(args, flag, None))}
+    errors = getattr(args, "errors", None)
+    sigma, repeatability = getattr(args, "sigma", None), getattr(args, "repeatability", None)
+    scale = getattr(args, "loss_scale", None)
+    changes = {
+        "errors": base.errors if errors in (None, (AUTO,)) else errors,
+        "estimate": tuple(estimate),
+        "sigma_m": reading_sigma(float(mm_to_m(sigma)) if sigma else instrument_sigma_m,
+                                 repeatability_m if repeatability is None
+                                 else float(mm_to_m(repeatability))),
+        "loss_scale_m": base.loss_scale_m if scale is None else float(mm_to_m(scale)),
+        **{key: getattr(args, flag) for key, flag in (
+            ("loss", "loss"), ("stop", "stop"), ("max_iterations", "max_iterations"),
+            ("train_fraction", "train_fraction")) if getattr(args, flag, None) is not None},
+    }
+    try:
+        return replace(base, **changes)
+    except InputError as exc:
+        raise exc.at(FLAGS.get(str(exc.where), "--errors"), where="") from None
+
+
 def resolve_inputs(args: argparse.Namespace) -> Inputs:
     """The robot, rig, files and calibration settings named by a capture.toml or a CSV and
     the flags; flags win over the capture's tables.
@@ -145,50 +175,25 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     """
     input_path = args.input
     flag_robot = robot_from_flags(args)  # the IRB 120 without --robot
-    fraction = getattr(args, "train_fraction", None)
-    stop, limit = getattr(args, "stop", None), getattr(args, "max_iterations", None)
-    loss, scale = getattr(args, "loss", None), getattr(args, "loss_scale", None)
-    flags = {"estimate_port": bool(getattr(args, "estimate_port", None)),
-             "estimate_offset": getattr(args, "estimate_offset", False),
-             "estimate_attachment": args.estimate_attachment,
-             "estimate_base": args.estimate_base}
-    sigma = getattr(args, "sigma", None)
-    repeatability = getattr(args, "repeatability", None)
-    errors = getattr(args, "errors", None)
-    errors = None if errors == (AUTO,) else errors
     tension = getattr(args, "cable_tension", None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
-        settings = capture.calibration
-        settings = replace(
-            settings, **{key: value or getattr(settings, key) for key, value in flags.items()},
-            train_fraction=fraction or settings.train_fraction, stop=stop or settings.stop,
-            max_iterations=limit or settings.max_iterations, loss=loss or settings.loss,
-            loss_scale_mm=scale or settings.loss_scale_mm, errors=errors or settings.errors,
-            cable_tension_n=settings.cable_tension_n if tension is None else tension)
+        rig = _flag_rig(args, capture.rig)
         return Inputs(
             robot=capture.robot if args.robot is None else flag_robot,
-            rig=replace(_flag_rig(args, capture.rig), tension_n=settings.cable_tension_n),
+            rig=rig if tension is None else replace(rig, tension_n=tension),
             measurements_path=capture.measurements,
             truth_path=capture.truth,
-            calibration=settings,
-            sigma_m=reading_sigma(
-                float(mm_to_m(sigma)) if sigma else capture.instrument_sigma_m,
-                capture.repeatability_m if repeatability is None
-                else float(mm_to_m(repeatability))),
+            calibration=settings_from_flags(args, capture.calibration,
+                                            capture.instrument_sigma_m,
+                                            capture.repeatability_m),
         )
-    settings = CalibrationSettings(
-        **flags, train_fraction=fraction or TRAIN_FRACTION, stop=stop or PROTOCOLS[0],
-        max_iterations=limit, loss=loss or LOSSES[0], loss_scale_mm=scale,
-        errors=errors or ("dh",), cable_tension_n=tension or 0.0)
     return Inputs(
         robot=flag_robot,
-        rig=replace(_flag_rig(args, Rig()), tension_n=settings.cable_tension_n),
+        rig=replace(_flag_rig(args, Rig()), tension_n=tension or 0.0),
         measurements_path=input_path,
         truth_path=None,
-        calibration=settings,
-        sigma_m=reading_sigma(float(mm_to_m(sigma)) if sigma else DEFAULT_SIGMA_M,
-                              float(mm_to_m(repeatability or 0.0))),
+        calibration=settings_from_flags(args, CalibrationSettings(), DEFAULT_SIGMA_M, 0.0),
     )
 
 
@@ -208,19 +213,13 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
 
 def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitProblem:
     """The problem of the resolved inputs, its errors naming the measurement file."""
-    settings = inputs.calibration
     if measurements.kind == "length" and not len(inputs.rig.ports_m):
         raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
                          "NAME=X,Y,Z per port, or a capture.toml as INPUT)",
                          source=inputs.measurements_path)
     try:
-        return make_problem(
-            inputs.robot, measurements, rig=inputs.rig, errors=settings.errors, seed=seed,
-            estimate_port=settings.estimate_port, estimate_offset=settings.estimate_offset,
-            estimate_attachment=settings.estimate_attachment,
-            estimate_base=settings.estimate_base, sigma_m=inputs.sigma_m, loss=inputs.loss,
-            train_fraction=settings.train_fraction,
-        )
+        return make_problem(inputs.robot, measurements, rig=inputs.rig,
+                            settings=inputs.calibration, seed=seed)
     except InputError as exc:
         if exc.source is not None:
             raise

@@ -14,7 +14,9 @@ import argparse
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration.pipeline import WORKSPACE_POSES, make_model
+from twin.analysis.uncertainty import WORKSPACE_POSES
+from twin.calibration.settings import CalibrationSettings
+from twin.calibration.setup import make_model
 from twin.cli.arguments import (
     add_cable_tension,
     add_error_groups,
@@ -141,8 +143,13 @@ def _sampler(args: argparse.Namespace) -> SamplerFactory:
 
 def _model(args: argparse.Namespace, robot: RobotModel, rig: Rig) -> Model:
     """The model the calibration will fit, as the flags say."""
-    return make_model(robot, rig, errors=args.errors, estimate_port=args.estimate_port,
-                      estimate_offset=args.estimate_offset)
+    estimate = (*(["port"] if args.estimate_port else []),
+                *(["offset"] if args.estimate_offset else []))
+    try:
+        settings = CalibrationSettings(errors=args.errors, estimate=estimate)
+    except InputError as exc:
+        raise exc.at("--errors", where="") from None
+    return make_model(robot, rig, settings=settings)
 
 
 def _check_poses(args: argparse.Namespace, model: Model, stations: int, per: str) -> None:

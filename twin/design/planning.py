@@ -16,8 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.uncertainty import WORKSPACE_POSES
 from twin.arrays import Array
-from twin.calibration.pipeline import WORKSPACE_POSES
 from twin.design.optimal import DesignScore, PortChoice, choose_port, plan_stations, score_poses
 from twin.model import Model
 from twin.rig import Rig

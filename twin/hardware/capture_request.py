@@ -80,7 +80,8 @@ def check_joint_count(robot: RobotModel, source: str | Path) -> None:
 
 def _told_cell(request: CaptureRequest) -> tuple[RobotModel, Any, Any]:
     """The robot, rig and calibration settings the flags tell."""
-    from twin.io.capture_file import CalibrationSettings, parse_port_mm
+    from twin.calibration.settings import CalibrationSettings
+    from twin.io.capture_file import parse_port_mm
     from twin.io.robot_file import load_robot_or_default
     from twin.rig import Rig
 
@@ -90,9 +91,9 @@ def _told_cell(request: CaptureRequest) -> tuple[RobotModel, Any, Any]:
                          source="command line")
     rig = Rig.cable(parse_port_mm(request.port_mm, "--port", ""),
                     None if request.attachment_mm is None
-                    else parse_port_mm(request.attachment_mm, "--attachment", ""))
-    calibration = CalibrationSettings(cable_tension_n=request.cable_tension_n) \
-        if request.cable_tension_n else None
+                    else parse_port_mm(request.attachment_mm, "--attachment", ""),
+                    tension_n=request.cable_tension_n or 0.0)
+    calibration = CalibrationSettings() if request.cable_tension_n else None
     return robot, rig, calibration
 
 

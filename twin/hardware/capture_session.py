@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.calibration.settings import CalibrationSettings
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.encoders import EncoderConfig, open_encoder
@@ -42,7 +43,7 @@ from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
 from twin.hardware.encoders.settle import Settled, SettleRule, settle
 from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
-from twin.io.capture_file import CalibrationSettings, write_capture
+from twin.io.capture_file import write_capture
 from twin.io.journal import Journal
 from twin.io.measurements import (
     LENGTH_COLUMN,

@@ -12,17 +12,8 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     [rig]                             # optional
     attachment_mm = [0.0, 0.0, 40.0]  # the measured point in the flange frame (default 0,0,0)
     distances = ["f1s1,f1s2=50"]      # known distances between fixed points, mm
-    [calibration]                     # optional: how to calibrate it (flags still override)
-    estimate_port = false
-    estimate_offset = false
-    estimate_attachment = false
-    estimate_base = false             # tracker frame
-    loss = "linear"                   # or huber, soft_l1, cauchy (twin.loss)
-    loss_scale_mm = 0.03              # optional: the loss's scale (default 3 σ)
-    train_fraction = 0.8
-    stop = "converge"                 # or "paper" (twin.stopping)
-    max_iterations = 200              # optional: another iteration limit
-    errors = ["dh"]                   # the robot's error groups to fit (twin.unknowns.ERRORS)
+    [calibration]                     # optional: how to calibrate it (flags still override):
+    errors = ["dh"]                   # the keys of twin.io.calibration_table, and
     cable_tension_n = 0.0             # the cable's pull, N (loads a compliant arm)
     [encoder]                         # optional: how the data was captured
     url = "serial:///dev/ttyUSB0?baud=115200"
@@ -35,117 +26,28 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.calibration.pipeline import TRAIN_FRACTION
+from twin.analysis.misfit import reading_sigma
+from twin.calibration.settings import CalibrationSettings
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
+from twin.io.calibration_table import KEYS, calibration_lines, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
 from twin.io.table import Table
-from twin.loss import LOSSES
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import MAX_TENSION_N, Distance, Rig
 from twin.robot import RobotModel
-from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
-from twin.unknowns import ERRORS
 
 _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder", "ports", "rig")
 _RIG_KEYS = ("attachment_mm", "distances")
-
-
-@dataclass(frozen=True)
-class CalibrationSettings:
-    """How a capture is to be calibrated: which extra unknowns, which split, when to stop.
-
-    Attributes:
-        estimate_port: Also identify a correction of the port position.
-        estimate_offset: Also identify an unknown cable-length offset.
-        train_fraction: Share of the poses used for identification, in (0, 1).
-        stop: The stopping protocol, one of :data:`twin.stopping.PROTOCOLS`.
-        max_iterations: Iteration limit of every method and stage, or None for the protocol's.
-        errors: The robot's error groups to fit, among :data:`twin.unknowns.ERRORS`.
-        cable_tension_n: The cable's pull towards the port, N (:attr:`twin.rig.Rig.tension_n`).
-        estimate_attachment: Also identify the measured point in the flange frame.
-        estimate_base: Also identify the tracker frame.
-        loss: The loss, one of :data:`twin.loss.LOSSES`.
-        loss_scale_mm: Its scale in mm, or None for 3 σ of the noise.
-    """
-
-    estimate_port: bool = False
-    estimate_offset: bool = False
-    train_fraction: float = TRAIN_FRACTION
-    stop: str = PROTOCOLS[0]
-    max_iterations: int | None = None
-    errors: tuple[str, ...] = ("dh",)
-    cable_tension_n: float = 0.0
-    estimate_attachment: bool = False
-    estimate_base: bool = False
-    loss: str = LOSSES[0]
-    loss_scale_mm: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.loss not in LOSSES:
-            raise ValueError(f"loss: {self.loss!r}, expected one of {', '.join(LOSSES)}")
-        if self.loss_scale_mm is not None and not (math.isfinite(self.loss_scale_mm)
-                                                   and self.loss_scale_mm > 0):
-            raise ValueError(f"loss_scale_mm: {self.loss_scale_mm}, expected > 0")
-        if not 0 < self.train_fraction < 1:
-            raise ValueError(f"train_fraction: {self.train_fraction}, expected in (0, 1)")
-        if self.stop not in PROTOCOLS:
-            raise ValueError(f"stop: {self.stop!r}, expected one of {', '.join(PROTOCOLS)}")
-        if self.max_iterations is not None and not 1 <= self.max_iterations <= MAX_ITERATIONS:
-            raise ValueError(f"max_iterations: {self.max_iterations}, expected 1 to "
-                             f"{MAX_ITERATIONS}")
-        object.__setattr__(self, "errors", tuple(self.errors))
-        if not self.errors or not set(self.errors) <= set(ERRORS):
-            raise ValueError(f"errors: {self.errors!r}, expected groups among "
-                             + ", ".join(ERRORS))
-        if not (math.isfinite(self.cable_tension_n)
-                and 0.0 <= self.cable_tension_n <= MAX_TENSION_N):
-            raise ValueError(f"cable_tension_n: {self.cable_tension_n}, expected 0 to "
-                             f"{MAX_TENSION_N:g} N")
-
-    @property
-    def budget(self) -> Budget:
-        """The iteration limits and stopping tests these settings ask for."""
-        return Budget.named(self.stop, self.max_iterations)
-
-
-def _parse_calibration(table: Table) -> CalibrationSettings:
-    """The ``[calibration]`` table (every key optional)."""
-    flags = ("estimate_port", "estimate_offset", "estimate_attachment", "estimate_base")
-    settings: dict[str, Any] = {key: table.boolean(key) for key in flags if table.has(key)}
-    if table.has("train_fraction"):
-        settings["train_fraction"] = table.number(
-            "train_fraction", minimum=0.0, maximum=1.0, strict_minimum=True, strict_maximum=True,
-            expected="a share in (0, 1)")
-    if table.has("stop"):
-        settings["stop"] = table.text("stop", choices=PROTOCOLS)
-    if table.has("max_iterations"):
-        settings["max_iterations"] = table.integer(
-            "max_iterations", minimum=1, maximum=MAX_ITERATIONS,
-            expected=f"an integer from 1 to {MAX_ITERATIONS}")
-    if table.has("errors"):
-        names = table.strings("errors", choices=ERRORS, expected="a non-empty list of error "
-                              "groups among " + ", ".join(ERRORS))
-        settings["errors"] = tuple(name for name in ERRORS if name in names)
-    if table.has("cable_tension_n"):
-        settings["cable_tension_n"] = table.number(
-            "cable_tension_n", minimum=0.0, maximum=MAX_TENSION_N,
-            expected=f"a tension in N from 0 to {MAX_TENSION_N:g}")
-    if table.has("loss"):
-        settings["loss"] = table.text("loss", choices=LOSSES)
-    if table.has("loss_scale_mm"):
-        settings["loss_scale_mm"] = table.number("loss_scale_mm", minimum=0.0,
-                                                 strict_minimum=True, expected="a scale in mm > 0")
-    return CalibrationSettings(**settings)
 
 
 @dataclass(frozen=True)
@@ -159,9 +61,11 @@ class Capture:
             without one (tracker positions, fixed points).
         measurements: Path of the measurement CSV.
         truth: Path of the ground-truth JSON, or None.
-        calibration: The ``[calibration]`` settings (defaults when the table is absent).
+        calibration: The ``[calibration]`` settings (defaults when the table is absent), their
+            noise the ``[encoder]``'s (:attr:`reading_sigma_m`).
         encoder: The ``[encoder]`` table as written, or empty.
-        rig: The rig it names: ports (``port_mm`` or ``[ports]``), attachment, distances.
+        rig: The rig it names: ports (``port_mm`` or ``[ports]``), attachment, distances, and
+            the cable tension of ``[calibration] cable_tension_n``.
     """
 
     path: Path
@@ -187,6 +91,12 @@ class Capture:
         """The robot's RMS flange repeatability the capture states (``[encoder]``
         repeatability_mm), m; 0 when it states none."""
         return float(mm_to_m(self.encoder.get("repeatability_mm", 0.0)))
+
+    @property
+    def reading_sigma_m(self) -> float:
+        """The noise 1σ of one reading: the instrument's and the robot's repeatability
+        (:func:`twin.analysis.misfit.reading_sigma`), m."""
+        return reading_sigma(self.instrument_sigma_m, self.repeatability_m)
 
 
 def parse_port_mm(value: object, source: str | Path, where: str) -> NDArray[np.float64]:
@@ -227,18 +137,20 @@ def load_capture(path: str | Path) -> Capture:
     for key in ("sigma_mm", "resolution_mm", "repeatability_mm"):
         encoder.number(key, 0.0, minimum=0.0, expected="a noise in mm >= 0")
     folder = path.parent
-    rig = _parse_rig(document)
-    return Capture(
+    table = document.table("calibration", allowed=(*KEYS, "cable_tension_n"))
+    rig = replace(_parse_rig(document), tension_n=table.number(
+        "cable_tension_n", 0.0, minimum=0.0, maximum=MAX_TENSION_N,
+        expected=f"a tension in N from 0 to {MAX_TENSION_N:g}"))
+    capture = Capture(
         path=path,
         robot=load_robot(folder / files["robot"]),
         port_m=rig.ports_m[0] if len(rig.ports_m) else None,
         measurements=folder / files["measurements"],
         truth=folder / files["truth"] if "truth" in files else None,
-        calibration=_parse_calibration(document.table(
-            "calibration", allowed=[field.name for field in fields(CalibrationSettings)])),
         encoder=dict(encoder.values),
         rig=rig,
     )
+    return replace(capture, calibration=parse_calibration(table, capture.reading_sigma_m))
 
 
 def parse_distance(value: object, source: str | Path, where: str) -> Distance:
@@ -332,22 +244,7 @@ def write_capture(
                 json.dumps(f"{d.first},{d.second}={float(m_to_mm(d.length_m))!r}")
                 for d in rig.distances) + "]")
     if calibration is not None:
-        lines += [
-            "[calibration]",
-            f"estimate_port = {json.dumps(calibration.estimate_port)}",
-            f"estimate_offset = {json.dumps(calibration.estimate_offset)}",
-            f"estimate_attachment = {json.dumps(calibration.estimate_attachment)}",
-            f"estimate_base = {json.dumps(calibration.estimate_base)}",
-            f"loss = {json.dumps(calibration.loss)}",
-            f"train_fraction = {calibration.train_fraction!r}",
-            f"stop = {json.dumps(calibration.stop)}",
-        ]
-        if calibration.loss_scale_mm is not None:
-            lines.append(f"loss_scale_mm = {calibration.loss_scale_mm!r}")
-        if calibration.max_iterations is not None:
-            lines.append(f"max_iterations = {calibration.max_iterations}")
-        lines += [f"errors = {json.dumps(list(calibration.errors))}",
-                  f"cable_tension_n = {calibration.cable_tension_n!r}"]
+        lines += [*calibration_lines(calibration), f"cable_tension_n = {rig.tension_n!r}"]
     if encoder:
         lines.append("[encoder]")
         lines += [f"{key} = {json.dumps(value)}" for key, value in encoder.items()]

@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA, FAR
-from twin.calibration.pipeline import CalibrationResult
+from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic

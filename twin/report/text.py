@@ -11,7 +11,8 @@ from numpy.typing import NDArray
 from twin.analysis.identifiability import WEAK_RTOL, Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
-from twin.calibration.pipeline import WORKSPACE_POSES, CalibrationResult
+from twin.analysis.uncertainty import WORKSPACE_POSES
+from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import ErrorChoice
 from twin.dataset import Measurements
 from twin.geometry.parametrisation import PARALLEL_THRESHOLD_DEG

@@ -13,7 +13,7 @@ import numpy as np
 
 from twin.analysis.misfit import reading_sigma
 from twin.arrays import Array
-from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.calibration.settings import CalibrationSettings
 from twin.problem import DEFAULT_SIGMA_M
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
@@ -22,7 +22,6 @@ from twin.scenario.joint_errors import JointErrors
 from twin.scenario.noise import NoiseModel
 from twin.scenario.perturbation import Perturbation
 from twin.scenario.physics import Physics
-from twin.stopping import PROTOCOLS, Budget
 
 
 @dataclass(frozen=True)
@@ -47,17 +46,9 @@ class Scenario:
         joint_errors: Joint-level errors (phases as given, or zeros when drawn).
         draw_phases: Whether transmission phases are drawn uniformly per seed.
         physics: Servo stiffness, gravity and tension.
-        train_fraction: Share of poses for identification, or None (the core's 80 %).
-        estimate_port: Hint: calibrate with a port correction.
-        estimate_offset: Hint: calibrate with a length offset.
         instrument: Stations, attachment, tracker or fixture (:mod:`twin.scenario.instrument`).
-        estimate_attachment: Hint: calibrate with the attachment point unknown.
-        estimate_base: Hint: calibrate with the tracker frame unknown.
-        loss: Hint: the loss of the calibration (:data:`twin.loss.LOSSES`).
-        loss_scale_m: Hint: its scale, m, or None for 3 σ of the noise.
-        stop: Stopping protocol of the calibration, one of :data:`twin.stopping.PROTOCOLS`.
-        max_iterations: Iteration limit of every method and stage, or None (the protocol's).
-        errors: The robot's error groups the calibration fits (:data:`twin.unknowns.ERRORS`).
+        calibration: How the data are calibrated (``[calibration]``); its noise is
+            :attr:`reading_sigma_m`, what the scenario's instrument states.
         study: The ``[study]`` table as written, for twin.study.
         expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
         source: The file, or None.
@@ -78,25 +69,11 @@ class Scenario:
     joint_errors: JointErrors | None = None
     draw_phases: bool = True
     physics: Physics = field(default_factory=Physics)
-    train_fraction: float | None = None
-    estimate_port: bool = False
-    estimate_offset: bool = False
-    stop: str = PROTOCOLS[0]
-    max_iterations: int | None = None
-    errors: tuple[str, ...] = ("dh",)
     study: dict[str, Any] = field(default_factory=dict)
     expect: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
     instrument: Instrument = field(default_factory=Instrument)
-    estimate_attachment: bool = False
-    estimate_base: bool = False
-    loss: str = LOSSES[0]
-    loss_scale_m: float | None = None
-
-    @property
-    def budget(self) -> Budget:
-        """The iteration limits and stopping tests the calibration runs with."""
-        return Budget.named(self.stop, self.max_iterations)
+    calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
 
     @property
     def reading_sigma_m(self) -> float:
@@ -111,14 +88,6 @@ class Scenario:
         sigma = reading_sigma(instrument if instrument > 0 else DEFAULT_SIGMA_M,
                               self.noise.repeatability_m)
         return sigma
-
-    @property
-    def calibration_loss(self) -> Loss:
-        """The loss ``[calibration]`` asks for, its scale defaulting to
-        :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times the noise of a reading."""
-        if self.loss_scale_m is not None:
-            return Loss(self.loss, self.loss_scale_m)
-        return Loss(self.loss, DEFAULT_SCALE_SIGMAS * self.reading_sigma_m)
 
     def __post_init__(self) -> None:
         n = self.robot.n_joints
@@ -140,7 +109,3 @@ class Scenario:
             raise ValueError("pose_count: expected >= 1 (>= 0 with a plan)")
         if self.perturbation.scale.shape != (4, n):
             raise ValueError(f"perturbation scale: expected shape (4, {n})")
-        if self.train_fraction is not None and not 0 < self.train_fraction < 1:
-            raise ValueError("train_fraction: expected in (0, 1)")
-        if self.stop not in PROTOCOLS:
-            raise ValueError(f"stop: expected one of {', '.join(PROTOCOLS)}")

@@ -96,6 +96,7 @@ and what was expected.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -104,10 +105,10 @@ import numpy as np
 from twin.arrays import Array
 from twin.dataset import KINDS, MAX_POSES
 from twin.geometry.rigid import transform
+from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
-from twin.loss import LOSSES
 from twin.rig import MAX_TENSION_N
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
@@ -116,9 +117,7 @@ from twin.scenario.joint_errors import JointErrors
 from twin.scenario.noise import NoiseModel
 from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation
 from twin.scenario.physics import Physics
-from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
-from twin.unknowns import ERRORS
 
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
         "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
@@ -135,9 +134,7 @@ _TABLES = {
     "joints": ("repeatability_mm", "transmission_arcsec", "transmission_harmonic",
                "transmission_phase_deg", "backlash_arcsec"),
     "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"),
-    "calibration": ("train_fraction", "estimate_port", "estimate_offset", "stop",
-                    "max_iterations", "errors", "estimate_attachment", "estimate_base", "loss",
-                    "loss_scale_mm"),
+    "calibration": KEYS,
 }
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
@@ -266,27 +263,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
                                  "compliance = true to use it")
         physics = Physics()
 
-    calibration = tables["calibration"]
-    train_fraction = calibration.number("train_fraction", minimum=0.0, maximum=1.0,
-                                        strict_minimum=True) \
-        if calibration.has("train_fraction") else None
-    if train_fraction is not None and train_fraction >= 1.0:
-        raise calibration.error("train_fraction", "1.0", "a share below 1 (some poses held out)")
-    stop = calibration.text("stop", PROTOCOLS[0], choices=PROTOCOLS)
-    loss = calibration.text("loss", LOSSES[0], choices=LOSSES)
-    max_iterations = calibration.integer("max_iterations", minimum=1) \
-        if calibration.has("max_iterations") else None
-    if max_iterations is not None and max_iterations > MAX_ITERATIONS:
-        raise calibration.error("max_iterations", repr(max_iterations),
-                                f"an integer from 1 to {MAX_ITERATIONS}")
-    errors = calibration.strings("errors", ["dh"], choices=ERRORS, distinct=True,
-                                 expected="a non-empty list of distinct error groups among "
-                                 + ", ".join(ERRORS))
-    if {"compliance", "link_compliance"} <= set(errors):
-        raise calibration.error("errors", repr(errors), "compliance or link_compliance, not "
-                                "both (link_compliance holds each joint's compliance)")
-
-    return Scenario(
+    scenario = Scenario(
         name=name,
         description=top.text("description", ""),
         seed=top.integer("seed", minimum=0),
@@ -316,23 +293,13 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         joint_errors=joint_errors,
         draw_phases=draw_phases,
         physics=physics,
-        train_fraction=train_fraction,
-        estimate_port=calibration.boolean("estimate_port", False),
-        estimate_offset=calibration.boolean("estimate_offset", False),
-        stop=stop,
-        max_iterations=max_iterations,
-        errors=tuple(name for name in ERRORS if name in errors),
         study=passed_through["study"],
         expect=passed_through["expect"],
         source=source,
         instrument=instrument,
-        estimate_attachment=calibration.boolean("estimate_attachment", False),
-        estimate_base=calibration.boolean("estimate_base", False),
-        loss=loss,
-        loss_scale_m=float(mm_to_m(calibration.number("loss_scale_mm", strict_minimum=True,
-                                                      minimum=0.0)))
-        if calibration.has("loss_scale_mm") else None,
     )
+    return replace(scenario, calibration=parse_calibration(tables["calibration"],
+                                                           scenario.reading_sigma_m))
 
 
 def _pose(values: Array) -> Array:

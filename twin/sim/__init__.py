@@ -19,7 +19,6 @@ Public API (SI inside: m, rad)::
     sim.delta                                # (4, n) true D-H errors, m and rad
     sim.port_m, sim.port_nominal_m           # (3,) true port / port the calibration is told
     sim.measurements                         # Measurements: recorded q, noisy readings
-    sim.train_fraction                       # from [calibration], or None
     sim.truth                                # the dict written to truth.json (mm, deg)
     write_simulation("out/run", sim)         # measurements.csv, robot.toml, truth.json,
                                              # capture.toml, each written atomically

@@ -21,12 +21,12 @@ from numpy.typing import NDArray
 
 from twin.analysis.metrics import metrics
 from twin.arrays import Array
-from twin.calibration.pipeline import TRAIN_FRACTION, tracker_start, with_fixed_points
+from twin.calibration.start import tracker_start, with_fixed_points
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
 from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
-from twin.io.capture_file import CalibrationSettings, write_capture
+from twin.io.capture_file import write_capture
 from twin.io.measurements import write_measurements
 from twin.io.robot_file import robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
@@ -74,7 +74,6 @@ class Simulation:
         true_length_m: Noise-free cable lengths, shape (m,), m; NaN without a cable.
         measurements: Recorded joint angles and encoder readings, as written.
         outlier_rows: Rows that carry an outlier, shape (k,).
-        train_fraction: Share of poses for identification, if the scenario sets one.
         rig: The true rig: every port, the measured point, the tracker frame, the fixed points.
         rig_told: The rig the calibration is told (ports and attachment as told, known
             distances; the tracker frame and fixed points are left to the calibration).
@@ -94,10 +93,15 @@ class Simulation:
     true_length_m: Array
     measurements: Measurements
     outlier_rows: NDArray[np.intp]
-    train_fraction: float | None
     rig: Rig = field(default_factory=Rig)
     rig_told: Rig = field(default_factory=Rig)
     true_points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
+
+    @property
+    def rig_told_pulled(self) -> Rig:
+        """The rig the calibration is told, with the cable's pull the physics simulate (what
+        the compliance unknowns' torques need)."""
+        return replace(self.rig_told, tension_n=self.scenario.physics.tension_n)
 
     @property
     def physics(self) -> dict[str, Any]:
@@ -217,25 +221,9 @@ class Simulation:
             "inertia": _inertia(self.true_robot),
             "joint_unknowns": self.joint_unknowns,
             "outlier_rows": self.outlier_rows.tolist(),
-            "train_fraction": self.train_fraction,
+            "train_fraction": self.scenario.calibration.train_fraction,
             "effects": self.effects,
         }
-
-    @property
-    def calibration_settings(self) -> CalibrationSettings:
-        """How the scenario's ``[calibration]`` asks for the data to be calibrated, with the
-        rig's cable tension: what capture.toml carries."""
-        scenario = self.scenario
-        return CalibrationSettings(
-            estimate_port=scenario.estimate_port, estimate_offset=scenario.estimate_offset,
-            train_fraction=self.train_fraction or TRAIN_FRACTION, stop=scenario.stop,
-            max_iterations=scenario.max_iterations, errors=scenario.errors,
-            cable_tension_n=scenario.physics.tension_n,
-            estimate_attachment=scenario.estimate_attachment,
-            estimate_base=scenario.estimate_base, loss=scenario.loss,
-            loss_scale_mm=None if scenario.loss_scale_m is None
-            else float(m_to_mm(scenario.loss_scale_m)),
-        )
 
 
 def _inertia(robot: RobotModel) -> dict[str, Any]:
@@ -346,7 +334,7 @@ def _simulation(scenario: Scenario, seed: int, true_robot: RobotModel, delta: Ar
         port_nominal_m=rig_told.ports_m[0] if first else None,
         joint_errors=joint_errors, joint_sigma_rad=joint_sigma, q_actual_rad=rest.q_rad,
         true_length_m=rest.length_m, measurements=measurements, outlier_rows=outliers,
-        train_fraction=scenario.train_fraction, rig=rig, rig_told=rig_told,
+        rig=rig, rig_told=rig_told,
         true_points_m=rest.point_m,
     )
 
@@ -364,13 +352,13 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
         write_atomic(out / name, text)
     write_truth(out / TRUTH_FILE, sim.truth)
     scenario = sim.scenario
-    settings = sim.calibration_settings
     noise = {"sigma_mm": float(m_to_mm(scenario.noise.sigma_m)),
              "resolution_mm": float(m_to_mm(scenario.noise.resolution_m))} \
         if sim.measurements.kind == "length" \
         else {"sigma_mm": float(m_to_mm(np.sqrt(np.mean(scenario.instrument.sigma_m**2))))}
     noise["repeatability_mm"] = float(m_to_mm(scenario.noise.repeatability_m))
-    write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, rig=sim.rig_told,
-                  measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE, calibration=settings,
+    write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, rig=sim.rig_told_pulled,
+                  measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE,
+                  calibration=scenario.calibration,
                   encoder={key: value for key, value in noise.items() if value > 0})
     return out / CAPTURE_FILE

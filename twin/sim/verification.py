@@ -9,12 +9,12 @@ directions of the commands actually sent (approach moves where the compensation 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 
-from twin.calibration.pipeline import CalibrationResult, calibrate
+from twin.calibration.pipeline import calibrate
+from twin.calibration.result import CalibrationResult
 from twin.compensation.check import CompensationCheck, check_compensation
 from twin.compensation.joints import compensate_targets, solve_in_order
 from twin.compensation.targets import reachable_targets
@@ -57,15 +57,9 @@ def verify_compensation(scenario: Scenario, *, seed: int | None = None, method: 
     """
     sim = simulate(scenario, seed=seed)
     progress(f"{scenario.name}: simulated {len(sim.measurements)} poses (seed {sim.seed}); "
-             f"calibrating {'+'.join(scenario.errors)}…")
-    rig = replace(sim.rig_told, tension_n=scenario.physics.tension_n)
-    result = calibrate(sim.robot, sim.measurements, rig=rig, errors=scenario.errors,
-                       method=method, seed=sim.seed, budget=scenario.budget,
-                       estimate_port=scenario.estimate_port,
-                       estimate_offset=scenario.estimate_offset,
-                       estimate_attachment=scenario.estimate_attachment,
-                       estimate_base=scenario.estimate_base, loss=scenario.calibration_loss,
-                       sigma_m=scenario.reading_sigma_m)
+             f"calibrating {'+'.join(scenario.calibration.errors)}…")
+    result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told_pulled, method=method,
+                       settings=scenario.calibration, seed=sim.seed)
     validation = result.metrics["validation"]
     progress(f"  {result.method}: validation RMSE {m_to_mm(validation.rmse):.4f} mm "
              f"(before {m_to_mm(result.metrics['before'].rmse):.4f} mm)")

@@ -33,7 +33,6 @@ the
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -42,7 +41,8 @@ from twin.analysis.identifiability import measurement_identifiability
 from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.arrays import Array
 from twin.calibration.accuracy import truth_errors
-from twin.calibration.pipeline import TRAIN_FRACTION, CalibrationResult, calibrate_many
+from twin.calibration.pipeline import calibrate_many
+from twin.calibration.result import CalibrationResult
 from twin.dataset import approach_directions
 from twin.geometry.rigid import angles
 from twin.model import Model
@@ -151,15 +151,8 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     scenario = spec.scenario
     seed = trial_seed(scenario.seed, trial)
     sim = simulate(scenario, seed)
-    rig = replace(sim.rig_told, tension_n=scenario.physics.tension_n)
-    results = calibrate_many(
-        sim.robot, sim.measurements, None, spec.methods, rig=rig, errors=scenario.errors,
-        seed=seed, estimate_port=scenario.estimate_port,
-        estimate_offset=scenario.estimate_offset,
-        estimate_attachment=scenario.estimate_attachment, estimate_base=scenario.estimate_base,
-        loss=scenario.calibration_loss, sigma_m=scenario.reading_sigma_m,
-        train_fraction=sim.train_fraction or TRAIN_FRACTION, budget=scenario.budget,
-    )
+    results = calibrate_many(sim.robot, sim.measurements, None, spec.methods,
+                             rig=sim.rig_told_pulled, settings=scenario.calibration, seed=seed)
     first = next(iter(results.values()))
     model = first.model
     train = sim.measurements.subset(first.train_rows)

@@ -6,7 +6,7 @@ this registry resolves the names. New groups plug in here and in nothing else of
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from twin.errors import InputError, UnknownChoiceError
 from twin.rig import Rig
@@ -45,6 +45,35 @@ ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")
 the rig's (port, offset) come with the estimate flags."""
 
 
+def check_errors(names: Sequence[str]) -> tuple[str, ...]:
+    """The robot's error groups as a set, in the registry's order: every name among
+    :data:`ERRORS`, the table ``dh`` among them (every other group corrects it), and not both
+    ``compliance`` and ``link_compliance``.
+
+    Raises:
+        InputError: naming what is wrong (``where="errors"``); the caller adds the flag or
+            file.
+    """
+    names = tuple(names)
+    twice = [name for name in ERRORS if names.count(name) > 1]
+    if twice:
+        raise InputError(f"the error group {twice[0]!r} twice", "each group once",
+                         where="errors")
+    unknown = [name for name in names if name not in ERRORS]
+    if unknown:
+        raise InputError(f"the error group {unknown[0]!r}", "groups among " + ", ".join(ERRORS),
+                         where="errors")
+    if "dh" not in names:
+        found = f"the error groups {', '.join(names)} without dh" if names else "no error group"
+        raise InputError(found,
+                         "dh among them (the D-H table the joint-level groups correct)",
+                         where="errors")
+    if "compliance" in names and "link_compliance" in names:
+        raise InputError("compliance with link_compliance", "one of them: link_compliance "
+                         "holds each joint's compliance, link by link", where="errors")
+    return tuple(name for name in ERRORS if name in names)
+
+
 def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
                 ) -> tuple[Group, ...]:
     """The named groups for ``robot`` and ``rig``, in the registry's order.
@@ -62,4 +91,4 @@ def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
     return tuple(factory(robot, rig) for name, factory in GROUPS.items() if name in names)
 
 
-__all__ = ["ERRORS", "GROUPS", "Group", "Stage", "make_groups"]
+__all__ = ["ERRORS", "GROUPS", "Group", "Stage", "check_errors", "make_groups"]

@@ -16,7 +16,7 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
-from twin.calibration.pipeline import CalibrationResult
+from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
 from twin.io.results import MM2_PER_M2
 from twin.kinds import get_kind
@@ -215,11 +215,11 @@ class CalibrationLog:
         """Log one method's identified robot, residuals, convergence and parameters."""
         order = self.methods.index(result.method)
         if order == 0 and self.truth_delta is None:
-            self._log_cable(result.identified_robot, replace(
+            self._log_cable(result.identified_geometry, replace(
                 self.rig, ports_m=result.ports_m, attachment_m=result.attachment_m,
                 points_m=result.points_m))
         log_robots(self.writer, {entities.identified_label(result.method):
-                                 result.identified_robot}, self.measurements.q_rad, order)
+                                 result.identified_geometry}, self.measurements.q_rad, order)
         log_residuals_after(self.writer, result, self.measurements, order)
         log_convergence(self.writer, result.method, result, order)
         log_parameters(self.writer, result.method, result.delta, result.solver.x,

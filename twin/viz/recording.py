@@ -15,7 +15,7 @@ import numpy as np
 import rerun as rr
 from numpy.typing import NDArray
 
-from twin.calibration.pipeline import CalibrationResult
+from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.analysis.uncertainty import rms_distance
-from twin.calibration.pipeline import CalibrationResult
+from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
 from twin.report.text import describe_rig, format_comparison, format_result
 from twin.rig import Rig
@@ -38,7 +38,7 @@ def flange_error_markdown(
     first = next(iter(results.values()))
     true = first.robot.perturbed(truth_delta).flange_positions(measurements.q_rad)
     rows = [("nominal", first.robot)]
-    rows += [(name, result.identified_robot) for name, result in results.items()]
+    rows += [(name, result.identified_geometry) for name, result in results.items()]
     lines = ["| model | flange error vs truth, RMS [mm] |", "|---|---:|"]
     lines += [
         f"| {label} | "

@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
+    from twin.calibration.settings import CalibrationSettings
     from twin.hardware.rws.client import RwsConnection
-    from twin.io.capture_file import CalibrationSettings
     from twin.rig import Rig
     from twin.robot import RobotModel
 

@@ -116,7 +116,7 @@ def scenario_cell(scenario: Path | None, seed: int | None) -> Cell:
         raise InputError(f"a {sim.measurements.kind} scenario with {len(sim.rig.ports_m)} "
                          "ports", "a scenario of one cable port (the virtual encoder serves "
                          "one cable)", source=scenario)
-    return Cell(sim.robot, sim.rig_told, sim.capture_truth, sim.calibration_settings)
+    return Cell(sim.robot, sim.rig_told_pulled, sim.capture_truth, sim.scenario.calibration)
 
 
 def _open(request: SourceRequest) -> RobotSource:

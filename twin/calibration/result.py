@@ -1,0 +1,163 @@
+"""What a calibration returns: one method's result on one measurement set, and the problem
+it was solved on with its split."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from twin.analysis.gauge import Gauge
+from twin.analysis.identifiability import Identifiability
+from twin.analysis.metrics import Metrics
+from twin.analysis.misfit import Misfit
+from twin.analysis.uncertainty import CalibrationUncertainty
+from twin.arrays import Array
+from twin.calibration.settings import CalibrationSettings
+from twin.geometry.rigid import rotation
+from twin.loss import Loss
+from twin.model import Model
+from twin.problem import Problem
+from twin.robot import RobotModel
+from twin.solvers import SolverResult
+from twin.stopping import Budget, at_bounds
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """One method's calibration of one measurement set.
+
+    Attributes:
+        robot: The nominal robot.
+        model: The measurement model (nominal robot and rig, measurement kind, unknowns).
+        solver: The method's raw result (x, history, evaluations, time).
+        seed: Seed of the split and of the method's random draws.
+        train_rows: Row indices used for identification, shape (m_train,).
+        validation_rows: Held-out row indices, shape (m_val,).
+        metrics: ``{"before", "train", "validation"}`` metrics in m; ``before`` is the nominal
+            model on the validation poses.
+        identifiability: What the training poses identify at the start (nominal) geometry.
+        identified_identifiability: The same at the identified geometry.
+        uncertainty: Noise estimate, base-parameter covariance and predicted flange accuracy.
+        settings: What was estimated and how (the error groups, the rig's unknowns, the
+            noise, the loss, the stopping protocol, the split).
+        misfit: The chi-square test of the training residuals against the noise
+            (:mod:`twin.analysis.misfit`).
+        rejected_rows: Measurement rows (poses, 0-based, train and validation) whose residual
+            the robust loss rejects (:mod:`twin.loss`), ascending; empty for least squares.
+        gauge: The motions of the flange the data cannot see (:mod:`twin.analysis.gauge`).
+    """
+
+    robot: RobotModel
+    model: Model
+    solver: SolverResult
+    seed: int
+    train_rows: NDArray[np.intp]
+    validation_rows: NDArray[np.intp]
+    metrics: dict[str, Metrics]
+    identifiability: Identifiability | None = None
+    identified_identifiability: Identifiability | None = None
+    uncertainty: CalibrationUncertainty | None = None
+    settings: CalibrationSettings = field(default_factory=CalibrationSettings)
+    misfit: Misfit | None = None
+    rejected_rows: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    gauge: Gauge | None = None
+
+    @property
+    def x(self) -> Array:
+        """The identified unknowns, shape (p,), SI (``solver.x``)."""
+        return self.solver.x
+
+    @property
+    def method(self) -> str:
+        """The method's name."""
+        return self.solver.method
+
+    @property
+    def delta(self) -> Array:
+        """Identified errors of the kinematic table, shape (4, n): rows δa [m], δd [m], δα [rad],
+        δθ [rad] for a D-H arm; zeros when the table was not identified."""
+        return self.model.table(self.solver.x) - self.robot.dh
+
+    @property
+    def identified_geometry(self) -> RobotModel:
+        """The nominal robot with the identified table: its geometry alone. The joint-level
+        errors (transmission, backlash, compliance) and the rig are in :attr:`model` and
+        :attr:`x`; :func:`twin.calibration.predict.predict` uses all of it."""
+        return self.robot.perturbed(self.delta)
+
+    @property
+    def budget(self) -> Budget:
+        """The iteration limits and stopping tests the method ran with."""
+        return self.settings.budget
+
+    @property
+    def loss(self) -> Loss:
+        """The loss the methods minimised."""
+        return self.settings.loss_function
+
+    @property
+    def at_bounds(self) -> tuple[str, ...]:
+        """Names of the unknowns the method left on a bound of the search box."""
+        lower, upper = self.model.bounds()
+        return tuple(np.asarray(self.model.names)[at_bounds(self.solver.x, lower, upper)])
+
+    @property
+    def ports_m(self) -> Array:
+        """Ports used or identified, base frame, shape (k, 3), m."""
+        rig = self.model.rig
+        ports = np.array(rig.ports_m)
+        if self.model.has("port"):
+            ports[rig.estimated_port_index] += self.model.block(self.solver.x, "port").reshape(
+                -1, 3)
+        return ports
+
+    @property
+    def attachment_m(self) -> Array:
+        """The measured point in the flange frame, used or identified, shape (3,), m."""
+        return self.model.point(self.solver.x)
+
+    @property
+    def base_in_tracker(self) -> Array:
+        """Where the base frame sits in the tracker frame, used or identified, (4, 4), m."""
+        transform = np.array(self.model.rig.base_in_tracker)
+        if self.model.has("base"):
+            correction = self.model.block(self.solver.x, "base")
+            turn = rotation(correction[3:])
+            transform[:3, :3] = turn @ transform[:3, :3]
+            transform[:3, 3] = turn @ transform[:3, 3] + correction[:3]
+        return transform
+
+    @property
+    def points_m(self) -> Array:
+        """The fixed points, used or identified, base frame, shape (f, 3), m."""
+        points = np.array(self.model.rig.points_m)
+        if self.model.has("points"):
+            points += self.model.block(self.solver.x, "points").reshape(points.shape)
+        return points
+
+    @property
+    def port_m(self) -> Array:
+        """The port used or identified when there is one, shape (3,), m."""
+        return self.ports_m[0]
+
+    @property
+    def offset_m(self) -> float:
+        """Identified cable-length offset, m (0 unless estimated)."""
+        return float(self.model.block(self.solver.x, "offset")[0]) if self.model.has("offset") \
+            else 0.0
+
+
+class SplitProblem(NamedTuple):
+    """A problem, the rows of the measurements it trains and validates on, and the settings it
+    was made from."""
+
+    problem: Problem
+    train_rows: NDArray[np.intp]
+    """Row indices used for identification, shape (m_train,)."""
+    validation_rows: NDArray[np.intp]
+    """Held-out row indices, shape (m_val,)."""
+    settings: CalibrationSettings
+    """What is estimated and how (:mod:`twin.calibration.settings`)."""

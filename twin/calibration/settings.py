@@ -1,0 +1,108 @@
+"""How a calibration is run: one frozen value, read alike by the CLI, a capture's and a
+scenario's ``[calibration]`` table (:mod:`twin.io.calibration_table`) and the Python API.
+
+    settings = CalibrationSettings(errors=("dh", "compliance"), estimate=("port",),
+                                   sigma_m=1e-5, stop="paper")
+    twin.calibrate(robot, data, rig=rig, settings=settings)
+
+Every rule about the settings is checked here, once: the error groups as a set (the table
+``dh`` is always among them; ``compliance`` and ``link_compliance`` exclude each other), the rig
+unknowns among :data:`RIG_UNKNOWNS`, the loss and its scale, the stopping protocol and its
+iteration limit, the noise, the train share. A mistake is an :class:`~twin.errors.InputError`
+naming the setting (``where``); the reader of a flag or a file adds its ``source``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from twin.errors import InputError
+from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.problem import DEFAULT_SIGMA_M
+from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
+from twin.unknowns import ERRORS, check_errors
+
+TRAIN_FRACTION = 0.8
+"""Share of the poses used for identification (paper: 80 / 20)."""
+RIG_UNKNOWNS = {"port": "--estimate-port", "offset": "--estimate-offset",
+                "attachment": "--estimate-attachment", "base": "--estimate-base"}
+"""The rig's unknown groups a calibration may add, and the flag that asks for each."""
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    """What to estimate and how: everything about a calibration but the robot, the rig and the
+    data.
+
+    Attributes:
+        errors: The robot's error groups (:data:`twin.unknowns.ERRORS`), in the registry's
+            order; the D-H table ``dh`` always among them.
+        estimate: The rig's unknowns to identify too (:data:`RIG_UNKNOWNS`), in that order.
+        sigma_m: The noise 1σ of one reading, m: the filters' measurement noise and the
+            misfit test's reference.
+        loss: How residual rows count (:data:`twin.loss.LOSSES`).
+        loss_scale_m: The robust loss's scale, m, or None for
+            :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times ``sigma_m``.
+        stop: The stopping protocol (:data:`twin.stopping.PROTOCOLS`).
+        max_iterations: Iteration limit of every method and stage, or None (the protocol's).
+        train_fraction: Share of the poses used for identification, in (0, 1).
+    """
+
+    errors: tuple[str, ...] = ("dh",)
+    estimate: tuple[str, ...] = ()
+    sigma_m: float = DEFAULT_SIGMA_M
+    loss: str = LOSSES[0]
+    loss_scale_m: float | None = None
+    stop: str = PROTOCOLS[0]
+    max_iterations: int | None = None
+    train_fraction: float = TRAIN_FRACTION
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "errors", check_errors(self.errors))
+        unknown = [name for name in self.estimate if name not in RIG_UNKNOWNS]
+        if unknown:
+            raise InputError(f"the rig unknown {unknown[0]!r}",
+                             "some of " + ", ".join(RIG_UNKNOWNS), where="estimate")
+        object.__setattr__(self, "estimate",
+                           tuple(name for name in RIG_UNKNOWNS if name in self.estimate))
+        _check(math.isfinite(self.sigma_m) and self.sigma_m > 0, "sigma_m", self.sigma_m,
+               "a noise 1σ > 0, m")
+        _check(self.loss in LOSSES, "loss", self.loss, "one of " + ", ".join(LOSSES))
+        _check(self.loss_scale_m is None or (math.isfinite(self.loss_scale_m)
+                                             and self.loss_scale_m > 0),
+               "loss_scale_m", self.loss_scale_m, "a scale > 0, m")
+        _check(self.stop in PROTOCOLS, "stop", self.stop, "one of " + ", ".join(PROTOCOLS))
+        _check(self.max_iterations is None or 1 <= self.max_iterations <= MAX_ITERATIONS,
+               "max_iterations", self.max_iterations, f"an integer from 1 to {MAX_ITERATIONS}")
+        _check(0 < self.train_fraction < 1, "train_fraction", self.train_fraction,
+               "a share in (0, 1)")
+
+    def estimates(self, name: str) -> bool:
+        """Whether the rig unknown ``name`` is identified."""
+        return name in self.estimate
+
+    @property
+    def groups(self) -> tuple[str, ...]:
+        """The unknown groups of the model: the error groups, then the rig's."""
+        return (*self.errors, *self.estimate)
+
+    @property
+    def budget(self) -> Budget:
+        """The iteration limits and stopping tests the settings ask for."""
+        return Budget.named(self.stop, self.max_iterations)
+
+    @property
+    def loss_function(self) -> Loss:
+        """The loss, its scale defaulting to 3 σ of a reading."""
+        scale = self.loss_scale_m if self.loss_scale_m is not None \
+            else DEFAULT_SCALE_SIGMAS * self.sigma_m
+        return Loss(self.loss, scale)
+
+
+def _check(ok: bool, name: str, value: object, expected: str) -> None:
+    if not ok:
+        raise InputError(f"{value!r}", expected, where=name)
+
+
+__all__ = ["ERRORS", "RIG_UNKNOWNS", "TRAIN_FRACTION", "CalibrationSettings"]

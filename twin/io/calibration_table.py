@@ -1,0 +1,86 @@
+"""The ``[calibration]`` table of capture files and scenarios: the one reader and writer of
+:class:`~twin.calibration.settings.CalibrationSettings` in TOML::
+
+    [calibration]                     # every key optional
+    errors = ["dh"]                   # the robot's error groups (twin.unknowns.ERRORS)
+    estimate_port = false             # the rig's unknowns to identify too
+    estimate_offset = false
+    estimate_attachment = false
+    estimate_base = false             # tracker frame
+    loss = "linear"                   # or huber, soft_l1, cauchy (twin.loss)
+    loss_scale_mm = 0.03              # the loss's scale (default 3 σ)
+    train_fraction = 0.8
+    stop = "converge"                 # or "paper" (twin.stopping)
+    max_iterations = 200              # another iteration limit
+
+The noise σ is not a key here: the file's instrument (a capture's ``[encoder]``, a scenario's
+noise) states it, and the reader is given it.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from twin.calibration.settings import RIG_UNKNOWNS, CalibrationSettings
+from twin.errors import InputError
+from twin.io.table import Table
+from twin.units import m_to_mm, mm_to_m
+from twin.unknowns import ERRORS
+
+KEYS = ("errors", *(f"estimate_{name}" for name in RIG_UNKNOWNS), "loss", "loss_scale_mm",
+        "train_fraction", "stop", "max_iterations")
+"""The keys of a ``[calibration]`` table."""
+
+
+def parse_calibration(table: Table, sigma_m: float) -> CalibrationSettings:
+    """The settings of a ``[calibration]`` table (every key optional) and the file's noise.
+
+    Args:
+        table: The table (its allowed keys are the caller's: :data:`KEYS` and any of its own).
+        sigma_m: The noise 1σ of one reading the file states, m.
+
+    Raises:
+        InputError: naming the file and key of the first wrong value.
+    """
+    values: dict[str, Any] = {"sigma_m": sigma_m}
+    if table.has("errors"):
+        values["errors"] = tuple(table.strings("errors", expected="a non-empty list of error "
+                                               "groups among " + ", ".join(ERRORS)))
+    values["estimate"] = tuple(name for name in RIG_UNKNOWNS
+                               if table.boolean(f"estimate_{name}", False))
+    for key in ("loss", "stop"):
+        if table.has(key):
+            values[key] = table.text(key)
+    if table.has("loss_scale_mm"):
+        values["loss_scale_m"] = float(mm_to_m(table.number(
+            "loss_scale_mm", minimum=0.0, strict_minimum=True, expected="a scale in mm > 0")))
+    if table.has("train_fraction"):
+        values["train_fraction"] = table.number("train_fraction")
+    if table.has("max_iterations"):
+        values["max_iterations"] = table.integer("max_iterations")
+    try:
+        return CalibrationSettings(**values)
+    except InputError as exc:
+        key = {"loss_scale_m": "loss_scale_mm", "estimate": "estimate_port"}.get(
+            str(exc.where), str(exc.where))
+        raise table.error(key, exc.found, exc.expected) from None
+
+
+def calibration_lines(settings: CalibrationSettings) -> list[str]:
+    """The ``[calibration]`` table of ``settings``, as TOML lines (the noise is the
+    instrument's, written with it)."""
+    lines = ["[calibration]", f"errors = {json.dumps(list(settings.errors))}"]
+    lines += [f"estimate_{name} = {json.dumps(settings.estimates(name))}"
+              for name in RIG_UNKNOWNS]
+    lines += [f"loss = {json.dumps(settings.loss)}",
+              f"train_fraction = {settings.train_fraction!r}",
+              f"stop = {json.dumps(settings.stop)}"]
+    if settings.loss_scale_m is not None:
+        lines.append(f"loss_scale_mm = {float(m_to_mm(settings.loss_scale_m))!r}")
+    if settings.max_iterations is not None:
+        lines.append(f"max_iterations = {settings.max_iterations}")
+    return lines
+
+
+__all__ = ["KEYS", "calibration_lines", "parse_calibration"]
