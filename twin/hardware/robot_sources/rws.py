@@ -43,8 +43,6 @@ from twin.io.rapid_handshake import (
 )
 from twin.units import deg_to_rad, rad_to_deg
 
-MODULE_FILE = f"{MODULE}.mod"
-"""The plan module's file in the capture folder."""
 WAITING_NOTE_S = 2.0
 """After this long without the robot at the pose, say what twin waits for, s."""
 
@@ -206,13 +204,19 @@ class RwsRobot(RobotSource):
         self.client.close()
 
 
+def _settings(request: SourceRequest) -> RwsCapture:
+    """The capture settings a request carries (``options["rws"]``), or the defaults."""
+    settings = request.options.get("rws", RwsCapture())
+    if not isinstance(settings, RwsCapture):
+        raise TypeError("options['rws']: expected RwsCapture")
+    return settings
+
+
 def _open(request: SourceRequest) -> RobotSource:
     from twin.hardware.rws.client import RwsConnection
 
     connection = request.rws or RwsConnection.from_spec(request.spec)
-    settings = request.options.get("rws", RwsCapture())
-    if not isinstance(settings, RwsCapture):
-        raise TypeError("options['rws']: expected RwsCapture")
+    settings = _settings(request)
     out = request.prompt_out
 
     def report(line: str) -> None:
@@ -226,11 +230,10 @@ def _open(request: SourceRequest) -> RobotSource:
 
 
 def _files(request: SourceRequest) -> dict[str, str]:
-    settings = request.options.get("rws", RwsCapture())
-    if getattr(settings, "jog", False):
+    settings = _settings(request)
+    if settings.jog:
         return {}
-    return {MODULE_FILE: module_text(request.plan_q_rad, name=getattr(settings, "module",
-                                                                       MODULE))}
+    return {f"{settings.module}.mod": module_text(request.plan_q_rad, name=settings.module)}
 
 
 KIND = SourceKind("rws", "an IRC5 over Robot Web Services 1.0 (HTTP, digest)", _open,

@@ -155,7 +155,8 @@ class RwsClient:
             self.session.headers["Accept"] = accept
 
     def _request(self, verb: str, path: str, params: dict[str, str] | None = None,
-                 data: dict[str, str] | None = None) -> tuple[bytes, str]:
+                 data: dict[str, str] | None = None, *, retry: bool = True
+                 ) -> tuple[bytes, str]:
         import requests
 
         query = dict(params or {})
@@ -163,7 +164,7 @@ class RwsClient:
             query["json"] = "1"  # a common URL parameter; a POST answers with no body
         headers = {} if data is None else {"Content-Type":
                                            protocol.form_type(self.connection.version)}
-        deadline = time.monotonic() + self.connection.retry_s
+        deadline = time.monotonic() + (self.connection.retry_s if retry else 0.0)
         while True:
             try:
                 answer = self.session.request(verb, self.connection.url + path, params=query,
@@ -236,7 +237,7 @@ class RwsClient:
     def close(self) -> None:
         """Log out (the controller frees the session) and close the connection."""
         try:
-            self._request("GET", protocol.LOGOUT_PATH)
+            self._request("GET", protocol.LOGOUT_PATH, retry=False)
         except ControllerError:
             pass  # a controller gone away has no session to free
         finally:
