@@ -24,6 +24,9 @@ EXTRAS = {
     "pymodbus": "hardware",
     "xacro": "ros",
     "ruamel": "ros",
+    "requests": "hardware",
+    "urllib3": "hardware",
+    "rosbags": "ros",
     "dask": "cluster",
     "distributed": "cluster",
 }

@@ -42,10 +42,12 @@ from twin.cli import (
     compensate,
     export,
     identify,
+    import_,
     plan,
     predict,
     simulate,
     study,
+    virtual_controller,
     virtual_encoder,
 )
 from twin.cli.arguments import ArgumentParser, UsageError
@@ -55,7 +57,7 @@ from twin.hardware.capture_session import refuse_capture_journal
 from twin.io.paths import check_command_paths, check_distinct_outputs, command_scope
 
 SUBCOMMANDS = (calibrate, simulate, identify, plan, predict, compensate, export, study, check,
-               capture, virtual_encoder)
+               capture, virtual_encoder, virtual_controller, import_)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141
