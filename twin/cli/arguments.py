@@ -236,10 +236,15 @@ def add_cable_tension(parser: argparse.ArgumentParser, help: str,
                         metavar="N", help=help)
 
 
+RESULT_ROBOT = "the nominal robot, only to check it is the result's (a result carries its own)"
+"""What ``--robot`` is for on the commands that read a result."""
+
+
 def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") -> None:
     """``--robot`` (a model TOML or a URDF) and, for a URDF, ``--base-link`` / ``--tip-link``."""
+    default = "the result's" if what == RESULT_ROBOT else "the ABB IRB 120"
     parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file, a .urdf "
-                        "or a .xacro, 4 to 7 revolute joints (default: the ABB IRB 120)")
+                        f"or a .xacro, 4 to 7 revolute joints (default: {default})")
     parser.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE",
                         help="with a .xacro --robot: an argument of the description, repeated")
     parser.add_argument("--base-link", metavar="LINK", help="with a URDF --robot: the link "
@@ -263,6 +268,18 @@ def robot_from_flags(args: argparse.Namespace) -> RobotModel:
         raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it", source=flag)
     return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link,
                                  xacro_args=parse_xacro_args(getattr(args, "xacro_arg", None)))
+
+
+def given_robot(args: argparse.Namespace) -> RobotModel | None:
+    """The robot ``--robot`` names, or None without it: for commands that read a result, which
+    carries its own robot (a robot given must be that one).
+
+    Raises:
+        InputError: as :func:`robot_from_flags`.
+    """
+    if args.robot is None and not (args.base_link or args.tip_link):
+        return None
+    return robot_from_flags(args)
 
 
 AUTO = "auto"

@@ -23,13 +23,14 @@ from numpy.typing import NDArray
 
 from twin.analysis.metrics import Metrics
 from twin.cli.arguments import (
+    RESULT_ROBOT,
     add_cable_tension,
     add_output,
     add_result,
     add_robot_flags,
     add_seed,
+    given_robot,
     integer,
-    robot_from_flags,
 )
 from twin.cli.frames import RAPID_SUFFIXES, parse_frames, parse_pose_mm
 from twin.compensation.check import CompensationCheck
@@ -72,7 +73,7 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
-    add_robot_flags(parser, "nominal robot model")
+    add_robot_flags(parser, RESULT_ROBOT)
     add_result(parser, required=False)
     parser.add_argument("--method", help="result to use from a `--method all` result file; "
                         "with --verify, the calibration method (default lm)")
@@ -127,8 +128,8 @@ def run(args: argparse.Namespace) -> int:
         missing = "--identified" if args.identified is None else "--out"
         raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
                          source=missing)
-    robot = robot_from_flags(args)
-    model, x, _ = load_result(args.identified, robot, args.method)
+    model, x, _ = load_result(args.identified, given_robot(args), args.method)
+    robot = model.robot
     warn_result_cautions(args.identified, args.method, "the compensated program")
     if args.cable_tension is not None:
         model, x = model.with_rig(replace(model.rig, tension_n=args.cable_tension), x)

@@ -8,17 +8,18 @@ import warnings
 from dataclasses import replace
 
 from twin.cli.arguments import (
+    RESULT_ROBOT,
     add_output,
     add_result,
     add_robot_flags,
-    robot_from_flags,
+    given_robot,
 )
 from twin.errors import InputError, UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
 from twin.io.identified import (
     ResultWarning,
-    load_result_delta,
+    load_result,
     result_groups,
     warn_result_cautions,
 )
@@ -39,7 +40,7 @@ DESCRIPTION = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
     add_result(parser, positional=True)
-    add_robot_flags(parser, "the nominal robot the result was identified for")
+    add_robot_flags(parser, RESULT_ROBOT)
     parser.add_argument("--method", help="result to use from a `--method all` result file")
     parser.add_argument("--format", required=True, dest="format_name",
                         help="one of " + ", ".join(FORMATS))
@@ -53,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
-    robot = robot_from_flags(args)
-    delta = load_result_delta(args.result, robot, args.method)
+    loaded = load_result(args.result, given_robot(args), args.method)
+    robot, delta = loaded.robot, loaded.delta
     joint_level = [name for name in result_groups(args.result, args.method)
                    if name in ERRORS and name != "dh"]
     if joint_level:

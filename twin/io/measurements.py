@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -202,6 +203,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     table = read_columns(path, joints, what, optional=(LENGTH_COLUMN, *POSITION_COLUMNS,
                                                        *approach_columns(n)),
                          labels=(PORT_COLUMN, POINT_COLUMN), stdin=stdin)
+    _refuse_extra_joints(table, n, path)
     given = [name for name, present in (
         (LENGTH_COLUMN, LENGTH_COLUMN in table.optional),
         (",".join(POSITION_COLUMNS), all(c in table.optional for c in POSITION_COLUMNS)),
@@ -250,6 +252,18 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                          f"coordinates within ±{longest_mm:g} mm", source=path,
                          where=f"line {table.lines[bad[0]]}")
     return Measurements(deg_to_rad(q_deg), position_m=mm_to_m(xyz_mm), approach=approach)
+
+
+def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
+    """Refuse joint (or approach) columns beyond the robot's n joints: a file of another arm,
+    or the wrong robot file, not something to ignore."""
+    extra = [name for name in table.header
+             if re.fullmatch(r"(q|approach)(\d+)", name) and int(re.sub(r"\D", "", name)) > n]
+    if extra:
+        raise InputError(f"the column {extra[0]} for a robot of {n} joints",
+                         f"q1..q{n} (and approach1..approach{n}): the robot file's joints — "
+                         "is --robot the arm that was measured?", source=path,
+                         where=f"line {table.header_line}")
 
 
 def _approach(table: Columns, n: int, path: str | Path) -> NDArray[np.int8] | None:

@@ -50,6 +50,7 @@ The model is :class:`twin.robot.RobotModel`; the URDF adapter :mod:`twin.io.urdf
 
 from __future__ import annotations
 
+import hashlib
 import json
 import tomllib
 from collections.abc import Mapping
@@ -389,3 +390,41 @@ def robot_files(robot: RobotModel, stem: str = "robot") -> dict[str, str]:
         f"parametrisation = {json.dumps(list(robot.structure.parametrisation))}",
     ]
     return {f"{stem}.toml": "\n".join(lines) + "\n", f"{stem}.urdf": source.text}
+
+
+def robot_digest(robot: RobotModel) -> str:
+    """The SHA-256 of the robot's description as twin writes it (:func:`robot_files`): two
+    files that describe the same robot to the file's rounding have the same digest."""
+    files = robot_files(robot)
+    text = "".join(f"{name}\n{len(content)}\n{content}" for name, content in sorted(files.items()))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def robot_from_files(files: Mapping[str, str], source: str | Path) -> RobotModel:
+    """The robot :func:`robot_files` wrote (``robot.toml``, and ``robot.urdf`` when the TOML
+    names it), read from their texts.
+
+    Raises:
+        InputError: naming ``source`` for texts that are not such files.
+    """
+    toml_name = next((name for name in files if name.endswith(".toml")), None)
+    if toml_name is None or not isinstance(files[toml_name], str):
+        raise InputError("no robot TOML among the robot's files", "the files twin writes "
+                         "with a result (robot.toml, and robot.urdf for a URDF robot)",
+                         source=source)
+    try:
+        document = tomllib.loads(files[toml_name])
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML ({exc})", "the robot TOML twin writes",
+                         source=source) from None
+    if "urdf" not in document:
+        return parse_robot(document, source)
+    doc = Table(document, source, allowed=URDF_KEYS, kind="a model file that names a URDF")
+    urdf = files.get(doc.text("urdf"))
+    if not isinstance(urdf, str):
+        raise InputError(f"no {doc.text('urdf')!r} beside the robot TOML", "the URDF it names",
+                         source=source)
+    links = {key: doc.text(key) if doc.has(key) else None for key in ("base_link", "tip_link")}
+    robot = load_urdf(source, base_link=links["base_link"], tip_link=links["tip_link"],
+                      parametrisation=parametrisation_request(doc, AUTO), text=urdf)
+    return replace(robot, name=doc.text("name")) if doc.has("name") else robot
