@@ -691,7 +691,25 @@ def paper_rig_table() -> str:
     return markdown_table(["", "before: RMSE / MAE (\"STD\") / MAX [mm]",
                            "after: RMSE / MAE / MAX [mm]"], rows) + "\n\n" + stamp(
         "Validation residuals (20 % of the poses); the paper's figures are those its text "
-        "quotes (twin.study.statistics.PAPER_TABLE6); LM run to convergence.")
+        "quotes (twin.study.statistics.PAPER_TABLE6); LM under the scenario's protocol (the "
+        "paper's: f changing by less than 0.001 mm², at most 60 iterations), the unseen "
+        "directions held at the nominal.")
+
+
+def transcript(commands: Sequence[str], head: int | None = None) -> str:
+    """The commands as a user types them at the repository's root, each with its output
+    (stdout and stderr, as a terminal shows them; its first ``head`` lines and ``...`` if
+    given), in a console block."""
+    lines = []
+    for command in commands:
+        done = subprocess.run([str(ROOT / ".venv" / "bin" / "twin"), *command.split()],
+                              cwd=ROOT, capture_output=True, text=True, check=False)
+        output = (done.stderr + done.stdout).rstrip("\n").splitlines()
+        if head is not None and len(output) > head:
+            output = [*output[:head], "  ..."]
+        lines += [f"$ twin {command}", *output, ""]
+    return "```console\n" + "\n".join(lines[:-1]) + "\n```\n\n" + stamp(
+        "Run at the repository's root.")
 
 
 UNKNOWN_SETS = (("24 D-H, port known", False, False), ("+ port (3)", True, False),
@@ -841,9 +859,18 @@ def main() -> None:
         "robots.md": {"parametrisation": parametrisation_table},
         "measurements.md": {"rigs": lambda: rigs_table(fresh(args.out / "rigs")),
                             "stations": stations_table},
-        "twin.md": {"paper-rig": paper_rig_table},
+        "../README.md": {"readme-calibrate": lambda: transcript(
+            ["calibrate examples/irb120_lm/measurements.csv --port 600,-400,100 --json "
+             "out/result.json"], head=7)},
+        "twin.md": {"paper-rig": paper_rig_table,
+                    "demo-transcript": lambda: transcript(
+                        ["simulate scenarios/paper_irb120.toml --out out/demo",
+                         "calibrate out/demo/capture.toml"])},
         "identifiability.md": {
             "unknown-sets": unknown_sets_table,
+            "identify-transcript": lambda: transcript(
+                ["identify examples/irb120_lm/measurements.csv --port 600,-400,100 "
+                 "--map out/map.png"]),
             "twin-check": lambda: twin_check_table(fresh(args.out / "identify"))},
     }
     if not args.skip_bench:

@@ -20,7 +20,14 @@ from twin.io.measurements import load_measurements
 from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
 from twin.report.plots import accuracy_map
-from twin.report.text import describe_rig, format_fit, format_joint_groups, format_truth, has_point
+from twin.report.text import (
+    describe_rig,
+    format_fit,
+    format_held,
+    format_joint_groups,
+    format_truth,
+    has_point,
+)
 from twin.units import DH_KEYS, dh_rows_to_display, m_to_mm, slot_label
 from twin.unknowns import ERRORS
 
@@ -121,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
         *_identifiability_lines(result.identified_identifiability),
         f"  predicted flange RMS error over the workspace "
         f"{float(m_to_mm(uncertainty.flange_rms_m)):.4f} mm (from the noise estimate)",
+        *format_held(result),
         *format_fit(result),
         *format_joint_groups(result),
     ]
@@ -134,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
             f"    modulo {', '.join(truth.motions)}: "
             f"{float(m_to_mm(truth.flange_gauge_free_m)):.4f} mm", *point]
     lines += [
-        "  standard deviations of the base parameters (dependent ones held: —)",
+        "  standard deviations of the unknowns as returned, held at the nominal along what the "
+        "data cannot see (held entirely: —)",
         *_sigma_table(model, uncertainty.sigma),
     ]
     print("\n".join(lines))

@@ -91,6 +91,14 @@ def _weak_lines(nominal: Identifiability, result: CalibrationResult) -> list[str
     return ["  weakly seen (σ from the noise estimate): " + ", ".join(shown)] if shown else []
 
 
+def format_held(result: CalibrationResult) -> list[str]:
+    """What was held at the nominal (and at what cost), and what the data see only weakly."""
+    lines = _held_lines(result)
+    if result.identifiability is not None:
+        lines += _weak_lines(result.identifiability, result)
+    return lines
+
+
 def _accuracy_line(result: CalibrationResult) -> str:
     """The predicted accuracy, for the flange when the data pin it, else for the point they
     measure (an estimated attachment leaves the flange free to slide under it)."""
@@ -113,8 +121,7 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     lines = []
     if nominal is not None:
         lines += _nominal_lines(nominal)
-        lines += _held_lines(result)
-        lines += _weak_lines(nominal, result)
+        lines += format_held(result)
     if identified is not None:
         lifted = " (the identified geometry lifts held directions off zero)" \
             if nominal is not None and identified.rank > nominal.rank else ""
