@@ -69,7 +69,7 @@ def append_s(folder: Path, durable: bool) -> float:
     """Seconds per row appended."""
     path = folder / f"rows_{durable}.csv"
     path.write_text(HEADER)
-    record = journal(path)
+    record = journal(path, 6)
     q = np.zeros(6)
     started = time.perf_counter()
     for pose in range(1, ROWS + 1):

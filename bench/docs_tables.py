@@ -61,7 +61,7 @@ from twin.study.trial import (
     TrialSpec,
     noise_sigma_m,
     trial_seed,
-    true_flange,
+    true_points,
     true_unknowns,
     workspace,
 )
@@ -170,6 +170,12 @@ def paper_replica(summary: dict[str, Any]) -> str:
                                           f"{TRIALS} trials, mean ± std, paper protocol."))
 
 
+def _ratio_cell(ratios: Sequence[float]) -> str:
+    """Ratios over trials: the median, the RMS beside it, and the largest."""
+    rms = float(np.sqrt(np.mean(np.square(ratios))))
+    return f"{statistics.median(ratios):.2f}, {rms:.2f} ({max(ratios):.2f})"
+
+
 def regimes_table(summaries: dict[str, dict[str, Any]]) -> str:
     """Every regime: validation RMSE, flange error and its ratio to the bound, per method."""
     first = summaries[REGIMES[0]]["cases"][0]["table6"]
@@ -187,6 +193,8 @@ def regimes_table(summaries: dict[str, dict[str, Any]]) -> str:
                  fmt(truth[methods[0]]["crlb"]["mean"])),
                 ("flange / bound, median", lambda m, truth=truth:
                  truth[m]["crlb_ratio"]["median"], "", ""),
+                ("flange / bound, RMS over trials", lambda m, truth=truth:
+                 truth[m]["crlb_ratio"]["rms"], "", ""),
             ]
             for metric, value, before, bound in metrics:
                 values = {m: value(m) for m in methods}
@@ -196,7 +204,9 @@ def regimes_table(summaries: dict[str, dict[str, Any]]) -> str:
                 rows.append([name, metric, before, *cells, bound])
     return (markdown_table(header, rows) + "\n\n" + stamp(
         f"`twin study scenarios/<regime>_irb120.toml`, {TRIALS} trials per case, every method; "
-        f"means (ratios: medians); bold: within {BEST_WITHIN:.0%} of the best."))
+        f"means (ratios: medians and RMS over the trials); bold: within {BEST_WITHIN:.0%} of the "
+        "best; the bound is that of the combinations the data identify (the others are held "
+        "at the nominal)."))
 
 
 # --- methods.md -------------------------------------------------------------------------------
@@ -214,13 +224,14 @@ def protocols_table(converge: dict[str, dict[str, Any]], paper: dict[str, dict[s
             for case in by_protocol.values():
                 row, truth = case["table6"][method], case["truth"][method]
                 reasons = ", ".join(f"{r} ×{n}" for r, n in row["stop_reasons"].items())
-                cells += [fmt(truth["crlb_ratio"]["median"]), fmt(row["rmse"]["mean"]),
+                ratio = truth["crlb_ratio"]
+                cells += [f"{fmt(ratio['median'])} / {fmt(ratio['rms'])}", fmt(row["rmse"]["mean"]),
                           f"{row['iterations']['mean']:.0f}", reasons]
             rows.append(cells)
     header = ["regime", "method",
-              "converge: flange / bound (median)", "validation RMSE [mm]", "iterations",
+              "converge: flange / bound (median / RMS)", "validation RMSE [mm]", "iterations",
               "stopped by",
-              "paper: flange / bound (median)", "validation RMSE [mm]", "iterations",
+              "paper: flange / bound (median / RMS)", "validation RMSE [mm]", "iterations",
               "stopped by"]
     return markdown_table(header, rows) + "\n\n" + stamp(
         f"`twin study scenarios/<regime>_irb120.toml [--stop paper]`, {TRIALS} trials.")
@@ -382,7 +393,7 @@ def _error_model_job(job: tuple[str, Scenario, int]) -> list[ErrorModelRun]:
     seed = trial_seed(scenario.seed, trial)
     sim = simulate(scenario, seed)
     q_ws = workspace(TrialSpec(scenario, (), 500))
-    physical = true_flange(sim, q_ws)
+    physical = true_points(sim, q_ws)[0]
     rig = Rig.cable(sim.port_nominal_m, tension_n=scenario.physics.tension_n)
     runs = []
     # Splitting compliance by link matters only where the twin's joints give way.
@@ -432,26 +443,27 @@ def error_models_table() -> str:
             cells += [fmt(statistics.mean(r.validation_mm for r in ext)),
                       fmt(statistics.mean(r.physical_mm for r in ext)),
                       fmt(statistics.mean(r.crlb_mm for r in ext)),
-                      f"{statistics.median(ratios):.2f} ({max(ratios):.2f})"]
+                      _ratio_cell(ratios)]
         else:
             cells += ["too few poses"] + [""] * 3
         if split:
             ratios = [r.physical_mm / r.crlb_mm for r in split]
             cells += [fmt(statistics.mean(r.validation_mm for r in split)),
                       fmt(statistics.mean(r.physical_mm for r in split)),
-                      f"{statistics.median(ratios):.2f} ({max(ratios):.2f})"]
+                      _ratio_cell(ratios)]
         else:
             cells += ["rigid joints", "", ""]
         rows.append(cells)
     header = ["regime", "poses", "noise floor [mm]", "dh: validation RMSE [mm]",
               "dh: flange vs true table [mm]", "dh: flange vs physical flange [mm]",
               "extended: validation RMSE [mm]", "extended: flange vs physical flange [mm]",
-              "extended: Cramér–Rao bound [mm]", "extended: flange / bound, median (max)",
+              "extended: Cramér–Rao bound [mm]", "extended: flange / bound, median, RMS (max)",
               "by link: validation RMSE [mm]", "by link: flange vs physical flange [mm]",
-              "by link: flange / its bound, median (max)"]
+              "by link: flange / its bound, median, RMS (max)"]
     return markdown_table(header, rows) + "\n\n" + stamp(
         f"{TRIALS} trials per regime (the studies' seeds), LM run to convergence; extended = "
-        f"{extended}; by link = {by_link}; means (ratios: median and max over the trials); "
+        f"{extended}; by link = {by_link}; means (ratios: median, RMS and max over the "
+        "trials); "
         "workspace: the studies' 500 poses, visited in order.")
 
 
@@ -679,7 +691,25 @@ def paper_rig_table() -> str:
     return markdown_table(["", "before: RMSE / MAE (\"STD\") / MAX [mm]",
                            "after: RMSE / MAE / MAX [mm]"], rows) + "\n\n" + stamp(
         "Validation residuals (20 % of the poses); the paper's figures are those its text "
-        "quotes (twin.study.statistics.PAPER_TABLE6); LM run to convergence.")
+        "quotes (twin.study.statistics.PAPER_TABLE6); LM under the scenario's protocol (the "
+        "paper's: f changing by less than 0.001 mm², at most 60 iterations), the unseen "
+        "directions held at the nominal.")
+
+
+def transcript(commands: Sequence[str], head: int | None = None) -> str:
+    """The commands as a user types them at the repository's root, each with its output
+    (stdout and stderr, as a terminal shows them; its first ``head`` lines and ``...`` if
+    given), in a console block."""
+    lines = []
+    for command in commands:
+        done = subprocess.run([str(ROOT / ".venv" / "bin" / "twin"), *command.split()],
+                              cwd=ROOT, capture_output=True, text=True, check=False)
+        output = (done.stderr + done.stdout).rstrip("\n").splitlines()
+        if head is not None and len(output) > head:
+            output = [*output[:head], "  ..."]
+        lines += [f"$ twin {command}", *output, ""]
+    return "```console\n" + "\n".join(lines[:-1]) + "\n```\n\n" + stamp(
+        "Run at the repository's root.")
 
 
 UNKNOWN_SETS = (("24 D-H, port known", False, False), ("+ port (3)", True, False),
@@ -748,12 +778,16 @@ def check_example(folder: Path) -> dict[str, str]:
     baseline, block ``check-base``), then with every method capped at :data:`CHECK_CAP`
     iterations, compared with it on all trials and on a few (block ``check-baseline``).
 
-    The capped scenario is written beside the original, as the docs tell the user to, so that
-    its relative robot path resolves, and removed afterwards."""
+    The capped scenario is written under ``folder`` (under out/, as every doc example writes:
+    never into scenarios/, whose every file tests/test_check_scenarios.py checks), with its
+    relative robot path rewritten to reach models/ from there."""
     out = Path(os.path.relpath(folder, ROOT)).as_posix()
-    capped = ROOT / "scenarios" / "geometric_capped.toml"
+    capped = folder / "geometric_capped.toml"
+    shown = f"{out}/geometric_capped.toml"
+    models = Path(os.path.relpath(ROOT / "models", folder)).as_posix()
     common = ["--methods", "lm,ekf", "--expect", "examples/check/lm_ekf.toml", "--no-figures"]
-    sed = f"s/^train_fraction = 0.8$/&\\nmax_iterations = {CHECK_CAP}/"
+    sed = (f"s/^train_fraction = 0.8$/&\\nmax_iterations = {CHECK_CAP}/; "
+           f"s#^robot = \"../models/#robot = \"{models}/#")
 
     def run(*args: str) -> str:
         done = subprocess.run([sys.executable, "-m", "twin", *args], cwd=ROOT, text=True,
@@ -764,24 +798,22 @@ def check_example(folder: Path) -> dict[str, str]:
                 f"{done.returncode}\n")
 
     base = run("check", "scenarios/geometric_irb120.toml", "--out", f"{out}/base", *common)
-    text, count = re.subn(r"(?m)^train_fraction = 0\.8$", rf"\g<0>\nmax_iterations = {CHECK_CAP}",
-                          (ROOT / "scenarios" / "geometric_irb120.toml").read_text(
-                              encoding="utf-8"))
-    if count != 1:
-        raise SystemExit("docs: scenarios/geometric_irb120.toml has no 'train_fraction = 0.8'")
+    text = (ROOT / "scenarios" / "geometric_irb120.toml").read_text(encoding="utf-8")
+    text, capped_count = re.subn(r"(?m)^train_fraction = 0\.8$",
+                                 rf"\g<0>\nmax_iterations = {CHECK_CAP}", text)
+    text, robot_count = re.subn(r'(?m)^robot = "\.\./models/', f'robot = "{models}/', text)
+    if (capped_count, robot_count) != (1, 1):
+        raise SystemExit("docs: scenarios/geometric_irb120.toml has no 'train_fraction = 0.8' "
+                         "or no 'robot = \"../models/…'")
     write_atomic(capped, text)
-    try:
-        compared = run("check", "scenarios/geometric_capped.toml", "--out", f"{out}/capped",
-                       *common, "--baseline", f"{out}/base", "--junit", f"{out}/capped.xml")
-        few = run("check", "scenarios/geometric_capped.toml", "--out", f"{out}/capped-few",
-                  "--trials", str(CHECK_FEW_TRIALS), *common, "--baseline", f"{out}/base")
-    finally:
-        capped.unlink(missing_ok=True)
+    compared = run("check", shown, "--out", f"{out}/capped", *common, "--baseline",
+                   f"{out}/base", "--junit", f"{out}/capped.xml")
+    few = run("check", shown, "--out", f"{out}/capped-few", "--trials", str(CHECK_FEW_TRIALS),
+              *common, "--baseline", f"{out}/base")
     note = stamp("Run by `make docs` from a fresh output folder.")
     return {"check-base": f"```\n{base}```\n\n{note}",
             "check-baseline": (f"```\n$ sed '{sed}' scenarios/geometric_irb120.toml > "
-                               f"scenarios/geometric_capped.toml\n{compared}{few}"
-                               f"$ rm scenarios/geometric_capped.toml\n```\n\n{note}")}
+                               f"{shown}\n{compared}{few}```\n\n{note}")}
 
 
 def main() -> None:
@@ -827,9 +859,18 @@ def main() -> None:
         "robots.md": {"parametrisation": parametrisation_table},
         "measurements.md": {"rigs": lambda: rigs_table(fresh(args.out / "rigs")),
                             "stations": stations_table},
-        "twin.md": {"paper-rig": paper_rig_table},
+        "../README.md": {"readme-calibrate": lambda: transcript(
+            ["calibrate examples/irb120_lm/measurements.csv --port 600,-400,100 --json "
+             "out/result.json"], head=7)},
+        "twin.md": {"paper-rig": paper_rig_table,
+                    "demo-transcript": lambda: transcript(
+                        ["simulate scenarios/paper_irb120.toml --out out/demo",
+                         "calibrate out/demo/capture.toml"])},
         "identifiability.md": {
             "unknown-sets": unknown_sets_table,
+            "identify-transcript": lambda: transcript(
+                ["identify examples/irb120_lm/measurements.csv --port 600,-400,100 "
+                 "--map out/map.png"]),
             "twin-check": lambda: twin_check_table(fresh(args.out / "identify"))},
     }
     if not args.skip_bench:

@@ -8,6 +8,7 @@ Captures run in-process (the CLI's ``main``) unless they must be killed, then as
 from __future__ import annotations
 
 import io
+import os
 import signal
 import subprocess
 import sys
@@ -156,20 +157,20 @@ def check_complete(out: Path, n: int, true_mm: np.ndarray) -> None:
 def test_recover_drops_a_partial_line_and_refuses_a_pose_twice(tmp_path: Path) -> None:
     """A torn last line is truncated away; a repeated pose number is an InputError."""
     path = tmp_path / "measurements.csv"
-    assert recover(path, 5) == (set(), None) and path.read_text() == HEADER
+    assert recover(path, 5, 6) == (set(), None) and path.read_text() == HEADER
     path.write_text(HEADER + "1,0,0,0,0,0,0,500.0" + SIDES + "\n2,0,0,0,0,0,0,501.0" + SIDES
                     + "\n3,0,0,0,0")
-    done, note = recover(path, 5)
+    done, note = recover(path, 5, 6)
     assert done == {1, 2} and note is not None and "partial last line" in note
     assert path.read_text().endswith("501.0" + SIDES + "\n")
     path.write_text(HEADER + ("1,0,0,0,0,0,0,500.0" + SIDES + "\n") * 2)
     with pytest.raises(InputError, match="pose 1 a second time"):
-        recover(path, 5)
+        recover(path, 5, 6)
     path.write_text("")
-    assert recover(path, 5) == (set(), None) and path.read_text() == HEADER
+    assert recover(path, 5, 6) == (set(), None) and path.read_text() == HEADER
     path.write_text(HEADER + "7,0,0,0,0,0,0,500.0" + SIDES + "\n")
     with pytest.raises(InputError, match=r"a pose number in 1\.\.5"):
-        recover(path, 5)
+        recover(path, 5, 6)
 
 
 def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
@@ -261,14 +262,16 @@ def test_device_closed_mid_capture_then_resumed(
 def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
         tmp_path: Path) -> None:
-    """A capture process killed by SIGKILL, then one stopped by Ctrl-C (SIGINT), then a final
-    run: every pose exactly once, the same file byte for byte as one uninterrupted capture,
-    hence the same calibration; and that calibration is real (5x below the nominal RMSE)."""
+    """A capture process killed by SIGKILL, then one stopped by SIGTERM (as Ctrl-C: it says
+    which poses are saved), then one by Ctrl-C (SIGINT), then a final run: every pose exactly
+    once, the same file byte for byte as one uninterrupted capture, hence the same calibration;
+    and that calibration is real (5x below the nominal RMSE)."""
     device = devices["ascii"]
     whole, pieces = tmp_path / "whole", tmp_path / "pieces"
     assert main(capture_args(folder, device, whole, plan="plan_long.csv")) == 0
     args = capture_args(folder, device, pieces, plan="plan_long.csv")
-    for stop_at, sig, code in ((8, signal.SIGKILL, -signal.SIGKILL), (20, signal.SIGINT, 130)):
+    for stop_at, sig, code in ((8, signal.SIGKILL, -signal.SIGKILL),
+                               (14, signal.SIGTERM, 143), (20, signal.SIGINT, 130)):
         process = subprocess.Popen([*TWIN, *args, "--settle-interval", "0.03"],
                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         wait_for_rows(pieces, stop_at)
@@ -276,8 +279,9 @@ def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         output, _ = process.communicate(timeout=30)
         assert process.returncode == code, output
         assert len(rows(pieces)) < N_LONG
-        if sig == signal.SIGINT:
+        if sig != signal.SIGKILL:
             assert "interrupted at pose" in output and "run the same command again" in output
+            assert not (pieces / ".lock").exists()
     assert main(args) == 0
     check_complete(pieces, N_LONG, true_lengths_mm)
     assert (pieces / "measurements.csv").read_bytes() == (whole / "measurements.csv").read_bytes()
@@ -298,7 +302,8 @@ def test_second_capture_on_the_same_folder_is_refused(
     out = tmp_path / "run"
     with locked(out):
         assert main(capture_args(folder, devices["ascii"], out)) == 2
-    assert "another capture running" in capsys.readouterr().err
+    assert f"found another command writing this folder (twin capture, pid {os.getpid()} " \
+        in capsys.readouterr().err
     assert not (out / "measurements.csv").exists()
 
 
@@ -360,20 +365,42 @@ def test_manual_robot_source_prompts_and_reads_reached_angles() -> None:
         robot.move_to(3, 3, target)
 
 
-def test_capture_refuses_an_arm_it_cannot_record(tmp_path: Path,
-                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    """The capture journal's columns are q1..q6: a 4-axis arm is refused in one line before
-    anything is opened or written."""
-    robot = Path(__file__).parents[1] / "models" / "scara4" / "scara4.toml"
+def test_a_7_joint_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path) -> None:
+    """The FR3 read from its URDF (7 joints), simulated: the capture writes pose, q1..q7,
+    length, approach1..7 rows at the twin's lengths, the URDF beside the robot file, and the
+    capture file reads back as the same robot."""
+    from twin.io.robot_file import load_robot
+    from twin.scenario import load_scenario
+    from twin.sim import Twin, simulate
+
+    scenario_path = Path(__file__).parents[1] / "scenarios" / "geometric_fr3.toml"
+    sim = simulate(load_scenario(scenario_path))
+    q_rad = sim.measurements.q_rad[:5]
     plan = tmp_path / "plan.csv"
-    plan.write_text("q1,q2,q3,q4\n10,20,-30,40\n")
-    code = main(["capture", "--plan", str(plan), "--encoder", "serial:///dev/null",
-                 "--robot-source", "manual", "--robot", str(robot), "--port", "600,-400,100",
-                 "--out", str(tmp_path / "out")])
-    error = capsys.readouterr().err
-    assert code == 2 and error.count("\n") == 1
-    assert "found a 4-joint robot, expected a 6-joint robot model TOML" in error
-    assert not (tmp_path / "out").exists()
+    plan.write_text("q1,q2,q3,q4,q5,q6,q7\n" + "".join(
+        ",".join(repr(float(v)) for v in row) + "\n" for row in np.rad2deg(q_rad)))
+    device = Device(scenario_path, tmp_path / "pose.json")
+    out = tmp_path / "cap"
+    try:
+        assert main(["capture", "--plan", str(plan), "--encoder", device.url,
+                     "--robot-source", "sim", "--scenario", str(scenario_path),
+                     "--pose-file", str(device.pose_file), "--out", str(out),
+                     "--settle-tol", "0.08", "--settle-k", "4"]) == 0
+    finally:
+        device.stop()
+    columns = ("pose", *(f"q{i}" for i in range(1, 8)), "length",
+               *(f"approach{i}" for i in range(1, 8)))
+    assert (out / "measurements.csv").read_text().splitlines()[0] == ",".join(columns)
+    table = read_table(out / "measurements.csv", columns, "")[0]
+    twin = Twin.build(sim.true_robot, sim.port_m)
+    true_mm = m_to_mm(twin.lengths(q_rad, approach_directions(q_rad)))
+    assert table[:, 0].tolist() == [1, 2, 3, 4, 5]
+    # The settled mean of 4 readings of σ = 0.01 mm noise and a dying 0.05 mm swing.
+    assert np.max(np.abs(table[:, 8] - true_mm)) < 0.05
+    assert (out / "robot.urdf").read_text() == (
+        Path(__file__).parents[1] / "models" / "fr3" / "fr3.urdf").read_text()
+    assert load_robot(out / "robot.toml").n_joints == 7
+    assert load_capture(out / "capture.toml").robot.urdf is not None
 
 
 EYELET_SCENARIO = """

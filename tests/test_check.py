@@ -91,6 +91,7 @@ def test_statistics_match_the_standard_library() -> None:
     values = np.random.default_rng(5).lognormal(size=13).tolist()
     percentiles = statistics.quantiles(values, n=100, method="inclusive")
     reference = {"mean": statistics.fmean(values), "median": statistics.median(values),
+                 "rms": math.sqrt(statistics.fmean(v * v for v in values)),
                  "min": min(values), "max": max(values), "std": statistics.stdev(values),
                  **{f"p{q}": percentiles[q - 1] for q in (5, 10, 25, 75, 90, 95, 99)}}
     for stat in STATS:

@@ -21,7 +21,7 @@ def test_version_names_the_distribution_and_the_version_it_declares() -> None:
 
 
 ADAPTER_LIBRARIES = ("mujoco", "pinocchio", "rerun", "serial", "minimalmodbus", "pymodbus",
-                     "dask", "distributed")
+                     "requests", "rosbags", "dask", "distributed")
 EXAMPLE = ROOT / "examples" / "irb120_lm" / "measurements.csv"
 PORT = "600,-400,100"
 
@@ -64,6 +64,9 @@ def test_a_command_without_its_extra_names_the_extra(tmp_path: Path) -> None:
         ("serial", "hardware", ["capture", "--plan", str(plan), "--encoder", "serial:///dev/null",
                                 "--robot-source", "manual", "--port", PORT,
                                 "--out", str(tmp_path / "capture")]),
+        ("requests", "hardware", ["capture", "--plan", str(plan), "--encoder",
+                                  "serial:///dev/null", "--robot-source", "rws://127.0.0.1:9",
+                                  "--port", PORT, "--out", str(tmp_path / "rws")]),
         ("dask", "cluster", ["study", str(ROOT / "scenarios" / "geometric_irb120.toml"),
                              "--out", str(tmp_path / "study"), "--trials", "1",
                              "--methods", "lm", "--workers", "1"]),

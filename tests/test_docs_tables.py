@@ -16,8 +16,9 @@ EXPECTED = {
     "studies.md": {"paper-replica", "regimes", "bench-study", "check-base", "check-baseline"},
     "robots.md": {"parametrisation"},
     "measurements.md": {"rigs", "stations"},
-    "twin.md": {"paper-rig"},
-    "identifiability.md": {"unknown-sets", "bench-design", "twin-check"},
+    "twin.md": {"paper-rig", "demo-transcript"},
+    "identifiability.md": {"unknown-sets", "bench-design", "twin-check", "identify-transcript"},
+    "../README.md": {"readme-calibrate"},
 }
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import tomllib
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mujoco
@@ -96,13 +97,19 @@ def test_export_cli_writes_each_format(
     tmp_path: Path, format_name: str, irb120: RobotModel, measurements: Measurements,
     port_m: np.ndarray, identified: RobotModel,
 ) -> None:
-    """`twin export` writes the identified robot from a result file in every format."""
+    """`twin export` writes the identified robot from a result file in every format (UR's file
+    only for a UR: an IRB 120 is refused and nothing written)."""
     result = calibrate(irb120, measurements, port_m, method="lm", seed=0)
     write_json(tmp_path / "result.json", result_to_dict(result))
     out = tmp_path / f"identified.{format_name}"
     assert main(["export", str(tmp_path / "result.json"), "--format", format_name,
-                 "--out", str(out)]) == 0
-    if format_name == "dh":
+                 "--out", str(out)]) == (2 if format_name == "ur-calibration" else 0)
+    if format_name == "ur-calibration":
+        assert not out.exists()
+    elif format_name == "xacro":
+        names = [e.get("name") for e in ET.parse(out).getroot()]
+        assert "joint_1_origin_xyz" in names and "link_6_tool0_origin_rpy" in names
+    elif format_name == "dh":
         exported = load_robot(out)
         # The result file holds 1e-6 mm and degree, the model file 1 µm and 1e-6 degree.
         np.testing.assert_allclose(exported.dh[:2], identified.dh[:2], rtol=0.0, atol=0.6e-6)

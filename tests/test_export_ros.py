@@ -183,7 +183,8 @@ def test_yaml_overlay_is_the_urdfs_origins() -> None:
 def test_export_cli_writes_the_calibrated_urdf_with_its_names(tmp_path: Path) -> None:
     """`twin calibrate` on a UR5e given as a URDF, then `twin export --robot ur5e.urdf --format
     urdf`: the file keeps every joint and link name and its Pinocchio FK is the result's model;
-    a result applied to the robot loaded in another parametrisation is refused."""
+    without --robot the result's own robot is used, to the same bytes; a --robot with another
+    tip link or loaded in another parametrisation is another robot, refused."""
     robot = load_robot(URDFS["ur5e"])
     true = _perturbed(robot, 9)
     q = random_poses(robot, 60, np.random.default_rng(10))
@@ -201,10 +202,14 @@ def test_export_cli_writes_the_calibrated_urdf_with_its_names(tmp_path: Path) ->
     assert _elements(out.read_text()) == _elements(URDFS["ur5e"].read_text())
     assert json.loads((tmp_path / "result.json").read_text())["robot"]["parametrisation"] == [
         "dh", "hayati", "hayati", "dh", "dh", "dh"]
+    alone = tmp_path / "alone.urdf"
+    assert main(["export", str(tmp_path / "result.json"), "--format", "urdf", "--out",
+                 str(alone)]) == 0
+    assert alone.read_bytes() == out.read_bytes()
     code = main(["export", str(tmp_path / "result.json"), "--robot", str(URDFS["ur5e"]),
                  "--format", "urdf", "--out", str(tmp_path / "other.urdf"), "--tip-link",
                  "flange"])
-    assert code == 0  # another tip link: the same joints and table
+    assert code == 2 and not (tmp_path / "other.urdf").exists()
     with pytest.raises(InputError, match="parametrisation"):
         load_result_delta(tmp_path / "result.json",
                           load_urdf(URDFS["ur5e"], parametrisation="dh"))

@@ -117,9 +117,10 @@ def test_the_same_robot_within_the_stated_tolerance(
          "expected an integer in 1..1024"),
         (["calibrate", "m.csv", "--train-fraction", "1"], "--train-fraction: found '1', "
          "expected a share in (0, 1)"),
-        (["plan", "--port", PORT], "twin plan: the following arguments are required: --poses, "
-         "--out (see twin plan --help)"),
-        (["calibrate", "m.csv", "--no-such-flag"], "unrecognized arguments: --no-such-flag"),
+        (["plan", "--port", PORT], "twin plan: found no --poses, --out, expected every "
+         "argument `twin plan --help` marks as required"),
+        (["calibrate", "m.csv", "--no-such-flag"], "found unrecognized arguments "
+         "--no-such-flag"),
     ],
 )
 def test_a_bad_flag_is_one_line(argv: list[str], match: str, tmp_path: Path,

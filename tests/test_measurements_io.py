@@ -41,7 +41,7 @@ def test_extra_columns_comments_and_order(tmp_path: Path) -> None:
     [
         (b"", "found an empty file"),
         (HEADER.encode(), "found a header and no data rows"),
-        (b"q1,q2,q3,q4,q5,length\n1,2,3,4,5,6\n", "(no q6)"),
+        (b"q1,q2,q3,q4,q5,length\n1,2,3,4,5,6\n", "line 1: found a header without q6"),
         ((HEADER + "1,2,3,4,5,6\n").encode(), "line 2: found 6 fields, expected 7"),
         ((HEADER + "1,2,3,4,5,6,7,8\n").encode(), "line 2: found 8 fields"),
         ((HEADER + "1,2,x,4,5,6,7\n").encode(), "line 2, column q3: found 'x', expected a number"),

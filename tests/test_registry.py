@@ -48,7 +48,7 @@ def test_a_lazy_member_is_imported_when_first_asked_for() -> None:
             "from twin.export import FORMATS\n"
             "from twin.hardware.encoders import ENCODERS\n"
             "from twin.study.executors import EXECUTORS\n"
-            "assert list(FORMATS) == ['dh', 'urdf', 'yaml', 'mjcf'], list(FORMATS)\n"
+            "assert list(FORMATS) == ['dh', 'urdf', 'yaml', 'mjcf', 'ur-calibration', 'xacro']\n"
             "assert 'mujoco' not in sys.modules and 'serial' not in sys.modules\n"
             "assert 'dask' not in sys.modules\n"
             "FORMATS['mjcf']\n"

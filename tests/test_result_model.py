@@ -37,7 +37,7 @@ def test_result_rebuilds_the_identified_model(
     parameters = json.loads(path.read_text())["unknowns"]["parameters"]
     assert parameters[0] == {**parameters[0], "name": "a1", "group": "dh", "unit": "mm"}
     assert parameters[-1]["name"] == "offset" and parameters[-1]["sigma"] > 0
-    assert parameters[-5]["name"] == "theta6" and parameters[-5]["sigma"] is None
+    assert parameters[-11]["name"] == "alpha6" and parameters[-11]["sigma"] is None
 
 
 @pytest.mark.parametrize(

@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
 from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
-from twin.calibration.accuracy import truth_errors
+from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate, solve_many
 from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import FewPosesWarning, warn_few_poses
@@ -148,7 +148,7 @@ def test_tracker_positions_recover_the_target_and_the_frame() -> None:
     sim = _simulate("tracker_irb120")
     result = _calibrate(sim)
     q = _workspace(sim)
-    errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
+    errors = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
     assert errors.point_motions == JOINT_1
     bound = _bound(result, sim, q, point=True)
     assert errors.point_gauge_free_m < 2 * bound, (errors, bound)
@@ -169,7 +169,7 @@ def test_fixed_points_predict_the_tool_point_on_new_configurations() -> None:
     sim = _simulate("fixed_points_irb120")
     result = _calibrate(sim)
     q = _workspace(sim)  # configurations no touch used
-    errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
+    errors = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
     assert errors.point_motions == JOINT_1
     bound = _bound(result, sim, q, point=True)
     assert errors.point_gauge_free_m < 2 * bound, (errors, bound)
@@ -191,7 +191,7 @@ def test_the_unknown_port_regime_is_within_the_bound_modulo_the_gauge() -> None:
     result = _calibrate(sim)
     assert result.gauge is not None and result.gauge.names == JOINT_1
     q = _workspace(sim)
-    errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
+    errors = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
     bound = _bound(result, sim, q)
     assert errors.flange_gauge_free_m < 2 * bound < errors.flange_m, (errors, bound)
 
@@ -204,7 +204,7 @@ def test_stations_with_unknown_ports() -> None:
     assert np.bincount(sim.measurements.port_index).tolist() == [40, 40, 40]
     result = _calibrate(sim)
     q = _workspace(sim)
-    errors = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q)
+    errors = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
     bound = _bound(result, sim, q)
     assert errors.motions == JOINT_1
     assert errors.flange_gauge_free_m < 2 * bound, (errors, bound)

@@ -33,7 +33,8 @@ def tracker_csv(tmp_path: Path, irb120: RobotModel) -> Path:
     (["--port", PORT, "--distance", "a,b"], "--distance: found 'a,b', expected A,B=MM"),
     (["--port", PORT, "--distance", "a,a=50"], "expected A,B=MM: two different point names"),
     (["--port", PORT, "--attachment", "1,2"], "--attachment: found '1,2'"),
-    (["--port", PORT, "--loss", "hubber"], "--loss: invalid choice: 'hubber'"),
+    (["--port", PORT, "--loss", "hubber"], "--loss: found 'hubber', expected one of linear, "
+     "huber"),
     (["--port", PORT, "--loss-scale", "0"], "--loss-scale: found '0'"),
 ])
 def test_bad_rig_flags(flags: list[str], match: str, csv_path: Path,

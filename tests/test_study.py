@@ -221,3 +221,23 @@ def test_every_shipped_scenario_is_a_valid_study(path: Path) -> None:
     """Each scenario file's [study] table (or its absence) makes a valid study."""
     plan = load_study(path)
     assert plan.trials >= 1 and plan.methods and plan.cases
+
+
+def test_joint_level_truth_columns_are_held_to_the_physical_flange(tmp_path: Path) -> None:
+    """With joint-level error groups (the paper's rig: transmission, backlash, compliance) and
+    a known port at the flange centre, nothing is gauge-free: the gauge-free column equals the
+    flange error against the twin's physical flange, both a few hundredths of a millimetre, and
+    the measured point (the flange centre) the same again — not the 0.6 mm of the D-H table
+    alone."""
+    scenarios = Path(__file__).resolve().parents[1] / "scenarios"
+    text = (scenarios / "paper_irb120.toml").read_text().replace(
+        'robot = "../models/irb120.toml"', f'robot = "{scenarios.parent}/models/irb120.toml"')
+    text = text.replace('stop = "paper"', 'stop = "converge"\n'
+                        'errors = ["dh", "transmission", "backlash", "compliance"]')
+    text = text.replace("count = 120", "count = 200")
+    text = text.replace('methods = ["all"]', 'methods = ["lm"]')
+    path = write_scenario(tmp_path, text)
+    (row,) = outcomes(path, [("", 0)])[0].rows[:1]
+    assert row.flange_error_gauge_free_mm == pytest.approx(row.flange_error_mm, rel=1e-9)
+    assert row.point_error_mm == pytest.approx(row.flange_error_mm, rel=1e-9)
+    assert row.flange_error_mm < 0.05

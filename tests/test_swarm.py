@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -92,3 +94,32 @@ def test_initial_swarm_is_within_1mm_1deg_of_the_centre() -> None:
     np.testing.assert_array_equal(x[0], center)
     assert np.all(np.abs(x - center) <= radius)
     assert np.all(np.max(np.abs(x - center), axis=0) > 0.9 * radius)
+
+
+@pytest.mark.parametrize("iterations", [2, 10, None])
+def test_a_swarm_never_returns_worse_than_its_start(iterations: int | None) -> None:
+    """PSO stopped after 2 or 10 iterations, or run to its own test, on three seeds of the
+    geometric and paper scenarios: the validation RMSE never exceeds the start's; when the
+    swarm's point does not beat the start by BIC, the start itself comes back (x = x0) and the
+    report says why."""
+    from dataclasses import replace
+
+    from twin.calibration.pipeline import calibrate
+    from twin.report.text import format_result
+    from twin.scenario import load_scenario
+    from twin.sim import simulate
+
+    scenarios = Path(__file__).resolve().parents[1] / "scenarios"
+    for name in ("geometric_irb120", "paper_irb120"):
+        scenario = load_scenario(scenarios / f"{name}.toml")
+        settings = replace(scenario.calibration, stop="converge", max_iterations=iterations)
+        for seed in range(3):
+            sim = simulate(scenario, seed)
+            result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told_pulled,
+                               settings=settings, seed=seed, method="pso")
+            metrics = result.metrics
+            assert metrics["validation"].rmse <= metrics["before"].rmse, (name, seed)
+            assert result.held is not None
+            if result.held.kept_start:
+                assert np.array_equal(result.x, np.zeros(result.model.n_params))
+                assert "returned the start" in format_result(result)

@@ -12,6 +12,7 @@ from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
 from twin.errors import InputError, TwinError, UnknownChoiceError
 from twin.geometry.kinematics import Structure, flange_transform, point_jacobian, point_position
+from twin.io.identified import IdentifiedModel, load_result
 from twin.io.measurements import load_measurements, write_measurements
 from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length
@@ -26,6 +27,7 @@ __all__ = [
     "CalibrationResult",
     "CalibrationSettings",
     "Distance",
+    "IdentifiedModel",
     "InputError",
     "Loss",
     "Measurements",
@@ -44,6 +46,7 @@ __all__ = [
     "default_robot",
     "flange_transform",
     "load_measurements",
+    "load_result",
     "load_robot",
     "point_jacobian",
     "point_position",

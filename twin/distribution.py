@@ -35,6 +35,11 @@ EXTRAS = {
     "serial": "hardware",
     "minimalmodbus": "hardware",
     "pymodbus": "hardware",
+    "xacro": "ros",
+    "ruamel": "ros",
+    "requests": "hardware",
+    "urllib3": "hardware",
+    "rosbags": "ros",
     "dask": "cluster",
     "distributed": "cluster",
 }

@@ -91,6 +91,9 @@ RESULT_SIGNIFICANT = 6
 MAX_LENGTH_M = 1000.0
 """Largest length accepted from a file or flag (a link, a port, a cable, a target), m: every
 real one is far shorter, and a 1e300 would overflow the kinematics."""
+MAX_ANGLE_RAD = 4 * np.pi
+"""Largest angle accepted from a file (a D-H angle, a joint limit, a URDF origin's rpy), rad:
+two turns."""
 
 
 def rounded(values: ArrayLike, decimals: int) -> list[float]:

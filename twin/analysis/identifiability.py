@@ -90,6 +90,15 @@ class Identifiability(NamedTuple):
     """Null directions in the units of x (m and rad), shape (p, p − rank), one per column."""
     unidentifiable: tuple[str, ...]
     """Each null direction named as a combination, e.g. ``theta6``, ``d2-d3``."""
+    weak_names: tuple[str, ...] = ()
+    """Each weakly identified direction (singular value below :data:`WEAK_RTOL` of the largest,
+    above the rank's threshold) named as a combination, weakest last."""
+    weak_leading: NDArray[np.intp] = np.zeros(0, dtype=np.intp)
+    """The unknown whose coefficient leads each weak direction's name (its unit is the
+    direction's), shape (w,)."""
+    weak_sigma_per_noise: Array = np.zeros(0)
+    """σ along each weak direction, in the unit of its leading unknown, per metre of reading
+    noise: multiplied by the noise σ it is the Cramér–Rao σ of the combination, shape (w,)."""
 
     @property
     def weak(self) -> int:
@@ -177,7 +186,7 @@ def identifiability(
     scaled = J[:, visible] / norms[visible]
     # R has J's Gram matrix, so every rank decision below can work on it instead of J.
     R = np.asarray(np.linalg.qr(scaled, mode="r"), dtype=np.float64)
-    singular_values = np.asarray(np.linalg.svd(R, compute_uv=False), dtype=np.float64)
+    _, singular_values, vt = np.linalg.svd(R)
     threshold = rtol * singular_values[0]
     rank = int(np.sum(singular_values > threshold))
     first = np.flatnonzero(np.isin(visible, prefer))
@@ -198,6 +207,7 @@ def identifiability(
     unit = np.where(norms > 0, norms, 1.0)
     null_si = directions / unit[:, None]
     null_si /= np.linalg.norm(null_si, axis=0)
+    weak = _weak_directions(singular_values[:rank], vt[:rank], visible, norms, names)
     return Identifiability(
         rank=rank,
         n_params=p,
@@ -209,7 +219,27 @@ def identifiability(
         base=visible[base_local],
         null_space=null_si,
         unidentifiable=labels,
+        weak_names=weak[0],
+        weak_leading=weak[1],
+        weak_sigma_per_noise=weak[2],
     )
+
+
+def _weak_directions(s: Array, vt: Array, visible: NDArray[np.intp], norms: Array,
+                     names: tuple[str, ...]) -> tuple[tuple[str, ...], NDArray[np.intp], Array]:
+    """The weak identified directions: names, leading unknowns and σ per unit noise.
+
+    A right singular vector v (scaled units) with singular value s has a coefficient of
+    variance σ²/s²; along the SI direction normalised to 1 on its leading unknown k, the
+    coefficient's σ is σ |v_k| / (s ‖J_k‖).
+    """
+    weak = np.flatnonzero(s < WEAK_RTOL * s[0])
+    directions = np.zeros((weak.size, norms.size))
+    directions[:, visible] = vt[weak]
+    leading = np.argmax(np.abs(directions), axis=1).astype(np.intp)
+    factor = np.abs(directions[np.arange(weak.size), leading]) / (s[weak] * norms[leading])
+    return (tuple(name_direction(row, names) for row in directions), leading,
+            np.asarray(factor, dtype=np.float64))
 
 
 def measurement_identifiability(

@@ -1,9 +1,13 @@
 """Uncertainty of identified parameters and of the flange position they predict.
 
 The Cramér–Rao bound for unbiased estimates from Gaussian length noise σ is the covariance
-``C = σ² (JᵀJ)⁺`` of the unknowns; the pseudo-inverse leaves out the directions the cable cannot
-see, which do not move the flange either (the two Jacobians share their null space for the
-IRB 120), so the bound on the flange position stays finite and meaningful.
+``C = σ² (JᵀJ)⁺`` of the unknowns. Every calibration holds what the training poses cannot see
+at the nominal (:mod:`twin.analysis.unseen`: below the rank threshold, or less well determined
+by the data than by the box), so the bound that fits it is the one of the **identifiable
+combinations only**: ``C = σ² P (Pᵀ JᵀJ P)⁻¹ Pᵀ``, P the seen directions. (The plain
+pseudo-inverse keeps directions a perturbed geometry lifts off zero by 1e-8 of the largest
+singular value — d2 − d3 with few poses — and its bound is then their noise, not the
+calibration's.)
 
 After a calibration the noise is not known: it is estimated from the training residuals as
 σ̂² = ‖r‖² / (m − rank). Per-parameter standard deviations are those of the base parameters
@@ -20,7 +24,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twin.analysis.identifiability import RANK_RTOL
+from twin.analysis.identifiability import RANK_RTOL, measurement_identifiability
+from twin.analysis.unseen import Unseen, unseen_directions
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import Model
@@ -28,6 +33,7 @@ from twin.robot import RobotModel
 
 WORKSPACE_POSES = 1000
 """Random poses within the joint limits over which the flange accuracy is predicted."""
+
 
 def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK_RTOL) -> Array:
     """Covariance σ² (JᵀJ)⁺ of the unknowns, shape (p, p), in m² / rad² units of x.
@@ -41,6 +47,29 @@ def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK
     keep = s > rtol * s[0]
     v = vt[keep].T / s[keep]
     return np.asarray(sigma_m**2 * (v @ v.T), dtype=np.float64)
+
+
+def seen_covariance(jacobian: ArrayLike, seen_x: ArrayLike, sigma_m: float) -> Array:
+    """Covariance σ² P (Pᵀ JᵀJ P)⁻¹ Pᵀ of the unknowns of an estimator held along the unseen
+    directions, shape (p, p), in m² / rad² units of x.
+
+    Args:
+        jacobian: Jacobian ∂r/∂x, shape (m, p).
+        seen_x: The seen directions P in the units of x, shape (p, q)
+            (:attr:`twin.analysis.unseen.Unseen.seen_x`).
+        sigma_m: Noise 1σ of a reading, m.
+    """
+    seen = np.asarray(seen_x, dtype=np.float64)
+    reduced = parameter_covariance(np.asarray(jacobian, dtype=np.float64) @ seen, sigma_m)
+    return np.asarray(seen @ reduced @ seen.T, dtype=np.float64)
+
+
+def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float) -> Unseen:
+    """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m), in the unknowns
+    scaled by half their search range: what a calibration of such data holds."""
+    lower, upper = model.bounds()
+    nominal = measurement_identifiability(model, np.zeros(model.n_params), data)
+    return unseen_directions(model, x, data, sigma_m, 0.5 * (upper - lower), nominal)
 
 
 def rms_distance(a_m: ArrayLike, b_m: ArrayLike) -> float:
@@ -135,7 +164,8 @@ def workspace_grid(robot: RobotModel, n_per_axis: int) -> tuple[Array, Array, Ar
 def cramer_rao_flange_rms(
     model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike
 ) -> float:
-    """Cramér–Rao bound on the RMS flange-position error over the poses ``q_rad``, m.
+    """Cramér–Rao bound on the RMS flange-position error over the poses ``q_rad``, m, of the
+    combinations the poses identify at that noise (the others every calibration holds).
 
     Args:
         model: The measurement model that is fitted.
@@ -145,7 +175,8 @@ def cramer_rao_flange_rms(
         q_rad: Workspace poses where the flange error is evaluated, shape (k, n).
     """
     _, jacobian = model.identifiable_jacobian(x_true, data)
-    covariance = parameter_covariance(jacobian, sigma_m)
+    covariance = seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m).seen_x,
+                                 sigma_m)
     return predicted_flange_rms(model.flange_jacobian(x_true, model.poses(q_rad)), covariance)
 
 
@@ -156,8 +187,14 @@ def cramer_rao_point_rms(
     target, ball) over the poses ``q_rad``, m; arguments as :func:`cramer_rao_flange_rms`.
     With the attachment estimated the flange is not identified but this point is."""
     _, jacobian = model.identifiable_jacobian(x_true, data)
-    covariance = parameter_covariance(jacobian, sigma_m)
+    covariance = seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m).seen_x,
+                                 sigma_m)
     return predicted_flange_rms(model.position_jacobian(x_true, model.poses(q_rad)), covariance)
+
+
+HELD_ROW_TOL = 1e-9
+"""An unknown whose unit vector has less than this in the seen directions is held entirely (its
+σ is shown as not identified, not as zero)."""
 
 
 class CalibrationUncertainty(NamedTuple):
@@ -166,11 +203,14 @@ class CalibrationUncertainty(NamedTuple):
     noise_sigma_m: float
     """Length noise estimated from the training residuals, σ̂ = sqrt(‖r‖² / (m − rank)), m."""
     covariance: Array
-    """Covariance of the base parameters, embedded in shape (p, p) (zero for dependent ones)."""
+    """Covariance of the unknowns as the calibration returns them, held at the start along
+    the unseen directions (:func:`seen_covariance`), shape (p, p)."""
     sigma: Array
-    """Standard deviation of each unknown, shape (p,), m and rad; NaN if not identifiable."""
+    """Standard deviation of each unknown, shape (p,), m and rad; NaN for an unknown held
+    entirely (θ6 of a flange-centre cable)."""
     flange_rms_m: float
-    """Predicted RMS flange-position error over the workspace poses, m."""
+    """Predicted RMS flange-position error over the workspace poses, m, of the identifiable
+    combinations (the others held at the nominal)."""
     point_rms_m: float = float("nan")
     """Predicted RMS position error of the measured point (eyelet, tracker target, ball) over
     the workspace poses, m: what an estimated attachment identifies."""
@@ -180,8 +220,9 @@ def calibration_uncertainty(
     model: Model,
     x: ArrayLike,
     train: Measurements,
-    base: ArrayLike,
+    rank: int,
     q_workspace_rad: ArrayLike,
+    unseen: Unseen,
 ) -> CalibrationUncertainty:
     """Covariance and predicted accuracy of an identified x from its training data.
 
@@ -189,19 +230,23 @@ def calibration_uncertainty(
         model: The fitted measurement model.
         x: Identified unknowns, shape (p,).
         train: The poses and lengths it was fitted to.
-        base: Indices of the base parameters, shape (L,).
+        rank: The combinations the training poses identify (the noise estimate's degrees of
+            freedom are the residuals less these).
         q_workspace_rad: Poses where the flange accuracy is predicted, shape (k, n), rad.
+        unseen: What the training poses cannot see (held at the start): the covariance and the
+            accuracy are those of the other combinations.
     """
     x = np.asarray(x, dtype=np.float64)
     residuals, jacobian = model.identifiable_jacobian(x, train)
-    base = np.asarray(base, dtype=np.intp)
-    noise = residual_sigma(residuals, base.size)
-    covariance = base_covariance(jacobian, base, noise)
+    noise = residual_sigma(residuals, rank)
+    covariance = seen_covariance(jacobian, unseen.seen_x, noise)
+    held = np.linalg.norm(unseen.seen, axis=1) < HELD_ROW_TOL
+    sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     poses = model.poses(q_workspace_rad)
     return CalibrationUncertainty(
         noise_sigma_m=noise,
         covariance=covariance,
-        sigma=parameter_sigma(covariance, base),
+        sigma=np.where(held, np.nan, sigma),
         flange_rms_m=predicted_flange_rms(model.flange_jacobian(x, poses), covariance),
         point_rms_m=predicted_flange_rms(model.position_jacobian(x, poses), covariance),
     )

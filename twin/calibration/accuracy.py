@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
 from twin.analysis.uncertainty import WORKSPACE_POSES, rms_distance
+from twin.arrays import Array
 from twin.calibration.result import CalibrationResult
 from twin.robot import RobotModel, random_poses
 
@@ -39,25 +40,42 @@ class TruthErrors(NamedTuple):
     """The unobservable motions of the measured point."""
 
 
-def truth_errors(result: CalibrationResult, true_robot: RobotModel, true_attachment_m: ArrayLike,
+def rigid_truth(true_robot: RobotModel, true_attachment_m: ArrayLike, q_rad: ArrayLike
+                ) -> tuple[Array, Array]:
+    """Where a rigid true robot puts its flange centre and the measured point at poses q:
+    shapes (k, 3) each, m, base frame.
+
+    Args:
+        true_robot: The true robot (nominal plus the true table errors).
+        true_attachment_m: The true measured point in the flange frame, shape (3,), m.
+        q_rad: Poses, shape (k, n), rad.
+    """
+    transforms = true_robot.flange_transforms(np.asarray(q_rad, dtype=np.float64))
+    flange = transforms[:, :3, 3]
+    return flange, transforms[:, :3, :3] @ np.asarray(true_attachment_m, dtype=np.float64) \
+        + flange
+
+
+def truth_errors(result: CalibrationResult, true_flange_m: ArrayLike, true_point_m: ArrayLike,
                  q_rad: ArrayLike) -> TruthErrors:
-    """Compare a calibration with the truth over poses q.
+    """Compare a calibration with the truth over poses q: the whole identified model (table and
+    joint-level groups) against where the true robot put its flange and the measured point.
 
     Args:
         result: The calibration.
-        true_robot: The true robot (nominal plus the true D-H errors).
-        true_attachment_m: The true measured point in the flange frame, shape (3,), m.
-        q_rad: Workspace poses, shape (k, n), rad.
+        true_flange_m: The true flange centres at the poses, shape (k, 3), m: a rigid truth's
+            (:func:`rigid_truth`) or the twin's physical flange, with its joint errors and sag.
+        true_point_m: The true measured points at the poses, shape (k, 3), m.
+        q_rad: Workspace poses, shape (k, n), rad, visited in order (the approach directions
+            of backlash are those of visiting them so).
     """
     model, x = result.model, result.solver.x
     identifiability = result.identified_identifiability
     null = identifiability.null_space if identifiability is not None \
         else np.zeros((model.n_params, 0))
     poses = model.poses(q_rad)
-    transforms = true_robot.flange_transforms(np.asarray(q_rad, dtype=np.float64))
-    true_flange = transforms[:, :3, 3]
-    true_point = transforms[:, :3, :3] @ np.asarray(true_attachment_m, dtype=np.float64) \
-        + true_flange
+    true_flange = np.asarray(true_flange_m, dtype=np.float64)
+    true_point = np.asarray(true_point_m, dtype=np.float64)
     flange = unobservable_motions(model, x, null, q_rad)
     point = unobservable_motions(model, x, null, q_rad, measured=True)
     return TruthErrors(
@@ -75,4 +93,5 @@ def workspace_truth_errors(result: CalibrationResult, true_robot: RobotModel,
     """:func:`truth_errors` over :data:`twin.calibration.pipeline.WORKSPACE_POSES` random poses
     drawn with the calibration's seed."""
     q_workspace = random_poses(result.robot, WORKSPACE_POSES, np.random.default_rng(result.seed))
-    return truth_errors(result, true_robot, true_attachment_m, q_workspace)
+    return truth_errors(result, *rigid_truth(true_robot, true_attachment_m, q_workspace),
+                        q_workspace)

@@ -27,6 +27,7 @@ from twin.analysis.metrics import metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
 from twin.analysis.uncertainty import WORKSPACE_POSES, calibration_uncertainty
 from twin.arrays import Array
+from twin.calibration.hold import hold_unseen
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_problem
@@ -106,6 +107,8 @@ def solve_many(
     results = {}
     for solver in solvers:
         solved = solver.solve(problem, budget, np.random.default_rng(seed))
+        held = hold_unseen(problem, solved.x, nominal)
+        solved = solved._replace(x=held.x)
         identified = measurement_identifiability(problem.model, solved.x, problem.train)
         misfit, rejected, kept, gauge = _assess(split, solved.x, identified, q_workspace)
         results[solver.name] = CalibrationResult(
@@ -119,12 +122,14 @@ def solve_many(
             identifiability=nominal,
             identified_identifiability=identified,
             uncertainty=calibration_uncertainty(
-                problem.model, solved.x, kept, nominal.base, q_workspace
+                problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen
             ),
             settings=split.settings,
             misfit=misfit,
             rejected_rows=rejected,
             gauge=gauge,
+            unseen=held.unseen,
+            held=held,
         )
         if on_result is not None:
             on_result(results[solver.name])

@@ -14,7 +14,9 @@ from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import Misfit
 from twin.analysis.uncertainty import CalibrationUncertainty
+from twin.analysis.unseen import Unseen
 from twin.arrays import Array
+from twin.calibration.hold import Held
 from twin.calibration.settings import CalibrationSettings
 from twin.geometry.rigid import rotation
 from twin.loss import Loss
@@ -48,6 +50,10 @@ class CalibrationResult:
         rejected_rows: Measurement rows (poses, 0-based, train and validation) whose residual
             the robust loss rejects (:mod:`twin.loss`), ascending; empty for least squares.
         gauge: The motions of the flange the data cannot see (:mod:`twin.analysis.gauge`).
+        unseen: The directions of the unknowns the training poses cannot see, held at the
+            start (:mod:`twin.analysis.unseen`).
+        held: What holding them did to the method's answer, and whether the start was kept
+            instead (:mod:`twin.calibration.hold`).
     """
 
     robot: RobotModel
@@ -64,6 +70,8 @@ class CalibrationResult:
     misfit: Misfit | None = None
     rejected_rows: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     gauge: Gauge | None = None
+    unseen: Unseen | None = None
+    held: Held | None = None
 
     @property
     def x(self) -> Array:

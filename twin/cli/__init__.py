@@ -16,15 +16,23 @@ no traceback. Faults that are not the user's
 
 Before a command runs, every output path it names is checked against the rules of
 :mod:`twin.io.paths` (never one of its inputs, never a directory, device or FIFO, a writable
-folder), so that a mistake costs no work and overwrites nothing.
+folder, never where another of its outputs goes), and no output file may replace a capture's
+measurements, so that a mistake costs no work and overwrites nothing.
+
+SIGTERM stops a command as Ctrl-C does (a capture says which poses are saved), with exit code
+143.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from types import FrameType
 
 from twin import distribution
 from twin.cli import (
@@ -34,22 +42,49 @@ from twin.cli import (
     compensate,
     export,
     identify,
+    import_,
     plan,
     predict,
     simulate,
     study,
+    virtual_controller,
     virtual_encoder,
 )
 from twin.cli.arguments import ArgumentParser, UsageError
 from twin.distribution import missing_extra
 from twin.errors import InputError, TwinError
-from twin.io.paths import check_command_paths, command_scope
+from twin.hardware.capture_session import refuse_capture_journal
+from twin.io.paths import check_command_paths, check_distinct_outputs, command_scope
 
 SUBCOMMANDS = (calibrate, simulate, identify, plan, predict, compensate, export, study, check,
-               capture, virtual_encoder)
+               capture, virtual_encoder, virtual_controller, import_)
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141
+EXIT_TERMINATED = 143
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command is, so that it stops as on Ctrl-C: temporary files
+    removed, a capture's saved poses reported, the folder's lock released."""
+
+
+def _raise_terminated(signum: int, frame: FrameType | None) -> None:
+    raise Terminated
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """Turn SIGTERM into :class:`Terminated` for the block (in the main thread only, where
+    Python runs signal handlers), then restore the previous handler."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def build_parser() -> ArgumentParser:
@@ -86,8 +121,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     warnings.showwarning = _show_warning
     try:
-        with command_scope():
+        with _sigterm_as_interrupt(), command_scope():
             check_command_paths(vars(args).values())
+            check_distinct_outputs(vars(args))
+            refuse_capture_journal(vars(args).values())
             return int(args.func(args) or 0)
     except InputError as exc:
         print(f"twin: error: {exc}", file=sys.stderr)
@@ -114,6 +151,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except TwinError as exc:
         print(f"twin: error: {exc}", file=sys.stderr)
         return 1
+    except Terminated:
+        print("twin: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("twin: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -18,7 +18,7 @@ import argparse
 import math
 import re
 from collections.abc import Callable
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from twin.io.paths import InputPath, OutputFile, OutputFolder
 
@@ -37,15 +37,77 @@ class UsageError(Exception):
     """A flag the parser refused; the CLI prints it as one line and exits with code 2."""
 
 
+NEGATIVE_VALUE = re.compile(r"^-\.?[0-9][0-9.,eE+-]*$")
+"""What argparse takes for a value, not a flag, though it starts with '-': a number or a list of
+numbers (``--port -500,-300,150``; argparse alone knows only a plain ``-5``)."""
+
+
+def _choices(text: str) -> str:
+    """argparse's ``'a', 'b'`` as ``a, b``."""
+    return ", ".join(name.strip().strip("'") for name in text.split(","))
+
+
+_FLAG_MESSAGES: tuple[tuple[str, Callable[[re.Match[str]], str]], ...] = (
+    (r"expected one argument", lambda _: "found no value, expected one (a value that starts "
+     "with '-' and is not a number: --flag=VALUE)"),
+    (r"expected (.+) arguments?", lambda m: f"found too few values, expected {m[1]}"),
+    (r"invalid choice: (.*) \(choose from (.*)\)",
+     lambda m: f"found {m[1]}, expected one of {_choices(m[2])}"),
+    (r"not allowed with argument (.*)", lambda m: f"found it with {m[1]}, expected one of the "
+     "two"),
+    (r"ignored explicit argument (.*)", lambda m: f"found the value {m[1]}, expected the flag "
+     "alone (it takes no value)"),
+    (r"invalid (\w+) value: (.*)", lambda m: f"found {m[2]}, expected a {m[1]} value"),
+)
+"""argparse's messages about one flag, in the form ``found X, expected Y``."""
+_COMMAND_MESSAGES: tuple[tuple[str, Callable[[re.Match[str], str], str]], ...] = (
+    (r"unrecognized arguments: (.*)", lambda m, prog: f"found unrecognized arguments {m[1]}, "
+     f"expected only those `{prog} COMMAND --help` lists" if prog == "twin" else
+     f"found unrecognized arguments {m[1]}, expected only those `{prog} --help` lists"),
+    (r"the following arguments are required: (.*)", lambda m, prog: f"found no {m[1]}, "
+     f"expected every argument `{prog} --help` marks as required"),
+    (r"ambiguous option: (\S+) could match (.*)", lambda m, prog: f"found {m[1]}, which could "
+     f"be {m[2]}, expected one of them written out"),
+)
+"""argparse's messages about the whole command line, in the form ``found X, expected Y``."""
+
+
 class ArgumentParser(argparse.ArgumentParser):
-    """argparse, with errors raised as :class:`UsageError` (one line) instead of the usage."""
+    """argparse, with errors raised as :class:`UsageError` (one line, ``--flag: found X,
+    expected Y``) instead of the usage, and values such as ``-500,-300,150`` taken as values."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse asks this matcher whether a word starting with '-' is a negative number.
+        self._negative_number_matcher = NEGATIVE_VALUE
 
     def error(self, message: str) -> NoReturn:
         """Raise the message in the form ``--flag: found X, expected Y``."""
         flag = re.match(r"argument ([^:]+): (.*)", message, flags=re.S)
         if flag:
-            raise UsageError(f"{flag[1]}: {flag[2]}")
+            text = flag[2]
+            for pattern, rewrite in _FLAG_MESSAGES:
+                if (found := re.fullmatch(pattern, text, flags=re.S)) is not None:
+                    text = rewrite(found)
+                    break
+            raise UsageError(f"{flag[1]}: {text}")
+        for pattern, whole in _COMMAND_MESSAGES:
+            if (found := re.fullmatch(pattern, message, flags=re.S)) is not None:
+                raise UsageError(f"{self.prog}: {whole(found, self.prog)}")
         raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+def method_name(text: str) -> str:
+    """An argparse type: a calibration method's name or paper alias, or ``all``."""
+    from twin.errors import InputError
+    from twin.solvers import get_solver
+
+    if text.strip().lower() != "all":
+        try:
+            get_solver(text)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def _number(text: str) -> float:
@@ -174,10 +236,17 @@ def add_cable_tension(parser: argparse.ArgumentParser, help: str,
                         metavar="N", help=help)
 
 
+RESULT_ROBOT = "the nominal robot, only to check it is the result's (a result carries its own)"
+"""What ``--robot`` is for on the commands that read a result."""
+
+
 def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") -> None:
     """``--robot`` (a model TOML or a URDF) and, for a URDF, ``--base-link`` / ``--tip-link``."""
-    parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file or a "
-                        ".urdf, 4 to 7 revolute joints (default: the ABB IRB 120)")
+    default = "the result's" if what == RESULT_ROBOT else "the ABB IRB 120"
+    parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file, a .urdf "
+                        f"or a .xacro, 4 to 7 revolute joints (default: {default})")
+    parser.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE",
+                        help="with a .xacro --robot: an argument of the description, repeated")
     parser.add_argument("--base-link", metavar="LINK", help="with a URDF --robot: the link "
                         "the chain starts from (default: the URDF's root link)")
     parser.add_argument("--tip-link", metavar="LINK", help="with a URDF --robot: the flange "
@@ -192,11 +261,25 @@ def robot_from_flags(args: argparse.Namespace) -> RobotModel:
     """
     from twin.errors import InputError
     from twin.io.robot_file import load_robot_or_default
+    from twin.io.xacro_reader import parse_xacro_args
 
     if args.robot is None and (args.base_link or args.tip_link):
         flag = "--base-link" if args.base_link else "--tip-link"
         raise InputError(f"{flag} without --robot", "--robot ARM.urdf beside it", source=flag)
-    return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link)
+    return load_robot_or_default(args.robot, base_link=args.base_link, tip_link=args.tip_link,
+                                 xacro_args=parse_xacro_args(getattr(args, "xacro_arg", None)))
+
+
+def given_robot(args: argparse.Namespace) -> RobotModel | None:
+    """The robot ``--robot`` names, or None without it: for commands that read a result, which
+    carries its own robot (a robot given must be that one).
+
+    Raises:
+        InputError: as :func:`robot_from_flags`.
+    """
+    if args.robot is None and not (args.base_link or args.tip_link):
+        return None
+    return robot_from_flags(args)
 
 
 AUTO_ERRORS = "auto"

@@ -18,6 +18,7 @@ from twin.cli.arguments import (
     add_output,
     add_seed,
     integer,
+    method_name,
     share,
     sigma_mm,
 )
@@ -62,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         tension_help="the cable's pull towards the port in newtons (the encoder's spring "
         "force; loads the joints for the compliance group); default: the capture's, else 0")
     parser.add_argument(
-        "--method", default="lm",
+        "--method", default="lm", type=method_name,
         help="method name or paper alias, or 'all': " + ", ".join(SOLVERS.choices()),
     )
     add_seed(parser, "seed of the split and of the method", default=0)

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
-from pathlib import Path
+from typing import Any
 
 from twin.cli.arguments import (
     add_cable_tension,
@@ -15,11 +16,9 @@ from twin.cli.arguments import (
     pause,
     seconds,
 )
+from twin.hardware.rws.client import PASSWORD_VARIABLE, USER_VARIABLE
 from twin.io.paths import InputPath
 
-ROBOT_SOURCES = ("sim", "manual", "file")
-CAPTURE_JOINTS = 6
-"""Joints of the arms twin capture records (its journal's columns are q1..q6)."""
 MAX_READINGS = 1000
 """Most readings --settle-k and --max-failures may ask for."""
 
@@ -37,16 +36,18 @@ DESCRIPTION = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
     parser.add_argument("--plan", type=InputPath, required=True, metavar="PLAN.csv",
-                        help="poses to measure: CSV with q1..q6 in degrees")
+                        help="poses to measure: CSV with the robot's q1..qN in degrees")
     parser.add_argument("--encoder", required=True, metavar="URL|DEVICE.toml",
                         help="serial:///dev/ttyUSB0?baud=115200&protocol=ascii or a device "
                         "TOML file")
-    parser.add_argument("--robot-source", choices=ROBOT_SOURCES, required=True,
+    parser.add_argument("--robot-source", required=True, metavar="SOURCE",
                         help="sim: the twin moves (with twin virtual-encoder); manual: the "
-                        "operator jogs and confirms; file: joint angles logged by the controller")
+                        "operator jogs and confirms; file: joint angles logged by the "
+                        "controller; rws://HOST[:PORT]: an ABB IRC5 (RWS 1.0), "
+                        "rws2://HOST[:PORT]: an ABB OmniCore (RWS 2.0)")
     add_output(parser, "DIR", "output folder", folder=True)
-    parser.add_argument("--robot", type=InputPath, help="6-joint robot model TOML (default: "
-                        "the ABB IRB 120; with sim: the scenario's)")
+    parser.add_argument("--robot", type=InputPath, help="robot model TOML or URDF, 4 to 7 "
+                        "joints (default: the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")
     parser.add_argument("--attachment", metavar="X,Y,Z", help="where the cable hooks on, mm "
@@ -61,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_output(parser, "FILE", "sim: the virtual encoder's --pose-file", flag="--pose-file",
                required=False)
     parser.add_argument("--joint-log", type=InputPath, metavar="LOG.csv",
-                        help="file: the controller's log, columns pose,q1..q6 (deg)")
+                        help="file: the controller's log, columns pose,q1..qN (deg)")
     parser.add_argument("--joint-log-wait", type=seconds(zero=True), default=60.0, metavar="S",
                         help="file: how long to wait for a pose's row, or none (default: 60 s)")
     parser.add_argument("--settle-k", type=integer(1, MAX_READINGS), default=5, metavar="K",
@@ -78,91 +79,74 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="N", help="failed readings in a row before giving up "
                         "(default: 5)")
     parser.add_argument("--reconnect", type=seconds(zero=True), default=5.0, metavar="S",
-                        help="how long to try reopening a lost port, or none to keep trying "
-                        "(default: 5 s)")
+                        help="how long to try reopening a lost port or reaching a lost "
+                        "controller, or none to keep trying (default: 5 s)")
+    add_rws_arguments(parser)
+
+
+def add_rws_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of an ABB controller as the robot source."""
+    group = parser.add_argument_group("ABB controller (rws://, rws2://)")
+    group.add_argument("--rws-user", metavar="NAME", help=f"the RWS user (default: "
+                       f"${USER_VARIABLE}, else ABB's factory user)")
+    group.add_argument("--rws-password", metavar="PASSWORD", help=f"its password (default: "
+                       f"${PASSWORD_VARIABLE}, else the factory one; never printed)")
+    group.add_argument("--ca-file", type=InputPath, metavar="CA.pem", help="rws2: the CA "
+                       "the controller's certificate is checked against")
+    group.add_argument("--insecure", action="store_true", help="rws2: do not check the "
+                       "controller's certificate")
+    group.add_argument("--jog", action="store_true", help="no plan module runs: the operator "
+                       "jogs to each pose and twin reads the joints once they stand still")
+    group.add_argument("--joint-tol", type=number(0.0, 10.0, above=True), default=0.05,
+                       metavar="DEG", help="largest difference between a joint read and the "
+                       "plan's (default: 0.05 deg; jogging needs more, e.g. 0.5)")
+    group.add_argument("--standstill", type=number(0.0, 60.0, above=True), default=0.3,
+                       metavar="S", help="how long the joints must stay within "
+                       "--standstill-tol to count as stopped (default: 0.3 s)")
+    group.add_argument("--standstill-tol", type=number(0.0, 1.0, above=True), default=0.001,
+                       metavar="DEG", help="largest spread of a joint over that window "
+                       "(default: 0.001 deg)")
+    group.add_argument("--robot-wait", type=seconds(zero=False), default=120.0, metavar="S",
+                       help="longest wait for the robot to stand at a pose, or none "
+                       "(default: 120 s)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.calibration.settings import CalibrationSettings
-    from twin.errors import InputError
-    from twin.hardware.capture_session import CAPTURE_NAME, MEASUREMENTS_NAME, capture_folder
-    from twin.hardware.encoders import resolve
+    from twin.hardware.capture_request import CaptureRequest, capture_request
     from twin.hardware.encoders.settle import SettleRule
-    from twin.hardware.robot_sources.base import RobotSource
-    from twin.io.capture_file import parse_port_mm
-    from twin.io.measurements import load_plan
-    from twin.io.robot_file import load_robot_or_default
-    from twin.rig import Rig
+    from twin.hardware.robot_sources import SourceRequest
     from twin.units import mm_to_m
 
-    config = resolve(args.encoder)
     rule = SettleRule(k=args.settle_k, tolerance_m=float(mm_to_m(args.settle_tol)),
                       timeout_s=args.settle_timeout, max_failures=args.max_failures,
                       interval_s=args.settle_interval)
-    truth = calibration = None
-    if args.robot_source == "sim":
-        given = [flag for flag, value in (("--robot", args.robot), ("--port", args.port),
-                                          ("--attachment", args.attachment),
-                                          ("--cable-tension", args.cable_tension))
-                 if value is not None]
-        if given:
-            raise InputError(f"{' and '.join(given)} with --robot-source sim", "none of "
-                             "--robot, --port, --attachment, --cable-tension: the scenario "
-                             "gives the robot and the rig", source="command line")
-        if args.scenario is None:
-            raise InputError("no --scenario", "the scenario the virtual encoder serves "
-                             "(--robot-source sim)", source="command line")
-        from twin.scenario import load_scenario
-        from twin.sim import simulate
-
-        sim = simulate(load_scenario(args.scenario), args.seed)
-        if sim.port_m is None or sim.port_nominal_m is None or len(sim.rig.ports_m) > 1:
-            raise InputError(f"a {sim.measurements.kind} scenario with "
-                             f"{len(sim.rig.ports_m)} ports", "a scenario of one cable port "
-                             "(the virtual encoder serves one cable)", source=args.scenario)
-        robot, rig, truth = sim.robot, sim.rig_told_pulled, sim.capture_truth
-        calibration = sim.scenario.calibration
-    else:
-        robot = load_robot_or_default(args.robot)
-        if args.port is None:
-            raise InputError("no --port", "the encoder port as --port X,Y,Z in mm",
-                             source="command line")
-        rig = Rig.cable(parse_port_mm(args.port, "--port", ""),
-                        None if args.attachment is None
-                        else parse_port_mm(args.attachment, "--attachment", ""),
-                        tension_n=args.cable_tension or 0.0)
-        if args.cable_tension:
-            calibration = CalibrationSettings()
-    if robot.urdf is not None or robot.n_joints != CAPTURE_JOINTS:
-        # The capture journal's columns are pose, q1..q6, length (twin.hardware.capture_session).
-        raise InputError(f"a {robot.n_joints}-joint robot"
-                         + (" from a URDF" if robot.urdf is not None else ""),
-                         f"a {CAPTURE_JOINTS}-joint robot model TOML (twin capture records "
-                         "q1..q6)", source=args.scenario or args.robot or "the IRB 120")
-    plan_q_rad, _ = load_plan(args.plan, robot)
-
-    source: RobotSource
-    if args.robot_source == "sim":
-        from twin.hardware.robot_sources.sim import DEFAULT_POSE_FILE, SimRobot
-
-        source = SimRobot(plan_q_rad, args.pose_file or DEFAULT_POSE_FILE)
-    elif args.robot_source == "manual":
-        from twin.hardware.robot_sources.manual import ManualRobot
-
-        source = ManualRobot(sys.stdout, sys.stdin)
-    else:
-        from twin.hardware.robot_sources.file import FileRobot
-
-        if args.joint_log is None:
-            raise InputError("no --joint-log", "the controller's log CSV (--robot-source file)",
-                             source="command line")
-        source = FileRobot(args.joint_log, wait_s=args.joint_log_wait)
-
-    out: Path = args.out
-    measured = capture_folder(out, args.plan, plan_q_rad, robot, rig, config, source, rule,
-                              calibration=calibration, truth=truth, reconnect_s=args.reconnect,
-                              report=lambda line: print(line, flush=True))
-    print(f"measured {measured} poses; all {len(plan_q_rad)} are in {out / MEASUREMENTS_NAME}")
-    print(f"calibrate with: twin calibrate {out / CAPTURE_NAME}")
+    source = SourceRequest(args.robot_source, pose_file=args.pose_file,
+                           joint_log=args.joint_log, joint_log_wait_s=args.joint_log_wait,
+                           prompt_out=sys.stdout, answers_in=sys.stdin, **_rws(args))
+    request = CaptureRequest(args.plan, args.encoder, args.out, source, rule, robot=args.robot,
+                             port_mm=args.port, attachment_mm=args.attachment,
+                             cable_tension_n=args.cable_tension, scenario=args.scenario,
+                             seed=args.seed, reconnect_s=args.reconnect)
+    outcome = capture_request(request, report=lambda line: print(line, flush=True))
+    print(f"measured {outcome.measured} poses; all {outcome.n_poses} are in "
+          f"{outcome.measurements}")
+    print(f"calibrate with: twin calibrate {outcome.capture}")
     return 0
+
+
+def _rws(args: argparse.Namespace) -> dict[str, Any]:
+    """The ABB controller's connection and capture settings, for an rws:// source."""
+    if not args.robot_source.startswith(("rws://", "rws2://")):
+        return {}
+    from twin.hardware.robot_sources.rws import RwsCapture
+    from twin.hardware.rws.client import RwsConnection
+
+    connection = RwsConnection.from_spec(
+        args.robot_source, user=args.rws_user, password=args.rws_password,
+        ca_file=args.ca_file, insecure=args.insecure,
+        retry_s=math.inf if args.reconnect is None else args.reconnect)
+    settings = RwsCapture(joint_tol_deg=args.joint_tol, standstill_s=args.standstill,
+                          standstill_tol_deg=args.standstill_tol, wait_s=args.robot_wait,
+                          jog=args.jog)
+    return {"rws": connection, "options": {"rws": settings}}

@@ -9,6 +9,7 @@ import sys
 from twin.cli.study import add_study_arguments, executor_from_args, methods_from_args
 from twin.errors import InputError
 from twin.io.paths import InputPath, OutputFile
+from twin.study.baseline import MAX_TOLERANCE
 
 EXIT_FAILED = 1
 
@@ -22,9 +23,9 @@ def _tolerance(text: str) -> float:
         value = math.nan
     if percent:
         value /= 100.0
-    if not (math.isfinite(value) and value >= 0) or (not percent and value >= 1):
-        raise argparse.ArgumentTypeError(f"found {text!r}, expected a relative tolerance such "
-                                         "as 5% or 0.05")
+    if not 0 <= value <= MAX_TOLERANCE or (not percent and value >= 1):
+        raise argparse.ArgumentTypeError(f"found {text!r}, expected a relative tolerance from "
+                                         f"0 to {MAX_TOLERANCE:.0%}, such as 5% or 0.05")
     return value
 
 

@@ -1,9 +1,10 @@
 """`twin compensate`: joint angles that make the identified robot go where it should.
 
-With ``--targets`` (flange positions x,y,z in mm) or ``--joints`` (a program q1..q6 in degrees,
-written against the nominal model) it writes corrected joint angles with a per-row status; with
-``--verify SCENARIO.toml`` it measures, in the MuJoCo twin, how much compensation reduces the true
-flange error.
+With ``--targets`` (positions x,y,z in mm, with an orientation and a configuration if given) or
+``--joints`` (a program q1..q6 in degrees, written against the nominal model) it writes corrected
+joint angles with a per-row status; with ``--rapid IN.mod`` it rewrites a RAPID module's targets
+(program filtering, :mod:`twin.io.rapid_filter`); with ``--verify SCENARIO.toml`` it measures, in
+the MuJoCo twin, how much compensation reduces the true flange error.
 
 The whole identified model is used: its table and, when the calibration identified them, its
 joint-level errors — transmission error, backlash for the direction the robot comes from (the
@@ -22,26 +23,39 @@ from numpy.typing import NDArray
 
 from twin.analysis.metrics import Metrics
 from twin.cli.arguments import (
+    RESULT_ROBOT,
     add_cable_tension,
     add_output,
     add_result,
     add_robot_flags,
     add_seed,
+    given_robot,
     integer,
-    robot_from_flags,
 )
+from twin.cli.frames import RAPID_SUFFIXES, parse_frames, parse_pose_mm
 from twin.compensation.check import CompensationCheck
 from twin.compensation.ik import STATUS_OK
-from twin.compensation.joints import InOrder, compensate_program_rows, compensate_target_rows
+from twin.compensation.joints import (
+    InOrder,
+    compensate_pose_rows,
+    compensate_program_rows,
+    compensate_target_rows,
+)
+from twin.compensation.poses import controller_tool0, flange_targets
 from twin.dataset import MAX_POSES
 from twin.errors import InputError
+from twin.io.atomic import write_atomic
 from twin.io.identified import load_result, warn_result_cautions
 from twin.io.measurements import load_poses
 from twin.io.paths import InputPath
 from twin.io.png import save_png
-from twin.io.pose_tables import load_targets, write_corrected
+from twin.io.pose_tables import load_pose_targets, write_corrected
+from twin.io.rapid import ENCODING, read_module
+from twin.io.rapid_filter import filter_module, format_filter_rows
+from twin.model import Model
 from twin.report.display import deg, deg_values, mm
 from twin.report.plots import compensation_histogram
+from twin.robot import RobotModel
 
 VERIFY_TARGETS = 1000
 
@@ -60,7 +74,7 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
-    add_robot_flags(parser, "nominal robot model")
+    add_robot_flags(parser, RESULT_ROBOT)
     add_result(parser, required=False)
     parser.add_argument("--method", help="result to use from a `--method all` result file; "
                         "with --verify, the calibration method (default lm)")
@@ -70,10 +84,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     request.add_argument("--joints", type=InputPath, metavar="PROGRAM.csv",
                          help="program joint angles, columns q1..qN in degrees (- for "
                          "standard input)")
+    request.add_argument("--rapid", type=InputPath, metavar="IN.mod",
+                         help="a RAPID module: every jointtarget and robtarget rewritten for the "
+                         "identified robot, every other byte kept (--out OUT.mod)")
     request.add_argument("--verify", type=InputPath, metavar="SCENARIO.toml",
                          help="measure compensation in the twin for a scenario")
-    add_output(parser, "CORRECTED.csv", "corrected joint angles (with --targets or --joints)",
-               required=False)
+    add_output(parser, "CORRECTED.csv", "corrected joint angles (with --targets or --joints), "
+               "or the filtered module (with --rapid)", required=False)
+    parser.add_argument("--tool", action="append", metavar="[NAME=]X,Y,Z[,QW,QX,QY,QZ]",
+                        help="a tool: its TCP in the controller's flange frame tool0, mm and a "
+                        "unit quaternion (ABB's tooldata.tframe). With --targets one, unnamed; "
+                        "with --rapid NAME= a tool the module uses but does not declare (wins "
+                        "over its declaration), unnamed for targets no instruction moves to")
+    parser.add_argument("--wobj", action="append", metavar="[NAME=]X,Y,Z[,QW,QX,QY,QZ]",
+                        help="a work object: its frame in the robot's base frame, mm and a unit "
+                        "quaternion (ABB's uframe·oframe); named as --tool")
+    parser.add_argument("--tool0-in-flange", metavar="X,Y,Z,QW,QX,QY,QZ",
+                        help="the controller's flange frame tool0 in twin's flange frame (mm, "
+                        "quaternion); needed with orientations unless the robot is a URDF chain "
+                        "ending at tool0 or a shipped model (the IRB 120: a half turn about z)")
     add_seed(parser, "seed of the random IK starts (default 0) or of the simulation (default: "
              "the scenario's)")
     parser.add_argument("--count", type=integer(1, MAX_POSES), default=VERIFY_TARGETS,
@@ -88,7 +117,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.verify is not None:
-        for flag in ("identified", "out", "robot", "cable_tension"):
+        for flag in ("identified", "out", "robot", "xacro_arg", "cable_tension", "tool", "wobj",
+                     "tool0_in_flange"):
             if getattr(args, flag) is not None:
                 option = "--" + flag.replace("_", "-")
                 raise InputError(f"{option} with --verify",
@@ -99,22 +129,78 @@ def run(args: argparse.Namespace) -> int:
         missing = "--identified" if args.identified is None else "--out"
         raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
                          source=missing)
-    robot = robot_from_flags(args)
-    model, x, _ = load_result(args.identified, robot, args.method)
+    model, x, _ = load_result(args.identified, given_robot(args), args.method)
+    robot = model.robot
     warn_result_cautions(args.identified, args.method, "the compensated program")
     if args.cable_tension is not None:
         model, x = model.with_rig(replace(model.rig, tension_n=args.cable_tension), x)
+    rng = np.random.default_rng(args.seed or 0)
+    if args.rapid is not None:
+        return _rapid(args, robot, model, x, rng)
     if args.joints is not None:
+        if args.tool or args.wobj:
+            raise InputError("--tool or --wobj with --joints", "them with --targets or --rapid",
+                             source="--tool" if args.tool else "--wobj")
         program = load_poses(args.joints, robot,
                              f"a program CSV (q1..q{robot.n_joints} in degrees)", stdin=True)
         q_nominal = program.q_rad
         ordered = compensate_program_rows(model, x, robot, q_nominal, program.approach)
     else:
-        ordered, q_nominal = compensate_target_rows(
-            model, x, robot, load_targets(args.targets, stdin=True),
-            np.random.default_rng(args.seed or 0))
+        ordered, q_nominal = _targets(args, robot, model, x, rng)
     write_corrected(args.out, ordered)
     print(_summary(ordered, q_nominal))
+    print(f"wrote {args.out}")
+    return 0
+
+
+def _targets(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray[np.float64],
+             rng: np.random.Generator) -> tuple[InOrder, NDArray[np.float64]]:
+    """Targets of a CSV: flange positions, or full TCP poses in a work object with a tool."""
+    targets = load_pose_targets(args.targets, stdin=True)
+    frames = parse_frames(args)
+    if any(name is not None for name in (*frames.tools, *frames.wobjs)):
+        raise InputError("a named --tool or --wobj with --targets", "X,Y,Z[,QW,QX,QY,QZ] "
+                         "without a name (one tool and one work object for every row)",
+                         source="--tool")
+    if targets.rotation is None:
+        if frames.tools or frames.wobjs or targets.configuration is not None:
+            raise InputError(f"{args.targets} without an orientation", "qw,qx,qy,qz or rx,ry,rz "
+                             "columns with --tool, --wobj or cf1..cfx (a TCP position alone "
+                             "leaves the flange anywhere on a sphere)", source=args.targets)
+        return compensate_target_rows(model, x, robot, targets.position_m, rng)
+    poses = np.tile(np.eye(4), (len(targets.position_m), 1, 1))
+    poses[:, :3, :3], poses[:, :3, 3] = targets.rotation, targets.position_m
+    base_T_flange = flange_targets(poses, frames.wobjs.get(None, np.eye(4)),
+                                   frames.tools.get(None, np.eye(4)), _tool0(args, robot))
+    solved = compensate_pose_rows(model, x, robot, base_T_flange, rng, targets.configuration)
+    return solved.ordered, solved.nominal.q_rad
+
+
+def _tool0(args: argparse.Namespace, robot: RobotModel) -> NDArray[np.float64]:
+    """The controller's tool0 in twin's flange frame: the flag's, or what twin knows."""
+    if args.tool0_in_flange is not None:
+        return parse_pose_mm(args.tool0_in_flange, "--tool0-in-flange", full=True)
+    known = controller_tool0(robot)
+    if known is None:
+        raise InputError(f"orientations for {robot.name}, whose controller flange frame (tool0) "
+                         "twin does not know", "--tool0-in-flange X,Y,Z,QW,QX,QY,QZ: the "
+                         "controller's tool0 in twin's flange frame (mm, quaternion)",
+                         source="--tool0-in-flange")
+    return known
+
+
+def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray[np.float64],
+           rng: np.random.Generator) -> int:
+    """Filter a RAPID module: every target rewritten, the rest of it byte for byte."""
+    if args.out.suffix.lower() not in RAPID_SUFFIXES:
+        raise InputError(f"{args.out}", "an output RAPID module (.mod, .modx, .sys)",
+                         source="--out")
+    module = read_module(args.rapid)
+    tool0 = _tool0(args, robot) if args.tool0_in_flange is not None \
+        or controller_tool0(robot) is not None else None
+    filtered = filter_module(module, model, x, robot, tool0, parse_frames(args), rng)
+    write_atomic(args.out, filtered.text.encode(ENCODING))
+    print(format_filter_rows(filtered.rows))
     print(f"wrote {args.out}")
     return 0
 

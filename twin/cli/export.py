@@ -1,4 +1,5 @@
-"""`twin export`: the identified robot as a D-H model file, a URDF or an MJCF."""
+"""`twin export`: the identified robot as a D-H model file, a URDF, an MJCF, a UR calibration
+file (``ur-calibration``, with ``--base`` the user's own kept) or xacro properties."""
 
 from __future__ import annotations
 
@@ -7,47 +8,54 @@ import warnings
 from dataclasses import replace
 
 from twin.cli.arguments import (
+    RESULT_ROBOT,
     add_output,
     add_result,
     add_robot_flags,
-    robot_from_flags,
+    given_robot,
 )
-from twin.errors import UnknownChoiceError
+from twin.errors import InputError, UnknownChoiceError
 from twin.export import FORMATS, export_text
 from twin.io.atomic import write_atomic
 from twin.io.identified import (
     ResultWarning,
-    load_result_delta,
+    load_result,
     result_groups,
     warn_result_cautions,
 )
+from twin.io.paths import InputPath, read_text
 from twin.unknowns import ERRORS
 
 NAME = "export"
-HELP = "write the identified robot as a D-H model, URDF or MJCF"
+HELP = "write the identified robot as a D-H model, URDF, MJCF, UR calibration or xacro"
 DESCRIPTION = (
     "Add the D-H errors of a calibration result to the nominal robot and write "
     "the identified robot as a model TOML (dh: mm and degrees, usable with --robot), a "
-    "URDF (ROS, Pinocchio; link 'flange') or an MJCF (MuJoCo; site 'flange')."
+    "URDF (ROS, Pinocchio; link 'flange'), an MJCF (MuJoCo; site 'flange'), a UR robot's "
+    "kinematics file in ur_calibration's layout (ur-calibration; --base keeps the hash and "
+    "comments of the robot's own), or xacro properties a description includes (xacro)."
 )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
     add_result(parser, positional=True)
-    add_robot_flags(parser, "the nominal robot the result was identified for")
+    add_robot_flags(parser, RESULT_ROBOT)
     parser.add_argument("--method", help="result to use from a `--method all` result file")
     parser.add_argument("--format", required=True, dest="format_name",
                         help="one of " + ", ".join(FORMATS))
     add_output(parser, "FILE", "output file")
+    parser.add_argument("--base", type=InputPath, metavar="KINEMATICS.yaml",
+                        help="with ur-calibration: the file ur_calibration extracted from the "
+                        "robot; its hash, comments and order are kept, its numbers replaced")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
-    robot = robot_from_flags(args)
-    delta = load_result_delta(args.result, robot, args.method)
+    loaded = load_result(args.result, given_robot(args), args.method)
+    robot, delta = loaded.robot, loaded.delta
     joint_level = [name for name in result_groups(args.result, args.method)
                    if name in ERRORS and name != "dh"]
     if joint_level:
@@ -55,8 +63,21 @@ def run(args: argparse.Namespace) -> int:
                       f"only, not the joint-level errors ({', '.join(joint_level)}) the result "
                       "also has: use twin compensate or twin predict with the result itself",
                       ResultWarning, stacklevel=2)
+    if args.base is not None and args.format_name != "ur-calibration":
+        raise InputError(f"--base with --format {args.format_name}",
+                         "it with --format ur-calibration", source="--base")
     warn_result_cautions(args.result, args.method, f"the {args.format_name} file")
     identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
-    write_atomic(args.out, export_text(identified, args.format_name))
+    if args.base is not None:
+        from twin.export.ur_calibration import export_with_base
+
+        text = export_with_base(identified, read_text(args.base, "a ur_calibration YAML file"),
+                                str(args.base))
+    else:
+        text = export_text(identified, args.format_name)
+    write_atomic(args.out, text)
     print(f"wrote {args.out} ({args.format_name}, {identified.name})")
+    if args.format_name == "xacro":
+        print(f'include it in the description: <xacro:include filename="{args.out}"/>, and write '
+              'each joint\'s origin as xyz="${JOINT_origin_xyz}" rpy="${JOINT_origin_rpy}"')
     return 0

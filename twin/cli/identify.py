@@ -22,7 +22,14 @@ from twin.io.results import assessment_to_dict, write_json
 from twin.model import Model
 from twin.report.display import SIGMA_DECIMALS, SIGNIFICANT, mm, slot
 from twin.report.plots import accuracy_map
-from twin.report.text import describe_rig, format_fit, format_joint_groups, format_truth, has_point
+from twin.report.text import (
+    describe_rig,
+    format_fit,
+    format_held,
+    format_joint_groups,
+    format_truth,
+    has_point,
+)
 from twin.units import DH_KEYS, m_to_mm, slot_label
 from twin.unknowns import ERRORS
 
@@ -123,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
         *_identifiability_lines(result.identified_identifiability),
         f"  predicted flange RMS error over the workspace {mm(uncertainty.flange_rms_m)} "
         "(from the noise estimate)",
+        *format_held(result),
         *format_fit(result),
         *format_joint_groups(result),
     ]
@@ -136,7 +144,8 @@ def run(args: argparse.Namespace) -> int:
             f"    modulo {', '.join(truth.motions)}: "
             f"{mm(truth.flange_gauge_free_m)}", *point]
     lines += [
-        "  standard deviations of the base parameters (dependent ones held: —)",
+        "  standard deviations of the unknowns as returned, held at the nominal along what the "
+        "data cannot see (held entirely: —)",
         *_sigma_table(model, uncertainty.sigma),
     ]
     print("\n".join(lines))

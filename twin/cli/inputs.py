@@ -7,6 +7,7 @@ attachment, known distances) and win over the capture's tables.
 from __future__ import annotations
 
 import argparse
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
@@ -31,15 +32,16 @@ from twin.errors import InputError, UnknownChoiceError
 from twin.io.capture_file import (
     CalibrationSettings,
     load_capture,
-    parse_distance,
+    parse_distances,
     parse_named_port,
     parse_port_mm,
 )
+from twin.io.measurements import UnitWarning
 from twin.io.truth import load_truth_attachment, load_truth_delta
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import mm_to_m
+from twin.units import m_to_mm, mm_to_m
 
 
 def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
@@ -115,8 +117,7 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     if getattr(args, "attachment", None) is not None:
         rig = replace(rig, attachment_m=parse_port_mm(args.attachment, "--attachment", ""))
     if getattr(args, "distance", None):
-        rig = replace(rig, distances=tuple(parse_distance(value, "--distance", "")
-                                           for value in args.distance))
+        rig = replace(rig, distances=parse_distances(args.distance, "--distance"))
     estimated = [name for name in (getattr(args, "estimate_port", None) or [])
                  if name != ALL_PORTS]
     for name in estimated:
@@ -211,12 +212,30 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
                                          load_truth_attachment(path))
 
 
+PORT_IN_METRES_MM = 5.0
+"""Ports within ±5 mm in every coordinate beside lengths of hundreds of mm look like metres."""
+
+
+def _warn_port_unit(inputs: Inputs, measurements: Measurements) -> None:
+    """A one-line hint when the ports look given in metres (the Python API's unit) while the
+    flags and files take millimetres."""
+    if measurements.kind != "length" or not len(inputs.rig.ports_m):
+        return
+    small = np.all(np.abs(m_to_mm(inputs.rig.ports_m)) <= PORT_IN_METRES_MM)
+    if small and float(np.median(measurements.lengths)) > 20 * float(mm_to_m(PORT_IN_METRES_MM)):
+        where = "--port" if inputs.truth_path is None else str(inputs.measurements_path)
+        warnings.warn(f"{where}: every port coordinate is within ±{PORT_IN_METRES_MM:g} mm while "
+                      "the cable lengths are hundreds of millimetres: the port is read in mm — "
+                      "it looks like metres (0.6 for 600 mm)", UnitWarning, stacklevel=2)
+
+
 def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitProblem:
     """The problem of the resolved inputs, its errors naming the measurement file."""
     if measurements.kind == "length" and not len(inputs.rig.ports_m):
         raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
                          "NAME=X,Y,Z per port, or a capture.toml as INPUT)",
                          source=inputs.measurements_path)
+    _warn_port_unit(inputs, measurements)
     try:
         return make_problem(inputs.robot, measurements, rig=inputs.rig,
                             settings=inputs.calibration, seed=seed)

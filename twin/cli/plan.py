@@ -24,6 +24,7 @@ from twin.cli.arguments import (
     add_robot_flags,
     add_seed,
     integer,
+    number,
     robot_from_flags,
     sigma_mm,
 )
@@ -38,13 +39,21 @@ from twin.design.planning import (
     plan_for_stations,
 )
 from twin.errors import InputError
+from twin.io.atomic import write_atomic
 from twin.io.capture_file import parse_named_port
 from twin.io.pose_tables import write_plan
+from twin.io.rapid_plan import (
+    DEFAULT_SETTLE_S,
+    DEFAULT_SPEED,
+    PlanOptions,
+    check_identifier,
+    plan_module,
+)
 from twin.model import Model
 from twin.report.display import AS_GIVEN, SIGNIFICANT, mm, mm_values
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import mm_to_m
+from twin.units import deg_to_rad, mm_to_m
 from twin.unknowns import ERRORS
 
 DEFAULT_CANDIDATES = 2000
@@ -90,7 +99,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "by default they are poses the rig can measure: flange above the "
                         "floor, no collision, cable in range and clear of the links (the MuJoCo "
                         "twin's default constraints, per port)")
-    add_output(parser, "plan.csv", "where to write the plan")
+    add_output(parser, "plan.csv", "where to write the plan: a CSV, or with .mod a RAPID "
+               "module that drives an ABB robot through it with a capture handshake "
+               "(docs/compensation.md)")
+    parser.add_argument("--speed", default=None, metavar="SPEEDDATA",
+                        help=f"with .mod: the moves' speed, one of ABB's speeddata "
+                        f"(default {DEFAULT_SPEED})")
+    parser.add_argument("--tool", default=None, metavar="NAME",
+                        help="with .mod: the tooldata the moves name (default tool0)")
+    parser.add_argument("--wobj", default=None, metavar="NAME",
+                        help="with .mod: the wobjdata the moves name (default wobj0)")
+    parser.add_argument("--settle", type=number(0.0, 60.0), default=None, metavar="S",
+                        help=f"with .mod: the wait at each pose before it is read, s (default "
+                        f"{DEFAULT_SETTLE_S:g})")
+    parser.add_argument("--home", default=None, metavar="Q1,…,Q6",
+                        help="with .mod: the joints (deg) the robot starts and ends at (default "
+                        "every joint at 0 but joint 5 at 30)")
 
 
 def _score_row(label: str, score: DesignScore) -> str:
@@ -102,6 +126,7 @@ def _score_row(label: str, score: DesignScore) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     robot = robot_from_flags(args)
+    _check_module_flags(args, robot)
     parsed = [parse_named_port(value, "--port", "") for value in args.port]
     names = [name for name, _ in parsed if name is not None]
     sigma_m = float(mm_to_m(args.sigma))
@@ -116,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         _check_poses(args, model, len(rig.ports_m), " per station")
         stations = plan_for_stations(model, rig, args.poses, args.candidates, sigma_m,
                                      seed=args.seed, sampler=_sampler(args))
-        write_plan(args.out, stations.q_rad, rig.port_names, stations.port)
+        _write(args, robot, stations.q_rad, rig.port_names, stations.port)
         print(_stations_report(args, robot, model, rig, stations))
         return 0
     ports_m = np.stack([port for _, port in parsed])
@@ -128,9 +153,48 @@ def run(args: argparse.Namespace) -> int:
     _check_poses(args, model, 1, "")
     plan = plan_for_ports(model_at, ports_m, args.poses, args.candidates, sigma_m,
                           seed=args.seed, sampler=_sampler(args))
-    write_plan(args.out, plan.q_rad)
+    _write(args, robot, plan.q_rad)
     print(_ports_report(args, robot, model, ports_m, plan))
     return 0
+
+
+def _check_module_flags(args: argparse.Namespace, robot: RobotModel) -> PlanOptions | None:
+    """The RAPID options when --out names a module (checked before any work), else None."""
+    flags = {"--speed": args.speed, "--tool": args.tool, "--wobj": args.wobj,
+             "--settle": args.settle, "--home": args.home}
+    if args.out.suffix.lower() != ".mod":
+        given = [flag for flag, value in flags.items() if value is not None]
+        if given:
+            raise InputError(f"{given[0]} with a CSV plan", "it with --out PLAN.mod (a RAPID "
+                             "module)", source=given[0])
+        return None
+    home = None
+    if args.home is not None:
+        try:
+            home_deg = [float(v) for v in args.home.split(",")]
+        except ValueError:
+            home_deg = []
+        if len(home_deg) != robot.n_joints or not np.all(np.isfinite(home_deg)):
+            raise InputError(f"{args.home!r}", f"{robot.n_joints} angles in degrees",
+                             source="--home")
+        home = deg_to_rad(home_deg)
+    options = PlanOptions(speed=args.speed or DEFAULT_SPEED,
+                          tool=check_identifier(args.tool or "tool0", "--tool"),
+                          wobj=check_identifier(args.wobj or "wobj0", "--wobj"),
+                          settle_s=DEFAULT_SETTLE_S if args.settle is None else args.settle,
+                          home_rad=home)
+    plan_module(robot, np.zeros((0, robot.n_joints)), options)  # checks speed, joints, home
+    return options
+
+
+def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float64],
+           port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> None:
+    """The plan as a CSV, or (.mod) as a RAPID module."""
+    options = _check_module_flags(args, robot)
+    if options is None:
+        write_plan(args.out, q_rad, port_names, port)
+        return
+    write_atomic(args.out, plan_module(robot, q_rad, options, port_names, port))
 
 
 def _sampler(args: argparse.Namespace) -> SamplerFactory:

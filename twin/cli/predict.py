@@ -9,10 +9,11 @@ import numpy as np
 
 from twin.calibration.predict import predict
 from twin.cli.arguments import (
+    RESULT_ROBOT,
     add_output,
     add_result,
     add_robot_flags,
-    robot_from_flags,
+    given_robot,
 )
 from twin.errors import InputError
 from twin.io.capture_file import parse_port_mm
@@ -42,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--joints", type=InputPath, required=True, metavar="POSES.csv",
                         help="joint angles q1..qN in degrees (and approach1..approachN: +1 "
                         "or -1), one row per pose (- for standard input)")
-    add_robot_flags(parser, "the nominal robot the result was identified for")
+    add_robot_flags(parser, RESULT_ROBOT)
     parser.add_argument("--method", help="result to use from a `--method all` result file")
     parser.add_argument("--port", metavar="X,Y,Z", help="encoder port in mm, base frame: "
                         "the length column is the distance from it, the cable pulling "
@@ -53,8 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    robot = robot_from_flags(args)
-    identified = load_result(args.identified, robot, args.method)
+    identified = load_result(args.identified, given_robot(args), args.method)
+    robot = identified.robot
     warn_result_cautions(args.identified, args.method, "the prediction")
     port_m = None if args.port is None else parse_port_mm(args.port, "--port", "")
     poses = load_poses(args.joints, robot, f"a pose CSV ({','.join(joint_columns(1))}.."

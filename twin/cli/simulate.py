@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 
 from twin.cli.arguments import (
     add_output,
     add_scenario,
     add_seed,
 )
+from twin.errors import InputError
 from twin.viz import add_rerun_flags, record_simulation
 
 NAME = "simulate"
@@ -16,7 +18,8 @@ HELP = "simulate a capture with the MuJoCo digital twin"
 DESCRIPTION = (
     "Simulate a drawstring-encoder capture of a perturbed robot as described by "
     "a scenario TOML, and write measurements.csv, robot.toml (nominal model), truth.json "
-    "and capture.toml to --out; `twin calibrate OUT/capture.toml` then needs nothing else."
+    "and capture.toml to --out; `twin calibrate OUT/capture.toml` then needs nothing else. "
+    "A folder that holds real measurements (a `twin capture`) is refused unless --force."
 )
 
 
@@ -25,6 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scenario(parser)
     add_output(parser, "DIR", "output folder", folder=True)
     add_seed(parser, "seed of every random draw (default: the scenario's)")
+    parser.add_argument("--force", action="store_true",
+                        help="write into a folder that holds real measurements (a capture): "
+                        "its files are first moved into DIR/kept-<UTC time>/, never deleted")
     add_rerun_flags(parser)
 
 
@@ -32,13 +38,25 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     import numpy as np
 
+    from twin.hardware.capture_session import real_measurements, set_aside
+    from twin.io.lock import folder_lock
     from twin.report.display import LENGTH_DECIMALS, plain, xyz_mm
     from twin.scenario import load_scenario
     from twin.sim import simulate, write_simulation
 
-    scenario = load_scenario(args.scenario)
-    sim = simulate(scenario, seed=args.seed)
-    capture = write_simulation(args.out, sim)
+    with folder_lock(args.out, "twin simulate"):
+        real = real_measurements(args.out)
+        if real is not None and not args.force:
+            raise InputError(real[1], "a folder without real measurements: a new --out "
+                             "folder, or --force to move them into DIR/kept-<UTC time>/ "
+                             "first", source=real[0])
+        scenario = load_scenario(args.scenario)
+        sim = simulate(scenario, seed=args.seed)
+        if real is not None:
+            kept, moved = set_aside(args.out)
+            warnings.warn(f"{args.out} held {real[1]}: {', '.join(moved)} moved to {kept} "
+                          "(--force), nothing deleted", stacklevel=1)
+        capture = write_simulation(args.out, sim)
     effects = sim.effects  # in mm, as truth.json keeps them
     print(f"{scenario.name}: {len(sim.measurements)} poses, seed {sim.seed}, "
           f"{'compliant' if not scenario.physics.rigid else 'rigid'} joints")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from twin.cli.arguments import (
     add_output,
@@ -13,15 +14,17 @@ from twin.cli.arguments import (
 from twin.errors import InputError
 from twin.solvers import SOLVERS
 from twin.stopping import PROTOCOLS
+from twin.study.definition import MAX_TRIALS
 from twin.study.executors import Executor, open_executor
 from twin.study.executors.cluster import reach_scheduler
 from twin.viz import add_rerun_flags, open_from_args
 
+if TYPE_CHECKING:
+    from twin.study.definition import StudyPlan
+
 TRIAL_REPORT = "study/trial"
 """Rerun entity of each trial's table, on the ``case`` and ``trial`` timelines."""
 
-
-MAX_TRIALS = 100_000
 MAX_WORKERS = 1024
 
 
@@ -87,14 +90,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.io.lock import folder_lock
     from twin.study.definition import load_study
-    from twin.study.markdown import summary_markdown, trial_markdown
-    from twin.study.runner import run_study
-    from twin.study.store import TrialOutcome
 
     executor = executor_from_args(args)
     plan = load_study(args.scenario, trials=args.trials, methods=methods_from_args(args),
                       stop=args.stop)
+    # The lock before the first line: a second writer's refusal is its one line.
+    with folder_lock(args.out, "twin study"):
+        return _run_locked(args, plan, executor)
+
+
+def _run_locked(args: argparse.Namespace, plan: StudyPlan, executor: Executor) -> int:
+    from twin.study.markdown import summary_markdown, trial_markdown
+    from twin.study.runner import open_store, run_trials, write_report
+    from twin.study.store import TrialOutcome
+
+    open_store(plan, args.out)  # a folder of another study is refused before the banner
     print(f"twin study: {plan.cases[0].scenario.name}, {len(plan.cases)} case(s) × "
           f"{plan.trials} trials × {len(plan.methods)} methods ({', '.join(plan.methods)}) "
           f"-> {args.out}", file=sys.stderr)
@@ -110,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
                 recording.log_histories({method: detail["history_mm"] for method, detail
                                          in outcome.detail["methods"].items()}, label)
 
-        document = run_study(plan, args.out, executor, on_outcome=on_outcome)
+        document = write_report(plan, run_trials(plan, args.out, executor,
+                                                 on_outcome=on_outcome))
         markdown = summary_markdown(document)
         if recording is not None:
             recording.log_report(markdown)

@@ -211,24 +211,40 @@ def solve_ik(
     return IKResult(q, position_m, rotation_rad, converged, within, iterations)
 
 
+Accept = Callable[[Array, NDArray[np.intp]], NDArray[np.bool_]]
+"""Whether solutions q (k, n) of target rows (k,) are acceptable (on the configuration asked
+for, :func:`twin.compensation.configuration.on_branch`), shape (k,)."""
+Starts = Callable[[np.random.Generator, int], Array]
+"""Draws k starting joint angles per target, shape (k, m, n), rad."""
+
+
 def _best_of_starts(
-    robot: RobotModel, base_p_target: Array, rng: np.random.Generator, n_starts: int
+    robot: RobotModel, base_p_target: Array, rng: np.random.Generator, n_starts: int,
+    base_R_target: Array | None = None, draw: Starts | None = None, accept: Accept | None = None,
 ) -> IKResult:
-    """Position-only IK from the home posture and n_starts − 1 random ones; per target the ok
-    solution closest to home (the home-start result when none is ok)."""
+    """IK from the home posture and n_starts − 1 random ones (within the limits, or ``draw``'s);
+    per target the ok (and accepted) solution closest to home (the first start's result when
+    none is)."""
     m = len(base_p_target)
     home = home_pose(robot)
-    starts = rng.uniform(robot.lower_rad, robot.upper_rad, (n_starts, m, robot.n_joints))
-    starts[0] = home
+    starts = rng.uniform(robot.lower_rad, robot.upper_rad, (n_starts, m, robot.n_joints)) \
+        if draw is None else draw(rng, n_starts)
+    if draw is None:
+        starts[0] = home
     solved = solve_ik(robot, np.tile(base_p_target, (n_starts, 1)),
-                      starts.reshape(-1, robot.n_joints))
-    ok = solved.ok.reshape(n_starts, m)
+                      starts.reshape(-1, robot.n_joints),
+                      None if base_R_target is None else np.tile(base_R_target, (n_starts, 1, 1)))
+    ok = solved.ok
+    if accept is not None:
+        ok = ok & accept(solved.q_rad, np.tile(np.arange(m), n_starts))
+    ok = ok.reshape(n_starts, m)
     distance = np.linalg.norm(solved.q_rad.reshape(n_starts, m, -1) - home, axis=-1)
-    pick = np.argmin(np.where(ok, distance, np.inf), axis=0)
+    pick = np.where(np.any(ok, axis=0), np.argmin(np.where(ok, distance, np.inf), axis=0), 0)
     rows = pick * m + np.arange(m)
     return IKResult(
         solved.q_rad[rows], solved.position_error_m[rows], solved.rotation_error_rad[rows],
-        solved.converged[rows], solved.within_limits[rows], solved.iterations,
+        solved.converged[rows], solved.within_limits[rows] & ok[pick, np.arange(m)]
+        if accept is not None else solved.within_limits[rows], solved.iterations,
     )
 
 
@@ -240,31 +256,49 @@ def _replace_rows(values: NDArray[_T], rows: NDArray[np.intp], new: NDArray[_T])
 
 def nominal_ik(
     robot: RobotModel, base_p_target: ArrayLike, rng: np.random.Generator,
-    starts: tuple[int, ...] = NOMINAL_STARTS,
+    starts: tuple[int, ...] = NOMINAL_STARTS, *, base_R_target: ArrayLike | None = None,
+    draw: Callable[[NDArray[np.intp]], Starts] | None = None,
+    accept: Callable[[NDArray[np.intp]], Accept] | None = None,
 ) -> IKResult:
-    """Position-only IK on the nominal model, for targets that come without joint angles.
+    """IK on the nominal model, for targets that come without joint angles.
 
-    Orientation is free, so there is no closed form; the batched solver runs from the home
-    posture and random postures within the limits, and keeps per target the converged in-limit
-    solution closest to home. Targets left without one (a folded arm near a limit, say) get a
-    second, larger round of starts, and so on through ``starts``.
+    Flange positions alone leave the orientation free, so there is no closed form; the batched
+    solver runs from the home posture and random postures within the limits, and keeps per
+    target the converged in-limit solution closest to home. Targets left without one (a folded
+    arm near a limit, say) get a second, larger round of starts, and so on through ``starts``.
+    Full poses (``base_R_target``) are solved alike; a configuration (the branch a controller
+    takes, :mod:`twin.compensation.configuration`) is honoured by drawing the starts on it
+    (``draw``) and keeping only solutions on it (``accept``).
 
     Args:
         robot: Nominal robot, SI.
         base_p_target: Flange position targets, shape (m, 3), m.
         rng: Generator of the random starts.
         starts: Starts per target in each round.
+        base_R_target: Flange orientation targets, shape (m, 3, 3), or None for positions only.
+        draw: Given target rows (k,), a sampler of their starts (k', k, n).
+        accept: Given target rows (k,), a filter of solutions (:data:`Accept`); a row whose
+            solutions are all refused is reported as a joint-limit row (``within_limits``
+            false: no acceptable solution within the limits).
 
     Returns:
-        One solution per target; a target no round solves keeps its home-start result, flagged.
+        One solution per target; a target no round solves keeps its first-start result, flagged.
     """
     p_target = np.asarray(base_p_target, dtype=np.float64)
-    result = _best_of_starts(robot, p_target, rng, starts[0])
+    R_target = None if base_R_target is None else np.asarray(base_R_target, dtype=np.float64)
+
+    def attempt(rows: NDArray[np.intp], n_starts: int) -> IKResult:
+        return _best_of_starts(robot, p_target[rows], rng, n_starts,
+                               None if R_target is None else R_target[rows],
+                               None if draw is None else draw(rows),
+                               None if accept is None else accept(rows))
+
+    result = attempt(np.arange(len(p_target)), starts[0])
     for n_starts in starts[1:]:
         failed = np.flatnonzero(~result.ok)
         if failed.size == 0:
             break
-        retry = _best_of_starts(robot, p_target[failed], rng, n_starts)
+        retry = attempt(failed, n_starts)
         result = IKResult(
             _replace_rows(result.q_rad, failed, retry.q_rad),
             _replace_rows(result.position_error_m, failed, retry.position_error_m),

@@ -224,3 +224,54 @@ def compensate_target_rows(model: Model, x: ArrayLike, nominal: RobotModel,
     q_nominal = nominal_ik(nominal, target_m, rng).q_rad
     return solve_in_order(model, x, lambda arm, joints: compensate_targets(
         arm, target_m, q_nominal, joints), q_nominal), q_nominal
+
+
+class PoseRows(NamedTuple):
+    """Full-pose targets' corrected commands (:func:`compensate_pose_rows`)."""
+
+    ordered: InOrder
+    """The corrected commands; a row the nominal model cannot reach (on its configuration)
+    keeps the nominal attempt's status."""
+    nominal: IKResult
+    """The nominal solutions: the joints the nominal model (the controller's) takes for each
+    target, on the configuration asked for."""
+
+
+def compensate_pose_rows(model: Model, x: ArrayLike, nominal: RobotModel, base_T_flange: ArrayLike,
+                         rng: np.random.Generator, configuration: ArrayLike | None = None
+                         ) -> PoseRows:
+    """Flange poses' corrected commands, for the whole identified model.
+
+    First the joints the nominal model takes for each pose (full-pose
+    :func:`twin.compensation.ik.nominal_ik`; on the configuration given, else the solution
+    nearest home), then the program those joints make is compensated
+    (:func:`compensate_program`, in visiting order with :func:`solve_in_order`): the identified
+    robot's flange at the corrected joints is the nominal flange at the nominal ones, the pose
+    asked for.
+
+    Args:
+        model: The identified measurement model.
+        x: Its unknowns, shape (p,).
+        nominal: The nominal robot, SI (6 joints with a configuration).
+        base_T_flange: Flange poses, in visiting order, shape (m, 4, 4), m.
+        rng: Generator of the nominal solutions' random starts.
+        configuration: ``(cf1, cf4, cf6, cfx)`` per pose, shape (m, 4)
+            (:mod:`twin.compensation.configuration`), or None.
+    """
+    from twin.compensation.configuration import branch_starts, on_branch
+
+    poses = np.asarray(base_T_flange, dtype=np.float64).reshape(-1, 4, 4)
+    if configuration is None:
+        solved = nominal_ik(nominal, poses[:, :3, 3], rng, base_R_target=poses[:, :3, :3])
+    else:
+        wanted = np.asarray(configuration, dtype=np.int64).reshape(-1, 4)
+        solved = nominal_ik(nominal, poses[:, :3, 3], rng, base_R_target=poses[:, :3, :3],
+                            draw=lambda rows: branch_starts(nominal, wanted[rows]),
+                            accept=lambda rows: on_branch(nominal, wanted[rows]))
+    q_nominal = solved.q_rad
+    ordered = solve_in_order(model, x, lambda arm, joints: compensate_program(
+        nominal, arm, q_nominal, joints), q_nominal)
+    corrected = ordered.solved
+    merged = corrected._replace(converged=corrected.converged & solved.converged,
+                                within_limits=corrected.within_limits & solved.within_limits)
+    return PoseRows(ordered._replace(solved=merged), solved)

@@ -13,7 +13,10 @@ the
   robot from a model file;
 - ``yaml``: the calibrated joint origins as an overlay in the style of Universal Robots'
   calibration files;
-- ``mjcf``: MJCF for MuJoCo, with a site ``flange`` (the twin's own builder).
+- ``mjcf``: MJCF for MuJoCo, with a site ``flange`` (the twin's own builder);
+- ``ur-calibration``: a UR robot's calibration in the layout of Universal Robots'
+  ``ur_calibration`` (``kinematics: shoulder … wrist_3, hash``), which ``ur_description`` reads;
+- ``xacro``: the calibrated joint origins as xacro properties a description includes.
 """
 
 from __future__ import annotations
@@ -26,7 +29,8 @@ from twin.robot import RobotModel
 Exporter = Callable[[RobotModel], str]
 
 FORMATS: Registry[Exporter] = Registry("export format", {
-    name: Lazy(f"twin.export.{name}:export") for name in ("dh", "urdf", "yaml", "mjcf")})
+    name: Lazy(f"twin.export.{name.replace('-', '_')}:export")
+    for name in ("dh", "urdf", "yaml", "mjcf", "ur-calibration", "xacro")})
 """Every format's ``export`` function, by ``--format`` name; each module is imported when its
 format is asked for."""
 

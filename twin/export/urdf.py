@@ -36,9 +36,9 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from twin.arrays import Array
-from twin.geometry.kinematics import fixed_transforms, rigid_transform, xyz_rpy
+from twin.geometry.kinematics import fixed_transforms, xyz_rpy
 from twin.geometry.parametrisation import joint_frames
-from twin.io.urdf_reader import REVOLUTE, axis_alignment, find_chain
+from twin.io.urdf_reader import REVOLUTE, axis_alignment, find_chain, joint_axis, origin_transform
 from twin.robot import RobotModel
 
 SCREW_TOLERANCE = 1e-12
@@ -48,6 +48,7 @@ NO_LIMIT = sys.float_info.max
 """Written for a rated speed or torque the model file does not give: the largest double, what
 Pinocchio itself takes for "no limit" (0 would stop a simulated joint; URDF needs a number)."""
 TOOL_LINK = "tool0"
+SOURCE = "the robot's URDF"
 
 
 def _number(value: float) -> str:
@@ -59,30 +60,17 @@ def _origin_attributes(transform: Array) -> dict[str, str]:
     return {"xyz": " ".join(map(_number, xyz)), "rpy": " ".join(map(_number, rpy))}
 
 
-def _origin(element: ET.Element) -> Array:
-    origin = element.find("origin")
-    if origin is None:
-        return np.eye(4)
-    xyz = [float(v) for v in origin.get("xyz", "0 0 0").split()]
-    rpy = [float(v) for v in origin.get("rpy", "0 0 0").split()]
-    return rigid_transform(xyz, rpy)
-
-
 def _axis(joint: ET.Element) -> Array:
-    """The joint's axis alignment R (z to its axis) as a 4×4 transform; URDF's default axis
-    is x."""
-    element = joint.find("axis")
-    axis = [1.0, 0.0, 0.0] if element is None else [float(v) for v in
-                                                    element.get("xyz", "1 0 0").split()]
+    """The joint's axis alignment R (z to its axis) as a 4×4 transform."""
     transform = np.eye(4)
-    transform[:3, :3] = axis_alignment(axis)
+    transform[:3, :3] = axis_alignment(joint_axis(joint, SOURCE))
     return transform
 
 
 def _product(joints: list[ET.Element]) -> Array:
     transform = np.eye(4)
     for joint in joints:
-        transform = transform @ _origin(joint)
+        transform = transform @ origin_transform(joint, SOURCE)
     return transform
 
 
@@ -97,7 +85,7 @@ def _calibrated_origins(robot: RobotModel, root: ET.Element) -> dict[str, Array]
     """The joint origins of a URDF robot's chain that calibration changes, by joint name."""
     source = robot.urdf
     assert source is not None
-    chain = find_chain(root, source.base_link, source.tip_link, "the robot's URDF")
+    chain = find_chain(root, source.base_link, source.tip_link, SOURCE)
     groups: list[list[ET.Element]] = [[]]  # fixed joints before each revolute, then the tail
     revolute: list[ET.Element] = []
     for joint in chain.joints:

@@ -3,16 +3,18 @@
 Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
-- ``measurements.csv`` — header ``pose,q1,…,q6,length,approach1,…,approach6`` (deg, mm, ±1),
+- ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg, mm, ±1; N
+  the robot's joints, 4 to 7),
   one row per measured pose, appended as one whole line and ``fsync``-ed before the robot moves
   on (a journal, :mod:`twin.io.journal`). ``pose`` numbers the plan rows from 1; `twin
   calibrate` ignores it. ``approach`` is the direction each joint moved in to reach the pose:
   the capture goes through the plan in order, pose K from plan pose K − 1 (pose 1 from home),
   also when it resumes — as the simulated robot does; backlash depends on it.
-- ``robot.toml``, ``capture.toml`` — so that ``twin calibrate DIR/capture.toml`` needs nothing
-  else (written atomically).
-- ``.lock`` — an exclusive ``flock`` held while a capture runs; the kernel drops it when the
-  process dies, even by SIGKILL.
+- ``robot.toml`` (and ``robot.urdf`` for a robot read from a URDF), ``capture.toml`` — so that
+  ``twin calibrate DIR/capture.toml`` needs nothing else (written atomically).
+- ``.lock`` — an exclusive ``flock`` held while a capture runs (:mod:`twin.io.lock`); the
+  kernel drops it when the process dies, even by SIGKILL, and the capture removes it when it
+  ends.
 
 Resume: running the same command again reads ``measurements.csv``, drops a partial last line
 (a crash in the middle of a write, e.g. a power cut), and measures the plan poses that have no
@@ -23,11 +25,10 @@ row is never measured or written again.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import math
 import os
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -44,31 +45,53 @@ from twin.hardware.robot_sources.base import RobotSource
 from twin.io.atomic import fsync_directory, write_atomic
 from twin.io.capture_file import write_capture
 from twin.io.journal import Journal
+from twin.io.lock import folder_lock
 from twin.io.measurements import (
-    COLUMNS,
-    JOINT_COLUMNS,
+    LENGTH_COLUMN,
     approach_columns,
     format_measurements,
+    joint_columns,
     load_plan,
     read_table,
 )
-from twin.io.paths import os_error, read_bytes, read_text
-from twin.io.robot_file import load_robot, robot_files, robot_to_toml
+from twin.io.paths import OutputFile, os_error, read_bytes, read_text
+from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.report.display import mm
 from twin.rig import Rig
-from twin.robot import RobotModel
+from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
 
 POSE_COLUMN = "pose"
-ROW_COLUMNS = (POSE_COLUMN, *COLUMNS)
-"""The columns a resumed capture reads back."""
-CAPTURE_COLUMNS = (*ROW_COLUMNS, *approach_columns(len(JOINT_COLUMNS)))
+
+
+def row_columns(n_joints: int) -> tuple[str, ...]:
+    """The columns a resumed capture reads back: ``pose, q1..qN, length``."""
+    return (POSE_COLUMN, *joint_columns(n_joints), LENGTH_COLUMN)
+
+
+def capture_columns(n_joints: int) -> tuple[str, ...]:
+    """Every column of a capture's measurement file."""
+    return (*row_columns(n_joints), *approach_columns(n_joints))
+
+
+def capture_header(n_joints: int) -> str:
+    """The first line of a capture's measurement file, with its LF."""
+    return ",".join(capture_columns(n_joints)) + "\n"
+
+
+CAPTURE_COLUMNS = capture_columns(6)
+"""The columns of a 6-joint arm's capture."""
+HEADER = capture_header(6)
+"""The header of a 6-joint arm's capture."""
 MEASUREMENTS_NAME = "measurements.csv"
 PLAN_NAME = "plan.csv"
 ROBOT_NAME = "robot.toml"
 CAPTURE_NAME = "capture.toml"
-LOCK_NAME = ".lock"
-JOURNAL = "a capture measurement CSV (pose, q1..q6, length, approach1..approach6)"
+CAPTURE_FILES = (MEASUREMENTS_NAME, PLAN_NAME, CAPTURE_NAME, ROBOT_NAME, "robot.urdf",
+                 TRUTH_FILE)
+"""What a capture folder holds (a robot read from a URDF: its reference and its URDF)."""
+KEPT_PREFIX = "kept-"
+JOURNAL = "a capture measurement CSV (pose, q1..qN, length, approach1..approachN)"
 RECONNECT_POLL_S = 0.5
 """How often a lost port is tried again, s."""
 
@@ -80,15 +103,13 @@ def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float,
     return f"{pose},{format_measurements(measured).splitlines()[1]}\n"
 
 
-HEADER = ",".join(CAPTURE_COLUMNS) + "\n"
+def journal(path: Path, n_joints: int) -> Journal:
+    """The measurement file of a capture of an ``n_joints`` arm, as a journal
+    (:mod:`twin.io.journal`)."""
+    return Journal(path, JOURNAL, capture_header(n_joints))
 
 
-def journal(path: Path) -> Journal:
-    """The measurement file of a capture, as a journal (:mod:`twin.io.journal`)."""
-    return Journal(path, JOURNAL, HEADER)
-
-
-def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
+def recover(path: Path, n_poses: int, n_joints: int) -> tuple[set[int], str | None]:
     """The pose numbers already in a measurement file, after dropping a partial last line.
 
     Creates the file with its header if it does not exist.
@@ -99,10 +120,10 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
     Raises:
         InputError: if a row's pose number is not an integer in 1..n_poses or is repeated.
     """
-    whole, note = journal(path).recover()
+    whole, note = journal(path, n_joints).recover()
     if whole.count("\n") <= 1:
         return set(), note
-    values, lines = read_table(path, ROW_COLUMNS, JOURNAL, journal=True)
+    values, lines = read_table(path, row_columns(n_joints), JOURNAL, journal=True)
     done: set[int] = set()
     for number, line in zip(values[:, 0], lines, strict=True):
         pose = int(number)
@@ -116,24 +137,10 @@ def recover(path: Path, n_poses: int) -> tuple[set[int], str | None]:
     return done, note
 
 
-@contextlib.contextmanager
-def locked(folder: Path) -> Iterator[None]:
-    """Hold the capture folder's lock, or fail at once if another capture holds it."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(folder / LOCK_NAME, os.O_WRONLY | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise os_error(folder / LOCK_NAME, "creating it", exc, "a folder to write into") \
-            from None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise InputError("another capture running on this folder", "one capture per "
-                             "folder at a time", source=folder) from None
-        yield
-    finally:
-        os.close(fd)
+def locked(folder: Path) -> contextlib.AbstractContextManager[None]:
+    """Hold the capture folder's lock (:mod:`twin.io.lock`), or fail at once if another
+    command holds it."""
+    return folder_lock(folder, "twin capture")
 
 
 def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
@@ -151,8 +158,7 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         raise InputError(f"a capture of another plan than {plan_path}", resume,
                          source=stored_plan)
     # Written again by today's writer, so that a file of an older twin (unrounded numbers)
-    # compares equal when it holds the same robot.
-    # (A robot read from a URDF, as a `twin simulate` folder may hold, is never this one.)
+    # compares equal when it holds the same robot (a URDF robot: the reference and the URDF).
     if stored_robot.exists() and "".join(robot_files(load_robot(stored_robot)).values()) \
             != robot_text:
         raise InputError("a capture of another robot model", resume, source=stored_robot)
@@ -160,23 +166,102 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
     if measurements.exists():
         first = read_bytes(measurements, JOURNAL, journal=True).split(b"\n", 1)
         head = first[0] + (b"\n" if len(first) > 1 else b"")
-        if not HEADER.encode("utf-8").startswith(head.lstrip()):
-            text = head[:60].decode("utf-8", errors="replace").strip()
-            raise InputError(f"a measurement file of another kind ({text!r})",
-                             f"the header {HEADER.strip()} of a capture, or a new --out folder",
-                             source=measurements, where="line 1")
+        header = capture_header(plan_q_rad.shape[1])
+        if not header.encode("utf-8").startswith(head.lstrip()):
+            # Its first line is not quoted: whatever file it is, its content stays its own.
+            raise InputError("a measurement file of another kind (its first line is not a "
+                             "capture's header)", f"the header {header.strip()} of a "
+                             "capture, or a new --out folder", source=measurements,
+                             where="line 1")
+
+
+def _starts_as_journal(path: Path) -> bool:
+    """Whether a regular file begins with the header of a capture's measurements."""
+    if not path.is_file():
+        return False
+    headers = [capture_header(n).encode("utf-8") for n in range(MIN_JOINTS, MAX_JOINTS + 1)]
+    try:
+        with open(path, "rb") as handle:
+            start = handle.read(max(map(len, headers)))
+    except OSError:
+        return False
+    return any(start.startswith(header) for header in headers)
+
+
+def real_measurements(folder: Path) -> tuple[Path, str] | None:
+    """What makes ``folder`` hold real measurements, which only `twin capture` may write to:
+    a capture's plan or journal, or a measurement file no simulation wrote (no truth.json
+    beside it). None for a folder a simulation may write (new, or another simulation's).
+
+    Returns:
+        The file, and what it is.
+    """
+    plan, measurements = folder / PLAN_NAME, folder / MEASUREMENTS_NAME
+    if _starts_as_journal(measurements):
+        return measurements, "a capture's measurements"
+    if os.path.lexists(plan):
+        return plan, "the plan of a capture"
+    if os.path.lexists(measurements) and not (folder / TRUTH_FILE).exists():
+        return measurements, "measurements no simulation wrote (no truth.json beside them)"
+    return None
+
+
+def set_aside(folder: Path) -> tuple[Path, list[str]]:
+    """Move a capture's files out of the way, into a new ``folder/kept-<UTC time>/``; nothing
+    is deleted.
+
+    Returns:
+        The new folder, and the names moved into it.
+    """
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    kept = folder / f"{KEPT_PREFIX}{stamp}"
+    suffix = 1
+    while True:
+        try:
+            kept.mkdir()
+            break
+        except FileExistsError:
+            suffix += 1
+            kept = folder / f"{KEPT_PREFIX}{stamp}-{suffix}"
+        except OSError as exc:
+            raise os_error(kept, "creating it", exc, "a folder to write into") from None
+    moved = [name for name in CAPTURE_FILES if os.path.lexists(folder / name)]
+    try:
+        for name in moved:
+            os.rename(folder / name, kept / name)
+        fsync_directory(kept)
+        fsync_directory(folder)
+    except OSError as exc:
+        raise os_error(kept, "moving the capture into it", exc, "a folder to write into") \
+            from None
+    return kept, moved
+
+
+def refuse_capture_journal(values: Iterable[object]) -> None:
+    """Refuse an output file that would replace a capture's measurements (only the capture
+    appends to them).
+
+    Raises:
+        InputError: naming the file.
+    """
+    for value in values:
+        if isinstance(value, OutputFile) and _starts_as_journal(value):
+            raise InputError("a capture's measurements", "an output that is not a "
+                             "capture's journal (it would be replaced)", source=value)
 
 
 def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
-            robot_text: str) -> None:
-    """Store the plan and the robot model, or check they are those of the capture to resume.
+            robot: RobotModel, source_files: Mapping[str, str] | None = None) -> None:
+    """Store the plan, the robot model and the files the robot source needs (the RAPID plan
+    module), or check they are those of the capture to resume.
 
     Raises:
         InputError: if ``folder`` holds something else (see :func:`check_folder`).
     """
-    check_folder(folder, plan_path, plan_q_rad, robot_text)
-    for name, text in ((PLAN_NAME, read_text(plan_path, "a pose plan CSV")),
-                       (ROBOT_NAME, robot_text)):
+    files = robot_files(robot)
+    check_folder(folder, plan_path, plan_q_rad, "".join(files.values()))
+    for name, text in ((PLAN_NAME, read_text(plan_path, "a pose plan CSV")), *files.items(),
+                       *(source_files or {}).items()):
         if not (folder / name).exists():
             write_atomic(folder / name, text)
     fsync_directory(folder)
@@ -244,9 +329,9 @@ def capture(
         CaptureError: on a fault that retries did not cure; every row written so far stays.
         KeyboardInterrupt: on Ctrl-C, after reporting how to resume.
     """
-    n_poses = len(plan_q_rad)
-    done, note = recover(measurements_path, n_poses)
-    record = journal(measurements_path)
+    n_poses, n_joints = plan_q_rad.shape
+    done, note = recover(measurements_path, n_poses, n_joints)
+    record = journal(measurements_path, n_joints)
     if note:
         report(note)
     todo = [pose for pose in range(1, n_poses + 1) if pose not in done]
@@ -266,6 +351,11 @@ def capture(
                     from None
             record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
             done.add(pose)
+            try:
+                robot.recorded(pose, n_poses)
+            except TwinError as exc:
+                raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
+                    from None
             report(f"pose {pose}/{n_poses}: {mm(settled.length_m)} "
                    f"({settled.readings} readings, spread {mm(settled.spread_m)}, "
                    f"{time.monotonic() - started:.2f} s)")
@@ -287,6 +377,7 @@ def capture_folder(
     *,
     calibration: CalibrationSettings | None = None,
     truth: Mapping[str, Any] | None = None,
+    source_files: Mapping[str, str] | None = None,
     reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
 ) -> int:
@@ -297,8 +388,8 @@ def capture_folder(
     Args:
         folder: The capture folder (created).
         plan_path: The plan CSV, copied into the folder.
-        plan_q_rad: Its poses, shape (N, 6), rad.
-        robot: The nominal robot (a 6-joint model file).
+        plan_q_rad: Its poses, shape (N, n), rad.
+        robot: The nominal robot (a model file or a URDF, 4 to 7 joints).
         rig: The rig as told: the encoder's one port (base frame, m), the cable's attachment
             point (flange frame, m) and its tension (N), written to ``capture.toml``.
         config: How to talk to the encoder.
@@ -307,6 +398,7 @@ def capture_folder(
         calibration: How the capture asks to be calibrated (a scenario's ``[calibration]``
             and the cable's tension), or None for the defaults.
         truth: The twin's truth, written as truth.json, or None.
+        source_files: Files the robot source needs in the folder (name to text).
         reconnect_s: As in :func:`capture`.
         report: Receives progress and fault lines.
 
@@ -317,10 +409,9 @@ def capture_folder(
         InputError: if the folder holds another plan or robot, or another capture runs in it.
         CaptureError: as :func:`capture`.
     """
-    robot_text = robot_to_toml(robot)
-    check_folder(folder, plan_path, plan_q_rad, robot_text)
+    check_folder(folder, plan_path, plan_q_rad, "".join(robot_files(robot).values()))
     with locked(folder), open_encoder(config) as encoder:
-        prepare(folder, plan_path, plan_q_rad, robot_text)
+        prepare(folder, plan_path, plan_q_rad, robot, source_files)
         if truth is not None:
             write_truth(folder / TRUTH_FILE, truth)
         write_capture(folder / CAPTURE_NAME, robot=ROBOT_NAME, rig=rig,

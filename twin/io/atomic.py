@@ -2,12 +2,18 @@
 
 Every file is created with the mode the process umask gives (0644 under the usual 022), like
 any other tool: the temporary file's private 0600 is not carried over.
+
+A temporary file is named ``.<name>.<pid>-<random>.tmp`` after the file it becomes and the
+process writing it. A process killed before its rename (SIGKILL, a power cut) leaves it behind;
+the next write of the same file, and a folder command that takes the folder's lock
+(:mod:`twin.io.lock`), remove those whose process is gone.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -15,6 +21,8 @@ from pathlib import Path
 from twin.io.paths import check_output, os_error
 
 WRITE_EXPECTED = "a file that can be written (a writable folder with free space)"
+_TEMPORARY = re.compile(r"\.(?P<name>.+)\.(?P<pid>[0-9]+)-[a-z0-9_]+\.tmp")
+"""The name of a temporary file of :func:`temporary_beside`."""
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
@@ -43,12 +51,43 @@ def temporary_beside(path: str | Path) -> Path:
     check_output(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
+        remove_stale_temporaries(path.parent, path.name)
+        fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}-", suffix=".tmp",
                                          dir=path.parent)
         os.close(fd)
     except OSError as exc:
         raise os_error(path, "creating it", exc, WRITE_EXPECTED) from None
     return Path(temporary)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except PermissionError:  # another user's process
+        return True
+    except (ProcessLookupError, OverflowError):  # gone, or never a pid
+        return False
+    return True
+
+
+def remove_stale_temporaries(folder: str | Path, name: str | None = None) -> list[Path]:
+    """Remove the temporary files in ``folder`` (of the file ``name`` only, if given) whose
+    writing process is gone; a live process's are left alone.
+
+    Returns:
+        The files removed.
+    """
+    removed = []
+    with contextlib.suppress(FileNotFoundError, NotADirectoryError):
+        for entry in os.scandir(folder):
+            match = _TEMPORARY.fullmatch(entry.name)
+            if match is None or (name is not None and match["name"] != name) \
+                    or _alive(int(match["pid"])) or not entry.is_file(follow_symlinks=False):
+                continue
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+    return removed
 
 
 def commit(temporary: str | Path, path: str | Path) -> None:

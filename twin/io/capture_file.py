@@ -169,6 +169,32 @@ def parse_distance(value: object, source: str | Path, where: str) -> Distance:
     return Distance(first.strip(), second.strip(), float(mm_to_m(length_mm)))
 
 
+def parse_distances(values: list[Any], source: str | Path, where: str = ""
+                    ) -> tuple[Distance, ...]:
+    """Known distances ``"A,B=MM"`` (:func:`parse_distance`), each pair of points once: a pair
+    told twice is two answers to one question (and A,B and B,A are one pair).
+
+    Args:
+        values: The ``A,B=MM`` texts.
+        source: The file or flag they come from.
+        where: Where the list is in the file (``[rig] distances``), or "" for a flag.
+    """
+    distances: list[Distance] = []
+    for index, value in enumerate(values):
+        item = f"{where}[{index}]" if where else ""
+        distance = parse_distance(value, source, item)
+        pair = {distance.first, distance.second}
+        for earlier in distances:
+            if {earlier.first, earlier.second} == pair:
+                raise InputError(
+                    f"{distance.first},{distance.second} a second time "
+                    f"({float(m_to_mm(earlier.length_m)):g} mm, then "
+                    f"{float(m_to_mm(distance.length_m)):g} mm)",
+                    "each pair of points once", source=source, where=item or None)
+        distances.append(distance)
+    return tuple(distances)
+
+
 def parse_named_port(value: str, source: str | Path, where: str
                      ) -> tuple[str | None, NDArray[np.float64]]:
     """``NAME=X,Y,Z`` (a named port) or ``X,Y,Z`` (the one port), mm, to (name, port in m)."""
@@ -199,9 +225,8 @@ def _parse_rig(document: Table) -> Rig:
     if not isinstance(distances, list):
         raise table.error("distances", f"{distances!r}", 'a list of "A,B=MM"')
     return Rig(np.reshape(values, (-1, 3)), names, attachment,
-               distances=tuple(parse_distance(value, document.source or "",
-                                              table.where(f"distances[{k}]"))
-                               for k, value in enumerate(distances)))
+               distances=parse_distances(distances, document.source or "",
+                                         table.where("distances")))
 
 
 def write_capture(

@@ -6,10 +6,12 @@ D-H errors alone.
 
 A result is applied (exported, compensated) only where it can be right:
 
-- to the robot it was identified for: the result's ``robot`` (name and nominal D-H table) must
-  be the robot it is applied to, the table within :data:`ROBOT_TOLERANCE_MM` and
-  :data:`ROBOT_TOLERANCE_DEG` (a model file stores 1 µm and 1e-6 degree); a result written
-  before ``robot`` was recorded is applied with a warning;
+- to the robot it was identified for: a result carries that robot whole (``robot.files``,
+  :func:`twin.io.robot_file.robot_from_files`), so it needs no ``--robot``; a robot given anyway
+  must have the same digest (:func:`twin.io.robot_file.robot_digest`). A result written before
+  twin kept the robot needs it given, and its ``robot`` (name and nominal D-H table) must be
+  it, the table within :data:`ROBOT_TOLERANCE_MM` and :data:`ROBOT_TOLERANCE_DEG` (a model
+  file stores 1 µm and 1e-6 degree);
 - within the search bounds every method keeps to (±5 mm, ±8°, :data:`twin.unknowns.dh.BOUND_M`
   and :data:`twin.unknowns.dh.BOUND_RAD`), give or take :data:`BOUND_TOLERANCE_MM` and
   :data:`BOUND_TOLERANCE_DEG` for the rounding of the file.
@@ -28,6 +30,7 @@ from numpy.typing import NDArray
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.capture_file import parse_port_mm
 from twin.io.paths import read_json
+from twin.io.robot_file import default_robot, robot_digest, robot_from_files
 from twin.io.truth import parse_dh_rows
 from twin.kinds import KINDS
 from twin.model import Model
@@ -135,6 +138,62 @@ def check_result_robot(entry: dict[str, Any], robot: RobotModel, path: Path,
             source=path, where=f"{where}robot.dh.{key}")
 
 
+def result_robot(entry: dict[str, Any], given: RobotModel | None, path: Path, where: str
+                 ) -> tuple[RobotModel, bool]:
+    """The nominal robot of a result: the one it carries, or for a result written before twin
+    kept it, ``given`` (the packaged IRB 120 without one).
+
+    A robot given beside a result that carries one must be the same robot: the same digest,
+    or the same name, parametrisation, nominal table (to the file's rounding), limits, ends
+    and URDF (:func:`check_same_robot`).
+
+    Returns:
+        The robot, and whether the result is such an older one (then :func:`check_result_robot`
+        is the caller's, once the result's other fields are read).
+
+    Raises:
+        InputError: for a robot given that is not the result's, naming the first difference.
+    """
+    recorded = entry.get("robot")
+    files = recorded.get("files") if isinstance(recorded, dict) else None
+    if not isinstance(files, dict):
+        return (default_robot() if given is None else given), True
+    assert isinstance(recorded, dict)
+    robot = robot_from_files(files, f"{path}: {where}robot.files")
+    if given is not None and robot_digest(given) != robot_digest(robot):
+        check_result_robot(entry, given, path, where)
+        check_same_robot(robot, given, path, where)
+    return robot, False
+
+
+def check_same_robot(recorded: RobotModel, given: RobotModel, path: Path, where: str) -> None:
+    """Refuse a robot given that differs from the result's in anything but the rounding of a
+    file: joint limits, the base and tool transforms, the URDF it was read from.
+
+    Raises:
+        InputError: naming what differs.
+    """
+    limits = np.concatenate([recorded.lower_rad - given.lower_rad,
+                             recorded.upper_rad - given.upper_rad])
+    ends = np.concatenate([(recorded.structure.base - given.structure.base).ravel(),
+                           (recorded.structure.tool - given.structure.tool).ravel()])
+    differences = (
+        ("joint limits", bool(np.any(np.abs(limits) > deg_to_rad(ROBOT_TOLERANCE_DEG)))),
+        ("base or tool transform", bool(np.any(np.abs(ends) > mm_to_m(ROBOT_TOLERANCE_MM)))),
+        ("URDF", (recorded.urdf is None) != (given.urdf is None) or (
+            recorded.urdf is not None and given.urdf is not None
+            and (recorded.urdf.text, recorded.urdf.base_link, recorded.urdf.tip_link)
+            != (given.urdf.text, given.urdf.base_link, given.urdf.tip_link))),
+    )
+    for what, differs in differences:
+        if differs:
+            raise InputError(
+                f"a result identified for {recorded.name!r} with another {what} (robot "
+                f"{robot_digest(recorded)[:12]})", f"the robot --robot names (robot "
+                f"{robot_digest(given)[:12]}) to be the result's; leave out --robot to use the "
+                "result's own", source=path, where=f"{where}robot")
+
+
 def check_bounds(delta: NDArray[np.float64], path: Path, where: str,
                  is_length: NDArray[np.bool_] | None = None) -> None:
     """Refuse table errors beyond the search bounds: no method returns them, so the file is not
@@ -162,7 +221,7 @@ def check_bounds(delta: NDArray[np.float64], path: Path, where: str,
 
 
 def load_result_delta(
-    path: str | Path, robot: RobotModel, method: str | None = None
+    path: str | Path, robot: RobotModel | None = None, method: str | None = None
 ) -> NDArray[np.float64]:
     """The identified D-H errors of a result file for ``robot``, shape (4, n), m and rad.
 
@@ -171,7 +230,8 @@ def load_result_delta(
 
     Args:
         path: The result JSON file.
-        robot: The nominal robot the result is to be applied to.
+        robot: The nominal robot the result is to be applied to, if given: it must be the
+            result's own (:func:`result_robot`).
         method: Name of the result to take from a multi-method file; must match the single
             result's ``"method"`` if given for a single-result file.
 
@@ -181,9 +241,11 @@ def load_result_delta(
     """
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
+    robot, older = result_robot(entry, robot, path, where)
     delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
                           robot.is_length)
-    check_result_robot(entry, robot, path, where)
+    if older:
+        check_result_robot(entry, robot, path, where)
     check_bounds(delta, path, where, robot.is_length)
     return delta
 
@@ -205,8 +267,9 @@ def result_groups(path: str | Path, method: str | None = None) -> tuple[str, ...
 def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None:
     """Warn (:class:`ResultWarning`) before ``use`` (``"exporting"``, ``"compensating"``…) a
     result whose data could not see some motions of the flange (``unobservable.motions``: the
-    identified model is placed along them by its start, not by the data) or whose model did not
-    fit its data (``misfit``). Nothing for a result written before they were recorded.
+    identified model is placed along them by its start, not by the data), with unknowns a bound
+    of the search box decided (``at_bounds``, named), or whose model did not fit its data
+    (``misfit``). Nothing for a result written before they were recorded.
 
     Raises:
         InputError: if the file is not a result, or ``method`` is missing or unknown.
@@ -224,6 +287,12 @@ def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None
                       "identified model sits along them where the calibration started, not "
                       f"where the robot is, and {use} inherits that"
                       + (f"; pin them with {pin}" if pin else ""), ResultWarning, stacklevel=2)
+    bounded = entry.get("at_bounds")
+    if isinstance(bounded, list) and bounded:
+        warnings.warn(f"{path}: the search box, not the data, decided "
+                      f"{', '.join(map(str, bounded))} (each ended on a bound): the truth may lie "
+                      f"beyond it, or the data barely see it, and {use} uses the bound's value",
+                      ResultWarning, stacklevel=2)
     misfit = entry.get("misfit")
     if isinstance(misfit, dict) and misfit.get("misfit") is True:
         warnings.warn(f"{path}: the model did not fit its data (training RMSE {misfit.get('rmse')}"
@@ -240,6 +309,16 @@ class IdentifiedModel(NamedTuple):
     """The identified unknowns, shape (p,), SI."""
     method: str
     """The method that identified them."""
+
+    @property
+    def robot(self) -> RobotModel:
+        """The nominal robot the result was identified for."""
+        return self.model.robot
+
+    @property
+    def delta(self) -> NDArray[np.float64]:
+        """The identified errors of the kinematic table, shape (4, n), m and rad."""
+        return np.asarray(self.model.table(self.x) - self.model.robot.dh, dtype=np.float64)
 
 
 def _rig(document: Any, path: Path, where: str) -> Rig:
@@ -320,13 +399,34 @@ def check_result_inertia(entry: dict[str, Any], robot: RobotModel, path: Path,
                 f"{tolerance:g} {unit})", source=path, where=f"{where}robot.{key}")
 
 
-def load_result(path: str | Path, robot: RobotModel, method: str | None = None
+def _parameter_values(parameters: list[Any], path: Path, where: str
+                      ) -> tuple[list[float], list[str], NDArray[np.float64]]:
+    """The unknowns' values and units as written, and x in SI."""
+    values, labels = [], []
+    for k, parameter in enumerate(parameters):
+        value, label = parameter.get("value"), parameter.get("unit")
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value) or not isinstance(label, str):
+            raise InputError(f"{parameter!r}", "a finite value with its unit", source=path,
+                             where=f"{where}unknowns.parameters[{k}]")
+        values.append(float(value))
+        labels.append(label)
+    try:
+        return values, labels, from_display(values, labels)
+    except KeyError as exc:
+        raise InputError(f"the unit {exc.args[0]!r}", "a unit twin writes", source=path,
+                         where=f"{where}unknowns.parameters") from None
+
+
+def load_result(path: str | Path, robot: RobotModel | None = None, method: str | None = None
                 ) -> IdentifiedModel:
-    """The identified model of a result file for ``robot`` (its nominal robot must be it).
+    """The identified model of a result file, on the nominal robot it carries.
 
     Args:
         path: The result JSON file.
-        robot: The nominal robot the result is to be applied to.
+        robot: The nominal robot the result is to be applied to, if given: it must be the
+            result's own (:func:`result_robot`); needed only by results written before twin
+            kept the robot.
         method: Name of the result to take from a multi-method file.
 
     Raises:
@@ -335,11 +435,13 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
     """
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
-    check_result_robot(entry, robot, path, where)
+    robot, older = result_robot(entry, robot, path, where)
     # The D-H errors are written twice (``delta`` for people, the ``dh`` unknowns for the
     # model): checked as export checks them, then held to agree.
     delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
                           robot.is_length)
+    if older:
+        check_result_robot(entry, robot, path, where)
     check_bounds(delta, path, where, robot.is_length)
     unknowns = entry.get("unknowns")
     if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
@@ -365,20 +467,7 @@ def load_result(path: str | Path, robot: RobotModel, method: str | None = None
                          f"the {model.n_params} unknowns of groups {', '.join(groups)} "
                          f"({', '.join(model.names[:4])}…)", source=path,
                          where=f"{where}unknowns.parameters")
-    values, labels = [], []
-    for k, parameter in enumerate(parameters):
-        value, label = parameter.get("value"), parameter.get("unit")
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value) or not isinstance(label, str):
-            raise InputError(f"{parameter!r}", "a finite value with its unit", source=path,
-                             where=f"{where}unknowns.parameters[{k}]")
-        values.append(float(value))
-        labels.append(label)
-    try:
-        x = from_display(values, labels)
-    except KeyError as exc:
-        raise InputError(f"the unit {exc.args[0]!r}", "a unit twin writes", source=path,
-                         where=f"{where}unknowns.parameters") from None
+    values, labels, x = _parameter_values(parameters, path, where)
     expected = to_display(np.zeros(model.n_params), model.units)[1]
     lower, upper = model.bounds()
     slack = BOUND_SLACK * (upper - lower)

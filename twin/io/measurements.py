@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -31,6 +32,7 @@ from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
+from twin.io.table import shown
 from twin.robot import RobotModel
 from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 
@@ -118,7 +120,7 @@ def read_columns(
         for name in named:
             label = fields[header.index(name)].strip()
             if not label or len(label) > MAX_LABEL_CHARS:
-                raise InputError(f"{label!r}", f"a name of 1 to {MAX_LABEL_CHARS} characters",
+                raise InputError(shown(label), f"a name of 1 to {MAX_LABEL_CHARS} characters",
                                  source=path, where=f"line {number}, column {name}")
             texts[name].append(label)
         lines.append(number)
@@ -153,10 +155,10 @@ def _header(rows: list[tuple[int, list[str]]], columns: tuple[str, ...],
     header_line, header = rows[0][0], [name.strip() for name in rows[0][1]]
     missing = [name for name in columns if name not in header]
     if missing:
-        raise InputError(
-            f"columns {','.join(header)} (no {','.join(missing)})", expected_header,
-            source=path, where=f"line {header_line}",
-        )
+        # The line is not quoted: a file of another kind (`--joints /etc/passwd`) keeps its
+        # content to itself.
+        raise InputError(f"a header without {','.join(missing)}", expected_header,
+                         source=path, where=f"line {header_line}")
     duplicated = sorted({name for name in (*columns, *others) if header.count(name) > 1})
     if duplicated:
         raise InputError(f"column {duplicated[0]!r} twice", "each column once",
@@ -171,7 +173,7 @@ def _cell(text: str, path: str | Path, where: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise InputError(f"{text!r}", "a number", source=path, where=where) from None
+        raise InputError(shown(text), "a number", source=path, where=where) from None
     if not math.isfinite(value):
         raise InputError(f"{text!r}", "a finite number", source=path, where=where)
     return value
@@ -216,6 +218,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     table = read_columns(path, joints, what, optional=(LENGTH_COLUMN, *POSITION_COLUMNS,
                                                        *approach_columns(n)),
                          labels=(PORT_COLUMN, POINT_COLUMN), stdin=stdin)
+    _refuse_extra_joints(table, n, path)
     given = [name for name, present in (
         (LENGTH_COLUMN, LENGTH_COLUMN in table.optional),
         (",".join(POSITION_COLUMNS), all(c in table.optional for c in POSITION_COLUMNS)),
@@ -224,7 +227,8 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
         not all(c in table.optional for c in POSITION_COLUMNS)
     header_line = f"line {table.header_line}"
     if len(given) != 1 or partial:
-        raise InputError(f"columns {','.join(table.header)}",
+        known = (*joints, LENGTH_COLUMN, *POSITION_COLUMNS, PORT_COLUMN, POINT_COLUMN)
+        raise InputError(f"columns {','.join(name for name in table.header if name in known)}",
                          f"exactly one of {kinds} beside {joints[0]}..{joints[-1]}",
                          source=path, where=header_line)
     q_deg = table.values
@@ -263,6 +267,18 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                          f"coordinates within ±{longest_mm:g} mm", source=path,
                          where=f"line {table.lines[bad[0]]}")
     return Measurements(deg_to_rad(q_deg), position_m=mm_to_m(xyz_mm), approach=approach)
+
+
+def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
+    """Refuse joint (or approach) columns beyond the robot's n joints: a file of another arm,
+    or the wrong robot file, not something to ignore."""
+    extra = [name for name in table.header
+             if re.fullmatch(r"(q|approach)(\d+)", name) and int(re.sub(r"\D", "", name)) > n]
+    if extra:
+        raise InputError(f"the column {extra[0]} for a robot of {n} joints",
+                         f"q1..q{n} (and approach1..approach{n}): the robot file's joints — "
+                         "is --robot the arm that was measured?", source=path,
+                         where=f"line {table.header_line}")
 
 
 def _approach(table: Columns, n: int, path: str | Path) -> NDArray[np.int8] | None:

@@ -34,7 +34,7 @@ import re
 import stat
 import sys
 import tomllib
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from contextvars import ContextVar
 from itertools import accumulate
 from pathlib import Path, PosixPath
@@ -305,3 +305,43 @@ def check_command_paths(values: Iterable[object]) -> None:
     for value in flat:
         if isinstance(value, OutputFile | OutputFolder):
             check_output(value, folder=isinstance(value, OutputFolder))
+
+
+
+def _same_place(first: Path, second: Path) -> bool:
+    """Whether two paths name one file: the same resolved name, or the same device and inode
+    (a hard link)."""
+    if os.path.realpath(first) == os.path.realpath(second):
+        return True
+    try:
+        one, two = os.stat(first), os.stat(second)
+    except OSError:
+        return False
+    return (one.st_dev, one.st_ino) == (two.st_dev, two.st_ino)
+
+
+def check_distinct_outputs(options: Mapping[str, object]) -> None:
+    """Refuse two outputs of one command at the same place (``--junit DIR`` with ``--out
+    DIR``, ``--json`` and ``--rerun-save`` one file), or an output under a file output,
+    before any work.
+
+    Args:
+        options: The parsed arguments by destination (``vars(args)``); the
+            :class:`OutputFile` and :class:`OutputFolder` values are the outputs.
+
+    Raises:
+        InputError: naming both flags.
+    """
+    outputs = [(f"--{dest.replace('_', '-')}", value) for dest, value in options.items()
+               if isinstance(value, OutputFile | OutputFolder)]
+    for index, (flag, path) in enumerate(outputs):
+        for other, other_path in outputs[:index]:
+            if _same_place(path, other_path):
+                raise InputError(f"{path}, the same path as {other}", "an output of its own "
+                                 "(one would replace the other)", source=flag)
+            for inner_flag, inner, outer_flag, outer in ((flag, path, other, other_path),
+                                                         (other, other_path, flag, path)):
+                if isinstance(outer, OutputFile) and os.path.realpath(inner).startswith(
+                        os.path.realpath(outer) + os.sep):
+                    raise InputError(f"{inner}, a path under the {outer_flag} file",
+                                     "outputs apart from each other", source=inner_flag)

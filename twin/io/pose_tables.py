@@ -5,7 +5,12 @@
   ``error_mm`` (the remaining flange error) and, with backlash, ``approach1..N``;
 - **predictions** (`twin predict`): the poses as given, then ``x,y,z`` (mm, base frame),
   ``length`` and ``tracker_x,tracker_y,tracker_z`` (those the prediction has);
-- **targets** (`twin compensate --targets`): ``x,y,z`` in mm, base frame.
+- **targets** (`twin compensate --targets`): ``x,y,z`` in mm (the flange centre in the base
+  frame, or with an orientation the TCP in the work object), and optionally the orientation as
+  a quaternion ``qw,qx,qy,qz`` (ABB's order, scalar first) or as fixed-axis angles ``rx,ry,rz``
+  in degrees (R = Rz(rz)·Ry(ry)·Rx(rx), the URDF's roll–pitch–yaw and RobotStudio's Euler ZYX;
+  not UR's rotation vector), and the configuration ``cf1,cf4,cf6,cfx``
+  (:mod:`twin.compensation.configuration`).
 
 Angles are written to 1e-6 degree, lengths to 1e-6 mm; every file atomically.
 """
@@ -13,6 +18,7 @@ Angles are written to 1e-6 degree, lengths to 1e-6 mm; every file atomically.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,7 +29,7 @@ from twin.compensation.ik import STATUS_UNREACHABLE
 from twin.compensation.joints import InOrder
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.measurements import PORT_COLUMN, approach_columns, joint_columns, read_table
+from twin.io.measurements import PORT_COLUMN, approach_columns, joint_columns
 from twin.units import (
     FILE_DEG_DECIMALS,
     MAX_LENGTH_M,
@@ -35,6 +41,11 @@ from twin.units import (
 )
 
 TARGET_COLUMNS = ("x", "y", "z")
+QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
+ANGLE_COLUMNS = ("rx", "ry", "rz")
+CONFIGURATION_COLUMNS = ("cf1", "cf4", "cf6", "cfx")
+INTEGER_TOLERANCE = 1e-9
+"""How far from a whole number a configuration value may be written."""
 RESULT_COLUMNS = ("status", "error_mm")
 POSITION_COLUMNS = ("x", "y", "z")
 LENGTH_COLUMN = "length"
@@ -46,19 +57,70 @@ def _angles(q_rad: Array) -> list[list[str]]:
     return [list(map(repr, rounded(q, FILE_DEG_DECIMALS))) for q in rad_to_deg(q_rad)]
 
 
-def load_targets(path: str | Path, *, stdin: bool = False) -> Array:
-    """Flange targets x,y,z (mm, base frame) as positions (m, 3), m.
+class PoseTargets(NamedTuple):
+    """Targets read from a CSV (:func:`load_pose_targets`)."""
+
+    position_m: Array
+    """Shape (m, 3), m."""
+    rotation: Array | None
+    """Orientations, shape (m, 3, 3), or None for positions only."""
+    configuration: NDArray[np.int64] | None
+    """cf1, cf4, cf6, cfx per row, shape (m, 4), or None."""
+
+
+def _column_set(found: dict[str, NDArray[np.float64]], names: tuple[str, ...], path: str | Path
+                ) -> NDArray[np.float64] | None:
+    given = [name for name in names if name in found]
+    if not given:
+        return None
+    if len(given) != len(names):
+        raise InputError(f"columns {','.join(given)}", f"all of {','.join(names)} or none",
+                         source=path)
+    return np.column_stack([found[name] for name in names])
+
+
+def load_pose_targets(path: str | Path, *, stdin: bool = False) -> PoseTargets:
+    """Targets x,y,z (mm) with an optional orientation and configuration (see the module
+    docstring), in SI.
 
     Raises:
-        InputError: naming the line of a target farther from the base than any arm reaches.
+        InputError: naming the line of a target farther than any arm reaches, a quaternion that
+            is not a unit one, a configuration that is not integers, or both orientations.
     """
-    xyz_mm, lines = read_table(path, TARGET_COLUMNS, "a target CSV (x,y,z in mm)", stdin=stdin)
-    far = np.flatnonzero(np.linalg.norm(xyz_mm, axis=1) > m_to_mm(MAX_LENGTH_M))
+    from twin.compensation.poses import QUATERNION_TOLERANCE, euler_xyz_matrices, pose_matrices
+    from twin.io.measurements import read_columns
+
+    what = ("a target CSV (x,y,z in mm; optional qw,qx,qy,qz or rx,ry,rz in degrees; optional "
+            "cf1,cf4,cf6,cfx)")
+    table = read_columns(path, TARGET_COLUMNS, what, stdin=stdin,
+                         optional=(*QUATERNION_COLUMNS, *ANGLE_COLUMNS, *CONFIGURATION_COLUMNS))
+    far = np.flatnonzero(np.linalg.norm(table.values, axis=1) > m_to_mm(MAX_LENGTH_M))
     if far.size:
-        raise InputError(f"a target {np.linalg.norm(xyz_mm[far[0]]):g} mm from the base",
+        raise InputError(f"a target {np.linalg.norm(table.values[far[0]]):g} mm away",
                          f"targets within {float(m_to_mm(MAX_LENGTH_M)):g} mm",
-                         source=path, where=f"line {lines[far[0]]}")
-    return mm_to_m(xyz_mm)
+                         source=path, where=f"line {table.lines[far[0]]}")
+    quaternion = _column_set(table.optional, QUATERNION_COLUMNS, path)
+    angles = _column_set(table.optional, ANGLE_COLUMNS, path)
+    conf = _column_set(table.optional, CONFIGURATION_COLUMNS, path)
+    if quaternion is not None and angles is not None:
+        raise InputError("both qw,qx,qy,qz and rx,ry,rz", "one orientation per row", source=path)
+    rotation = None
+    if quaternion is not None:
+        off = np.abs(np.linalg.norm(quaternion, axis=1) - 1.0) > QUATERNION_TOLERANCE
+        if np.any(off):
+            row = int(np.argmax(off))
+            raise InputError(f"a quaternion of norm {np.linalg.norm(quaternion[row]):.6g}",
+                             f"a unit quaternion (within {QUATERNION_TOLERANCE:g})", source=path,
+                             where=f"line {table.lines[row]}")
+        rotation = pose_matrices(np.zeros((len(quaternion), 3)), quaternion)[:, :3, :3]
+    elif angles is not None:
+        rotation = euler_xyz_matrices(np.deg2rad(angles))
+    if conf is not None and np.any(np.abs(conf - np.round(conf)) > INTEGER_TOLERANCE):
+        row = int(np.argmax(np.any(np.abs(conf - np.round(conf)) > INTEGER_TOLERANCE, axis=1)))
+        raise InputError(f"configuration {conf[row].tolist()}", "integers cf1,cf4,cf6,cfx",
+                         source=path, where=f"line {table.lines[row]}")
+    return PoseTargets(mm_to_m(table.values), rotation,
+                       None if conf is None else np.round(conf).astype(np.int64))
 
 
 def write_plan(path: str | Path, q_rad: Array, port_names: tuple[str, ...] = (),

@@ -17,11 +17,12 @@ from numpy.typing import ArrayLike
 
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
-from twin.analysis.misfit import ALPHA, FAR
+from twin.analysis.misfit import ALPHA
 from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
+from twin.io.robot_file import robot_digest, robot_files
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import (
@@ -54,12 +55,15 @@ def _metrics_mm(m: Metrics) -> dict[str, float]:
 
 
 def robot_to_dict(robot: RobotModel) -> dict[str, Any]:
-    """The ``robot`` JSON object: the name, parametrisation and nominal table (mm, degrees; a
-    Hayati β in degrees) a result was identified for, so that it is never applied to another
-    robot; and the link masses (kg) and centres of mass (mm) when the file gives them, which
-    identified compliances depend on."""
+    """The ``robot`` JSON object: the nominal robot a result was identified for, whole — its
+    files as twin writes them (``files``: the model TOML, and the URDF for a URDF robot, with
+    every joint, limit, mass, base and tip link) and their digest (``digest``,
+    :func:`twin.io.robot_file.robot_digest`), so that the result is usable alone and never
+    applied to another robot — and, to read at a glance, the name, parametrisation and nominal
+    table (mm, degrees; a Hayati β in degrees), the link masses (kg) and centres of mass (mm)."""
     document: dict[str, Any] = {
         "name": robot.name, "parametrisation": list(robot.structure.parametrisation),
+        "digest": robot_digest(robot), "files": robot_files(robot),
         "dh": dh_rows_rounded(robot.dh, RESULT_MM_DECIMALS, is_length=robot.is_length)}
     if robot.mass_kg is not None:
         document["mass_kg"] = rounded(robot.mass_kg, MASS_DECIMALS)
@@ -187,7 +191,8 @@ def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict
             "noise": _mm(misfit.noise_m)[0],
             "noise_source": misfit.noise_source,
             "test": "chi-square of the training residuals against the noise: misfit when "
-                    f"chi2 > its {1 - ALPHA:g} quantile and RMSE > {FAR:g} x noise",
+                    f"chi2 > its {1 - ALPHA:g} quantile",
+            "implied_noise": _mm(misfit.implied_sigma_m)[0],
             "chi2": significant(misfit.statistic),
             "dof": misfit.dof,
             "threshold": significant(misfit.threshold),
@@ -196,6 +201,21 @@ def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict
     document["loss"] = {"name": result.loss.name,
                         "scale": _mm(result.loss.scale_m)[0] if result.loss.robust else None}
     document["rejected_rows"] = result.rejected_rows.tolist()
+    held, unseen = result.held, result.unseen
+    if held is not None and unseen is not None:
+        document["held_at_nominal"] = {
+            "directions": list(unseen.names),
+            "rule": "the nominal's null directions the data do not see better than the search "
+                    "box (Cramér–Rao σ from the noise estimate above half the box), and every "
+                    "exact null direction, held at the nominal: the minimum-norm solution in "
+                    "the bound-scaled unknowns, the rig's unknowns taking up the trades",
+            "noise": _mm(unseen.noise_m)[0],
+            "objective_change": significant(held.cost_change),
+            "kept_start": held.kept_start or None,
+            "weakly_seen": [{"direction": name, "sigma_of_box": significant(float(sigma))}
+                            for name, sigma in zip(unseen.weak_names, unseen.weak_sigma,
+                                                   strict=True)],
+        }
     gauge = result.gauge
     document["unobservable"] = {"motions": list(gauge.names) if gauge is not None else [],
                                 "pin": list(gauge.pins) if gauge is not None else []}

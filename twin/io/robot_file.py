@@ -35,21 +35,25 @@ joint's rated limits, for exported URDFs.
 
 A model file may instead name a URDF (:mod:`twin.io.urdf_reader`, through Pinocchio)::
 
-    urdf = "ur5e.urdf"               # relative to this file
+    urdf = "ur5e.urdf"               # relative to this file (or a .xacro, with
+                                     # xacro_args = { name = "value" })
     base_link = "base_link"          # optional: the URDF's root link
     tip_link = "tool0"               # optional: tool0, else flange, else the one leaf link
     parametrisation = "auto"         # optional: "auto" (default), "dh", "mdh" or one per joint
 
-and a robot file given as ``--robot arm.urdf`` is read with those defaults.
+and a robot file given as ``--robot arm.urdf`` is read with those defaults; ``--robot
+arm.urdf.xacro`` (with ``--xacro-arg NAME:=VALUE``) is expanded by xacro first
+(:mod:`twin.io.xacro_reader`).
 
 The model is :class:`twin.robot.RobotModel`; the URDF adapter :mod:`twin.io.urdf_reader`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
-import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import replace
 from importlib import resources
 from pathlib import Path
@@ -72,19 +76,21 @@ from twin.geometry.parametrisation import AUTO_PARAMETRISATION, REQUESTS, check_
 from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.io.urdf_reader import load_urdf
+from twin.io.xacro_reader import XACRO_SUFFIX, expand_xacro
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
 from twin.units import (
     ANGLE_FACTORS,
     FILE_DEG_DECIMALS,
     FILE_MM_DECIMALS,
     LENGTH_FACTORS,
+    MAX_ANGLE_RAD,
     MAX_LENGTH_M,
     m_to_mm,
     rad_to_deg,
     rounded,
 )
 
-URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation")
+URDF_KEYS = ("name", "urdf", "base_link", "tip_link", "parametrisation", "xacro_args")
 """The keys of a model file that names a URDF."""
 
 
@@ -92,26 +98,43 @@ def _urdf_reference(document: dict[str, Any], source: str | Path) -> RobotModel:
     """A model file that names a URDF: read the URDF with the file's links and parametrisation."""
     doc = Table(document, source, allowed=URDF_KEYS, kind="a model file that names a URDF")
     links = {key: doc.text(key) if doc.has(key) else None for key in ("base_link", "tip_link")}
-    robot = load_urdf(Path(source).parent / doc.text("urdf"), base_link=links["base_link"],
-                      tip_link=links["tip_link"],
-                      parametrisation=parametrisation_request(doc, AUTO_PARAMETRISATION))
+    path = Path(source).parent / doc.text("urdf")
+    text = None
+    if path.suffix.lower() == XACRO_SUFFIX:
+        arguments = doc.table("xacro_args", expected="{ NAME = \"VALUE\", … }") \
+            if doc.has("xacro_args") else None
+        text = expand_xacro(path, {key: arguments.text(key) for key in arguments.values}
+                            if arguments is not None else {})
+    elif doc.has("xacro_args"):
+        raise doc.error("xacro_args", "xacro_args for a URDF", "them for a .xacro only")
+    robot = load_urdf(path, base_link=links["base_link"], tip_link=links["tip_link"],
+                      parametrisation=parametrisation_request(doc, AUTO_PARAMETRISATION), text=text)
     return replace(robot, name=doc.text("name")) if doc.has("name") else robot
 
 
-def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None
-               ) -> RobotModel:
-    """Read and validate a robot model: a TOML model file, or a URDF (``.urdf``).
+def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str | None = None,
+               xacro_args: Mapping[str, str] | None = None) -> RobotModel:
+    """Read and validate a robot model: a TOML model file, a URDF (``.urdf``) or a xacro
+    description (``.xacro``, expanded by :mod:`twin.io.xacro_reader` with ``xacro_args``).
 
     Args:
         path: The file.
         base_link: For a URDF: the link the chain starts from (default: the root).
         tip_link: For a URDF: the flange link (default: tool0, flange or the one leaf).
+        xacro_args: For a xacro: its arguments, NAME to VALUE.
 
     Raises:
-        InputError: if the file is missing, not TOML (or URDF), or not a valid model.
+        InputError: if the file is missing, not TOML (or URDF, or xacro), or not a valid model.
     """
     path = Path(path)
-    if path.suffix.lower() == ".urdf":
+    suffix = path.suffix.lower()
+    if xacro_args and suffix != XACRO_SUFFIX:
+        raise InputError("--xacro-arg with a robot that is not a .xacro", "it with --robot "
+                         "ARM.urdf.xacro", source="--xacro-arg")
+    if suffix == XACRO_SUFFIX:
+        return load_urdf(path, base_link=base_link, tip_link=tip_link,
+                         text=expand_xacro(path, xacro_args or {}))
+    if suffix == ".urdf":
         return load_urdf(path, base_link=base_link, tip_link=tip_link)
     if base_link is not None or tip_link is not None:
         raise InputError("--base-link or --tip-link with a model TOML file",
@@ -124,23 +147,25 @@ def load_robot(path: str | Path, *, base_link: str | None = None, tip_link: str 
 
 
 def load_robot_or_default(path: str | Path | None, *, base_link: str | None = None,
-                          tip_link: str | None = None) -> RobotModel:
+                          tip_link: str | None = None,
+                          xacro_args: Mapping[str, str] | None = None) -> RobotModel:
     """The robot of a file (:func:`load_robot`), or the packaged ABB IRB 120 without one.
 
     Raises:
         InputError: as :func:`load_robot`.
     """
     if path is None:
+        if xacro_args:
+            raise InputError("--xacro-arg without --robot", "--robot ARM.urdf.xacro beside it",
+                             source="--xacro-arg")
         return default_robot()
-    return load_robot(path, base_link=base_link, tip_link=tip_link)
+    return load_robot(path, base_link=base_link, tip_link=tip_link, xacro_args=xacro_args)
 
 _TOP_KEYS = ("name", "parametrisation", "convention", "length_unit", "angle_unit", "joints",
              "base", "tool")
 _LIMIT_KEYS = ("lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius", "velocity", "effort")
 _COM_KEY = "com"
-MAX_ANGLE_RAD = 4 * math.pi
-"""Largest |alpha|, |theta| and |joint limit| accepted from a model file: two turns."""
 MAX_MASS_KG = 1e4
 MAX_VELOCITY_RAD_S = 100.0
 """Largest joint velocity limit accepted from a model file, rad/s (some 950 rpm)."""
@@ -431,3 +456,41 @@ def robot_files(robot: RobotModel, stem: str = "robot") -> dict[str, str]:
         f"parametrisation = {json.dumps(list(robot.structure.parametrisation))}",
     ]
     return {f"{stem}.toml": "\n".join(lines) + "\n", f"{stem}.urdf": source.text}
+
+
+def robot_digest(robot: RobotModel) -> str:
+    """The SHA-256 of the robot's description as twin writes it (:func:`robot_files`): two
+    files that describe the same robot to the file's rounding have the same digest."""
+    files = robot_files(robot)
+    text = "".join(f"{name}\n{len(content)}\n{content}" for name, content in sorted(files.items()))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def robot_from_files(files: Mapping[str, str], source: str | Path) -> RobotModel:
+    """The robot :func:`robot_files` wrote (``robot.toml``, and ``robot.urdf`` when the TOML
+    names it), read from their texts.
+
+    Raises:
+        InputError: naming ``source`` for texts that are not such files.
+    """
+    toml_name = next((name for name in files if name.endswith(".toml")), None)
+    if toml_name is None or not isinstance(files[toml_name], str):
+        raise InputError("no robot TOML among the robot's files", "the files twin writes "
+                         "with a result (robot.toml, and robot.urdf for a URDF robot)",
+                         source=source)
+    try:
+        document = tomllib.loads(files[toml_name])
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"invalid TOML ({exc})", "the robot TOML twin writes",
+                         source=source) from None
+    if "urdf" not in document:
+        return parse_robot(document, source)
+    doc = Table(document, source, allowed=URDF_KEYS, kind="a model file that names a URDF")
+    urdf = files.get(doc.text("urdf"))
+    if not isinstance(urdf, str):
+        raise InputError(f"no {doc.text('urdf')!r} beside the robot TOML", "the URDF it names",
+                         source=source)
+    links = {key: doc.text(key) if doc.has(key) else None for key in ("base_link", "tip_link")}
+    robot = load_urdf(source, base_link=links["base_link"], tip_link=links["tip_link"],
+                      parametrisation=parametrisation_request(doc, AUTO_PARAMETRISATION), text=urdf)
+    return replace(robot, name=doc.text("name")) if doc.has("name") else robot

@@ -39,6 +39,16 @@ def _bounds(minimum: float | None, maximum: float | None, strict_minimum: bool,
     return low + high
 
 
+
+SHOWN_CHARS = 60
+"""Longest value an error quotes from a file (a list of a million numbers is not echoed)."""
+
+
+def shown(value: object) -> str:
+    """A value as an error quotes it: its repr, cut short."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_CHARS else text[:SHOWN_CHARS] + "…"
+
 class Table:
     """Typed access to one table of a config file.
 
@@ -61,13 +71,13 @@ class Table:
                  numbers_as_text: bool = False) -> None:
         self.source, self.name, self.numbers_as_text = source, where, numbers_as_text
         if not isinstance(values, Mapping):
-            raise InputError(f"{values!r}", "a table", source=source, where=where or None)
+            raise InputError(shown(values), "a table", source=source, where=where or None)
         self.values: Mapping[str, Any] = values
         if allowed is not None:
             allowed = tuple(allowed)
             unknown = sorted(set(values) - set(allowed))
             if unknown:
-                raise InputError(f"unknown key {unknown[0]!r}",
+                raise InputError(f"unknown key {shown(unknown[0])}",
                                  "only " + ", ".join(allowed) + (f" ({kind})" if kind else ""),
                                  source=source, where=where or None)
 
@@ -99,7 +109,7 @@ class Table:
             else f"[{key}]" if nested else self.where(key)
         value = self.values.get(key, {})
         if not isinstance(value, Mapping):
-            raise InputError(f"{value!r}", expected, source=self.source, where=where)
+            raise InputError(shown(value), expected, source=self.source, where=where)
         return Table(value, self.source, where, allowed=allowed, kind=kind,
                      numbers_as_text=self.numbers_as_text)
 
@@ -127,7 +137,7 @@ class Table:
                                              else number < minimum)) \
                 or (maximum is not None and (number >= maximum if strict_maximum
                                              else number > maximum)):
-            raise self.error(key, repr(value), expected)
+            raise self.error(key, shown(value), expected)
         return number
 
     def integer(self, key: str, default: int | None = None, *, minimum: int | None = None,
@@ -147,14 +157,14 @@ class Table:
                 number = None
         if number is None or (minimum is not None and number < minimum) \
                 or (maximum is not None and number > maximum):
-            raise self.error(key, "nothing" if value is None else repr(value), expected)
+            raise self.error(key, "nothing" if value is None else shown(value), expected)
         return number
 
     def boolean(self, key: str, default: bool | None = None) -> bool:
         """``true`` or ``false`` (``default`` when absent)."""
         value = self.values.get(key, default)
         if not isinstance(value, bool):
-            raise self.error(key, "nothing" if value is None else repr(value), "true or false")
+            raise self.error(key, "nothing" if value is None else shown(value), "true or false")
         return value
 
     def text(self, key: str, default: str | None = None, *,
@@ -162,7 +172,7 @@ class Table:
         """A string, one of ``choices`` when given (``default`` when absent)."""
         value = self.values.get(key, default)
         if not isinstance(value, str) or (choices is not None and value not in choices):
-            raise self.error(key, "nothing" if value is None else repr(value), expected or (
+            raise self.error(key, "nothing" if value is None else shown(value), expected or (
                 "a string" if choices is None else "one of " + ", ".join(choices)))
         return value
 
@@ -175,7 +185,7 @@ class Table:
                 or not all(isinstance(item, str) for item in value) \
                 or (choices is not None and not set(value) <= set(choices)) \
                 or (distinct and len(set(value)) != len(value)):
-            raise self.error(key, "nothing" if value is None else repr(value), expected)
+            raise self.error(key, "nothing" if value is None else shown(value), expected)
         return list(value)
 
     def vector(self, key: str, length: int, *, per_joint: bool = False,
@@ -193,7 +203,7 @@ class Table:
         if not isinstance(items, list) or len(items) != length or any(
                 not _is_number(v) or (minimum is not None and v < minimum)
                 or (within is not None and abs(v) > within) for v in items):
-            raise self.error(key, "nothing" if value is None else repr(value), expected)
+            raise self.error(key, "nothing" if value is None else shown(value), expected)
         return np.array(items, dtype=np.float64)
 
     def rows(self, key: str, width: int, *, expected: str) -> Array:
@@ -202,5 +212,5 @@ class Table:
         if not isinstance(value, list) or not value or any(
                 not isinstance(row, list) or len(row) != width
                 or not all(_is_number(v) for v in row) for row in value):
-            raise self.error(key, "nothing" if value is None else repr(value), expected)
+            raise self.error(key, "nothing" if value is None else shown(value), expected)
         return np.array(value, dtype=np.float64)

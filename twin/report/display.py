@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.units import DISPLAY_UNITS, m_to_mm, rad_to_arcsec, rad_to_deg
+from twin.units import DISPLAY_UNITS, m_to_mm, rad_to_arcsec, rad_to_deg, to_display
 
 LENGTH_DECIMALS = 4
 """A measured length or error, mm: 0.1 µm, ten times finer than a good encoder resolves."""
@@ -110,9 +110,18 @@ def joint_level(values_si: ArrayLike, unit: str) -> tuple[NDArray[np.float64], s
     return np.asarray(values_si, dtype=np.float64) * factor, label
 
 
-def percent(fraction: float, decimals: int | None = None, *, sign: bool = False) -> str:
-    """A share given as a fraction, in percent: ``95%`` with ``decimals`` (``+2.5%``), or
-    as given (``g``) without them."""
+def percent(fraction: float, decimals: int | None = None, *, significant: int | None = None,
+            sign: bool = False) -> str:
+    """A share given as a fraction, in percent: ``95%`` with ``decimals`` (``+2.5%``), with
+    ``significant`` digits (``+0.282%``), or as given (``g``) without either."""
     if decimals is None:
-        return f"{plain(100 * fraction, sign=sign)}%"
+        return f"{plain(100 * fraction, significant=significant, sign=sign)}%"
     return format(float(fraction), f"{'+' if sign else ''}.{decimals}%")
+
+
+def in_unit(value_si: float, unit: str, significant: int = SIGNIFICANT) -> str:
+    """A value in one of the SI units an unknown may have (``m``, ``rad``, ``rad/(N·m)``) in
+    the unit results show it in, as results round it (:func:`twin.units.to_display`), with
+    ``significant`` digits: ``0.0123 mm``, ``0.5 deg``, ``12.3 µrad/(N·m)``."""
+    values, labels = to_display([value_si], [unit])
+    return f"{plain(values[0], significant=significant)} {labels[0]}"

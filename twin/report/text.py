@@ -22,8 +22,10 @@ from twin.report.display import (
     JOINT_DECIMALS,
     SIGNIFICANT,
     deg_values,
+    in_unit,
     joint_level,
     mm,
+    percent,
     plain,
     slot,
     xyz_mm,
@@ -48,19 +50,72 @@ def _metric_row(label: str, m: Metrics) -> str:
                                       for v in (m.rmse, m.mae, m.std, m.max))
 
 
-ARBITRARY = "their values are arbitrary: compare flange positions, not raw parameters"
-
-
-def _nominal_lines(nominal: Identifiability, along: str) -> list[str]:
-    lines = [
+def _nominal_lines(nominal: Identifiability) -> list[str]:
+    return [
         f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
         f"{nominal.n_params}, condition {nominal.condition:.3g} "
         f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
         "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
     ]
-    if nominal.unidentifiable:
-        lines.append(f"    (directions in column-scaled units; {along})")
+
+
+def _held_lines(result: CalibrationResult) -> list[str]:
+    """What was held at the nominal, what that cost, and a start kept instead of the answer."""
+    held, unseen = result.held, result.unseen
+    if held is None or unseen is None:
+        return []
+    lines = []
+    if unseen.names:
+        lines.append("  held at the nominal (not seen by these data: the minimum-norm solution "
+                     "in the bound-scaled unknowns, so nothing unseen leaves the tool): "
+                     + ", ".join(unseen.names)
+                     + "; training objective "
+                     + percent(held.cost_change, significant=3, sign=True))
+    if held.kept_start:
+        lines.append(f"  returned the start, not the method's point: {held.kept_start}")
     return lines
+
+
+def _weak_lines(nominal: Identifiability, result: CalibrationResult) -> list[str]:
+    """The combinations the training poses see only weakly, each with its σ from the noise
+    estimate: those weak at the nominal geometry (in the unit of their leading unknown), and
+    the nominal's null directions the identified geometry lets them see (in half-ranges of
+    the search box)."""
+    if result.uncertainty is None:
+        return []
+    noise = result.uncertainty.noise_sigma_m
+    shown = []
+    for name, leading, factor in zip(nominal.weak_names, nominal.weak_leading,
+                                     nominal.weak_sigma_per_noise, strict=True):
+        shown.append(f"{name} ±{in_unit(noise * factor, result.model.units[leading], 3)}")
+    if result.unseen is not None:
+        shown += [f"{name} ±{sigma:.2g} of its box" for name, sigma
+                  in zip(result.unseen.weak_names, result.unseen.weak_sigma, strict=True)]
+    return ["  weakly seen (σ from the noise estimate): " + ", ".join(shown)] if shown else []
+
+
+def format_held(result: CalibrationResult) -> list[str]:
+    """What was held at the nominal (and at what cost), and what the data see only weakly."""
+    lines = _held_lines(result)
+    if result.identifiability is not None:
+        lines += _weak_lines(result.identifiability, result)
+    return lines
+
+
+def _accuracy_line(result: CalibrationResult) -> str:
+    """The predicted accuracy, for the flange when the data pin it, else for the point they
+    measure (an estimated attachment leaves the flange free to slide under it)."""
+    assert result.uncertainty is not None
+    uncertainty, gauge = result.uncertainty, result.gauge
+    noise = f"  noise estimate {mm(uncertainty.noise_sigma_m)}; "
+    if result.model.has("attachment"):
+        return (noise + "predicted RMS error of the measured point (the attachment) over the "
+                f"workspace {mm(uncertainty.point_rms_m)} (the flange is not "
+                "pinned by these data: no flange figure)")
+    modulo = f", modulo {gauge.describe()}" if gauge is not None and gauge.names else ""
+    return (noise + "predicted flange RMS error over the workspace "
+            f"{mm(uncertainty.flange_rms_m)}{modulo} (the identifiable "
+            "combinations only)")
 
 
 def format_identifiability(result: CalibrationResult) -> list[str]:
@@ -68,21 +123,18 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     nominal, identified = result.identifiability, result.identified_identifiability
     lines = []
     if nominal is not None:
-        held = result.method == "lm-base"
-        lines += _nominal_lines(nominal, "held at their start values" if held else ARBITRARY)
+        lines += _nominal_lines(nominal)
+        lines += format_held(result)
     if identified is not None:
+        lifted = " (the identified geometry lifts held directions off zero)" \
+            if nominal is not None and identified.rank > nominal.rank else ""
         lines.append(
             f"  at the identified geometry: rank {identified.rank} of {identified.n_params}, "
             f"condition {identified.condition:.3g}, {identified.weak} weak "
-            f"(singular value below {WEAK_RTOL:g} of the largest)"
+            f"(singular value below {WEAK_RTOL:g} of the largest){lifted}"
         )
     if result.uncertainty is not None:
-        lines.append(
-            f"  noise estimate {mm(result.uncertainty.noise_sigma_m)}; "
-            f"predicted flange RMS error over the workspace {mm(result.uncertainty.flange_rms_m)}"
-        )
-        if result.model.has("attachment"):
-            lines[-1] += f", measured point {mm(result.uncertainty.point_rms_m)}"
+        lines.append(_accuracy_line(result))
     return lines
 
 
@@ -162,7 +214,8 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
             if causes else ""
         lines.append(f"  MISFIT: the model does not fit these data — training RMSE "
                      f"{mm(misfit.rmse_m, significant=SIGNIFICANT)} against a noise of "
-                     f"{mm(misfit.noise_m, significant=SIGNIFICANT)} ({misfit.describe()}){likely}")
+                     f"{mm(misfit.noise_m, significant=SIGNIFICANT)} ({misfit.describe()}): "
+                     f"{misfit.readings()}{likely}")
     if result.loss.robust:
         rows = result.rejected_rows
         shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
@@ -324,21 +377,29 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         )
     lines.append("  " + MAE_NOTE)
     if first.identifiability is not None:
-        lines += _nominal_lines(first.identifiability, "lm-base holds them at their start "
-                                "values; for the others " + ARBITRARY)
+        lines += _nominal_lines(first.identifiability)
+        lines += _held_lines(first)[:1]
+    kept = [name for name, result in results.items()
+            if result.held is not None and result.held.kept_start]
+    if kept:
+        lines.append(f"  returned their start (no better than it on the training poses, by BIC): "
+                     f"{', '.join(kept)}")
+    point = first.model.has("attachment")
     predicted = [
-        f"{name} {mm(result.uncertainty.flange_rms_m, unit=False)}"
-        for name, result in results.items() if result.uncertainty is not None
+        f"{name} {mm(u.point_rms_m if point else u.flange_rms_m, unit=False)}"
+        for name, u in ((name, result.uncertainty) for name, result in results.items())
+        if u is not None
     ]
     if predicted:
-        lines.append("  predicted flange RMS error over the workspace [mm]: "
+        what = "measured point (the flange is not pinned)" if point else "flange"
+        lines.append(f"  predicted {what} RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
     misfits = [name for name, result in results.items()
                if result.misfit is not None and result.misfit.misfit]
     if misfits:
-        lines.append(f"  MISFIT: {', '.join(misfits)} do(es) not fit these data (training RMSE "
-                     f"far above the noise, chi-square at {1 - ALPHA:g}): calibrate with one "
-                     "method for the likely causes")
+        lines.append(f"  MISFIT: {', '.join(misfits)} do(es) not fit these data (chi-square of "
+                     f"the training residuals above its {1 - ALPHA:g} quantile): calibrate with "
+                     "one method for the likely causes")
     if first.loss.robust:
         lines.append(f"  rows rejected by the {first.loss.name} loss (scale "
                      f"{mm(first.loss.scale_m, significant=SIGNIFICANT)}): " + ", ".join(

@@ -164,7 +164,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     instrument = _instrument(tables)
     port_m, port_told_m, port_error_m = _port(tables["port"], instrument)
     perturbation = _perturbation(tables["perturbation"], robot)
-    plan, count = _poses(tables["poses"], instrument, source.parent)
+    plan, count = _poses(tables["poses"], tables["fixture"], instrument, source.parent)
     cable_range = _cable_range(tables["encoder"])
     joint_errors, draw_phases = _joint_errors(tables["joints"], robot.n_joints)
     physics = _physics(tables["physics"], robot)
@@ -202,7 +202,7 @@ def _robot(top: Table, folder: Path) -> RobotModel:
         raise top.error("robot_base_link", "robot_base_link or robot_tip_link without robot",
                         "robot = \"arm.urdf\" beside them")
     return load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
-                                 **links)
+                                 base_link=links["base_link"], tip_link=links["tip_link"])
 
 
 def _port(port: Table, instrument: Instrument) -> tuple[Array | None, Array | None, float]:
@@ -246,16 +246,22 @@ def _perturbation(pert: Table, robot: RobotModel) -> Perturbation:
     return Perturbation(distribution, scale, robot.is_length)
 
 
-def _poses(poses: Table, instrument: Instrument, folder: Path) -> tuple[Path | None, int]:
+def _poses(poses: Table, fixture: Table, instrument: Instrument, folder: Path
+           ) -> tuple[Path | None, int]:
     """``[poses]``: the plan file (or None) and the number of poses to draw (fixed points:
-    one per touch of every socket)."""
+    one per touch of every socket of every placement of the ``[fixture]``)."""
     plan = folder / poses.text("plan") if poses.has("plan") else None
     if instrument.kind == "point":
         for key in ("count", "plan"):
             if poses.has(key):
                 raise poses.error(key, f"{key} with fixed points",
                                   "[fixture] placements and touches (they set the poses)")
-        return plan, len(instrument.points_m) * instrument.touches
+        points = len(instrument.sockets_m) * len(instrument.placements)
+        count = points * instrument.touches
+        if count > MAX_POSES:
+            raise fixture.error("touches", f"{instrument.touches} touches of {points} sockets "
+                                f"({count} poses)", f"at most {MAX_POSES} poses in all")
+        return plan, count
     if plan is None:
         poses.required("count", "the number of poses (or a plan)")
     return plan, poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") \

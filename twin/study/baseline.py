@@ -43,6 +43,9 @@ MIN_CHANGED = math.ceil(-math.log2(SIGNIFICANCE))
 MOVED = 3
 """Trials named as those that moved most."""
 VERDICTS = ("pass", "regression", "inconclusive")
+MAX_TOLERANCE = 1.0
+"""Largest relative worsening a tolerance may allow (100 %: a metric twice as bad); beyond it
+no change is a regression and the comparison can never fail."""
 
 
 class Metric(NamedTuple):

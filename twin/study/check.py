@@ -23,8 +23,10 @@ from pathlib import Path
 from typing import Any, NamedTuple, TextIO
 
 from twin.errors import InputError
+from twin.io.lock import folder_lock
 from twin.report.display import percent
 from twin.study.baseline import (
+    MAX_TOLERANCE,
     MIN_CHANGED,
     Comparison,
     compare_studies,
@@ -260,9 +262,9 @@ def check(
         InputError: for a mistake in the scenario, the expectations, the baseline or a value.
     """
     if isinstance(tolerance, bool) or not isinstance(tolerance, int | float) \
-            or not (math.isfinite(tolerance) and tolerance >= 0):
-        raise InputError(f"{tolerance!r}", "a relative tolerance >= 0, e.g. 5% (0.05)",
-                         source="--tolerance")
+            or not 0 <= tolerance <= MAX_TOLERANCE:
+        raise InputError(f"{tolerance!r}", f"a relative tolerance from 0 to {MAX_TOLERANCE:g} "
+                         f"({MAX_TOLERANCE:.0%}), e.g. 5% (0.05)", source="--tolerance")
     names = [methods] if isinstance(methods, str) else None if methods is None else list(methods)
     plan = load_study(scenario, trials=trials, methods=names)
     pairs = load_expectations(plan, expect)
@@ -275,8 +277,9 @@ def check(
         require_methods(metrics_of(pairs), base_rows, baseline)
     if executor is None:
         executor = open_executor()
-    store = run_trials(plan, out, executor, stream=stream)
-    write_report(plan, store, figures=figures)
+    with folder_lock(out, "twin check"):
+        store = run_trials(plan, out, executor, stream=stream)
+        write_report(plan, store, figures=figures)
     rows = store.rows(plan.keys)
     grouped: dict[TrialKey, list[TrialRow]] = {}
     for row in rows:

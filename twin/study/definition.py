@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from twin.dataset import MAX_POSES
 from twin.errors import InputError
 from twin.io.paths import read_bytes, read_toml
 from twin.io.robot_file import robot_files
@@ -32,6 +33,12 @@ from twin.solvers import SOLVERS, get_solver
 STUDY_KEYS = ("trials", "methods", "workspace_poses", "sweep")
 DEFAULT_TRIALS = 10
 DEFAULT_WORKSPACE_POSES = 500
+MAX_TRIALS = 100_000
+"""Most trials per case, from ``[study] trials`` as from ``--trials``."""
+MAX_SWEEP_POINTS = 1000
+"""Most sweep points: each is a whole scenario, copied and validated again before any trial."""
+MAX_STUDY_TRIALS = 1_000_000
+"""Most trials of a study in all (sweep points × trials per point)."""
 
 
 @dataclass(frozen=True)
@@ -111,8 +118,12 @@ def _sweep_points(study: Table) -> list[dict[str, Any]]:
         return [{}]
     lengths = {len(v) if isinstance(v, list) else -1 for v in sweep.values.values()}
     if len(lengths) != 1 or min(lengths) < 1:
-        raise study.error("sweep", f"{dict(sweep.values)!r}", "non-empty lists of equal length")
+        raise study.error("sweep", "lists of lengths " + ", ".join(map(str, sorted(lengths))),
+                          "non-empty lists of equal length")
     count = lengths.pop()
+    if count > MAX_SWEEP_POINTS:
+        raise study.error("sweep", f"{count} sweep points",
+                          f"at most {MAX_SWEEP_POINTS} values per key")
     for key in sweep.values:
         if key.split(".")[0] == "study" or key == "seed":
             raise study.error("sweep", f"sweep key {key!r}", "a key of the simulated scenario "
@@ -148,16 +159,23 @@ def load_study(path: str | Path, *, trials: int | None = None,
     study = Table(base.study, path, "[study]", allowed=STUDY_KEYS)
     if trials is not None and trials < 1:
         raise InputError(f"{trials}", "an integer >= 1", source="--trials")
-    n_trials = trials if trials is not None else study.integer("trials", DEFAULT_TRIALS,
-                                                               minimum=1)
-    workspace = study.integer("workspace_poses", DEFAULT_WORKSPACE_POSES, minimum=1)
+    n_trials = trials if trials is not None else study.integer(
+        "trials", DEFAULT_TRIALS, minimum=1, maximum=MAX_TRIALS)
+    workspace = study.integer("workspace_poses", DEFAULT_WORKSPACE_POSES, minimum=1,
+                              maximum=MAX_POSES)
     if methods is None:
         chosen = resolve_methods(study.strings(
             "methods", ["all"], expected='a list of method names, e.g. ["lm", "m9"]'), path)
     else:
         chosen = resolve_methods(methods, "--methods")
+    points = _sweep_points(study)
+    if len(points) * n_trials > MAX_STUDY_TRIALS:
+        raise InputError(f"{len(points)} sweep points × {n_trials} trials",
+                         f"at most {MAX_STUDY_TRIALS} trials in all",
+                         source="--trials" if trials is not None else path,
+                         where=None if trials is not None else "[study] trials")
     cases = []
-    for point in _sweep_points(study):
+    for point in points:
         if not point:
             cases.append(Case("", base))
             continue

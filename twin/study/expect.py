@@ -11,7 +11,8 @@ a list of strings ``"COLUMN STAT OP VALUE"``::
 
 - ``COLUMN``: a numeric column of `results.csv` (:data:`NUMERIC_COLUMNS`, in its unit: mm, s,
   a count, or the bound ratio), or the boolean ``converged`` with STAT ``share``.
-- ``STAT`` over the method's trials (of one sweep point): ``mean``, ``median``, ``min``,
+- ``STAT`` over the method's trials (of one sweep point): ``mean``, ``median``, ``rms`` (root mean
+square over the trials), ``min``,
   ``max``, ``std`` (sample, ddof = 1: two trials at least), ``p5`` … ``p99`` (percentiles,
   linear interpolation between order statistics, numpy's default), ``share`` (of true).
 - ``OP``: ``<=``, ``<``, ``>=``, ``>``; it also says which way is better when a study is compared
@@ -42,7 +43,7 @@ from twin.study.rows import BOOLEAN_COLUMNS, NUMERIC_COLUMNS
 ALL_METHODS = "*"
 """The ``[expect]`` key whose expectations apply to every method of the study."""
 PERCENTILES = {f"p{q}": q for q in (5, 10, 25, 75, 90, 95, 99)}
-STATS = ("mean", "median", "min", "max", "std", *PERCENTILES, "share")
+STATS = ("mean", "median", "rms", "min", "max", "std", *PERCENTILES, "share")
 OPERATORS = ("<=", "<", ">=", ">")
 GRAMMAR = '"COLUMN STAT OP VALUE", e.g. "flange_error_mm p95 <= 0.03"'
 
@@ -126,6 +127,8 @@ def measure(expectation: Expectation, values: Sequence[float]) -> Measured:
         value = float(np.std(array, ddof=1))
     elif stat == "median":
         value = float(np.median(array))
+    elif stat == "rms":
+        value = float(np.sqrt(np.mean(array**2)))
     else:
         value = float(np.min(array) if stat == "min" else np.max(array))
     return Measured(value, int(array.size), 0, "")

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from twin.io.atomic import write_atomic
+from twin.io.lock import folder_lock
 from twin.study.definition import StudyPlan
 from twin.study.executors import Executor, make_batches
 from twin.study.figures import write_figures
@@ -44,7 +45,8 @@ def run_trials(
     stream: TextIO | None = None,
     on_outcome: Callable[[TrialOutcome], None] | None = None,
 ) -> StudyStore:
-    """Run the trials of ``plan`` that ``folder`` does not hold yet, recording each as it ends.
+    """Run the trials of ``plan`` that ``folder`` does not hold yet, recording each as it ends
+    (the caller holds the folder's lock: :func:`run_study`, :func:`twin.study.check.check`).
 
     Args:
         plan: The study.
@@ -81,9 +83,12 @@ def run_trials(
 def run_study(plan: StudyPlan, folder: str | Path, executor: Executor, *,
               stream: TextIO | None = None,
               on_outcome: Callable[[TrialOutcome], None] | None = None) -> dict[str, Any]:
-    """:func:`run_trials`, then the summary and figures; returns the summary document."""
-    return write_report(plan, run_trials(plan, folder, executor, stream=stream,
-                                         on_outcome=on_outcome))
+    """:func:`run_trials`, then the summary and figures, holding the folder's lock
+    (:mod:`twin.io.lock`: a second study of the same folder is refused at once); returns the
+    summary document."""
+    with folder_lock(folder, "twin study"):
+        return write_report(plan, run_trials(plan, folder, executor, stream=stream,
+                                             on_outcome=on_outcome))
 
 
 def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True) -> dict[str, Any]:

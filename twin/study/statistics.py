@@ -62,7 +62,8 @@ def alias(method: str) -> str:
 def _stats(values: Sequence[float]) -> dict[str, float]:
     array = np.asarray(values, dtype=np.float64)
     return {"mean": float(np.mean(array)), "std": float(np.std(array, ddof=1))
-            if array.size > 1 else 0.0, "median": float(np.median(array)), "n": int(array.size)}
+            if array.size > 1 else 0.0, "median": float(np.median(array)),
+            "rms": float(np.sqrt(np.mean(array**2))), "n": int(array.size)}
 
 
 def _by_method(rows: Sequence[TrialRow], methods: Sequence[str]) -> dict[str, list[TrialRow]]:

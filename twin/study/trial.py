@@ -40,7 +40,7 @@ import numpy as np
 from twin.analysis.identifiability import measurement_identifiability
 from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
 from twin.arrays import Array
-from twin.calibration.accuracy import truth_errors
+from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
 from twin.calibration.result import CalibrationResult
 from twin.dataset import approach_directions
@@ -138,12 +138,22 @@ def has_joint_groups(model: Model) -> bool:
     return any(group.stage == Stage.JOINTS for group in model.groups)
 
 
-def true_flange(sim: Simulation, q_workspace: Array) -> Array:
-    """Where the twin's flange really is at the workspace poses, visited in order from home:
-    MuJoCo at rest with joint errors and sag, shape (k, 3), m."""
+def true_points(sim: Simulation, q_workspace: Array) -> tuple[Array, Array]:
+    """Where the twin's flange centre and measured point really are at the workspace poses,
+    visited in order from home: MuJoCo at rest with joint errors and sag, shapes (k, 3), m."""
     twin = Twin.build(sim.true_robot, sim.port_m, sim.scenario.physics, sim.joint_errors,
                       sim.rig.attachment_m)
-    return twin.at_rest(q_workspace, approach_directions(q_workspace)).flange_m
+    rest = twin.at_rest(q_workspace, approach_directions(q_workspace))
+    return rest.flange_m, rest.point_m
+
+
+def trial_truth(sim: Simulation, model: Model, q_workspace: Array) -> tuple[Array, Array]:
+    """The truth a trial's model is held to at the workspace poses, flange centres and measured
+    points (k, 3) each, m: the twin's physical robot for a model with joint-level errors, the
+    rigid true table for one without (whose flange is the table's by definition)."""
+    if has_joint_groups(model):
+        return true_points(sim, q_workspace)
+    return rigid_truth(sim.true_robot, sim.rig.attachment_m, q_workspace)
 
 
 def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> TrialOutcome:
@@ -168,10 +178,9 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     # The model's poses come with the approach directions of visiting them in order, as the
     # twin's flange below.
     at_workspace = model.poses(q_workspace)
-    truth_m = true_flange(sim, q_workspace) if has_joint_groups(model) \
-        else sim.true_robot.flange_positions(q_workspace)
+    truth = trial_truth(sim, model, q_workspace)
     for name, result in results.items():
-        flange_m = rms_distance(model.flange_positions(result.solver.x, at_workspace), truth_m)
+        flange_m = rms_distance(model.flange_positions(result.solver.x, at_workspace), truth[0])
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
@@ -190,7 +199,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
             iterations=result.solver.iterations, evaluations=result.solver.evaluations,
             seconds=result.solver.seconds, converged=result.solver.converged,
             stop_reason=result.solver.stop_label,
-            **_truth_columns(result, sim, q_workspace, crlb_m, point_crlb_m),
+            **_truth_columns(result, truth, q_workspace, crlb_m, point_crlb_m),
         ))
         methods[name] = {
             "history_mm": m_to_mm([r.validation_rmse_m for r in result.solver.history]).tolist(),
@@ -208,17 +217,18 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     return TrialOutcome(case=case, trial=trial, seed=seed, rows=tuple(rows), detail=detail)
 
 
-def _truth_columns(result: CalibrationResult, sim: Simulation, q_workspace: Array,
+def _truth_columns(result: CalibrationResult, truth: tuple[Array, Array], q_workspace: Array,
                    crlb_m: float, point_crlb_m: float) -> dict[str, float]:
-    """The gauge-free flange and measured-point errors against the truth, and their ratios to
-    the bounds (NaN where a bound is zero: no noise)."""
-    truth = truth_errors(result, sim.true_robot, sim.rig.attachment_m, q_workspace)
+    """The gauge-free flange and measured-point errors against the truth (flange centres and
+    measured points, :func:`trial_truth`), and their ratios to the bounds (NaN where a bound
+    is zero: no noise)."""
+    errors = truth_errors(result, *truth, q_workspace)
     return {
-        "flange_error_gauge_free_mm": _mm(truth.flange_gauge_free_m),
-        "crlb_ratio_gauge_free": truth.flange_gauge_free_m / crlb_m if crlb_m > 0
+        "flange_error_gauge_free_mm": _mm(errors.flange_gauge_free_m),
+        "crlb_ratio_gauge_free": errors.flange_gauge_free_m / crlb_m if crlb_m > 0
         else float("nan"),
-        "point_error_mm": _mm(truth.point_gauge_free_m),
-        "point_crlb_ratio": truth.point_gauge_free_m / point_crlb_m if point_crlb_m > 0
+        "point_error_mm": _mm(errors.point_gauge_free_m),
+        "point_crlb_ratio": errors.point_gauge_free_m / point_crlb_m if point_crlb_m > 0
         else float("nan"),
     }
 

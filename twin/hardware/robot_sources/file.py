@@ -1,7 +1,7 @@
 """Joint angles logged by the robot controller, matched to the plan by pose number.
 
 The controller (e.g. a RAPID program running the plan) appends one CSV row per pose once the
-robot stands still: ``pose,q1,…,q6`` with q in degrees (other columns are ignored), one whole
+robot stands still: ``pose,q1,…,qN`` with q in degrees (other columns are ignored), one whole
 line per write. The capture waits for the row of each pose to appear, then reads the encoder.
 """
 
@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError
-from twin.hardware.robot_sources.base import RobotSource
-from twin.io.measurements import JOINT_COLUMNS, read_table
+from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
+from twin.io.measurements import joint_columns, read_table
 from twin.io.paths import read_bytes
 from twin.units import deg_to_rad
 
@@ -30,21 +30,23 @@ class FileRobot(RobotSource):
         path: The controller's CSV log.
         wait_s: How long to wait for a pose's row to appear, s; None waits until it does.
         poll_s: How often to look again, s.
+        n_joints: The robot's joints (the log's columns q1..qN).
     """
 
     def __init__(self, path: str | Path, wait_s: float | None = 0.0,
-                 poll_s: float = 0.2) -> None:
+                 poll_s: float = 0.2, n_joints: int = 6) -> None:
         self.path, self.wait_s, self.poll_s = Path(path), wait_s, poll_s
+        self.columns = joint_columns(n_joints)
 
     def _logged(self) -> dict[int, NDArray[np.float64]]:
         """Pose number -> joint angles in degrees, shape (n,); empty if there is no log yet."""
         if not self.path.exists():
             return {}
-        what = "a controller log CSV (pose, q1..q6 in deg)"
+        what = f"a controller log CSV (pose, q1..q{len(self.columns)} in deg)"
         text = read_bytes(self.path, what).splitlines()
         if sum(1 for line in text if line.strip() and not line.lstrip().startswith(b"#")) < 2:
             return {}  # the controller has not logged a pose yet
-        values, lines = read_table(self.path, (POSE_COLUMN, *JOINT_COLUMNS), what)
+        values, lines = read_table(self.path, (POSE_COLUMN, *self.columns), what)
         logged: dict[int, NDArray[np.float64]] = {}
         for row, line in zip(values, lines, strict=True):
             pose = int(row[0])
@@ -61,7 +63,19 @@ class FileRobot(RobotSource):
         while (q_deg := self._logged().get(pose)) is None:
             if time.monotonic() >= deadline:
                 raise InputError(f"no row for pose {pose}/{n_poses}",
-                                 f"a row 'pose={pose},q1..q6' logged by the controller "
+                                 f"a row 'pose={pose},q1..q{len(self.columns)}' logged by the "
+                                 "controller "
                                  f"(waited {self.wait_s:g} s)", source=self.path)
             time.sleep(self.poll_s)
         return deg_to_rad(q_deg)
+
+
+def _open(request: SourceRequest) -> RobotSource:
+    if request.joint_log is None:
+        raise InputError("no --joint-log", "the controller's log CSV (--robot-source file)",
+                         source="command line")
+    return FileRobot(request.joint_log, wait_s=request.joint_log_wait_s,
+                     n_joints=request.plan_q_rad.shape[1])
+
+
+KIND = SourceKind("file", "joint angles logged by the controller (--joint-log)", _open)

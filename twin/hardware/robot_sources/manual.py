@@ -1,20 +1,21 @@
 """The operator jogs the robot to each pose and confirms on the terminal.
 
 For each pose the terminal shows ``pose K/N`` and the target joint angles; the operator jogs the
-robot there and presses Enter (the target was reached) or types the six joint angles the teach
+robot there and presses Enter (the target was reached) or types the n joint angles the teach
 pendant shows, in degrees, separated by spaces or commas.
 """
 
 from __future__ import annotations
 
 import re
+import sys
 from typing import TextIO
 
 import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import TwinError
-from twin.hardware.robot_sources.base import RobotSource
+from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
 from twin.units import deg_to_rad, rad_to_deg
 
 
@@ -55,3 +56,10 @@ class ManualRobot(RobotSource):
                 return deg_to_rad(reached_deg)
             self.prompt_out.write(f"  found {answer.strip()!r}, expected Enter or {n} numbers "
                                   "in degrees; try again\n")
+
+
+def _open(request: SourceRequest) -> RobotSource:
+    return ManualRobot(request.prompt_out or sys.stdout, request.answers_in or sys.stdin)
+
+
+KIND = SourceKind("manual", "the operator jogs and confirms on the terminal", _open)

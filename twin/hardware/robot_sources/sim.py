@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError
-from twin.hardware.robot_sources.base import RobotSource
+from twin.hardware.robot_sources.base import Cell, RobotSource, SourceKind, SourceRequest
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_text
 from twin.units import deg_to_rad, rad_to_deg
@@ -72,8 +72,8 @@ def read_pose(path: str | Path) -> CommandedPose | None:
         return CommandedPose(int(document["pose"]), deg_to_rad(document["q_deg"]),
                              deg_to_rad(document["from_q_deg"]), str(document["command"]))
     except (ValueError, KeyError, TypeError):
-        raise InputError(f"{text[:60]!r}", 'a pose file {"pose", "q_deg", "from_q_deg", '
-                         '"command"}', source=path) from None
+        raise InputError("a file that is not a pose file", 'a pose file {"pose", "q_deg", '
+                         '"from_q_deg", "command"}', source=path) from None
 
 
 class SimRobot(RobotSource):
@@ -96,3 +96,32 @@ class SimRobot(RobotSource):
         publish_pose(self.pose_file, pose, target_q_rad,
                      self.plan_q_rad[pose - 2] if pose > 1 else home)
         return np.asarray(target_q_rad, dtype=np.float64)
+
+
+def scenario_cell(scenario: Path | None, seed: int | None) -> Cell:
+    """The robot, the told rig and the truth of the scenario the virtual encoder serves: those
+    of :func:`twin.sim.simulate` for the same scenario and seed.
+
+    Raises:
+        InputError: without a scenario, or for one that is not of one cable port.
+    """
+    if scenario is None:
+        raise InputError("no --scenario", "the scenario the virtual encoder serves "
+                         "(--robot-source sim)", source="command line")
+    from twin.scenario import load_scenario
+    from twin.sim import simulate
+
+    sim = simulate(load_scenario(scenario), seed)
+    if sim.port_m is None or sim.port_nominal_m is None or len(sim.rig.ports_m) > 1:
+        raise InputError(f"a {sim.measurements.kind} scenario with {len(sim.rig.ports_m)} "
+                         "ports", "a scenario of one cable port (the virtual encoder serves "
+                         "one cable)", source=scenario)
+    return Cell(sim.robot, sim.rig_told_pulled, sim.capture_truth, sim.scenario.calibration)
+
+
+def _open(request: SourceRequest) -> RobotSource:
+    return SimRobot(request.plan_q_rad, request.pose_file or DEFAULT_POSE_FILE)
+
+
+KIND = SourceKind("sim", "the twin moves (with twin virtual-encoder)", _open,
+                  cell=scenario_cell)

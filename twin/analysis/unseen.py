@@ -1,0 +1,212 @@
+"""What the data cannot see, as a subspace of the unknowns, and the one safe value along it.
+
+Least squares is indifferent along directions the data do not see: any value there is noise, a
+solver's drift or the search box (θ6 of a cable at the flange centre ends at −8° if nothing
+holds it). The safe value is the nominal, reached as the minimum-norm solution relative to the
+start in the **bound-scaled** unknowns z = x / w:
+
+    x ← x − W N Nᵀ W⁻¹ x,
+
+w the half-range of each unknown's search box (a millimetre of δa and 1.6 mrad of δθ weigh as
+the box says they may) for the robot's unknowns, and :data:`RIG_WEIGHT` times that for the
+rig's (port, offset, attachment, tracker frame, fixed points): the robot stays at its nominal
+along what the data cannot see and the rig — which has no nominal to keep, it is what was
+measured — takes up the trade (an estimated port turns about joint 1's axis, not θ1).
+
+N the orthonormal basis (in z) of the unseen directions. The candidates are the null
+directions of the training poses at the **start** geometry — the identifiability null space at
+its rank threshold (:data:`~twin.analysis.identifiability.RANK_RTOL` of the largest singular
+value of the column-scaled Jacobian; :mod:`twin.analysis.identifiability` names them: θ6, α6,
+d2 − d3 for a cable at the flange centre of an IRB 120). Each is held unless the identified
+geometry lets the data see it after all: it is held when, at the identified unknowns,
+
+- it has a component in the exact null space there (α6 of a flange-centre cable never moves
+  a reading; a gauge motion of an estimated port), or
+- its Cramér–Rao σ (σ̂ of the fit's noise estimate, every other unknown free) exceeds
+  :data:`HELD_SIGMA` half-ranges of the box: the box, not the data, would decide it (θ6 when
+  a6 is a fraction of a millimetre and the model misses something).
+
+So θ6 of the paper's rig stays at exactly 0, while a large true error that makes a candidate
+visible (a6 of 5 mm in the bounds regime) keeps it free, and noise-free data hold only what no
+reading moves. Directions exactly unseen at the identified unknowns are always held.
+
+The same subspace bounds the accuracy: the Cramér–Rao bound of an estimator held at the start
+along N is ``σ² P (Pᵀ JᵀJ P)⁻¹ Pᵀ`` with P = S Q, Q the orthonormal complement of N in z —
+finite, and the bound of the identifiable combinations only (:mod:`twin.analysis.uncertainty`).
+Candidates kept with a σ above :data:`WEAK_SIGMA` half-ranges are *weakly seen*: reported with
+their σ.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from twin.analysis.identifiability import RANK_RTOL, Identifiability, name_direction
+from twin.arrays import Array
+from twin.dataset import Measurements
+from twin.model import Model
+from twin.unknowns import Stage
+
+RIG_WEIGHT = 1e3
+"""How much wider the hold's norm counts the rig's unknowns than their search box: their
+deviations cost a millionth of the robot's, so the rig absorbs what trades with it."""
+HELD_SIGMA = 1.0
+"""A direction whose Cramér–Rao σ exceeds this many half-ranges of the box is held at the
+start: the box, not the data, would decide it."""
+INSIDE_TOL = 1e-6
+"""A candidate (unit vector, bound-scaled) within this distance of the exact null space is in
+it."""
+WEAK_SIGMA = 0.1
+"""A kept direction whose σ exceeds this many half-ranges of the box is reported as weakly
+seen."""
+
+
+class Unseen(NamedTuple):
+    """The directions of the unknowns the data cannot see (module docstring)."""
+
+    scale: Array
+    """w: the hold's weight of each unknown (half its search range, the rig's times
+    :data:`RIG_WEIGHT`), shape (p,), m and rad."""
+    basis: Array
+    """N: orthonormal basis of the unseen directions in the weighted unknowns z = x / w,
+    shape (p, k)."""
+    names: tuple[str, ...]
+    """The unseen subspace as sparse combinations (``theta6``, ``d2-d3``), length k."""
+    noise_m: float
+    """The noise estimate the Cramér–Rao test used, m."""
+    weak_names: tuple[str, ...] = ()
+    """The weakly seen directions, named."""
+    weak_sigma: Array = np.zeros(0)
+    """Their Cramér–Rao σ, in half-ranges of the box, shape (w,)."""
+
+    @property
+    def seen(self) -> Array:
+        """Q: orthonormal basis of the complement of N in the bound-scaled unknowns, (p, p − k)."""
+        p, k = self.basis.shape
+        if not k:
+            return np.eye(p)
+        q, _ = np.linalg.qr(np.column_stack([self.basis, np.eye(p)]))
+        return np.asarray(q[:, k:p], dtype=np.float64)
+
+    @property
+    def seen_x(self) -> Array:
+        """P = S Q: the seen directions in the units of x (m, rad), shape (p, p − k)."""
+        return self.scale[:, None] * self.seen
+
+    def remove(self, x: ArrayLike) -> Array:
+        """x (..., p) without its components along N: ``x − S N Nᵀ S⁻¹ x``."""
+        z = np.asarray(x, dtype=np.float64) / self.scale
+        return np.asarray(self.scale * (z - (z @ self.basis) @ self.basis.T), dtype=np.float64)
+
+    def along(self, x: ArrayLike) -> Array:
+        """The components of x (p,) along N, in bound-scaled units, shape (k,)."""
+        return np.asarray((np.asarray(x, dtype=np.float64) / self.scale) @ self.basis,
+                          dtype=np.float64)
+
+
+def _sparse_names(basis: Array, column_units: Array, names: tuple[str, ...]) -> tuple[str, ...]:
+    """Readable names of a subspace: its basis turned so that each direction has one pivot
+    unknown (the last ones in the order of x that can be), then named in column-scaled units
+    as :func:`twin.analysis.identifiability.name_direction` names null directions."""
+    p, k = basis.shape
+    pivots: list[int] = []
+    for index in range(p - 1, -1, -1):
+        trial = [*pivots, index]
+        if np.linalg.matrix_rank(basis[trial], tol=1e-9) == len(trial):
+            pivots = trial
+        if len(pivots) == k:
+            break
+    sparse = basis @ np.linalg.inv(basis[pivots])
+    sparse[np.abs(sparse) < 1e-12] = 0.0
+    return tuple(name_direction(column_units * sparse[:, j], names)
+                 for j in np.argsort(pivots))
+
+
+def rig_unknowns(model: Model) -> NDArray[np.bool_]:
+    """Which unknowns are the rig's (the measurement's and the measured point's groups), (p,)."""
+    rig = np.zeros(model.n_params, dtype=bool)
+    for group in model.groups:
+        if group.stage in (Stage.MEASUREMENT, Stage.POINT):
+            rig[model.slice(group.name)] = True
+    return rig
+
+
+def _column_units(jacobian: Array, scale: Array) -> Array:
+    """Each bound-scaled unknown's column norm, for names in column-scaled units (a column that
+    moves nothing counts as a typical one)."""
+    units = np.linalg.norm(jacobian, axis=0) * scale
+    moving = units > RANK_RTOL * np.max(units, initial=0.0)
+    typical = float(np.median(units[moving])) if np.any(moving) else 1.0
+    return np.where(moving, units, typical)
+
+
+def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: float,
+                      scale: ArrayLike, nominal: Identifiability) -> Unseen:
+    """What ``data`` cannot see at the unknowns x (module docstring).
+
+    Args:
+        model: The measurement model.
+        x: The unknowns the Jacobian is evaluated at (the identified ones), shape (p,).
+        data: The poses (the training poses of a fit).
+        noise_m: The noise 1σ of a reading the Cramér–Rao test uses, m (0: the rank test
+            alone).
+        scale: Half the search range of each unknown, shape (p,).
+        nominal: What the same poses identify at the start geometry: its null directions are
+            the candidates.
+    """
+    scale = np.asarray(scale, dtype=np.float64)
+    weight = np.where(rig_unknowns(model), RIG_WEIGHT, 1.0) * scale
+    _, jacobian = model.identifiable_jacobian(np.asarray(x, dtype=np.float64), data)
+    scaled = jacobian * scale
+    _, s, vt = np.linalg.svd(scaled, full_matrices=True)
+    s = np.concatenate([s, np.zeros(scale.size - s.size)])
+    exact = vt[s <= RANK_RTOL * max(s[0], 1e-300)].T
+    keep = s > RANK_RTOL * max(s[0], 1e-300)
+    # The Cramér–Rao covariance of the bound-scaled unknowns, every other one free.
+    covariance = (vt[keep].T / s[keep] ** 2) @ vt[keep] * noise_m**2
+    candidates = nominal.null_space / scale[:, None]
+    candidates = candidates / np.linalg.norm(candidates, axis=0)
+    outside = np.linalg.norm(candidates - exact @ (exact.T @ candidates), axis=0)
+    sigma = np.sqrt(np.maximum(np.einsum("pk,pq,qk->k", candidates, covariance, candidates),
+                               0.0))
+    held = (outside < INSIDE_TOL) | (sigma > HELD_SIGMA) | ~np.isfinite(sigma)
+    # A held candidate adds to the exact null space only what lies outside it: a candidate
+    # inside it (to INSIDE_TOL) would add its round-off, normalised into a random direction.
+    new = held & (outside >= INSIDE_TOL)
+    rest = candidates[:, new] - exact @ (exact.T @ candidates[:, new])
+    basis = exact
+    if rest.shape[1]:
+        u, singular, _ = np.linalg.svd(rest, full_matrices=False)
+        basis = np.column_stack([exact, u[:, singular > INSIDE_TOL]])
+    if basis.shape[1]:
+        # The same subspace, orthonormal in the hold's weighted unknowns.
+        basis = np.linalg.qr(basis * (scale / weight)[:, None])[0]
+    weak = ~held & (sigma > WEAK_SIGMA)
+    labels = np.asarray(nominal.unidentifiable, dtype=object)
+    return Unseen(weight, np.asarray(basis, dtype=np.float64),
+                  (*labels[held], *_extra_names(
+                      basis, candidates[:, held] * (scale / weight)[:, None], jacobian, weight,
+                      model.names)),
+                  float(noise_m), tuple(labels[weak]), np.asarray(sigma[weak], dtype=np.float64))
+
+
+def _extra_names(basis: Array, named: Array, jacobian: Array, scale: Array,
+                 names: tuple[str, ...]) -> tuple[str, ...]:
+    """Names of the unseen directions beyond the named candidates (exact null directions of
+    the identified geometry the start geometry did not have)."""
+    if basis.shape[1] <= named.shape[1]:
+        return ()
+    if named.shape[1]:
+        q, _ = np.linalg.qr(named)
+        rest = basis - q @ (q.T @ basis)
+        u = np.linalg.svd(rest, full_matrices=False)[0]
+        rest = u[:, : basis.shape[1] - named.shape[1]]
+    else:
+        rest = basis
+    return _sparse_names(rest, _column_units(jacobian, scale), names)
+
+
+__all__ = ["HELD_SIGMA", "RIG_WEIGHT", "WEAK_SIGMA", "Unseen", "rig_unknowns", "unseen_directions"]

@@ -1,0 +1,143 @@
+"""Every method's answer made safe to leave the tool: the unseen directions at the start, and
+never a model worse than the start.
+
+1. **Hold.** The components of x along what the training poses cannot see at the answer
+   (:mod:`twin.analysis.unseen`: below the rank threshold, or with a Cramér–Rao σ from the
+   fit's noise estimate wider than the box) are set to the start's, the minimum-norm solution
+   in the bound-scaled unknowns, the rig taking up what trades with it. Along exact null directions
+   this changes no residual; along barely seen ones it changes them by about the noise, and a short
+   polish within the seen directions (Gauss–Newton on ``r(x_held + P z) − r(x_method)``: it restores
+   the method's own residuals, it does not optimise further, so a method's result is judged as
+   it found it) takes that back. What holding costs — the change of the training objective —
+   is reported.
+2. **Not worse than the start.** The method's point is kept only when it explains the training
+   data better than the start by more than fitting its seen combinations to noise would:
+   by the Bayesian information criterion of :mod:`twin.calibration.selection`,
+   ``m ln(RSS / m) + k ln m`` with k the rank, against the start's with k = 0. Otherwise the
+   start is returned, with the reason (a swarm that stalled next to its start, a filter that
+   wandered).
+
+Both apply alike to local, Kalman, swarm and cascade methods: they act on the answer, not on
+the search.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.analysis.identifiability import Identifiability
+from twin.analysis.uncertainty import residual_sigma
+from twin.analysis.unseen import Unseen, unseen_directions
+from twin.arrays import Array
+from twin.problem import Problem
+
+POLISH_ITERATIONS = 3
+"""Gauss–Newton steps of the polish: the residuals it restores are a second-order change."""
+POLISH_RTOL = 1e-12
+"""The polish stops when a step changes the residuals by less than this fraction of them."""
+HOLD_ITERATIONS = 10
+"""Rounds of hold and polish; one for directions that stay put (θ6 of a flange-centre cable)."""
+HOLD_ATOL = 1e-12
+"""What may be left along the unseen directions, in bound-scaled units (1e-12 of the box)."""
+
+
+class Held(NamedTuple):
+    """What holding the unseen directions did to a method's answer."""
+
+    x: Array
+    """The answer held at the start along the unseen directions, shape (p,)."""
+    unseen: Unseen
+    """What the training poses cannot see at the method's answer."""
+    method_x: Array
+    """The method's own answer, before it was held, shape (p,)."""
+    moved: Array
+    """How far each unseen direction was moved back, in the hold's weighted units
+    (:attr:`twin.analysis.unseen.Unseen.scale`), shape (k,)."""
+    f_before_m2: float
+    """The training objective of the method's own answer, m²."""
+    f_after_m2: float
+    """The training objective of the held answer, m²."""
+    kept_start: str
+    """Why the start was returned instead of the method's point, or empty."""
+
+    @property
+    def cost_change(self) -> float:
+        """Relative change of the training objective, (f_after − f_before) / f_before."""
+        return (self.f_after_m2 - self.f_before_m2) / self.f_before_m2 \
+            if self.f_before_m2 > 0 else 0.0
+
+
+def _objective(problem: Problem, x: Array) -> tuple[Array, float]:
+    """The training residuals at x (p,) and the objective f, m²."""
+    residuals = problem.model.residuals(x, problem.train)
+    return residuals, float(np.mean(problem.loss.cost(residuals)))
+
+
+def _polish(problem: Problem, x: Array, target: Array, seen_x: Array) -> Array:
+    """x moved within the seen directions P (p, q) so that the training residuals come back to
+    ``target``, inside the search box."""
+    lower, upper = problem.lower, problem.upper
+    for _ in range(POLISH_ITERATIONS):
+        residuals, jacobian = problem.model.jacobian(x, problem.train)
+        gap = residuals - target
+        step = np.linalg.lstsq(jacobian @ seen_x, -gap, rcond=None)[0]
+        moved = np.clip(x + seen_x @ step, lower, upper)
+        change = problem.model.residuals(moved, problem.train) - target
+        if np.linalg.norm(change) >= np.linalg.norm(gap):
+            break
+        x = moved
+        if np.linalg.norm(change) <= POLISH_RTOL * float(np.linalg.norm(target)):
+            break
+    return x
+
+
+def _bic(f_m2: float, rows: int, rank: int) -> float:
+    """m ln(f) + k ln m (f = RSS / m, the training objective)."""
+    return rows * math.log(max(f_m2, 1e-300)) + rank * math.log(rows)
+
+
+def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
+    """The method's answer ``x`` (p,) held at the start along the unseen directions, or the
+    start itself when the answer does not beat it (module docstring).
+
+    Args:
+        problem: The problem the method solved (its start ``x0`` is where x is held).
+        x: The method's answer, shape (p,).
+        nominal: What the training poses identify at the start geometry: the candidates of
+            the unseen directions, and its rank the noise estimate's and the BIC's k.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    start = problem.x0
+    target, f_method = _objective(problem, x)
+    rank = nominal.rank
+    # The noise of the rows the loss keeps: outliers a robust loss rejects are not noise.
+    kept = target[~problem.loss.rejected(target)] if problem.loss.robust else target
+    noise = residual_sigma(kept, rank) if kept.size > rank else 0.0
+    unseen = unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal)
+    moved = unseen.along(x - start)
+    held, along = x, unseen
+    # Where the data trade unknowns nonlinearly (an eyelet's turn about the flange axis for
+    # θ6), the unseen directions turn with x: hold, restore, and look again, until nothing is
+    # left along the unseen directions of the point reached.
+    for _ in range(HOLD_ITERATIONS):
+        if not along.basis.shape[1] or np.max(np.abs(along.along(held - start))) <= HOLD_ATOL:
+            break
+        held = np.clip(start + along.remove(held - start), problem.lower, problem.upper)
+        held = _polish(problem, held, target, along.seen_x)
+        along = unseen_directions(problem.model, held, problem.train, noise, problem.scale,
+                                  nominal)
+    _, f_held = _objective(problem, held)
+    _, f_start = _objective(problem, start)
+    rows = target.size
+    if _bic(f_start, rows, 0) <= _bic(f_held, rows, rank):
+        reason = (f"the answer's training objective ({f_held:.4g} m²) does not beat the start's "
+                  f"({f_start:.4g} m²) by more than fitting {rank} combinations to noise would "
+                  "(BIC)")
+        return Held(np.array(start), unseen, x, moved, f_method, f_start, reason)
+    return Held(held, unseen, x, moved, f_method, f_held, "")
+
+
+__all__ = ["Held", "hold_unseen"]
