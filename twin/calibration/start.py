@@ -82,7 +82,7 @@ def with_fixed_points(robot: RobotModel, rig: Rig, measurements: Measurements) -
             if name not in names:
                 raise InputError(f"a distance to the point {name!r}", "distances between "
                                  "points the measurements name: " + ", ".join(names),
-                                 source="--distance")
+                                 where="distances")
     return replace(rig, point_names=names, points_m=starts)
 
 

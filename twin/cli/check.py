@@ -9,7 +9,7 @@ import sys
 from twin.cli.study import add_study_arguments, executor_from_args, methods_from_args
 from twin.errors import InputError
 from twin.io.paths import InputPath, OutputFile
-from twin.study.baseline import MAX_TOLERANCE
+from twin.study.baseline import DEFAULT_TOLERANCE, MAX_TOLERANCE
 
 EXIT_FAILED = 1
 
@@ -54,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-figures", dest="figures", action="store_false",
                         help="write the summary but not the PNG figures (faster, for CI); "
                         "`twin study` of the same DIR draws them later without running a trial")
-    parser.add_argument("--tolerance", type=_tolerance, default=0.05, metavar="5%",
+    parser.add_argument("--tolerance", type=_tolerance, metavar="5%",
                         help="relative worsening a significant change may have without being "
                         "a regression (default 5%%)")
 
@@ -63,12 +63,16 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.testing import check, write_junit
 
+    if args.tolerance is not None and args.baseline is None:
+        raise InputError("--tolerance without --baseline", "it beside --baseline DIR (it says how "
+                         "much worse than the baseline a metric may be)", source="--tolerance")
+    tolerance = DEFAULT_TOLERANCE if args.tolerance is None else args.tolerance
     if args.baseline is not None and args.out.exists() and args.baseline.exists() \
             and args.out.samefile(args.baseline):
         raise InputError("the --out folder itself", "an earlier study in another folder "
                          "(the check would compare the study with itself)", source="--baseline")
     report = check(args.scenario, args.out, trials=args.trials, methods=methods_from_args(args),
-                   expect=args.expect, baseline=args.baseline, tolerance=args.tolerance,
+                   expect=args.expect, baseline=args.baseline, tolerance=tolerance,
                    executor=executor_from_args(args), figures=args.figures)
     print(report.text, end="")
     written = [str(args.out / "results.csv"), "summary.md"]

@@ -93,6 +93,11 @@ class Inputs(NamedTuple):
     calibration: CalibrationSettings
     """What to estimate and how; its noise the instrument's and the robot's repeatability
     (:func:`twin.analysis.misfit.reading_sigma`)."""
+    flags: frozenset[str] = frozenset()
+    """The rig and loss flags given (``--port``, ``--distance``, ``--attachment``,
+    ``--loss-scale``): checked against the data once they are read."""
+    distance_source: str = "--distance"
+    """Where the known distances come from: the flag, or the capture file."""
 
     @property
     def port_m(self) -> NDArray[np.float64] | None:
@@ -177,6 +182,10 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     input_path = args.input
     flag_robot = robot_from_flags(args)  # the IRB 120 without --robot
     tension = getattr(args, "cable_tension", None)
+    flags = frozenset(flag for flag, name in (("--port", "port"), ("--distance", "distance"),
+                                              ("--attachment", "attachment"),
+                                              ("--loss-scale", "loss_scale"))
+                      if getattr(args, name, None) is not None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
         rig = _flag_rig(args, capture.rig)
@@ -188,6 +197,8 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
             calibration=settings_from_flags(args, capture.calibration,
                                             capture.instrument_sigma_m,
                                             capture.repeatability_m),
+            flags=flags,
+            distance_source="--distance" if "--distance" in flags else str(input_path),
         )
     return Inputs(
         robot=flag_robot,
@@ -195,6 +206,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         measurements_path=input_path,
         truth_path=None,
         calibration=settings_from_flags(args, CalibrationSettings(), DEFAULT_SIGMA_M, 0.0),
+        flags=flags,
     )
 
 
@@ -235,6 +247,7 @@ def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitPr
         raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
                          "NAME=X,Y,Z per port, or a capture.toml as INPUT)",
                          source=inputs.measurements_path)
+    _refuse_inapplicable(inputs, measurements)
     _warn_port_unit(inputs, measurements)
     try:
         return make_problem(inputs.robot, measurements, rig=inputs.rig,
@@ -242,6 +255,27 @@ def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitPr
     except InputError as exc:
         if exc.source is not None:
             raise
+        if exc.where == "distances":
+            raise exc.at(inputs.distance_source, where="") from None
         raise InputError(exc.found, exc.expected, source=inputs.measurements_path) from None
+
+
+APPLIES = {"--port": ("length", "cable lengths (a port per reading)"),
+           "--distance": ("point", "fixed points (the distance between two of them)")}
+"""The rig flags that apply to one kind of data only, and to which."""
+
+
+def _refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
+    """Refuse a flag the data cannot use, in one line naming the flag and why, rather than
+    ignore it: a port for tracker positions, a distance for cable lengths, a loss scale without
+    a robust loss."""
+    for flag, (kind, what) in APPLIES.items():
+        if flag in inputs.flags and measurements.kind != kind:
+            raise InputError(f"{flag} with {measurements.kind} measurements",
+                             f"{flag} only with {what}", source=flag)
+    if "--loss-scale" in inputs.flags and inputs.calibration.loss == "linear":
+        raise InputError("--loss-scale with the linear loss", "it beside a robust --loss "
+                         "(huber, soft_l1, cauchy): least squares has no scale",
+                         source="--loss-scale")
 
 

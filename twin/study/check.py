@@ -26,6 +26,7 @@ from twin.errors import InputError
 from twin.io.lock import folder_lock
 from twin.report.display import percent
 from twin.study.baseline import (
+    DEFAULT_TOLERANCE,
     MAX_TOLERANCE,
     MIN_CHANGED,
     Comparison,
@@ -42,9 +43,6 @@ from twin.study.runner import run_trials, write_report
 from twin.study.statistics import SIGNIFICANCE
 from twin.study.store import TrialKey, read_results
 from twin.study.trial import trial_seed
-
-DEFAULT_TOLERANCE = 0.05
-"""Relative worsening below which a significant change is not a regression (5 %)."""
 
 ExpectSource = str | Path | Mapping[str, Sequence[str]]
 """An expectations file, or an ``[expect]`` table as a mapping."""
