@@ -9,6 +9,7 @@ from twin.analysis.metrics import Metrics
 from twin.calibration.pipeline import calibrate, calibrate_many
 from twin.calibration.predict import Prediction, predict
 from twin.calibration.result import CalibrationResult
+from twin.calibration.settings import CalibrationSettings
 from twin.dataset import Measurements
 from twin.errors import InputError, TwinError, UnknownChoiceError
 from twin.geometry.kinematics import Structure, flange_transform, point_jacobian, point_position
