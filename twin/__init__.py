@@ -6,6 +6,7 @@ are SI (m, rad) inside; files and the command line use mm and degrees.
 """
 
 from twin.analysis.metrics import Metrics
+from twin.calibration.crossval import CrossValidation, cross_validate
 from twin.calibration.pipeline import calibrate, calibrate_many
 from twin.calibration.predict import Prediction, predict
 from twin.calibration.result import CalibrationResult
@@ -27,6 +28,7 @@ __all__ = [
     "Budget",
     "CalibrationResult",
     "CalibrationSettings",
+    "CrossValidation",
     "Distance",
     "IdentifiedModel",
     "InputError",
@@ -44,6 +46,7 @@ __all__ = [
     "cable_length",
     "calibrate",
     "calibrate_many",
+    "cross_validate",
     "default_robot",
     "flange_transform",
     "load_measurements",

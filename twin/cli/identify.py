@@ -81,7 +81,7 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     """Per-parameter 1σ in mm and degrees; '—' for the dependent (not identifiable) ones."""
     shape = model.robot.dh.shape
     is_length = model.robot.is_length
-    table = model.block(sigma, "dh").reshape(shape)
+    table = model.group("dh").spread(model.block(sigma, "dh")).reshape(shape)
     labels = [f"σ {slot_label(key, lengths)}" for key, lengths in zip(DH_KEYS, is_length,
                                                                        strict=True)]
     width = max(16, *(len(label) + 1 for label in labels))
@@ -125,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
     lines += [
         f"At the identified geometry (lm-base, seed {args.seed}, "
         f"{result.train_rows.size} training poses):",
-        f"  validation RMSE {mm(result.metrics['validation'].rmse)}, "
+        f"  {'validation' if result.validated else 'training'} RMSE "
+        f"{mm(result.metrics['validation' if result.validated else 'train'].rmse)}, "
         f"noise estimate {mm(uncertainty.noise_sigma_m)}",
         *_identifiability_lines(result.identified_identifiability),
         f"  predicted flange RMS error over the workspace {mm(uncertainty.flange_rms_m)} "
