@@ -21,10 +21,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 
-MAX_POSES = 100_000
-"""The most poses a plan, a scenario or a verification may ask for: a typo like 1e9 must be an
-error, not an exhausted memory."""
-
 
 def _index(values: ArrayLike | None, m: int, what: str) -> NDArray[np.intp] | None:
     if values is None:

@@ -21,10 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
-
-MAX_TENSION_N = 1000.0
-"""Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
-bend an IRB 120 rather than load it."""
+from twin.choices import MAX_TENSION_N
 
 
 def _origin() -> Array:

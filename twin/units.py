@@ -142,7 +142,7 @@ DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
 decimals a result keeps. An unknown group with a unit of its own adds it here."""
 
 
-QUANTITY_UNITS: dict[str, tuple[str, float]] = {
+QUANTITY_UNITS: dict[str, tuple[str, float]] = {  # keyed as twin.choices.QUANTITY_UNITS
     "mm": ("m", M_PER_MM), "m": ("m", 1.0),
     "deg": ("rad", np.pi / 180.0), "rad": ("rad", 1.0),
     "arcsec": ("rad", np.pi / (180.0 * ARCSEC_PER_DEG)),

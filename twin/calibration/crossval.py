@@ -31,15 +31,12 @@ from twin.calibration.held_out import held_out_residuals
 from twin.calibration.pipeline import solve_many
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_problem
+from twin.choices import MAX_FOLDS, MIN_FOLDS
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.solvers import get_solver
-
-MIN_FOLDS = 2
-MAX_FOLDS = 1000
-"""The most folds a cross-validation may have (a typo like 1e9 is an error)."""
 
 
 class Fold(NamedTuple):

@@ -229,8 +229,9 @@ def add_error_groups(parser: argparse.ArgumentParser, help: str, *, auto: bool =
 
 def add_cable_tension(parser: argparse.ArgumentParser, help: str,
                       default: float | None = None) -> None:
-    """``--cable-tension``: the cable's pull in N, from 0 to :data:`twin.rig.MAX_TENSION_N`."""
-    from twin.rig import MAX_TENSION_N
+    """``--cable-tension``: the cable's pull in N, from 0 to :data:`twin.choices.MAX_TENSION_N`.
+    """
+    from twin.choices import MAX_TENSION_N
 
     parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), default=default,
                         metavar="N", help=help)
@@ -282,12 +283,16 @@ def given_robot(args: argparse.Namespace) -> RobotModel | None:
     return robot_from_flags(args)
 
 
-def rules(parse: Callable[[str], Any]) -> Callable[[str], tuple[Any, ...]]:
-    """An argparse type: comma-separated rules, each read by ``parse`` (a bound, a prior or a
-    fix of :mod:`twin.unknowns.limits`), which raises an InputError for a wrong one."""
-    from twin.errors import InputError
+def rules(kind: str) -> Callable[[str], tuple[Any, ...]]:
+    """An argparse type: comma-separated rules of :mod:`twin.unknowns.limits`, each a bound,
+    a prior or a fix as ``kind`` says (read when the flag is, so that ``--help`` loads
+    nothing)."""
 
     def read(text: str) -> tuple[Any, ...]:
+        from twin.errors import InputError
+        from twin.unknowns.limits import Bound, Prior, parse_fix
+
+        parse = {"bounds": Bound.parse, "priors": Prior.parse, "fix": parse_fix}[kind]
         try:
             return tuple(parse(item) for item in text.split(","))
         except InputError as exc:
@@ -300,23 +305,39 @@ def rules(parse: Callable[[str], Any]) -> Callable[[str], tuple[Any, ...]]:
 def add_limit_flags(parser: argparse.ArgumentParser) -> None:
     """``--bounds``, ``--prior``, ``--fix``: what may move and how far (repeated or
     comma-separated, applied in order after a capture's)."""
-    from twin.unknowns.limits import UNITS_TEXT, Bound, Prior, parse_fix
+    from twin.choices import QUANTITY_UNITS
 
     parser.add_argument(
-        "--bounds", type=rules(Bound.parse), action="append", metavar="SELECT=W|LOW:HIGH",
+        "--bounds", type=rules("bounds"), action="append", metavar="SELECT=W|LOW:HIGH",
         help="the search box instead of each group's own (the paper's ±5 mm / ±8° for the D-H "
         "table): SELECT an unknown (a2), a family (a, theta) or a group (dh, port), W a "
-        f"half-width or LOW:HIGH with a unit ({UNITS_TEXT}); dh=20mm bounds the table's "
-        "lengths, dh=10deg its angles; later rules win (docs/measurements.md)")
+        f"half-width or LOW:HIGH with a unit ({', '.join(QUANTITY_UNITS)}); dh=20mm bounds "
+        "the table's lengths, dh=10deg its angles; later rules win (docs/measurements.md)")
     parser.add_argument(
-        "--prior", type=rules(Prior.parse), action="append", metavar="SELECT=SIGMA",
+        "--prior", type=rules("priors"), action="append", metavar="SELECT=SIGMA",
         help="a Gaussian prior N(0, σ²) around the nominal (Tikhonov rows x/σ appended to the "
         "residuals), e.g. dh=1mm,dh=0.5deg; the report names the unknowns the prior, not the "
         "data, decided")
     parser.add_argument(
-        "--fix", type=rules(parse_fix), action="append", metavar="SELECT",
+        "--fix", type=rules("fix"), action="append", metavar="SELECT",
         help="unknowns held at the nominal and left out, e.g. theta6,d (robot errors and the "
         "attachment; a rig unknown is fixed by not estimating it)")
+
+
+def add_validation_flags(parser: argparse.ArgumentParser) -> None:
+    """``--validate``, ``--cv``, ``--cv-by``: where held-out figures come from."""
+    from twin.choices import MAX_FOLDS, MIN_FOLDS
+
+    parser.add_argument("--validate", type=InputPath, metavar="FILE.csv",
+                        help="score the model on this measurement file (same robot and rig); "
+                        "every pose of INPUT trains")
+    parser.add_argument("--cv", type=integer(MIN_FOLDS, MAX_FOLDS), metavar="K",
+                        help="k-fold cross-validation: each of K seeded random folds held out "
+                        "in turn; then the model is fitted on every pose")
+    parser.add_argument("--cv-by", metavar="COLUMN",
+                        help="leave one group out: the poses grouped by this label column of "
+                        "INPUT (a placement, a session), each group held out in turn; then "
+                        "the model is fitted on every pose")
 
 
 AUTO_ERRORS = "auto"
@@ -346,3 +367,41 @@ def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:
                                              ) from None
 
     return parse
+
+
+def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
+                    tension_help: str, auto: bool = False) -> None:
+    """INPUT, the robot and rig flags, ``--errors`` (with ``auto`` when asked) and
+    ``--cable-tension``: what `twin calibrate` and `twin identify` read alike."""
+    add_input(parser, input_help)
+    add_robot_flags(parser)
+    add_rig_flags(parser)
+    add_error_groups(parser, errors_help, auto=auto)
+    add_cable_tension(parser, tension_help)
+
+
+def add_rig_flags(parser: argparse.ArgumentParser) -> None:
+    """The flags that tell the rig and which of its unknowns to identify (calibrate, identify).
+    """
+    parser.add_argument("--port", action="append", metavar="[NAME=]X,Y,Z",
+                        help="encoder port in mm, robot base frame; NAME=X,Y,Z, repeated, for "
+                        "an encoder moved between ports (the CSV's port column names each "
+                        "row's)")
+    parser.add_argument("--estimate-port", action="append", nargs="?", const=ALL_PORTS,
+                        metavar="NAME", help="also identify a correction of the ports (of the "
+                        "named one, repeated for several; the others stay as measured)")
+    parser.add_argument("--attachment", metavar="X,Y,Z",
+                        help="the measured point (cable eyelet, tracker target, ball) in the "
+                        "flange frame, mm (default 0,0,0: the flange centre)")
+    parser.add_argument("--estimate-attachment", action="store_true",
+                        help="also identify the measured point in the flange frame")
+    parser.add_argument("--estimate-base", action="store_true",
+                        help="tracker positions: also identify the tracker-to-base transform, "
+                        "started at a rigid fit of the nominal model's points")
+    parser.add_argument("--distance", action="append", metavar="A,B=MM",
+                        help="fixed points: a known distance between the points named A and B, "
+                        "mm (a ball fixture's socket spacing); repeat for several")
+
+
+ALL_PORTS = ""
+"""What a bare --estimate-port stands for: every port."""

@@ -6,27 +6,11 @@ from __future__ import annotations
 
 import argparse
 
-from twin.calibration.crossval import MAX_FOLDS, MIN_FOLDS, CrossValidation, cross_validate
-from twin.cli.arguments import integer
+from twin.calibration.crossval import CrossValidation, cross_validate
 from twin.cli.inputs import Inputs, Validation, prepare_error
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.measurements import load_labels, load_measurements
-from twin.io.paths import InputPath
-
-
-def add_validation_flags(parser: argparse.ArgumentParser) -> None:
-    """``--validate``, ``--cv``, ``--cv-by``."""
-    parser.add_argument("--validate", type=InputPath, metavar="FILE.csv",
-                        help="score the model on this measurement file (same robot and rig); "
-                        "every pose of INPUT trains")
-    parser.add_argument("--cv", type=integer(MIN_FOLDS, MAX_FOLDS), metavar="K",
-                        help="k-fold cross-validation: each of K seeded random folds held out "
-                        "in turn; then the model is fitted on every pose")
-    parser.add_argument("--cv-by", metavar="COLUMN",
-                        help="leave one group out: the poses grouped by this label column of "
-                        "INPUT (a placement, a session), each group held out in turn; then "
-                        "the model is fitted on every pose")
 
 
 def _refuse_mixed(args: argparse.Namespace) -> None:
@@ -78,4 +62,4 @@ def cross_validation(args: argparse.Namespace, inputs: Inputs, measurements: Mea
         raise prepare_error(inputs, exc) from None
 
 
-__all__ = ["add_validation_flags", "cross_validation", "validation_file"]
+__all__ = ["cross_validation", "validation_file"]

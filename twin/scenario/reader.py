@@ -103,14 +103,14 @@ from typing import Any
 import numpy as np
 
 from twin.arrays import Array
-from twin.dataset import MAX_POSES
+from twin.choices import MAX_POSES, MAX_TENSION_N
 from twin.geometry.rigid import transform
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
 from twin.kinds import KINDS
-from twin.rig import MAX_TENSION_N, Rig
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario

@@ -48,6 +48,7 @@ _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _VALUE = re.compile(rf"^({_NUMBER})(?::({_NUMBER}))?\s*(\S+)$")
 _SELECT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 UNITS_TEXT = ", ".join(QUANTITY_UNITS)
+"""The units a rule's value may carry, for messages."""
 
 
 def _quantity(text: str, value: str, unit: str) -> tuple[float, str]:

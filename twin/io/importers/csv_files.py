@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.choices import ANGLE_UNITS, LENGTH_UNITS
 from twin.dataset import Measurements
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.importers.base import Imported, outside_limits
@@ -34,8 +35,6 @@ from twin.io.paths import read_text
 from twin.robot import RobotModel
 from twin.units import LENGTH_FACTORS, MAX_LENGTH_M, deg_to_rad
 
-ANGLE_UNITS = ("rad", "deg")
-LENGTH_UNITS = ("m", "mm")
 WHAT = "a CSV of joint angles and readings"
 
 
