@@ -28,6 +28,7 @@ poses or tables.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from functools import cache
 from typing import Any, NamedTuple
@@ -236,6 +237,62 @@ def _cos_sin(structure: Structure, dh: Array, angles: Turns
     return ndim, per_joint, slots
 
 
+KERNEL_VARIABLE = "TWIN_KERNEL"
+"""Environment variable choosing the kernel: ``numpy`` forces the numpy path; unset or
+``auto`` takes the compiled one (:mod:`twin.geometry.compiled`) when numba is installed."""
+
+
+@cache
+def _compiled() -> Any:
+    """The compiled kernel's module, or None (numba not installed, or ``TWIN_KERNEL=numpy``)."""
+    if os.environ.get(KERNEL_VARIABLE, "auto") == "numpy":
+        return None
+    try:
+        from twin.geometry import compiled
+    except ImportError:
+        return None
+    return compiled
+
+
+@cache
+def _plan_rows(parametrisation: tuple[str, ...]) -> NDArray[np.int64]:
+    """The motions base to flange as rows (kind, axis, slot, joint, driven), shape (4n, 5):
+    what the compiled kernel reads."""
+    rows = [(kind, axis, slot, joint, int(slot == JOINT_SLOT))
+            for kind, axis, _, _, slot, joint in _plan(parametrisation)]
+    return np.ascontiguousarray(rows, dtype=np.int64)
+
+
+class _Compiled(NamedTuple):
+    """The inputs of the compiled kernel, batch dimensions flattened."""
+
+    batch: tuple[int, ...]
+    table: Array
+    cos: Array
+    sin: Array
+    start: Array
+
+
+def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
+                     point_m: ArrayLike | None) -> _Compiled | None:
+    """The kernel's inputs, or None where the batch shapes are beyond it (the numpy path
+    broadcasts any): tables (K, 4, n), angles of the poses or one set per table, a point or one
+    per table."""
+    batch = dh.shape[:-2]
+    size = int(np.prod(batch, dtype=np.int64))
+    q_batch = angles.q_rad.shape[:-2]
+    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
+    if q_batch not in ((), batch) or local.shape[:-1] not in ((), batch) or size == 0:
+        return None
+    n, m = structure.n_joints, angles.q_rad.shape[-2]
+    start = (local @ structure.tool[:3, :3].T + structure.tool[:3, 3]).reshape(-1, 3)
+    shape = (n, size if q_batch else 1, m)
+    return _Compiled(batch, np.ascontiguousarray(dh.reshape(size, 4, n)),
+                     np.ascontiguousarray(angles.cos.reshape(shape)),
+                     np.ascontiguousarray(angles.sin.reshape(shape)),
+                     np.ascontiguousarray(start))
+
+
 def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
                    point_m: ArrayLike | None = None) -> Array:
     """A point fixed to the flange, in the base frame.
@@ -256,6 +313,12 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns
     dh = np.asarray(dh, dtype=np.float64)
     angles = turns(q_rad)
     _check_shapes(structure, dh, angles.q_rad)
+    compiled = _compiled()
+    inputs = None if compiled is None else _compiled_inputs(structure, dh, angles, point_m)
+    if inputs is not None:
+        out = compiled.positions(inputs.table, _plan_rows(structure.parametrisation),
+                                 inputs.cos, inputs.sin, inputs.start, structure.base)
+        return np.asarray(out.reshape(*inputs.batch, -1, 3))
     _, per_joint, slots = _cos_sin(structure, dh, angles)
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
     start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
@@ -447,8 +510,44 @@ class PointTrace:
                              flange.transpose(order))
 
 
+class CompiledTrace:
+    """:class:`PointTrace` computed by the compiled kernel (:mod:`twin.geometry.compiled`), for
+    the batch shapes it takes (made by :func:`trace_point`).
+
+    Attributes:
+        position: The point in the base frame, shape (..., m, 3), m.
+    """
+
+    def __init__(self, structure: Structure, inputs: _Compiled) -> None:
+        self._structure = structure
+        self._inputs = inputs
+        self._plan = _plan_rows(structure.parametrisation)
+        out = _compiled().positions(inputs.table, self._plan, inputs.cos, inputs.sin,
+                                    inputs.start, structure.base)
+        self.position = np.asarray(out.reshape(*inputs.batch, -1, 3))
+
+    def jacobian(self, directions: ArrayLike | None = None) -> PointJacobian:
+        """As :meth:`PointTrace.jacobian`."""
+        inputs, structure = self._inputs, self._structure
+        n, m = structure.n_joints, self.position.shape[-2]
+        if directions is None:
+            w = np.eye(3)[None, None]
+        else:
+            w_m = np.asarray(directions, dtype=np.float64)
+            if w_m.shape[:-3] not in ((), inputs.batch):
+                w_m = np.broadcast_to(w_m, (*inputs.batch, *w_m.shape[-3:]))
+            w = w_m.reshape(-1, *w_m.shape[-3:])
+        _, columns, rotation = _compiled().jacobian(
+            inputs.table, self._plan, inputs.cos, inputs.sin, inputs.start, structure.base,
+            structure.tool, np.ascontiguousarray(w))
+        table = columns.reshape(*inputs.batch, m, -1, 4 * n)
+        return PointJacobian(self.position, table,
+                             table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
+                             rotation.reshape(*inputs.batch, m, -1, 3))
+
+
 def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
-                point_m: ArrayLike | None = None) -> PointTrace:
+                point_m: ArrayLike | None = None) -> PointTrace | CompiledTrace:
     """A point fixed to the flange, in the base frame, kept for its derivatives.
 
     Args:
@@ -464,6 +563,9 @@ def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
     dh = np.asarray(dh, dtype=np.float64)
     angles = turns(q_rad)
     _check_shapes(structure, dh, angles.q_rad)
+    inputs = None if _compiled() is None else _compiled_inputs(structure, dh, angles, point_m)
+    if inputs is not None:
+        return CompiledTrace(structure, inputs)
     n = structure.n_joints
     batch = max(dh.ndim, angles.q_rad.ndim) - 2
     table = dh.transpose(dh.ndim - 2, dh.ndim - 1, *range(dh.ndim - 2))  # (4, n, batch...)
