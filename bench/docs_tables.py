@@ -829,8 +829,9 @@ class Variant(NamedTuple):
 def variant_runs(scenario: Scenario, variants: Sequence[Variant]) -> list[list[dict[str, float]]]:
     """Per variant, per trial: the flange error against the twin's truth over the result's
     workspace (the joint ranges of its training poses), the Cramér–Rao bound there at each
-    row's variance, the validation RMSE, the unknowns left on a bound and decided by a prior,
-    and whether the misfit test fired (m, counts)."""
+    row's true variance (the scenario's noise, whatever the variant is told), the validation
+    RMSE, the unknowns left on a bound and decided by a prior, and whether the misfit test
+    fired (m, counts)."""
     runs: list[list[dict[str, float]]] = [[] for _ in variants]
     for trial in range(TRIALS):
         sim = simulate(scenario, trial_seed(scenario.seed, trial))
@@ -844,8 +845,7 @@ def variant_runs(scenario: Scenario, variants: Sequence[Variant]) -> list[list[d
             error = rms_distance(model.flange_positions(result.x, model.poses(q)),
                                  sim.true_robot.flange_positions(q))
             problem = make_problem(sim.robot, sim.measurements, rig=sim.rig_told_pulled,
-                                   settings=replace(settings, sigma_auto=False),
-                                   seed=trial).problem
+                                   settings=scenario.calibration, seed=trial).problem
             rows = problem.row_sigma(problem.train) if problem.in_variables else None
             bound = cramer_rao_flange_rms(problem.model, true_unknowns(sim, problem.model),
                                           problem.train, problem.sigma_m, q, rows)
