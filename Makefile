@@ -5,8 +5,10 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
+TEST_TIME := TBD
+TEST_FAST_TIME := TBD
 
-.PHONY: demo test lint bench docs clean
+.PHONY: demo test test-fast lint bench docs clean
 
 $(BIN)/python:
 	@echo "make: creating $(VENV) with $(PYTHON)"
@@ -37,10 +39,18 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check twin tests bench
 	$(BIN)/mypy
 
+# Every test on both cores (pytest-xdist). TEST_TIME is measured on 2 cores by
+# tests/test_bench_smoke.py's neighbours: see the commit that last changed it.
 test: lint
-	@echo "make: pytest (about a minute on 2 cores)"
-	$(BIN)/python -m pytest
+	@echo "make: pytest on 2 workers ($(TEST_TIME))"
+	$(BIN)/python -m pytest -n 2
 
+# The inner loop: every test not marked slow (no study, capture or benchmark subprocess runs).
+test-fast: $(VENV)/.installed-dev
+	@echo "make: pytest -m 'not slow' on 2 workers ($(TEST_FAST_TIME))"
+	$(BIN)/python -m pytest -n 2 -m "not slow"
+
+# The speed goals side by side (bench/bench_speed.py), then every other benchmark.
 bench: $(VENV)/.installed-dev
 	for script in bench/bench_*.py; do $(BIN)/python $$script || exit 1; done
 

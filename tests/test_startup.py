@@ -7,6 +7,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from twin.cli import SUBCOMMANDS
 from twin.distribution import EXTRAS
 
@@ -34,6 +36,7 @@ def _loaded_after(calls: list[list[str]]) -> dict[str, list[str]]:
     return found
 
 
+@pytest.mark.slow
 def test_version_and_every_help_load_no_heavy_library() -> None:
     """--version, the command list and each command's --help leave numpy, scipy, matplotlib
     and every adapter's library unloaded."""
