@@ -39,8 +39,8 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check twin tests bench
 	$(BIN)/mypy
 
-# Every test on both cores (pytest-xdist). TEST_TIME is measured on 2 cores by
-# tests/test_bench_smoke.py's neighbours: see the commit that last changed it.
+# Every test on both cores (pytest-xdist); the times below were measured on 2 cores shared with
+# other work (the commit that changed them says with which load).
 test: lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
 	$(BIN)/python -m pytest -n 2

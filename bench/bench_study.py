@@ -41,6 +41,7 @@ def replica(folder: Path, tiny: bool = False) -> None:
     document = run_study(plan, folder, LocalProcesses(), stream=io.StringIO())
     wall = time.perf_counter() - start
     scenario = plan.cases[0].scenario
+    simulate(scenario, trial_seed(scenario.seed, plan.trials))  # loads what a first one loads
     start = time.perf_counter()
     for trial in range(plan.trials):
         simulate(scenario, trial_seed(scenario.seed, trial))
