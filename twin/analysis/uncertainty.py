@@ -64,12 +64,13 @@ def seen_covariance(jacobian: ArrayLike, seen_x: ArrayLike, sigma_m: float) -> A
     return np.asarray(seen @ reduced @ seen.T, dtype=np.float64)
 
 
-def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float) -> Unseen:
-    """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m), in the unknowns
-    scaled by half their search range: what a calibration of such data holds."""
-    lower, upper = model.bounds()
+def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float,
+                row_weight: ArrayLike | None = None) -> Unseen:
+    """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m; of a row scaled
+    by ``row_weight`` when given), in the unknowns scaled by how far each may move
+    (:meth:`twin.model.Model.scale`): what a calibration of such data holds."""
     nominal = measurement_identifiability(model, np.zeros(model.n_params), data)
-    return unseen_directions(model, x, data, sigma_m, 0.5 * (upper - lower), nominal)
+    return unseen_directions(model, x, data, sigma_m, model.scale(), nominal, row_weight)
 
 
 def rms_distance(a_m: ArrayLike, b_m: ArrayLike) -> float:
@@ -165,16 +166,21 @@ def workspace_grid(robot: RobotModel, n_per_axis: int) -> tuple[Array, Array, Ar
     return q2, q3, q
 
 
-def cramer_rao_covariance(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float
-                          ) -> Array:
+def cramer_rao_covariance(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float,
+                          row_sigma_m: ArrayLike | None = None) -> Array:
     """The Cramér–Rao covariance of the combinations the poses identify at that noise (the
     others every calibration holds), shape (p, p); arguments as :func:`cramer_rao_rms`."""
     _, jacobian = model.identifiable_jacobian(x_true, data)
-    return seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m).seen_x, sigma_m)
+    weight = None if row_sigma_m is None else sigma_m / np.asarray(row_sigma_m, dtype=np.float64)
+    if weight is not None:
+        jacobian = jacobian * weight[:, None]
+    return seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m, weight).seen_x,
+                           sigma_m)
 
 
 def cramer_rao_rms(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float,
-                   q_rad: ArrayLike) -> tuple[float, float]:
+                   q_rad: ArrayLike, row_sigma_m: ArrayLike | None = None
+                   ) -> tuple[float, float]:
     """Cramér–Rao bounds on the RMS position errors over the poses ``q_rad`` of the flange and
     of the measured point (eyelet, tracker target, ball), m each, of the combinations the
     poses identify at that noise (the others every calibration holds). With the attachment
@@ -186,18 +192,23 @@ def cramer_rao_rms(model: Model, x_true: ArrayLike, data: Measurements, sigma_m:
         data: The poses that are measured (their readings are not used).
         sigma_m: Measurement noise 1σ, m.
         q_rad: Workspace poses where the errors are evaluated, shape (k, n).
+        row_sigma_m: Each row's own noise 1σ, shape (M,), m, when the rows differ (the
+            joints' noise through each row's Jacobian, :meth:`twin.problem.Problem.row_sigma`):
+            the bound of the best estimator linear in the readings, which weights each row by
+            1/σ_i² (Gauss–Markov; the Cramér–Rao bound itself for Gaussian noise).
     """
-    covariance = cramer_rao_covariance(model, x_true, data, sigma_m)
+    covariance = cramer_rao_covariance(model, x_true, data, sigma_m, row_sigma_m)
     poses = model.poses(q_rad)
     return (predicted_flange_rms(model.flange_jacobian(x_true, poses), covariance),
             predicted_flange_rms(model.position_jacobian(x_true, poses), covariance))
 
 
 def cramer_rao_flange_rms(
-    model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike
+    model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike,
+    row_sigma_m: ArrayLike | None = None,
 ) -> float:
     """The flange's bound of :func:`cramer_rao_rms` alone, m."""
-    covariance = cramer_rao_covariance(model, x_true, data, sigma_m)
+    covariance = cramer_rao_covariance(model, x_true, data, sigma_m, row_sigma_m)
     return predicted_flange_rms(model.flange_jacobian(x_true, model.poses(q_rad)), covariance)
 
 
@@ -232,8 +243,11 @@ def calibration_uncertainty(
     rank: int,
     q_workspace_rad: ArrayLike,
     unseen: Unseen,
+    row_weight: ArrayLike | None = None,
 ) -> CalibrationUncertainty:
-    """Covariance and predicted accuracy of an identified x from its training data.
+    """Covariance and predicted accuracy of an identified x from its training data — with
+    priors (:meth:`twin.model.Model.prior_weight`), the posterior's: the data's information
+    ``JᵀJ / σ̂²`` and the priors' ``diag(1/σ_p²)`` added.
 
     Args:
         model: The fitted measurement model.
@@ -244,11 +258,19 @@ def calibration_uncertainty(
         q_workspace_rad: Poses where the flange accuracy is predicted, shape (k, n), rad.
         unseen: What the training poses cannot see (held at the start): the covariance and the
             accuracy are those of the other combinations.
+        row_weight: σ / σ_i of each training row (M,) when the rows' noise differs (errors
+            in variables): the rows are scaled by it, and σ̂ is that of a scaled row.
     """
     x = np.asarray(x, dtype=np.float64)
     residuals, jacobian = model.identifiable_jacobian(x, train)
+    if row_weight is not None:
+        weight = np.asarray(row_weight, dtype=np.float64)
+        residuals, jacobian = residuals * weight, jacobian * weight[:, None]
     noise = residual_sigma(residuals, rank)
-    covariance = seen_covariance(jacobian, unseen.seen_x, noise)
+    prior = model.prior_weight()
+    covariance = seen_covariance(
+        np.concatenate([jacobian / noise, np.diag(prior)[prior > 0]]), unseen.seen_x, 1.0) \
+        if noise > 0 else seen_covariance(jacobian, unseen.seen_x, 0.0)
     held = np.linalg.norm(unseen.seen, axis=1) < HELD_ROW_TOL
     sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     poses = model.poses(q_workspace_rad)

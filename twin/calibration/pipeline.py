@@ -17,17 +17,19 @@ How it is set up is :mod:`twin.calibration.setup` (from one
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
-from twin.analysis.metrics import metrics
+from twin.analysis.metrics import Metrics, metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
 from twin.analysis.uncertainty import WORKSPACE_POSES, calibration_uncertainty
 from twin.arrays import Array
-from twin.calibration.hold import hold_unseen
+from twin.calibration.held_out import held_out_residuals
+from twin.calibration.hold import Held, hold_unseen
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_problem
@@ -35,7 +37,8 @@ from twin.dataset import Measurements
 from twin.problem import Problem
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
-from twin.solvers import get_solver
+from twin.solvers import Solver, SolverResult, get_solver
+from twin.stopping import Budget
 
 
 def calibrate_many(
@@ -70,11 +73,14 @@ def rejected_poses(problem: Problem, x: ArrayLike, data: Measurements) -> NDArra
 
 
 def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_workspace: Array
-            ) -> tuple[Misfit, NDArray[np.intp], Measurements, Gauge]:
-    """The fit test, the rejected rows, the training poses kept and the unobservable motions."""
-    problem, train_rows, validation_rows, _ = split
+            ) -> tuple[Misfit, NDArray[np.intp], Measurements, Array | None, Gauge]:
+    """The fit test, the rejected rows, the training poses kept (and their rows' weights σ/σ_i
+    when they differ) and the unobservable motions."""
+    problem, train_rows, validation_rows = split.problem, split.train_rows, split.validation_rows
     out_train = rejected_poses(problem, x, problem.train)
-    out_validation = rejected_poses(problem, x, problem.validation)
+    # Rows of the measurements: a separate file's rejected rows are not among them.
+    out_validation = rejected_poses(problem, x, problem.validation) if not split.held_out \
+        else np.zeros(0, dtype=bool)
     rejected = np.sort(np.concatenate([train_rows[out_train], validation_rows[out_validation]]))
     rows = problem.model.kind.rows_per_pose
     # A loss that rejects nearly everything (a swarm far from the optimum) leaves no degree of
@@ -82,10 +88,47 @@ def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_worksp
     enough = rows * int(np.sum(~out_train)) > identified.rank
     kept = problem.train.subset(np.flatnonzero(~out_train)) if enough else problem.train
     residuals = problem.model.residuals(x, kept)
+    row_sigma = problem.row_sigma(kept) if problem.in_variables else None
     misfit = misfit_test(residuals, identified.rank, problem.sigma_m,
-                         repeat_sigma(kept, residuals, rows))
+                         repeat_sigma(kept, residuals, rows), row_sigma)
     gauge = unobservable_motions(problem.model, x, identified.null_space, q_workspace)
-    return misfit, rejected.astype(np.intp), kept, gauge
+    weight = None if row_sigma is None else problem.sigma_m / row_sigma
+    return misfit, rejected.astype(np.intp), kept, weight, gauge
+
+
+def _metrics(problem: Problem, x: Array) -> dict[str, Metrics]:
+    """``before`` (the start on the validation poses, or on the training poses when there are
+    none), ``train`` and, when there are validation poses, ``validation``
+    (:func:`twin.calibration.held_out.held_out_residuals`)."""
+    model, train, validation = problem.model, problem.train, problem.validation
+    trained = metrics(model.residuals(x, train))
+    if not len(validation):
+        return {"before": metrics(model.residuals(problem.x0, train)), "train": trained}
+    return {"before": metrics(held_out_residuals(model, problem.x0, train, validation)),
+            "train": trained,
+            "validation": metrics(held_out_residuals(model, x, train, validation))}
+
+
+RELINEARISE_RTOL = 1e-3
+"""With errors in variables, a method is run again when the rows' weights at its first answer
+differ from those at the start by more than this fraction."""
+
+
+def _solve(solver: Solver, problem: Problem, budget: Budget, seed: int,
+           nominal: Identifiability) -> tuple[Problem, SolverResult, Held]:
+    """The method's answer, held along the unseen directions; with errors in variables, solved
+    once more with the rows' variances taken at that answer (the joints' Jacobians g_i move
+    with the geometry, method-notes §7), when they changed. Returns the problem the answer
+    solves, the answer and what holding did."""
+    solved = solver.solve(problem, budget, np.random.default_rng(seed))
+    held = hold_unseen(problem, solved.x, nominal)
+    if problem.in_variables:
+        again = replace(problem, linearised_at=held.x)
+        if np.max(np.abs(again.train_weight / problem.train_weight - 1.0)) > RELINEARISE_RTOL:
+            problem = again
+            solved = solver.solve(problem, budget, np.random.default_rng(seed))
+            held = hold_unseen(problem, solved.x, nominal)
+    return problem, solved._replace(x=held.x), held
 
 
 def solve_many(
@@ -99,37 +142,35 @@ def solve_many(
     """:func:`calibrate_many` on a problem already made (and so already checked) by
     :func:`make_problem`."""
     solvers = [get_solver(name) for name in methods]
-    problem, train_rows, validation_rows, _ = split
-    before = metrics(problem.model.residuals(problem.x0, problem.validation))
-    nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
+    nominal = measurement_identifiability(split.problem.model, split.problem.x0,
+                                          split.problem.train)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
-    budget = split.settings.budget
     results = {}
     for solver in solvers:
-        solved = solver.solve(problem, budget, np.random.default_rng(seed))
-        held = hold_unseen(problem, solved.x, nominal)
-        solved = solved._replace(x=held.x)
+        problem, solved, held = _solve(solver, split.problem, split.settings.budget, seed,
+                                       nominal)
         identified = measurement_identifiability(problem.model, solved.x, problem.train)
-        misfit, rejected, kept, gauge = _assess(split, solved.x, identified, q_workspace)
+        misfit, rejected, kept, weight, gauge = _assess(split._replace(problem=problem),
+                                                        solved.x, identified, q_workspace)
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
-            train_rows=train_rows, validation_rows=validation_rows,
-            metrics={
-                "before": before,
-                "train": metrics(problem.model.residuals(solved.x, problem.train)),
-                "validation": metrics(problem.model.residuals(solved.x, problem.validation)),
-            },
+            train_rows=split.train_rows, validation_rows=split.validation_rows,
+            metrics=_metrics(problem, solved.x),
             identifiability=nominal,
             identified_identifiability=identified,
             uncertainty=calibration_uncertainty(
-                problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen
+                problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen, weight
             ),
             settings=split.settings,
-            misfit=misfit,
+            # A σ fitted to these residuals explains them by construction: no misfit test.
+            misfit=None if split.noise is not None and split.noise.from_residuals else misfit,
             rejected_rows=rejected,
             gauge=gauge,
             unseen=held.unseen,
             held=held,
+            held_out=split.held_out,
+            noise=split.noise,
+            row_sigma=problem.row_sigma(problem.train) if problem.in_variables else None,
         )
         if on_result is not None:
             on_result(results[solver.name])

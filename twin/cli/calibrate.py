@@ -15,12 +15,16 @@ from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.cli.arguments import (
     AUTO_ERRORS,
     add_input_flags,
+    add_limit_flags,
     add_output,
     add_seed,
+    add_validation_flags,
+    angles_deg,
     integer,
     method_name,
     share,
     sigma_mm,
+    sigma_or_auto,
 )
 from twin.errors import InputError
 from twin.solvers import SOLVERS, get_solver
@@ -59,10 +63,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_seed(parser, "seed of the split and of the method", default=0)
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
-    parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
+    parser.add_argument("--sigma", type=sigma_or_auto, metavar="MM|auto",
                         help="the instrument's noise 1σ in mm: the filters' measurement noise "
                         "and the misfit test's reference (default: the capture's [encoder] "
-                        "sigma_mm with its resolution, else 0.01)")
+                        "sigma_mm with its resolution, else 0.01); auto: estimated from "
+                        "repeat readings, else from the residuals of a first fit (said so)")
+    parser.add_argument("--joint-resolution-deg", type=angles_deg, metavar="DEG[,DEG…]",
+                        help="the resolution the joint angles were recorded to (one, or one "
+                        "per joint): its rounding (r/√12) enters each row's variance through "
+                        "the row's Jacobian, and the fit weights the rows by it (errors in "
+                        "variables; default: the capture's)")
+    parser.add_argument("--joint-sigma-deg", type=angles_deg, metavar="DEG[,DEG…]",
+                        help="the noise 1σ of the recorded joint angles (one, or one per "
+                        "joint), added to the resolution's: as --joint-resolution-deg")
     parser.add_argument("--repeatability", type=sigma_mm, metavar="MM",
                         help="the robot's RMS flange repeatability in mm: noise of every pose "
                         "that no model removes, added to --sigma (a length sees it over one "
@@ -83,22 +96,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="iteration limit of every method and cascade stage (default: the "
                         "protocol's, 200 to converge, 60 / 30 + 30 for the paper's)")
     parser.add_argument("--train-fraction", type=share, metavar="SHARE",
-                        help="share of the poses used for identification (default: the "
-                        "capture's, else 0.8)")
+                        help="share of the poses used for identification, 1 for every pose "
+                        "(default: the capture's, else 0.8)")
+    add_validation_flags(parser)
+    add_limit_flags(parser)
     add_output(parser, "OUT.json", "write the result as JSON", flag="--json", required=False)
     add_rerun_flags(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.calibration.crossval import final_settings
     from twin.calibration.diagnosis import likely_causes
     from twin.calibration.pipeline import solve_many
     from twin.calibration.selection import warn_weak_data
     from twin.cli.inputs import make_split, resolve_inputs, truth_of
+    from twin.cli.validation import cross_validation, validation_file
     from twin.io.measurements import load_measurements
-    from twin.io.results import result_to_dict, write_json
+    from twin.io.results import cross_validation_to_dict, result_to_dict, write_json
     from twin.io.truth import load_truth_delta
-    from twin.report.text import format_comparison, format_result
+    from twin.report.text import format_comparison, format_cross_validation, format_result
     from twin.viz.commands import calibration_log
 
     inputs = resolve_inputs(args)
@@ -111,8 +128,11 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--errors auto with --method all", "one method to compare the "
                              "error models with", source="--errors")
         return _run_auto(args, inputs, measurements)
-    split = make_split(inputs, measurements, args.seed)
+    if args.cv or args.cv_by:  # the model reported is fitted on every pose
+        inputs = inputs._replace(calibration=final_settings(inputs.calibration))
+    split = make_split(inputs, measurements, args.seed, validation_file(args, inputs))
     warn_weak_data(robot, split, inputs.calibration.errors, measurements_path, args.seed)
+    crossed = cross_validation(args, inputs, measurements, methods)
     truth = None
     if inputs.truth_path is not None and inputs.truth_path.exists():
         truth = load_truth_delta(inputs.truth_path, robot.n_joints, robot.is_length)
@@ -126,8 +146,14 @@ def run(args: argparse.Namespace) -> int:
             misfit = result.misfit is not None and result.misfit.misfit
             causes = likely_causes(split, result) if misfit else ()
             truth, errors = truth_of(inputs, result)
-            print(format_result(result, truth, truth=errors, causes=causes))
+            if crossed is not None:
+                print(format_cross_validation(crossed))
+                print()
+            print(format_result(result, truth, truth=errors, causes=causes,
+                                cross_validated=crossed is not None))
             document = result_to_dict(result, causes=causes, truth=errors)
+            if crossed is not None:
+                document["cross_validation"] = cross_validation_to_dict(crossed)
         else:
             print(format_comparison(results))
             document = {"methods": {name: result_to_dict(r) for name, r in results.items()}}

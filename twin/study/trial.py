@@ -17,7 +17,9 @@ Against the truth, for each method:
 - **Cramér–Rao bound** of that error (:func:`twin.analysis.uncertainty.cramer_rao_rms`) for
 the
   trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
-  cable), averaged over the poses, from the fitted model's Jacobian (joint groups included).
+  cable), averaged over the poses, from the fitted model's Jacobian (joint groups included);
+  with joint angles recorded to a resolution, each row's own variance adds the rounding through
+  its ∂ℓ/∂q (the bound of the best linear estimator, which weights the rows by it).
   Outliers are not noise, nor are compliance and joint errors to a D-H-only model, so in those
   regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
 - **gauge-free errors**: the flange error modulo the motions the data cannot see, and the
@@ -38,6 +40,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.metrics import NO_ROWS
 from twin.analysis.uncertainty import cramer_rao_rms, rms_distance
 from twin.arrays import Array
 from twin.calibration.accuracy import rigid_truth, truth_errors
@@ -83,15 +86,17 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     """The unknowns x a perfect calibration returns, shape (p,), SI: the D-H errors, the
     transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
     hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
-    the port's correction and the offset."""
+    the port's correction and the offset (of the robot's errors, those the calibration did not
+    fix)."""
     x = np.zeros(model.n_params)
-    x[model.slice("dh")] = sim.delta.ravel()
-    if model.has("transmission"):
-        x[model.slice("transmission")] = np.nan_to_num(sim.joint_errors.coefficients()).ravel()
-    if model.has("backlash"):
-        x[model.slice("backlash")] = 0.5 * sim.joint_errors.backlash_rad
-    if model.has("compliance"):
-        x[model.slice("compliance")] = sim.scenario.physics.compliance(sim.robot.n_joints)
+    robot_errors = {
+        "dh": lambda: sim.delta.ravel(),
+        "transmission": lambda: np.nan_to_num(sim.joint_errors.coefficients()).ravel(),
+        "backlash": lambda: 0.5 * sim.joint_errors.backlash_rad,
+        "compliance": lambda: sim.scenario.physics.compliance(sim.robot.n_joints)}
+    for name, truth in robot_errors.items():
+        if model.has(name):
+            x[model.slice(name)] = model.group(name).take(truth())
     rig = model.rig
     if model.has("port"):
         index = rig.estimated_port_index
@@ -124,6 +129,19 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     if sim.measurements.kind != "length":  # tracker noise or seating error, per axis
         return float(np.sqrt(np.mean(sim.scenario.instrument.sigma_m**2) + jitter))
     return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
+
+
+def row_sigma_m(sim: Simulation, jacobian: Array, sigma_m: float) -> Array | None:
+    """Each training row's noise 1σ when the joint angles are recorded to a resolution: the
+    readings' σ and the rounding (r/√12 per joint) through the row's ∂ℓ/∂q, shape (m,), m;
+    None when they are exact (every row's σ is ``sigma_m``)."""
+    resolution = np.asarray(sim.scenario.noise.joint_resolution_rad or (0.0,))
+    if not np.any(resolution > 0):
+        return None
+    n = sim.robot.n_joints
+    dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, as in noise_sigma_m
+    return np.asarray(np.sqrt(sigma_m**2 + np.sum((dl_dq * resolution) ** 2, axis=1) / 12.0),
+                      dtype=np.float64)
 
 
 def _mm(value_m: float) -> float:
@@ -171,7 +189,8 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     x_true = true_unknowns(sim, model)
     _, jacobian = model.jacobian(x_true, train)
     sigma_m = noise_sigma_m(sim, jacobian)
-    crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace)
+    crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace,
+                                          row_sigma_m(sim, jacobian, sigma_m))
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[TrialRow] = []
     methods: dict[str, Any] = {}
@@ -184,7 +203,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
-        before_m, train_m, validation_m = (result.metrics[stage]
+        before_m, train_m, validation_m = (result.metrics.get(stage, NO_ROWS)
                                            for stage in ("before", "train", "validation"))
         rows.append(TrialRow(
             trial=trial, case=case, seed=seed, method=name,
