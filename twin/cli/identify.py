@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from twin.cli.arguments import add_input_flags, add_output, add_seed, sigma_mm
+from twin.choices import DEFAULT_METHOD
+from twin.cli.arguments import add_input_flags, add_output, add_seed, method_name, sigma_mm
 from twin.unknowns import ERRORS
 
 if TYPE_CHECKING:
@@ -13,6 +14,7 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from twin.analysis.identifiability import Identifiability
+    from twin.calibration.assessment import Assessment
     from twin.model import Model
 
 NAME = "identify"
@@ -20,8 +22,10 @@ HELP = "report what a measurement set identifies, and how well"
 DESCRIPTION = (
     "Identifiability of a measurement set: rank, condition number and the "
     "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
-    "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
-    "and the same at the identified geometry, with per-parameter standard deviations."
+    "indices and the Cramér–Rao bound on the flange position (on the measured point when the "
+    "data do not pin the flange); then a calibration with --method (the default of twin "
+    "calibrate, so both state the same fit and noise estimate) and the same at the identified "
+    "geometry, with per-parameter standard deviations."
 )
 
 
@@ -33,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         + ", ".join(ERRORS) + " (default: the capture's, else dh)",
         tension_help="the cable's pull in N, for the compliance group (default: the capture's, "
         "else 0)")
+    parser.add_argument("--method", default=DEFAULT_METHOD, type=method_name,
+                        help=f"the calibration method (default: {DEFAULT_METHOD}, as twin "
+                        "calibrate's)")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
     parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
@@ -86,15 +93,41 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     return lines
 
 
+def _one_method(text: str) -> str:
+    """The method's registry name; ``all`` is refused (an assessment runs one calibration)."""
+    from twin.errors import InputError
+    from twin.solvers import SOLVERS, get_solver
+
+    if text.strip().lower() == "all":
+        raise InputError("'all'", "one method: " + ", ".join(SOLVERS.choices()),
+                         where="--method")
+    return get_solver(text).name
+
+
+def _bound_line(assessment: Assessment, sigma_m: float) -> str:
+    """The Cramér–Rao bound over the workspace: of the flange, or of the measured point when
+    the data do not pin the flange."""
+    from twin.analysis.uncertainty import WORKSPACE_POSES
+    from twin.report.display import SIGNIFICANT, mm
+
+    where = f"at σ = {mm(sigma_m, significant=SIGNIFICANT)}: "
+    if assessment.pinned:
+        return (f"  Cramér–Rao bound {where}flange RMS error over {WORKSPACE_POSES} workspace "
+                f"poses {mm(assessment.score.flange_rms_m)}")
+    assert assessment.point_bound_m is not None
+    return (f"  Cramér–Rao bound {where}RMS error of the measured point over {WORKSPACE_POSES} "
+            f"workspace poses {mm(assessment.point_bound_m)} (the flange is not pinned by "
+            "these data: no flange figure)")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.analysis.uncertainty import WORKSPACE_POSES
     from twin.calibration.assessment import assess, flange_error_map
     from twin.cli.inputs import make_split, resolve_inputs, truth_of
     from twin.io.measurements import load_measurements
     from twin.io.png import save_png
     from twin.io.results import assessment_to_dict, write_json
-    from twin.report.display import SIGNIFICANT, mm
+    from twin.report.display import mm
     from twin.report.plots import accuracy_map
     from twin.report.text import (
         describe_rig,
@@ -110,8 +143,9 @@ def run(args: argparse.Namespace) -> int:
     robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)
     split = make_split(inputs, data, args.seed)
-    assessment = assess(robot, split, data, seed=args.seed)
-    data, nominal, score, result = assessment
+    method = _one_method(args.method)
+    assessment = assess(robot, split, data, seed=args.seed, method=method)
+    data, nominal, score, result, _ = assessment
     model = split.problem.model
     indices = score.observability
     lines = [
@@ -124,19 +158,20 @@ def run(args: argparse.Namespace) -> int:
         f"  base parameters ({nominal.rank}): " + ", ".join(nominal.base_names),
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
-        f"  Cramér–Rao bound at σ = {mm(inputs.calibration.sigma_m, significant=SIGNIFICANT)}: "
-        f"flange RMS error over {WORKSPACE_POSES} workspace poses {mm(score.flange_rms_m)}",
+        _bound_line(assessment, inputs.calibration.sigma_m),
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
     lines += [
-        f"At the identified geometry (lm-base, seed {args.seed}, "
+        f"At the identified geometry ({method}, seed {args.seed}, "
         f"{result.train_rows.size} training poses):",
         f"  validation RMSE {mm(result.metrics['validation'].rmse)}, "
         f"noise estimate {mm(uncertainty.noise_sigma_m)}",
         *_identifiability_lines(result.identified_identifiability),
-        f"  predicted flange RMS error over the workspace {mm(uncertainty.flange_rms_m)} "
-        "(from the noise estimate)",
+        "  predicted " + (f"flange RMS error over the workspace {mm(uncertainty.flange_rms_m)}"
+                          if assessment.pinned else
+                          "RMS error of the measured point over the workspace "
+                          f"{mm(uncertainty.point_rms_m)}") + " (from the noise estimate)",
         *format_held(result),
         *format_fit(result),
         *format_joint_groups(result),
@@ -157,9 +192,11 @@ def run(args: argparse.Namespace) -> int:
     ]
     print("\n".join(lines))
     if args.map:
+        what = "flange" if assessment.pinned else "measured point"
         save_png(accuracy_map(*flange_error_map(result.model, result.solver.x,
-                                                uncertainty.covariance),
-                              f"{robot.name}: predicted flange error after lm-base, "
+                                                uncertainty.covariance,
+                                                measured=not assessment.pinned),
+                              f"{robot.name}: predicted {what} error after {method}, "
                               f"{len(data)} poses (q1 = q4 = q5 = q6 = 0)"), args.map)
         print(f"map: {args.map}")
     if args.json:
