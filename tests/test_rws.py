@@ -325,6 +325,23 @@ def test_controller_faults_are_one_line_and_lose_nothing(
     assert rows(out)[:, 0].tolist() == list(range(1, kept + 1))
 
 
+def test_the_robot_program_is_named_once_it_is_written(
+        cell: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An encoder that cannot be opened stops the capture before anything is written (the
+    folder made for it removed): no line names a robot program that does not exist."""
+    out = tmp_path / "cap"
+    running = controller(cell, out)
+    try:
+        argv = capture_args(cell, running.url, out)
+        argv[argv.index("--encoder") + 1] = f"serial://{tmp_path / 'no-such-device'}"
+        code = main(argv)
+    finally:
+        running.stop()
+    captured = capsys.readouterr()
+    assert code == 1 and "cannot open encoder port" in captured.err
+    assert "robot program" not in captured.out and not out.exists()
+
+
 def test_rws2_over_https_with_the_controllers_ca(cell: dict[str, object], tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     """RWS 2.0: HTTPS with a certificate from a CA made here, basic authentication, HAL JSON

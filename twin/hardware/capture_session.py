@@ -382,8 +382,9 @@ def capture_folder(
     report: Callable[[str], None] = print,
 ) -> int:
     """Measure a plan into a capture folder, resuming what is there: check the folder, lock it,
-    copy the plan and write the robot, the truth (when the virtual encoder serves a scenario)
-    and ``capture.toml``, open the encoder, then :func:`capture` every pose not yet measured.
+    open the encoder, copy the plan and write the robot, the robot source's files (named in a
+    report line), the truth (when the virtual encoder serves a scenario) and ``capture.toml``,
+    then :func:`capture` every pose not yet measured.
 
     Args:
         folder: The capture folder (created).
@@ -412,6 +413,10 @@ def capture_folder(
     check_folder(folder, plan_path, plan_q_rad, "".join(robot_files(robot).values()))
     with locked(folder), open_encoder(config) as encoder:
         prepare(folder, plan_path, plan_q_rad, robot, source_files)
+        # Named once written, the encoder open: the operator loads it into the controller
+        # while the capture waits for the first pose.
+        for name in source_files or {}:
+            report(f"the robot program for this plan: {folder / name}")
         if truth is not None:
             write_truth(folder / TRUTH_FILE, truth)
         write_capture(folder / CAPTURE_NAME, robot=ROBOT_NAME, rig=rig,
