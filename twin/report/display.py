@@ -44,10 +44,12 @@ def plain(value: float, decimals: int | None = None, *, significant: int | None 
           width: int = 0, sign: bool = False) -> str:
     """``value`` with ``decimals`` fixed decimals, or ``significant`` digits (``g``; the
     default when neither is given, :data:`AS_GIVEN`), right-aligned in ``width`` characters,
-    with its sign always shown if ``sign``."""
+    with its sign always shown if ``sign``. A value as wide as its column or wider keeps a
+    space before it, so that the columns of a table never run together."""
     kind = f".{decimals}f" if decimals is not None and significant is None \
         else f".{AS_GIVEN if significant is None else significant}g"
-    return format(float(value), f">{'+' if sign else ''}{width or ''}{kind}")
+    text = format(float(value), f"{'+' if sign else ''}{kind}")
+    return f"{text:>{width}}" if len(text) < width else (" " + text if width else text)
 
 
 def mm(value_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
