@@ -11,7 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array
+from twin.arrays import Array, lengths
 from twin.dataset import Measurements
 from twin.geometry.kinematics import Structure, point_position
 from twin.kinds.base import KindJacobian, no_symmetries
@@ -34,7 +34,7 @@ def cable_length(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, port_m: 
         Lengths, shape (..., m), m.
     """
     positions = point_position(structure, dh, q_rad, point_m)
-    return np.linalg.norm(positions - np.asarray(port_m), axis=-1)
+    return lengths(positions - np.asarray(port_m, dtype=np.float64))
 
 
 class Length:
@@ -61,7 +61,7 @@ class Length:
     def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = ‖p − port‖ + offset − L, shape (..., m), m."""
-        length = np.linalg.norm(positions - self._ports(values, data, rig), axis=-1)
+        length = lengths(positions - self._ports(values, data, rig))
         if "offset" in values:
             length = length + values["offset"][..., :1]
         assert data.length_m is not None
@@ -80,7 +80,7 @@ class Length:
         """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on the rows
         of estimated port j; ∂r/∂c = 1."""
         difference = positions - self._ports(values, data, rig)
-        distance = np.linalg.norm(difference, axis=-1)
+        distance = lengths(difference)
         u = difference / distance[:, None]
         by_group: dict[str, Array] = {}
         if "port" in values:
