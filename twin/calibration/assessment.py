@@ -18,7 +18,7 @@ import numpy as np
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
 from twin.analysis.uncertainty import (
     WORKSPACE_POSES,
-    cramer_rao_point_rms,
+    cramer_rao_rms,
     flange_sigma,
     workspace_grid,
 )
@@ -76,7 +76,7 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
     nominal = measurement_identifiability(model, x0, data)
     score = score_poses(model, x0, data.q_rad, nominal.base_mask, split.problem.sigma_m,
                         q_workspace)
-    point = cramer_rao_point_rms(model, x0, data, split.problem.sigma_m, q_workspace) \
+    point = cramer_rao_rms(model, x0, data, split.problem.sigma_m, q_workspace)[1] \
         if model.has("attachment") else None
     result = solve_many(robot, split, [method], seed=seed)[method]
     return Assessment(data, nominal, score, result, point)
