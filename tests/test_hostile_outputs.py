@@ -206,15 +206,18 @@ def test_no_output_file_replaces_a_capture_journal(capture_copy: Path, tmp_path:
                   journal], [capture_copy], f"{journal}: found a capture's measurements")
 
 
-def _study(folder: Path, trials: int, command: str = "study") -> subprocess.Popen[str]:
-    """`twin study` (or `twin check`, of an LM expectation) of LM trials, as a process."""
+def _study(folder: Path, trials: int, command: str = "study", *, group: bool = False
+           ) -> subprocess.Popen[str]:
+    """`twin study` (or `twin check`, of an LM expectation) of LM trials, as a process (the
+    leader of a process group of its own if ``group``)."""
     argv = [*TWIN, command, str(SIM_SCENARIO), "--out", str(folder), "--trials", str(trials),
             "--methods", "lm"]
     if command == "check":
         expect = folder.parent / "expect.toml"
         expect.write_text('[expect]\nlm = ["converged share >= 0.5"]\n')
         argv += ["--no-figures", "--expect", str(expect)]
-    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=group)
 
 
 def _wait_for(path: Path, process: subprocess.Popen[str], lines: int = 0) -> None:
@@ -329,3 +332,28 @@ def test_sigterm_stops_a_study_as_ctrl_c(tmp_path: Path) -> None:
     rows = _rows(folder)
     assert len(rows) == len(set(rows))
     assert set(rows) == set(done) | {(str(trial), "lm") for trial in range(10)}
+
+
+@pytest.mark.parametrize("command", ["study", "check"])
+def test_sigterm_to_the_process_group_stops_workers_quietly(command: str,
+                                                          tmp_path: Path) -> None:
+    """A supervisor (`timeout`, systemd, a CI job) stops the whole process group: the workers
+    printed a traceback each, and 2 runs in 9 never exited. Now: exit 143, one line, every
+    recorded trial whole, no worker left."""
+    folder = tmp_path / "study"
+    study = _study(folder, 5000, command, group=True)
+    _wait_for(folder / "results.csv", study, lines=2)
+    os.killpg(study.pid, signal.SIGTERM)
+    _, error = study.communicate(timeout=TIMEOUT_S)
+    assert study.returncode == 143, error
+    assert error.endswith("\ntwin: terminated\n") and "Traceback" not in error, error
+    done = _rows(folder)
+    assert 0 < len(done) == len(set(done))
+    deadline = time.monotonic() + TIMEOUT_S
+    while True:  # the group is empty once every worker has exited
+        try:
+            os.killpg(study.pid, 0)
+        except ProcessLookupError:
+            break
+        assert time.monotonic() < deadline, "a worker outlived the command"
+        time.sleep(0.05)
