@@ -299,7 +299,8 @@ def test_controller_faults_are_one_line_and_lose_nothing(
         fault: str, cell: dict[str, object], tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
     """A controller that is not there, refuses the credentials, never stops moving, or stops
-    the program before a pose: one line naming it, exit code 1, every pose before it kept."""
+    the program before a pose: one line naming it, exit code 1 (2 for the credentials, the
+    user's mistake), every pose before it kept."""
     out = tmp_path / "cap"
     faults = {"creep": {"creep_pose": 3}, "refuse": {"refuse_pose": 4}}.get(fault, {})
     running = controller(cell, out, password="secret" if fault == "auth" else PASSWORD,
@@ -314,7 +315,7 @@ def test_controller_faults_are_one_line_and_lose_nothing(
         if fault != "unreachable":
             running.stop()
     error = capsys.readouterr().err
-    assert code == 1 and error.count("\n") == 1, error
+    assert code == (2 if fault == "auth" else 1) and error.count("\n") == 1, error
     expected = {"unreachable": "cannot reach the controller at http://127.0.0.1:",
                 "auth": "refused (HTTP 401) for user 'Default User'",
                 "creep": "pose 3/40: the joints did not stand still within 3 s: joint 1 moved",

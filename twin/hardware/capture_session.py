@@ -347,15 +347,13 @@ def capture(
                 q_reached = robot.move_to(pose, n_poses, plan_q_rad[pose - 1])
                 settled = measure(encoder, rule, reconnect_s, report)
             except TwinError as exc:
-                raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
-                    from None
+                raise _stopped(exc, pose, done, n_poses) from None
             record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
             done.add(pose)
             try:
                 robot.recorded(pose, n_poses)
             except TwinError as exc:
-                raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
-                    from None
+                raise _stopped(exc, pose, done, n_poses) from None
             report(f"pose {pose}/{n_poses}: {mm(settled.length_m)} "
                    f"({settled.readings} readings, spread {mm(settled.spread_m)}, "
                    f"{time.monotonic() - started:.2f} s)")
@@ -425,6 +423,17 @@ def capture_folder(
                       encoder={"url": config.to_url()})
         return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,
                        reconnect_s=reconnect_s, report=report)
+
+
+def _stopped(exc: TwinError, pose: int, done: set[int], n_poses: int) -> TwinError:
+    """The error that stops a capture at ``pose``, saying what is saved: a user's mistake met
+    on the way (credentials the controller refused) stays one (exit code 2), anything else is
+    a fault of the cell (:class:`CaptureError`, exit code 1)."""
+    if isinstance(exc, InputError):
+        return InputError(f"{exc.found} (at pose {pose}/{n_poses})",
+                          f"{exc.expected}. {_saved(done, n_poses)}", source=exc.source,
+                          where=exc.where)
+    return CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}")
 
 
 def _saved(done: set[int], n_poses: int) -> str:
