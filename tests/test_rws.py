@@ -30,7 +30,7 @@ from twin.hardware.rws import protocol
 from twin.hardware.rws.client import RwsClient, RwsConnection
 from twin.hardware.rws.virtual_controller import ControllerSettings, Robot, start
 from twin.io.measurements import load_measurements, read_table
-from twin.io.rapid_handshake import axes_deg, module_text, read_module
+from twin.io.rapid_handshake import axes_deg, module_text, read_handshake_module
 from twin.scenario import load_scenario
 from twin.sim import Twin, simulate
 from twin.units import deg_to_rad, rad_to_deg
@@ -124,7 +124,7 @@ def test_the_handshake_module_reads_back_as_its_plan(tmp_path: Path) -> None:
                             "WaitRob \\ZeroSpeed;", "WaitUntil twin_ack = k;"):
             assert declaration in text
         (tmp_path / "m.mod").write_text(text)
-        back = read_module(tmp_path / "m.mod", n)
+        back = read_handshake_module(tmp_path / "m.mod", n)
         assert back.name == "TwinPlan"
         assert np.max(np.abs(rad_to_deg(back.q_rad) - rad_to_deg(q_rad))) < 1e-6
         assert text.count("9E+09") == 5 * (6 - max(0, n - 6))
