@@ -14,7 +14,10 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from twin.analysis.identifiability import Identifiability
+    from twin.calibration.accuracy import TruthErrors
     from twin.calibration.assessment import Assessment
+    from twin.calibration.result import CalibrationResult
+    from twin.cli.inputs import Inputs
     from twin.model import Model
 
 NAME = "identify"
@@ -104,6 +107,23 @@ def _one_method(text: str) -> str:
     return get_solver(text).name
 
 
+def _truth(inputs: Inputs, result: CalibrationResult) -> tuple[TruthErrors | None, list[str]]:
+    """The errors against the capture's truth file, if it has one, and their report lines."""
+    from twin.cli.inputs import truth_of
+    from twin.report.display import mm
+    from twin.report.text import format_truth, has_point
+
+    _, truth = truth_of(inputs, result)
+    if truth is None or inputs.truth_path is None:
+        return truth, []
+    lines = [f"  true flange RMS error over the workspace {mm(truth.flange_m)} (against the "
+             f"D-H table of {inputs.truth_path.name})"]
+    point = format_truth(truth, has_point(result))[1:]
+    lines += point if not truth.motions else [
+        f"    modulo {', '.join(truth.motions)}: {mm(truth.flange_gauge_free_m)}", *point]
+    return truth, lines
+
+
 def _bound_line(assessment: Assessment, sigma_m: float) -> str:
     """The Cramér–Rao bound over the workspace: of the flange, or of the measured point when
     the data do not pin the flange."""
@@ -123,7 +143,7 @@ def _bound_line(assessment: Assessment, sigma_m: float) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.calibration.assessment import assess, flange_error_map
-    from twin.cli.inputs import make_split, resolve_inputs, truth_of
+    from twin.cli.inputs import make_split, resolve_inputs
     from twin.io.measurements import load_measurements
     from twin.io.png import save_png
     from twin.io.results import assessment_to_dict, write_json
@@ -134,8 +154,6 @@ def run(args: argparse.Namespace) -> int:
         format_fit,
         format_held,
         format_joint_groups,
-        format_truth,
-        has_point,
     )
     from twin.units import m_to_mm
 
@@ -176,16 +194,9 @@ def run(args: argparse.Namespace) -> int:
         *format_fit(result),
         *format_joint_groups(result),
     ]
-    _, truth = truth_of(inputs, result)
-    if truth is not None and inputs.truth_path is not None:
-        lines.append(f"  true flange RMS error over the workspace "
-                     f"{mm(truth.flange_m)} (against the D-H table of "
-                     f"{inputs.truth_path.name})")
-        point = format_truth(truth, has_point(result))[1:]
-        lines += point if not truth.motions else [
-            f"    modulo {', '.join(truth.motions)}: "
-            f"{mm(truth.flange_gauge_free_m)}", *point]
+    truth, truth_lines = _truth(inputs, result)
     lines += [
+        *truth_lines,
         "  standard deviations of the unknowns as returned, held at the nominal along what the "
         "data cannot see (held entirely: —)",
         *_sigma_table(model, uncertainty.sigma),
