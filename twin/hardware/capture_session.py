@@ -57,7 +57,7 @@ from twin.io.measurements import (
 from twin.io.paths import OutputFile, os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
-from twin.report.display import mm
+from twin.report.display import mm, seconds
 from twin.rig import Rig
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
 
@@ -356,7 +356,7 @@ def capture(
                 raise _stopped(exc, pose, done, n_poses) from None
             report(f"pose {pose}/{n_poses}: {mm(settled.length_m)} "
                    f"({settled.readings} readings, spread {mm(settled.spread_m)}, "
-                   f"{time.monotonic() - started:.2f} s)")
+                   f"{seconds(time.monotonic() - started, 2)})")
     except KeyboardInterrupt:
         report(f"interrupted at pose {pose}/{n_poses}. {_saved(done, n_poses)}")
         raise

@@ -27,6 +27,7 @@ from twin.report.display import (
     mm,
     percent,
     plain,
+    seconds,
     slot,
     xyz_mm,
 )
@@ -271,7 +272,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         _metric_row("after, train", result.metrics["train"]),
         _metric_row("after, validation", result.metrics["validation"]),
         f"  {result.solver.iterations} iterations, {result.solver.evaluations} evaluations, "
-        f"{result.solver.seconds:.3f} s ({result.budget.protocol} protocol)",
+        f"{seconds(result.solver.seconds)} ({result.budget.protocol} protocol)",
         *format_stop(result),
         "  " + MAE_NOTE,
         *format_identifiability(result),
