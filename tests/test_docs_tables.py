@@ -16,7 +16,7 @@ EXPECTED = {
     "studies.md": {"paper-replica", "regimes", "bench-study", "bench-speed", "check-base",
                    "check-baseline"},
     "robots.md": {"parametrisation"},
-    "measurements.md": {"rigs", "stations"},
+    "measurements.md": {"rigs", "stations", "limits", "noise-inputs"},
     "twin.md": {"paper-rig", "demo-transcript"},
     "identifiability.md": {"unknown-sets", "bench-design", "twin-check", "identify-transcript"},
     "../README.md": {"readme-calibrate"},
