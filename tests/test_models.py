@@ -9,9 +9,10 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.geometry.kinematics import frames
 from twin.io.robot_file import load_robot
-from twin.robot import MAX_JOINTS, MIN_JOINTS, random_poses
+from twin.robot import random_poses
 from twin.scenario import load_scenario
 from twin.sim.builder import build_spec
 

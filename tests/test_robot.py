@@ -65,7 +65,7 @@ JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper
         (BASE.replace('length_unit = "mm"\n', "") + f"joints = [{', '.join([JOINT] * 6)}]",
          "length_unit: found nothing, expected one of mm, m"),
         (BASE + f"joints = [{', '.join([JOINT] * 3)}]", "3 joints"),
-        (BASE + f"joints = [{', '.join([JOINT] * 8)}]", "8 joints"),
+        (BASE + f"joints = [{', '.join([JOINT] * 10)}]", "10 joints"),
         (BASE + f"joints = [{', '.join([JOINT.replace('290.0', 'nan')] + [JOINT] * 5)}]",
          "joint 1 d: found nan, expected a number within ±1e+06 mm"),
         (BASE + f"joints = [{', '.join([JOINT.replace('a = 0.0', 'b = 0.0')] + [JOINT] * 5)}]",
@@ -157,10 +157,11 @@ def test_rows_in_their_own_parametrisation_with_ends_round_trip(tmp_path: Path) 
     np.testing.assert_allclose(back.flange_transforms(q), robot.flange_transforms(q), atol=1e-9)
 
 
-@pytest.mark.parametrize("n", [4, 7])
-def test_four_to_seven_joints(tmp_path: Path, n: int) -> None:
-    """Chains of 4 and 7 joints are robots like any other."""
-    rows = "\n".join(SIX.splitlines()[:n] if n <= 6 else SIX.splitlines() + SIX.splitlines()[-1:])
+@pytest.mark.parametrize("n", [4, 7, 9])
+def test_four_to_nine_joints(tmp_path: Path, n: int) -> None:
+    """Chains of 4, 7 and 9 joints are robots like any other."""
+    lines = SIX.splitlines()
+    rows = "\n".join(lines[:n] if n <= 6 else lines + lines[-1:] * (n - 6))
     robot = _model(tmp_path, 'parametrisation = "mdh"', rows)
     assert robot.n_joints == n and robot.structure.parametrisation == ("mdh",) * n
     assert robot.joint_names == tuple(f"joint_{i}" for i in range(1, n + 1))

@@ -8,6 +8,12 @@ module that acts on each value imports it from here (and is where its meaning is
 
 from __future__ import annotations
 
+MIN_JOINTS, MAX_JOINTS = 4, 9
+"""Joints a robot may have (:class:`twin.robot.RobotModel`, every robot file, plan and journal):
+the serial chains twin calibrates, from a SCARA-like 4-axis arm to a 7-axis arm on a torso lift
+or a two-axis track — the one place this limit is set."""
+JOINT_RANGE = f"{MIN_JOINTS} to {MAX_JOINTS}"
+"""The limit as help texts and messages say it."""
 PROTOCOLS = ("converge", "paper")
 """Names of the stopping protocols, the default first (:mod:`twin.stopping`)."""
 MAX_ITERATIONS = 100_000

@@ -3,7 +3,7 @@
 One batched damped-least-squares Newton iteration solves all rows at once (no loop over rows):
 each step is ``Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e`` with e the position error (m) and, for full poses, the
 rotation error ``log(R_target Rᵀ)`` (rad, base frame); λ is adapted per row (Levenberg–
-Marquardt: a step is taken only if it lowers ‖e‖). With 3 equations and 4 to 7 joints (flange
+Marquardt: a step is taken only if it lowers ‖e‖). With 3 equations and 4 to 9 joints (flange
 positions only) the step is the minimum-norm one, so the solution stays next to its seed.
 
 Targets that come without joint angles are solved on the nominal model from a few joint-space

@@ -4,7 +4,7 @@ Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
 - ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg, mm, ±1; N
-  the robot's joints, 4 to 7),
+  the robot's joints, 4 to 9),
   one row per measured pose, appended as one whole line and ``fsync``-ed before the robot moves
   on (a journal, :mod:`twin.io.journal`). ``pose`` numbers the plan rows from 1; `twin
   calibrate` ignores it. ``approach`` is the direction each joint moved in to reach the pose:
@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration.settings import CalibrationSettings
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.encoders import EncoderConfig, open_encoder
@@ -59,7 +60,7 @@ from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.report.display import mm
 from twin.rig import Rig
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
+from twin.robot import RobotModel
 
 POSE_COLUMN = "pose"
 
@@ -389,7 +390,7 @@ def capture_folder(
         folder: The capture folder (created).
         plan_path: The plan CSV, copied into the folder.
         plan_q_rad: Its poses, shape (N, n), rad.
-        robot: The nominal robot (a model file or a URDF, 4 to 7 joints).
+        robot: The nominal robot (a model file or a URDF, 4 to 9 joints).
         rig: The rig as told: the encoder's one port (base frame, m), the cable's attachment
             point (flange frame, m) and its tension (N), written to ``capture.toml``.
         config: How to talk to the encoder.

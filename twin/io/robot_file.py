@@ -13,8 +13,8 @@ A model file is TOML, in mm and degrees (or m and rad, as declared)::
     base = { xyz = [0.0, 0.0, 0.0], rpy = [0.0, 0.0, 0.0] }   # optional
     tool = { xyz = [0.0, 0.0, 0.0], rpy = [0.0, 0.0, 0.0] }   # optional
 
-From 4 to 7 joints. ``parametrisation`` says what a joint row means
-(:mod:`twin.geometry.kinematics`):
+From 4 to 9 joints (:data:`twin.choices.MAX_JOINTS`). ``parametrisation`` says what a joint row
+means (:mod:`twin.geometry.kinematics`):
 
 - ``"dh"``: standard (distal) D-H, joint i contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) ·
   Rx(alpha_i)`` — the paper's form;
@@ -62,6 +62,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.errors import InputError
 from twin.geometry.kinematics import (
     PARAMETRISATIONS,
@@ -77,7 +78,7 @@ from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.io.urdf_reader import load_urdf
 from twin.io.xacro_reader import XACRO_SUFFIX, expand_xacro
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
+from twin.robot import RobotModel
 from twin.units import (
     ANGLE_FACTORS,
     FILE_DEG_DECIMALS,

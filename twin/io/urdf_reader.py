@@ -45,12 +45,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.errors import InputError
 from twin.geometry.kinematics import fixed_transforms, rigid_transform
 from twin.geometry.parametrisation import AUTO_PARAMETRISATION, convert, joint_frames
 from twin.io.paths import read_text
 from twin.io.table import shown
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
+from twin.robot import RobotModel, UrdfSource
 from twin.units import MAX_ANGLE_RAD, MAX_LENGTH_M
 
 if TYPE_CHECKING:

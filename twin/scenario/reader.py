@@ -6,7 +6,7 @@ joint errors), paths relative to the scenario file::
     name = "paper_irb120"                  # required
     description = "..."
     seed = 7                               # required: seeds every random draw
-    robot = "../models/irb120.toml"        # nominal model (model TOML or URDF, 4 to 7 joints);
+    robot = "../models/irb120.toml"        # nominal model (model TOML or URDF, 4 to 9 joints);
                                            # default: the packaged IRB 120
     robot_base_link = "base_link"          # for a URDF robot: its chain (default: the root
     robot_tip_link = "tool0"               #   link to tool0, flange or the one leaf)
