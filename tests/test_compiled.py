@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from twin.choices import MAX_JOINTS
 from twin.geometry import kinematics
 from twin.geometry.kinematics import (
     JOINT_TYPES,
@@ -20,7 +21,6 @@ from twin.geometry.kinematics import (
     trace_point,
     turns,
 )
-from twin.robot import MAX_JOINTS
 
 pytest.importorskip("numba")
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twin.choices import MAX_JOINTS
 from twin.geometry.kinematics import (
     JOINT_TYPES,
     Structure,
@@ -21,7 +22,6 @@ from twin.geometry.parametrisation import (
     resolve,
 )
 from twin.io.robot_file import default_robot
-from twin.robot import MAX_JOINTS
 
 IRB120_DH = np.array([[0.0, 0.27, 0.07, 0.0, 0.0, 0.0],
                       [0.29, 0.0, 0.0, 0.302, 0.0, 0.072],
