@@ -190,10 +190,10 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
     rows = robot_to_toml(robot).splitlines()
     rows[5] = "  { " + columns + " },"
     (tmp_path / "robot.toml").write_text("\n".join(rows) + "\n")
-    check_folder(tmp_path, plan, q_rad, robot_to_toml(robot))
+    check_folder(tmp_path, plan, q_rad, robot)
     other = robot.perturbed(np.r_[0.0, 1e-5, np.zeros(22)])
     with pytest.raises(InputError, match="a capture of another robot model"):
-        check_folder(tmp_path, plan, q_rad, robot_to_toml(other))
+        check_folder(tmp_path, plan, q_rad, other)
 
 
 @pytest.mark.parametrize("protocol", ["ascii", "modbus"])

@@ -39,6 +39,36 @@ def rad_to_deg(value_rad: ArrayLike) -> NDArray[np.float64]:
     return np.rad2deg(np.asarray(value_rad, dtype=np.float64))
 
 
+def joints_from_file(values: ArrayLike, prismatic: ArrayLike | None = None
+                     ) -> NDArray[np.float64]:
+    """Joint values as files, flags and people give them — degrees, and mm for a prismatic
+    joint — to SI (rad, m).
+
+    Args:
+        values: Joint values, shape (..., n).
+        prismatic: Which joints slide, shape (n,); none if None.
+    """
+    turned = deg_to_rad(values)
+    if prismatic is None or not np.any(prismatic):
+        return turned
+    return np.asarray(np.where(prismatic, mm_to_m(values), turned), dtype=np.float64)
+
+
+def joints_to_file(values_si: ArrayLike, prismatic: ArrayLike | None = None
+                   ) -> NDArray[np.float64]:
+    """Inverse of :func:`joints_from_file`: joint values in SI (rad, m), shape (..., n), to
+    degrees and mm."""
+    turned = rad_to_deg(values_si)
+    if prismatic is None or not np.any(prismatic):
+        return turned
+    return np.asarray(np.where(prismatic, m_to_mm(values_si), turned), dtype=np.float64)
+
+
+def joint_file_units(prismatic: ArrayLike) -> tuple[str, ...]:
+    """The unit each joint's values have in files: ``deg``, or ``mm`` for a prismatic joint."""
+    return tuple("mm" if sliding else "deg" for sliding in np.ravel(prismatic))
+
+
 ARCSEC_PER_DEG = 3600.0
 
 
@@ -84,6 +114,9 @@ FILE_MM_DECIMALS = 3
 """Robot files and plans: lengths to 1 µm."""
 FILE_DEG_DECIMALS = 6
 """Robot files, plans and results: angles to 1e-6 degree (about 1e-8 rad)."""
+FILE_JOINT_DECIMALS = 6
+"""Plans, corrected programs and predictions: joint values to 1e-6 of their unit (degree, or mm
+for a prismatic joint)."""
 RESULT_MM_DECIMALS = 6
 """Results: lengths and metrics to 1e-6 mm."""
 RESULT_SIGNIFICANT = 6

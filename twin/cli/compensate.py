@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
 
     from twin.compensation.joints import compensate_program_rows
     from twin.io.identified import load_result, warn_result_cautions
-    from twin.io.measurements import load_poses
+    from twin.io.measurements import joint_units_said, load_poses
     from twin.io.pose_tables import write_corrected
 
     if args.verify is not None:
@@ -136,12 +136,13 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--tool or --wobj with --joints", "them with --targets or --rapid",
                              source="--tool" if args.tool else "--wobj")
         program = load_poses(args.joints, robot,
-                             f"a program CSV (q1..q{robot.n_joints} in degrees)", stdin=True)
+                             f"a program CSV ({joint_units_said(robot.n_joints, robot)})",
+                             stdin=True)
         q_nominal = program.q_rad
         ordered = compensate_program_rows(model, x, robot, q_nominal, program.approach)
     else:
         ordered, q_nominal = _targets(args, robot, model, x, rng)
-    write_corrected(args.out, ordered)
+    write_corrected(args.out, ordered, robot)
     print(_summary(ordered, q_nominal))
     print(f"wrote {args.out}")
     return 0

@@ -193,7 +193,7 @@ def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float6
 
     options = _check_module_flags(args, robot)
     if options is None:
-        write_plan(args.out, q_rad, port_names, port)
+        write_plan(args.out, q_rad, robot, port_names, port)
         return
     write_atomic(args.out, plan_module(robot, q_rad, options, port_names, port))
 

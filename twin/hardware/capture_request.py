@@ -123,9 +123,9 @@ def capture_request(request: CaptureRequest,
     else:
         robot, rig, calibration = _told_cell(request)
     check_joint_count(robot, request.scenario or request.robot or "the IRB 120")
-    plan_q_rad, _ = load_plan(request.plan, robot,
-                              f"a pose plan CSV (q1..q{robot.n_joints} in degrees)")
-    source_request = replace(request.source, plan_q_rad=plan_q_rad)
+    plan_q_rad, _ = load_plan(request.plan, robot)
+    source_request = replace(request.source, plan_q_rad=plan_q_rad,
+                             prismatic=tuple(bool(v) for v in robot.prismatic))
     files = kind.files(source_request) if kind.files is not None else {}
     for name in files:
         report(f"the robot program for this plan: {request.out / name}")

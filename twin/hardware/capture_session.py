@@ -3,8 +3,8 @@
 Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
-- ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg, mm, ±1; N
-  the robot's joints, 4 to 9),
+- ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg — mm for a
+  prismatic joint —, mm, ±1; N the robot's joints, 4 to 9),
   one row per measured pose, appended as one whole line and ``fsync``-ed before the robot moves
   on (a journal, :mod:`twin.io.journal`). ``pose`` numbers the plan rows from 1; `twin
   calibrate` ignores it. ``approach`` is the direction each joint moved in to reach the pose:
@@ -98,10 +98,11 @@ RECONNECT_POLL_S = 0.5
 
 
 def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float,
-               approach: NDArray[np.int8]) -> str:
-    """One line of the measurement file, with its LF; ``approach`` (n,) the pose's sides."""
+               approach: NDArray[np.int8], robot: RobotModel | None = None) -> str:
+    """One line of the measurement file of ``robot`` (a prismatic joint's q in mm), with its
+    LF; ``approach`` (n,) the pose's sides."""
     measured = Measurements(q_rad[None, :], np.array([length_m]), approach=approach[None, :])
-    return f"{pose},{format_measurements(measured).splitlines()[1]}\n"
+    return f"{pose},{format_measurements(measured, robot).splitlines()[1]}\n"
 
 
 def journal(path: Path, n_joints: int) -> Journal:
@@ -145,7 +146,7 @@ def locked(folder: Path) -> contextlib.AbstractContextManager[None]:
 
 
 def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
-                 robot_text: str) -> None:
+                 robot: RobotModel) -> None:
     """Refuse, before anything is written, a folder that holds something else than a capture
     of this plan and robot (another capture, a `twin simulate` output, unrelated files).
 
@@ -153,9 +154,10 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         InputError: naming the file that belongs to something else.
     """
     resume = "the capture this folder was started with (or a new --out folder)"
+    robot_text = "".join(robot_files(robot).values())
     stored_plan, stored_robot = folder / PLAN_NAME, folder / ROBOT_NAME
     if stored_plan.exists() and not np.array_equal(
-            load_plan(stored_plan, journal=True)[0], plan_q_rad):
+            load_plan(stored_plan, robot, journal=True)[0], plan_q_rad):
         raise InputError(f"a capture of another plan than {plan_path}", resume,
                          source=stored_plan)
     # Written again by today's writer, so that a file of an older twin (unrounded numbers)
@@ -260,7 +262,7 @@ def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         InputError: if ``folder`` holds something else (see :func:`check_folder`).
     """
     files = robot_files(robot)
-    check_folder(folder, plan_path, plan_q_rad, "".join(files.values()))
+    check_folder(folder, plan_path, plan_q_rad, robot)
     for name, text in ((PLAN_NAME, read_text(plan_path, "a pose plan CSV")), *files.items(),
                        *(source_files or {}).items()):
         if not (folder / name).exists():
@@ -310,6 +312,7 @@ def capture(
     *,
     reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
+    nominal: RobotModel | None = None,
 ) -> int:
     """Measure every plan pose that has no row yet, appending each row durably.
 
@@ -322,6 +325,8 @@ def capture(
         reconnect_s: How long to try reopening a port that failed, s (None: until it comes
             back).
         report: Receives progress and fault lines.
+        nominal: The robot measured (its prismatic joints' values are written in mm); every
+            joint revolute if None.
 
     Returns:
         The number of poses measured by this call.
@@ -350,7 +355,8 @@ def capture(
             except TwinError as exc:
                 raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
                     from None
-            record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
+            record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1],
+                                     nominal))
             done.add(pose)
             try:
                 robot.recorded(pose, n_poses)
@@ -410,7 +416,7 @@ def capture_folder(
         InputError: if the folder holds another plan or robot, or another capture runs in it.
         CaptureError: as :func:`capture`.
     """
-    check_folder(folder, plan_path, plan_q_rad, "".join(robot_files(robot).values()))
+    check_folder(folder, plan_path, plan_q_rad, robot)
     with locked(folder), open_encoder(config) as encoder:
         prepare(folder, plan_path, plan_q_rad, robot, source_files)
         if truth is not None:
@@ -420,7 +426,7 @@ def capture_folder(
                       truth=TRUTH_FILE if truth is not None else None,
                       encoder={"url": config.to_url()})
         return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,
-                       reconnect_s=reconnect_s, report=report)
+                       reconnect_s=reconnect_s, report=report, nominal=robot)
 
 
 def _saved(done: set[int], n_poses: int) -> str:

@@ -347,7 +347,7 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
         The capture file's path.
     """
     out = Path(out_dir)
-    write_measurements(out / MEASUREMENTS_FILE, sim.measurements)
+    write_measurements(out / MEASUREMENTS_FILE, sim.measurements, sim.robot)
     for name, text in robot_files(sim.robot, Path(ROBOT_FILE).stem).items():
         write_atomic(out / name, text)
     write_truth(out / TRUTH_FILE, sim.truth)

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from twin.dataset import Measurements
 from twin.robot import RobotModel
-from twin.units import deg_to_rad, rad_to_deg
+from twin.units import deg_to_rad, joint_file_units, joints_to_file
 
 
 class Imported(NamedTuple):
@@ -28,7 +28,8 @@ class StillRule:
     """When a recording's joints count as standing still.
 
     Attributes:
-        tol_rad: Largest spread of every joint over the window, rad.
+        tol_rad: Largest spread of every joint over the window, rad; a prismatic joint's, in
+            m, is held to the same number (the travel of a point 1 m off a revolute axis).
         min_s: Shortest still window, s.
     """
 
@@ -42,12 +43,15 @@ class StillRule:
 
 
 def outside_limits(q_rad: NDArray[np.float64], robot: RobotModel) -> str:
-    """Why joint angles (n,) rad lie outside the robot's limits, or "" if they do not."""
+    """Why joint values (n,), rad (m for a prismatic joint), lie outside the robot's limits, or
+    "" if they do not."""
     below, above = q_rad < robot.lower_rad - 1e-9, q_rad > robot.upper_rad + 1e-9
     bad = np.flatnonzero(below | above)
     if not bad.size:
         return ""
     j = int(bad[0])
-    return (f"{robot.joint_names[j]} = {float(rad_to_deg(q_rad[j])):.3f} deg outside "
-            f"[{float(rad_to_deg(robot.lower_rad[j])):.3f}, "
-            f"{float(rad_to_deg(robot.upper_rad[j])):.3f}] deg")
+    value, lower, upper = (joints_to_file(v, robot.prismatic)[j]
+                           for v in (q_rad, robot.lower_rad, robot.upper_rad))
+    unit = joint_file_units(robot.prismatic)[j]
+    return (f"{robot.joint_names[j]} = {value:.3f} {unit} outside [{lower:.3f}, {upper:.3f}] "
+            f"{unit}")
