@@ -225,5 +225,5 @@ def test_prismatic_joints_in_a_model_file(tmp_path: Path) -> None:
     assert robot_to_toml(back) == text and back.structure.joint_types == robot.structure.joint_types
     q = np.random.default_rng(2).uniform(robot.lower_rad, robot.upper_rad, (50, 7))
     np.testing.assert_allclose(back.flange_transforms(q), robot.flange_transforms(q), atol=1e-9)
-    assert robot.flange_positions(q[:1] + [[0.1, 0, 0, 0, 0, 0, 0]])[0, 2] \
+    assert robot.flange_positions(q[:1] + 0.1 * np.eye(7)[:1])[0, 2] \
         - robot.flange_positions(q[:1])[0, 2] == pytest.approx(0.1, abs=1e-12)

@@ -160,7 +160,7 @@ def test_prismatic_joints_slide_in_metres(tmp_path: Path) -> None:
     assert torso.velocity_rad_s is not None and torso.effort_nm is not None
     assert (torso.velocity_rad_s[0], torso.effort_nm[0]) == (0.1, 1000.0)
     far = _write(tmp_path, joints.replace('upper="1"', 'upper="1001"', 1))
-    with pytest.raises(InputError, match="upper=.1001.*within ±1000 m"):
+    with pytest.raises(InputError, match=r"upper=.1001.*within ±1000 m"):
         load_urdf(far)
 
 

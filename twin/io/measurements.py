@@ -217,6 +217,22 @@ def _names(labels: list[str]) -> tuple[tuple[str, ...], NDArray[np.intp]]:
     return names, np.array([names.index(label) for label in labels], dtype=np.intp)
 
 
+def load_labels(path: str | Path, column: str) -> list[str]:
+    """The text of one column of a measurement CSV, one label per data row (a placement, a
+    session: what cross-validation groups the poses by).
+
+    Raises:
+        InputError: if the file has no such column, or a cell is empty.
+    """
+    table = read_columns(path, (), f"a measurement CSV with a column {column!r}",
+                         labels=(column,))
+    if column not in table.labels:
+        raise InputError(f"no column {column!r} (columns {','.join(table.header)})",
+                         "the label column to group the poses by", source=path,
+                         where=f"line {table.header_line}")
+    return table.labels[column]
+
+
 def _prismatic(robot: RobotModel | None) -> NDArray[np.bool_] | None:
     """Which of the robot's joints slide (their q in mm in files), or None without a robot."""
     return None if robot is None else robot.prismatic
