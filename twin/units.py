@@ -159,6 +159,10 @@ def significant(value: float, digits: int = RESULT_SIGNIFICANT) -> float:
 
 COMPLIANCE_UNIT = "rad/(N·m)"
 """SI unit of a joint compliance (deflection per torque, the inverse of a stiffness)."""
+LINEAR_COMPLIANCE_UNIT = "m/N"
+"""SI unit of a prismatic joint's compliance (travel per axial force)."""
+SCALE_UNIT = "m/m"
+"""SI unit of a prismatic joint's scale (lead) error: travel error per travel."""
 MICRO = 1e6
 RESULT_COMPLIANCE_DECIMALS = 4
 """Results: compliances to 1e-4 µrad/(N·m), far below what a calibration resolves (~0.1)."""
@@ -170,6 +174,10 @@ DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
     "rad": ("deg", 180.0 / np.pi, FILE_DEG_DECIMALS),
     # An IRB 120 joint is some 1e4–1e6 N·m/rad stiff: 1–100 µrad/(N·m).
     COMPLIANCE_UNIT: ("µrad/(N·m)", MICRO, RESULT_COMPLIANCE_DECIMALS),
+    # A lift or a track is some 1e6–1e8 N/m stiff along its axis: 0.01–1 µm/N.
+    LINEAR_COMPLIANCE_UNIT: ("µm/N", MICRO, RESULT_COMPLIANCE_DECIMALS),
+    # Ball screws and racks are some 10–100 µm per metre of travel off their lead.
+    SCALE_UNIT: ("µm/m", MICRO, RESULT_COMPLIANCE_DECIMALS),
 }
 """For each SI unit an unknown may have: the unit people read, the factor to it, and the
 decimals a result keeps. An unknown group with a unit of its own adds it here."""
@@ -180,6 +188,8 @@ QUANTITY_UNITS: dict[str, tuple[str, float]] = {  # keyed as twin.choices.QUANTI
     "deg": ("rad", np.pi / 180.0), "rad": ("rad", 1.0),
     "arcsec": ("rad", np.pi / (180.0 * ARCSEC_PER_DEG)),
     "urad/Nm": (COMPLIANCE_UNIT, 1.0 / MICRO), "µrad/(N·m)": (COMPLIANCE_UNIT, 1.0 / MICRO),
+    "um/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO), "µm/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO),
+    "um/m": (SCALE_UNIT, 1.0 / MICRO), "µm/m": (SCALE_UNIT, 1.0 / MICRO),
 }
 """The units a value typed with its number may carry (``--bounds a2=20mm``, ``dh=0.5deg``):
 for each, the SI unit of the unknowns it applies to and the factor to it."""

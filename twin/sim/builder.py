@@ -126,9 +126,12 @@ def build_spec(
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     end = _add_chain(spec, robot, attachment_m)
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
-    # offset, links two apart meet at the wrist and elbow centres too.
-    for i in range(1, robot.n_joints - 1):
-        spec.add_exclude(bodyname1=f"link{i}", bodyname2=f"link{i + 2}")
+    # offset, links two apart meet at the wrist and elbow centres too, and farther apart
+    # where the links between them are points (a torso lift before the FR3's shoulder).
+    radius = robot.radius_m if robot.radius_m is not None \
+        else np.full(robot.n_joints, DEFAULT_RADIUS_M)
+    for first, second in _touching(fixed_transforms(robot.structure, robot.dh), radius):
+        spec.add_exclude(bodyname1=f"link{first}", bodyname2=f"link{second}")
     # Link 1 stands on the floor at the base; it only turns about the vertical.
     spec.add_exclude(bodyname1="world", bodyname2="link1")
     if floor:
@@ -140,6 +143,24 @@ def build_spec(
     if port_m is not None:
         _add_cable(spec, port_m, end, physics)
     return spec
+
+
+def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
+    """Pairs of links (1-based) whose capsules meet whatever the joints: every link and the one
+    two on, and link i with link j > i + 2 when links i + 1 … j − 1 all start within a capsule
+    radius of one point (link i ends about where link j starts: the FR3's shoulder behind a
+    torso lift, also with a calibration's millimetres added)."""
+    n = len(fixed) - 1
+    at_parent = [bool(np.linalg.norm(fixed[k][:3, 3]) < radius_m[min(k, n - 1)])
+                 for k in range(n + 1)]
+    pairs = []
+    for i in range(1, n - 1):
+        pairs.append((i, i + 2))
+        j = i + 2
+        while at_parent[i + 1] and j < n and at_parent[j]:
+            pairs.append((i, j + 1))
+            j += 1
+    return pairs
 
 
 def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike | None) -> str:
