@@ -367,7 +367,7 @@ class Model:
         Noise in the recorded angles reaches the rows through it (errors in variables); a
         joint-level correction's own dependence on q is second order and left out."""
         x = self._check(x)
-        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
                             self.point(x))
         kind = self.kind.jacobian(trace.position, self._measurement_values(x), data, self.rig)
         m, rows = len(data), self.kind.rows_per_pose

@@ -291,12 +291,13 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
     if kind == "position":
         readings = tracker_readings(rest.point_m, rig.base_in_tracker, instrument.sigma_m, rng)
         return _simulation(scenario, seed, true_robot, delta, joint_errors, joint_sigma, rest,
-                           Measurements(q, position_m=readings,
+                           Measurements(scenario.noise.recorded(q), position_m=readings,
                                         approach=approach_directions(q)),
                            np.zeros(0, dtype=np.intp), rig, rig_told)
     read = scenario.noise.read(rest.length_m, rng)
     several = len(ports) > 1
-    data = Measurements(q, read.length_m, port=station if several else None,
+    data = Measurements(scenario.noise.recorded(q), read.length_m,
+                        port=station if several else None,
                         port_names=rig.port_names if several else (),
                         approach=approach_directions(q))
     return _simulation(scenario, seed, true_robot, delta, joint_errors, joint_sigma, rest, data,
