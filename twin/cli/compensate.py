@@ -143,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         ordered, q_nominal = _targets(args, robot, model, x, rng)
     write_corrected(args.out, ordered, robot)
-    print(_summary(ordered, q_nominal))
+    print(_summary(ordered, q_nominal, robot))
     print(f"wrote {args.out}")
     return 0
 
@@ -216,11 +216,11 @@ def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray
     return 0
 
 
-def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
+def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64], robot: RobotModel) -> str:
     import numpy as np
 
     from twin.compensation.ik import STATUS_OK
-    from twin.report.display import deg, deg_values
+    from twin.report.display import deg, joint_values, mm
 
     solved = ordered.solved
     statuses, counts = np.unique(solved.status, return_counts=True)
@@ -228,15 +228,19 @@ def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
         f"{count} {status}" for status, count in zip(statuses, counts, strict=True))
     ok = solved.status == STATUS_OK
     if np.any(ok):
-        change_rad = np.abs(solved.q_rad[ok] - q_nominal_rad[ok])
-        text += ("\ncorrection per joint, mean |Δq| [deg]: "
-                 + deg_values(change_rad.mean(axis=0), separator=" ")
-                 + f"; largest {deg(change_rad.max(), unit=False)}")
+        change = np.abs(solved.q_rad[ok] - q_nominal_rad[ok])
+        mean, units = joint_values(change.mean(axis=0), robot.prismatic, separator=" ")
+        sliding = robot.prismatic
+        largest = ([deg(change[:, ~sliding].max(), unit=bool(sliding.any()))]
+                   if not sliding.all() else []) \
+            + ([mm(change[:, sliding].max())] if sliding.any() else [])
+        text += (f"\ncorrection per joint, mean |Δq| [{units}]: {mean}; largest "
+                 + ", ".join(largest))
     if np.any(ordered.approach_moves):
         rows = np.flatnonzero(ordered.approach_moves) + 1
         text += (f"\n{rows.size} rows need an approach move (a joint moves less than its "
                  "backlash from the row before: overshoot and come back from the side in "
-                 f"approach1..6): rows {', '.join(map(str, rows[:10]))}"
+                 f"approach1..{robot.n_joints}): rows {', '.join(map(str, rows[:10]))}"
                  + ("…" if rows.size > 10 else ""))
     return text
 
