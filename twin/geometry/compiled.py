@@ -118,8 +118,7 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, sta
         ``(position, columns, rotation)``: shapes (K, m, 3), (K, m, r, n_columns) — the
         error vector's order (slot-major), then the slot-less slides —, (K, m, r, 3).
     """
-    tables, m = table.shape[0], cq.shape[2]
-    motions, r = plan.shape[0], directions.shape[2]
+    tables, m, motions, r = table.shape[0], cq.shape[2], plan.shape[0], directions.shape[2]
     position = np.empty((tables, m, 3))
     columns = np.empty((tables, m, r, n_columns))
     rotation = np.empty((tables, m, r, 3))
