@@ -15,7 +15,7 @@ EXPECTED = {
                    "error-models", "bench-extended"},
     "studies.md": {"paper-replica", "regimes", "bench-study", "check-base", "check-baseline"},
     "robots.md": {"parametrisation"},
-    "measurements.md": {"rigs", "stations"},
+    "measurements.md": {"rigs", "stations", "limits", "noise-inputs"},
     "twin.md": {"paper-rig", "demo-transcript"},
     "identifiability.md": {"unknown-sets", "bench-design", "twin-check", "identify-transcript"},
     "../README.md": {"readme-calibrate"},
