@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
         f"  Cramér–Rao bound at σ = {mm(inputs.calibration.sigma_m, significant=SIGNIFICANT)}: "
         f"flange RMS error over the workspace {mm(score.flange_rms_m)}",
-        f"  workspace: {assessment.workspace.describe()}",
+        f"  workspace: {assessment.workspace.describe(robot.prismatic)}",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty

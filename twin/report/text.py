@@ -141,7 +141,8 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     if result.uncertainty is not None:
         lines.append(_accuracy_line(result))
     if result.workspace is not None:
-        lines.append(f"  workspace: {result.workspace.describe()}")
+        lines.append("  workspace: "
+                     + result.workspace.describe(result.model.robot.prismatic))
     return lines
 
 
@@ -524,7 +525,8 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         lines.append(f"  predicted {what} RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
         if first.workspace is not None:
-            lines.append(f"  workspace: {first.workspace.describe()}")
+            lines.append("  workspace: "
+                         + first.workspace.describe(first.model.robot.prismatic))
     misfits = [name for name, result in results.items()
                if result.misfit is not None and result.misfit.misfit]
     if misfits:
