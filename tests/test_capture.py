@@ -196,6 +196,7 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
         check_folder(tmp_path, plan, q_rad, other)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("protocol", ["ascii", "modbus"])
 def test_capture_end_to_end_then_rerun_measures_nothing(
         protocol: str, folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
@@ -219,6 +220,7 @@ def test_capture_end_to_end_then_rerun_measures_nothing(
     np.testing.assert_array_equal(measured.approach, approach_directions(measured.q_rad))
 
 
+@pytest.mark.slow
 def test_garbage_bytes_are_retried_and_the_capture_completes(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -231,6 +233,7 @@ def test_garbage_bytes_are_retried_and_the_capture_completes(
     check_complete(out, N_SHORT, true_lengths_mm)
 
 
+@pytest.mark.slow
 def test_device_closed_mid_capture_then_resumed(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -259,6 +262,7 @@ def test_device_closed_mid_capture_then_resumed(
     check_complete(out, N_SHORT, true_lengths_mm)
 
 
+@pytest.mark.slow
 def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
         tmp_path: Path) -> None:
@@ -376,6 +380,7 @@ def _one_port_torso(tmp_path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["fr3", "torso"])
 def test_a_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path, name: str) -> None:
     """The FR3 read from its URDF (7 joints), and the FR3 on its torso lift (8, the lift
@@ -444,6 +449,7 @@ resolution_mm = 0.001
 """
 
 
+@pytest.mark.slow
 def test_the_virtual_rig_hooks_the_cable_on_the_eyelet_and_the_capture_says_so(
         folder: Path, tmp_path: Path) -> None:
     """A scenario's eyelet and cable tension reach the virtual encoder (its lengths are the
@@ -479,6 +485,7 @@ def test_the_virtual_rig_hooks_the_cable_on_the_eyelet_and_the_capture_says_so(
     assert capture.rig.tension_n == pytest.approx(5.0)
 
 
+@pytest.mark.slow
 def test_capture_refuses_rig_flags_with_the_scenarios_rig(folder: Path, tmp_path: Path,
                                                            capsys: pytest.CaptureFixture[str]
                                                            ) -> None:
