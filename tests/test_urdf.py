@@ -142,7 +142,7 @@ def test_bad_chains_are_named(tmp_path: Path, joints: str, links: str, flags: di
 
 def test_prismatic_joints_slide_in_metres(tmp_path: Path) -> None:
     """Prismatic joints along any axis (z, −y, askew) read as sliding joints: their limits in
-    m (a limit beyond 1 km refused), FK equal to Pinocchio's, the torso's lift a prismatic
+    m (a limit beyond 100 m refused), FK equal to Pinocchio's, the torso's lift a prismatic
     Hayati joint (the arm's first axis parallel to it) with the rated speed and force."""
     joints = (_joint("j1", "a", "b", "prismatic") + _joint("j2", "b", "c")
               + _joint("j3", "c", "d", "prismatic", axis="0 -1 0")
@@ -159,8 +159,8 @@ def test_prismatic_joints_slide_in_metres(tmp_path: Path) -> None:
     assert (torso.lower_rad[0], torso.upper_rad[0]) == (0.0, 0.4)
     assert torso.velocity_rad_s is not None and torso.effort_nm is not None
     assert (torso.velocity_rad_s[0], torso.effort_nm[0]) == (0.1, 1000.0)
-    far = _write(tmp_path, joints.replace('upper="1"', 'upper="1001"', 1))
-    with pytest.raises(InputError, match=r"upper=.1001.*within ±1000 m"):
+    far = _write(tmp_path, joints.replace('upper="1"', 'upper="101"', 1))
+    with pytest.raises(InputError, match=r"upper=.101.*within ±100 m"):
         load_urdf(far)
 
 

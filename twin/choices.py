@@ -14,6 +14,9 @@ the serial chains twin calibrates, from a SCARA-like 4-axis arm to a 7-axis arm 
 or a two-axis track — the one place this limit is set."""
 JOINT_RANGE = f"{MIN_JOINTS} to {MAX_JOINTS}"
 """The limit as help texts and messages say it."""
+DEFAULT_METHOD = "lm"
+"""The method `twin calibrate` and `twin identify` run unless told (:mod:`twin.solvers`): one
+method by default, so that both state the same fit and the same noise estimate."""
 PROTOCOLS = ("converge", "paper")
 """Names of the stopping protocols, the default first (:mod:`twin.stopping`)."""
 MAX_ITERATIONS = 100_000

@@ -89,7 +89,7 @@ from twin.units import (
     FILE_MM_DECIMALS,
     LENGTH_FACTORS,
     MAX_ANGLE_RAD,
-    MAX_LENGTH_M,
+    MAX_LINK_M,
     joints_to_file,
     m_to_mm,
     rad_to_deg,
@@ -215,7 +215,7 @@ def _end_transform(doc: Table, key: str, to_m: float, to_rad: float,
     parts = [end.vector(part, 3, within=largest / factor, default=[0.0, 0.0, 0.0],
                         expected=f"[x, y, z]: three numbers in {unit}, each within "
                         f"±{largest / factor:g}") * factor
-             for part, factor, largest, unit in (("xyz", to_m, MAX_LENGTH_M, units[0]),
+             for part, factor, largest, unit in (("xyz", to_m, MAX_LINK_M, units[0]),
                                                  ("rpy", to_rad, MAX_ANGLE_RAD, units[1]))]
     return rigid_transform(parts[0], parts[1])
 
@@ -240,10 +240,10 @@ class _Units(NamedTuple):
         """Each per-joint key beside the table's: (factor to SI, largest magnitude in SI, unit
         as written, smallest value in SI or None for ±largest); a prismatic joint's limits
         and speed are lengths, its effort a force."""
-        travel = (self.to_m, MAX_LENGTH_M, self.length, None) if prismatic \
+        travel = (self.to_m, MAX_LINK_M, self.length, None) if prismatic \
             else (self.to_rad, MAX_ANGLE_RAD, self.angle, None)
         return {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
-                "radius": (self.to_m, MAX_LENGTH_M, self.length, 0.0),
+                "radius": (self.to_m, MAX_LINK_M, self.length, 0.0),
                 "velocity": (self.to_m, MAX_SPEED_M_S, f"{self.length}/s", 0.0) if prismatic
                 else (self.to_rad, MAX_VELOCITY_RAD_S, f"{self.angle}/s", 0.0),
                 "effort": (1.0, MAX_EFFORT_NM, "N" if prismatic else "N·m", 0.0),
@@ -321,12 +321,12 @@ def _joint(values: Any, index: int, kind: str, source: str | Path, units: _Units
     joint_type = joint.text(_TYPE_KEY, "revolute", choices=JOINT_TYPES)
     com_m = None
     if joint.has(_COM_KEY):
-        largest = MAX_LENGTH_M / units.to_m
+        largest = MAX_LINK_M / units.to_m
         com_m = joint.vector(_COM_KEY, 3, within=largest, expected=(
             f"[x, y, z]: three numbers in {units.length}, each within ±{largest:g}")) * units.to_m
     column = np.zeros(4)
     for slot, (key, is_length) in enumerate(zip(slots, SLOT_IS_LENGTH[kind], strict=True)):
-        factor, largest = (units.to_m, MAX_LENGTH_M) if is_length \
+        factor, largest = (units.to_m, MAX_LINK_M) if is_length \
             else (units.to_rad, MAX_ANGLE_RAD)
         unit = units.length if is_length else units.angle
         joint.required(key, _within(unit, largest / factor))

@@ -16,7 +16,7 @@ The XML is read twice, by expat here (the chain, names and numbers) and by urdfd
 Pinocchio, so it is held to what both read alike: no document type declaration (expat expands
 its entities, urdfdom does not), at most :data:`MAX_URDF_BYTES` bytes and
 :data:`MAX_URDF_ELEMENTS` links and joints (urdfdom's parse grows quadratically), every origin
-within 1 km and two turns, every axis a direction, the chain's limits within two turns (1 km
+within 100 m and two turns, every axis a direction, the chain's limits within two turns (100 m
 for a prismatic joint); and
 Pinocchio's chain must have the same names, and at q = 0 the same tip and axes, as expat's.
 
@@ -55,7 +55,7 @@ from twin.geometry.parametrisation import AUTO_PARAMETRISATION, convert, joint_f
 from twin.io.paths import read_text
 from twin.io.table import shown
 from twin.robot import RobotModel, UrdfSource
-from twin.units import MAX_ANGLE_RAD, MAX_LENGTH_M
+from twin.units import MAX_ANGLE_RAD, MAX_LINK_M
 
 if TYPE_CHECKING:
     import pinocchio as pin
@@ -206,7 +206,7 @@ def origin_transform(joint: ET.Element, source: str | Path) -> Array:
     """
     where = f"joint {joint.get('name')!r} <origin>"
     origin = joint.find("origin")
-    xyz = _triple(origin, "xyz", "0 0 0", (MAX_LENGTH_M, "m"), source, where)
+    xyz = _triple(origin, "xyz", "0 0 0", (MAX_LINK_M, "m"), source, where)
     rpy = _triple(origin, "rpy", "0 0 0", (MAX_ANGLE_RAD, "rad (two turns)"), source, where)
     return rigid_transform(xyz, rpy)
 
@@ -363,7 +363,7 @@ def _parse(text: str, source: str | Path) -> ET.Element:
 
 def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
     """Every joint's origin and axis plausible, and each moving joint of the chain independent
-    (no ``<mimic>``) with limits within two turns (1 km for a prismatic joint).
+    (no ``<mimic>``) with limits within two turns (100 m for a prismatic joint).
 
     Raises:
         InputError: naming the joint and the field.
@@ -384,7 +384,7 @@ def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
         if joint.get("type") == "continuous" or limit is None:
             continue  # urdfdom refuses a revolute or prismatic joint without limits
         where = f"joint {name!r} <limit>"
-        largest, unit = (MAX_LENGTH_M, "m") if joint.get("type") == "prismatic" \
+        largest, unit = (MAX_LINK_M, "m") if joint.get("type") == "prismatic" \
             else (MAX_ANGLE_RAD, "rad (two turns)")
         bounds = []
         for key in ("lower", "upper"):

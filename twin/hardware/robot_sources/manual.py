@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 
 from twin.errors import TwinError
 from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
-from twin.units import joint_file_units, joints_from_file, joints_to_file
+from twin.report.display import JOINT_ANGLE_DECIMALS, joint_values
+from twin.units import joints_from_file
 
 
 class ManualRobot(RobotSource):
@@ -37,10 +38,8 @@ class ManualRobot(RobotSource):
                 ) -> NDArray[np.float64]:
         """Show the target, wait for Enter or for the joint values reached."""
         n = target_q_rad.shape[0]
-        target = " ".join(f"{v:.3f}" for v in joints_to_file(target_q_rad, self.prismatic))
-        units = joint_file_units(np.zeros(n, dtype=bool) if self.prismatic is None
-                                 else self.prismatic)
-        unit = "deg" if set(units) == {"deg"} else " ".join(units)
+        sliding = np.zeros(n, dtype=bool) if self.prismatic is None else self.prismatic
+        target, unit = joint_values(target_q_rad, sliding, JOINT_ANGLE_DECIMALS, separator=" ")
         while True:
             self.prompt_out.write(
                 f"pose {pose}/{n_poses}: jog to q = [{target}] {unit}, then press Enter "

@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
+from twin.report.display import JOINT_ANGLE_DECIMALS, plain
 from twin.robot import RobotModel
 from twin.units import deg_to_rad, joint_file_units, joints_to_file
 
@@ -53,5 +54,6 @@ def outside_limits(q_rad: NDArray[np.float64], robot: RobotModel) -> str:
     value, lower, upper = (joints_to_file(v, robot.prismatic)[j]
                            for v in (q_rad, robot.lower_rad, robot.upper_rad))
     unit = joint_file_units(robot.prismatic)[j]
-    return (f"{robot.joint_names[j]} = {value:.3f} {unit} outside [{lower:.3f}, {upper:.3f}] "
-            f"{unit}")
+    lower_text, upper_text = (plain(v, JOINT_ANGLE_DECIMALS) for v in (lower, upper))
+    return (f"{robot.joint_names[j]} = {plain(value, JOINT_ANGLE_DECIMALS)} {unit} outside "
+            f"[{lower_text}, {upper_text}] {unit}")
