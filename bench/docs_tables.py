@@ -619,7 +619,7 @@ def stations_table() -> str:
             settings = CalibrationSettings(estimate=("port",) if estimated else ())
             model = make_model(robot, rig, settings=settings)
             x0 = np.zeros(model.n_params)
-            data = model.poses(q, port)
+            data = model.poses(q, port=port)
             ident = measurement_identifiability(model, x0, data)
             covariance = base_covariance(model.identifiable_jacobian(x0, data)[1], ident.base,
                                          sigma_m)

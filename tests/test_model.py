@@ -9,7 +9,7 @@ from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, UnknownChoiceError
-from twin.kinds.length import cable_length
+from twin.kinds.length import cable_length, length_measurements
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -60,7 +60,7 @@ def test_several_ports_and_an_attachment(irb120: RobotModel, measurements: Measu
     data = model.measure(np.zeros(model.n_params), measurements.q_rad, port=which)
     flange = irb120.flange_transforms(measurements.q_rad)
     point = flange[:, :3, :3] @ attachment + flange[:, :3, 3]
-    np.testing.assert_allclose(data.lengths, np.linalg.norm(point - ports[which], axis=1),
+    np.testing.assert_allclose(data.value("length_m"), np.linalg.norm(point - ports[which], axis=1),
                                atol=1e-15)
     x = rng.normal(scale=1e-3, size=model.n_params)
     subset = data.subset(np.arange(20))
@@ -105,7 +105,7 @@ def test_offset_adds_to_every_length(
     x = np.zeros(25)
     x[-1] = 0.002
     plain = np.linalg.norm(irb120.flange_positions(measurements.q_rad) - port_m, axis=-1)
-    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.lengths,
+    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.value("length_m"),
                                plain + 0.002, atol=1e-15)
 
 
@@ -139,7 +139,8 @@ JOINT_GROUPS = ["transmission", "backlash", "compliance"]
 
 
 def _with_approach(data: Measurements) -> Measurements:
-    return Measurements(data.q_rad, data.length_m, approach=approach_directions(data.q_rad))
+    return length_measurements(data.q_rad, data.value("length_m"),
+                               approach=approach_directions(data.q_rad))
 
 
 @pytest.mark.parametrize("group", [*JOINT_GROUPS, "link_compliance", "all"])

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from conftest import Refusals
 
-from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
 from twin.io.robot_file import default_robot, robot_to_toml
+from twin.kinds.point import point_measurements
+from twin.kinds.position import position_measurements
 from twin.robot import RobotModel, random_poses
 
 PORT = "600,-400,100"
@@ -21,7 +22,7 @@ def tracker_csv(tmp_path: Path, irb120: RobotModel) -> Path:
     """A tracker measurement CSV of 40 poses."""
     q = random_poses(irb120, 40, np.random.default_rng(0))
     path = tmp_path / "tracker.csv"
-    write_measurements(path, Measurements(q, position_m=irb120.flange_positions(q)))
+    write_measurements(path, position_measurements(q, irb120.flange_positions(q)))
     return path
 
 
@@ -55,7 +56,7 @@ def test_a_distance_to_a_point_the_data_do_not_name(tmp_path: Path, irb120: Robo
     """--distance between names the point column does not have is refused, naming them."""
     q = random_poses(irb120, 40, np.random.default_rng(1))
     path = tmp_path / "points.csv"
-    write_measurements(path, Measurements(q, point=np.arange(40) % 2, point_names=("a", "b")))
+    write_measurements(path, point_measurements(q, np.arange(40) % 2, point_names=("a", "b")))
     refusals.cli(["calibrate", path, "--distance", "a,c=50"], [tmp_path],
                  "--distance: found a distance to the point 'c', expected distances between "
                  "points the measurements name: a, b")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from twin.io.robot_file import default_robot
-from twin.kinds.length import cable_length
+from twin.kinds.length import cable_length, length_measurements
 from twin.robot import random_poses
 from twin.scenario import Physics
 from twin.sim import Twin, static_equilibrium
@@ -116,8 +116,7 @@ def test_core_torques_equal_mujoco_generalised_forces() -> None:
         mujoco.mj_forward(twin.statics_model, data)
         expected[row] = data.qfrc_actuator - data.qfrc_bias
     rig = Rig.cable(PORT_M, tension_n=PAPER.tension_n)
-    from twin.dataset import Measurements
 
-    tau = torques(robot, rig, Measurements(q, length_m=np.zeros(len(q))))
+    tau = torques(robot, rig, length_measurements(q, np.zeros(len(q))))
     assert np.max(np.abs(expected)) > 10.0  # the shoulder carries tens of N·m
     np.testing.assert_allclose(tau, expected, atol=1e-9)

@@ -27,8 +27,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
-from twin.geometry.kinematics import PointJacobian, point_position, trace_point
-from twin.kinds import Kind
+from twin.geometry.kinematics import (
+    PointJacobian,
+    flange_transform,
+    point_position,
+    trace_point,
+)
+from twin.kinds import Kind, Measured
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
@@ -221,44 +226,48 @@ class Model:
         return {group.name: self.block(x, group.name) for group in self.groups
                 if group.stage == Stage.MEASUREMENT}
 
-    def poses(self, q_rad: ArrayLike, port: ArrayLike | None = None,
-              approach: ArrayLike | None = None, point: ArrayLike | None = None
-              ) -> Measurements:
+    def poses(self, q_rad: ArrayLike, approach: ArrayLike | None = None,
+              **labels: ArrayLike | None) -> Measurements:
         """Poses where nothing was read, as measurements of this model's kind with zero
         readings: for the positions, flanges and Jacobians at poses of one's choosing.
 
         Args:
             q_rad: Joint angles, shape (m, n), rad.
-            port: The port of each row, shape (m,), for cable lengths; port 0 if None.
             approach: Direction each joint last moved in, shape (m, n), ±1, if known. If None
                 and the model needs it (:attr:`needs_approach`): the directions of visiting
                 the poses in the order given, from home (:func:`twin.dataset.approach_directions`).
-            point: The fixed place of each row, shape (m,), for fixed points; place 0 if None.
+            labels: The index of each row into the kind's labels, shape (m,) each (``port``
+                for cable lengths, ``point`` for fixed points…); the first if not given (or
+                None).
         """
         q = np.asarray(q_rad, dtype=np.float64)
-        ports = None if port is None else np.asarray(port, dtype=np.intp)
         if approach is None and self.needs_approach:
             approach = approach_directions(q)
-        labels = None if approach is None else np.asarray(approach)
-        if self.kind.name == "length":
-            return Measurements(q, length_m=np.zeros(len(q)), port=ports, approach=labels)
-        if self.kind.name == "point":
-            places = np.zeros(len(q), dtype=np.intp) if point is None \
-                else np.asarray(point, dtype=np.intp)
-            return Measurements(q, point=places, approach=labels,
-                                point_names=self.rig.point_names)
-        return Measurements(q, position_m=np.zeros((len(q), 3)), approach=labels)
+        template = self.kind.template(q, self.rig, {name: np.asarray(index, dtype=np.intp)
+                                                    for name, index in labels.items()
+                                                    if index is not None})
+        return template if approach is None else replace(template,
+                                                         approach=np.asarray(approach))
 
-    def measure(self, x: ArrayLike, q_rad: ArrayLike, port: ArrayLike | None = None,
-                approach: ArrayLike | None = None, point: ArrayLike | None = None
-                ) -> Measurements:
+    def measure(self, x: ArrayLike, q_rad: ArrayLike, approach: ArrayLike | None = None,
+                **labels: ArrayLike | None) -> Measurements:
         """Noise-free measurements of this model's kind at unknowns x (p,) and poses q (m, n):
         what the model fits exactly (arguments as :meth:`poses`)."""
         x = self._check(x)
-        template = self.poses(q_rad, port, approach, point)
-        measured = self.kind.measure(self.positions(x, template), self._measurement_values(x),
-                                     template.q_rad, self.rig, template.port, template.point)
-        return replace(measured, approach=template.approach)
+        template = self.poses(q_rad, approach, **labels)
+        return self.kind.measure(self.measured(x, template), self._measurement_values(x),
+                                 template, self.rig)
+
+    def measured(self, x: ArrayLike, data: Measurements) -> Measured:
+        """Where the measured point is at every pose for unknowns x (..., p), and the tool
+        frame's orientation if the kind reads it (:class:`twin.kinds.base.Measured`)."""
+        x = self._check(x)
+        if not self.kind.reads_rotation:
+            return Measured(self.positions(x, data))
+        table, joints, point = self.table(x), self.joints(x, data), self.point(x)
+        flange = flange_transform(self.robot.structure, table, joints)
+        position = flange[..., :3, :3] @ point[..., None, :, None]
+        return Measured(position[..., 0] + flange[..., :3, 3], flange[..., :3, :3])
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
@@ -310,7 +319,7 @@ class Model:
     def residuals(self, x: ArrayLike, data: Measurements) -> Array:
         """Residuals r(x), shape (..., M), m, for unknowns of shape (..., p)."""
         x = self._check(x)
-        return self.kind.residuals(self.positions(x, data), self._measurement_values(x), data,
+        return self.kind.residuals(self.measured(x, data), self._measurement_values(x), data,
                                    self.rig)
 
     def jacobian(self, x: ArrayLike, data: Measurements) -> tuple[Array, Array]:
@@ -326,7 +335,8 @@ class Model:
         x = self._check(x)
         trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
                             self.point(x))
-        kind = self.kind.jacobian(trace.position, self._measurement_values(x), data, self.rig)
+        kind = self.kind.jacobian(Measured(trace.position), self._measurement_values(x), data,
+                                  self.rig)
         m, rows = len(data), self.kind.rows_per_pose
         jacobian = np.zeros((kind.residuals.size, self.n_params))
         # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken

@@ -17,7 +17,6 @@ from twin.analysis.uncertainty import WORKSPACE_POSES, flange_sigma, workspace_g
 from twin.arrays import Array
 from twin.calibration.pipeline import solve_many
 from twin.calibration.result import CalibrationResult, SplitProblem
-from twin.calibration.start import match_ports
 from twin.dataset import Measurements
 from twin.design.optimal import DesignScore, score_poses
 from twin.model import Model
@@ -33,7 +32,7 @@ class Assessment(NamedTuple):
     """What a measurement set identifies (:func:`assess`)."""
 
     data: Measurements
-    """The measurements, their ports matched to the model's rig."""
+    """The measurements, their labels matched to the model's rig (its ports by name)."""
     nominal: Identifiability
     """Identifiability at the nominal geometry, all poses."""
     score: DesignScore
@@ -54,7 +53,7 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
         seed: Seed of the workspace poses and of the calibration.
     """
     model = split.problem.model
-    data = match_ports(measurements, model.rig)
+    data = model.kind.prepare(robot, model.rig, measurements)[1]
     x0 = np.zeros(model.n_params)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
     nominal = measurement_identifiability(model, x0, data)

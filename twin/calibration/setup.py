@@ -10,10 +10,10 @@ from numpy.typing import ArrayLike
 from twin.calibration.result import SplitProblem
 from twin.calibration.settings import RIG_UNKNOWNS, CalibrationSettings
 from twin.calibration.split import required_poses, split_rows
-from twin.calibration.start import check_approach, match_ports, tracker_start, with_fixed_points
+from twin.calibration.start import check_approach
 from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.kinds import KINDS
+from twin.kinds import DEFAULT_KIND, KINDS
 from twin.model import Model
 from twin.problem import Problem
 from twin.rig import Rig
@@ -24,7 +24,7 @@ DEFAULT_SETTINGS = CalibrationSettings()
 """The paper's calibration: the D-H errors alone, least squares, run to convergence."""
 
 
-def make_model(robot: RobotModel, rig: Rig, kind: str = "length",
+def make_model(robot: RobotModel, rig: Rig, kind: str = DEFAULT_KIND,
                settings: CalibrationSettings = DEFAULT_SETTINGS) -> Model:
     """The measurement model of a calibration: the robot's error groups and the rig's unknowns
     the settings name (a port correction applies to the rig's estimated ports, every port
@@ -36,10 +36,12 @@ def make_model(robot: RobotModel, rig: Rig, kind: str = "length",
         kind: The measurement kind (:data:`twin.kinds.KINDS`).
         settings: Which groups to identify.
 
-    Fixed-point data always identify their fixed points (group ``points``).
+    Some kinds always identify a group (fixed-point data their fixed points, group ``points``:
+    :attr:`twin.kinds.base.Kind.implied`).
     """
-    names = [*settings.groups, *(["points"] if kind == "point" else [])]
-    return Model(robot, rig, KINDS.lookup(kind), make_groups(names, robot, rig))
+    measured = KINDS.lookup(kind)
+    names = [*settings.groups, *measured.implied]
+    return Model(robot, rig, measured, make_groups(names, robot, rig))
 
 
 def cable_rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
@@ -74,9 +76,11 @@ def make_problem(
 ) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
-    Tracker data with the tracker frame estimated start it at a rigid fit of the nominal
-    model's points to the training readings; fixed-point data start their points at the
-    nominal model's mean point of each name.
+    The measurement kind completes the rig from the data and starts it
+    (:meth:`twin.kinds.base.Kind.prepare`, :meth:`~twin.kinds.base.Kind.start`): tracker data
+    with the tracker frame estimated start it at a rigid fit of the nominal model's points to
+    the training readings; fixed-point data start their points at the nominal model's mean
+    point of each name.
 
     Args:
         robot: Nominal robot.
@@ -95,13 +99,7 @@ def make_problem(
     """
     setup = cable_rig(port_m, rig)
     _check_unknowns(settings, measurements.kind)
-    if measurements.kind == "length":
-        if not len(setup.ports_m):
-            raise InputError("cable lengths without a port", "the port (--port X,Y,Z or "
-                             "--port NAME=X,Y,Z)")
-        measurements = match_ports(measurements, setup)
-    elif measurements.kind == "point":
-        setup = with_fixed_points(robot, setup, measurements)
+    setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements)
     model = make_model(robot, setup, measurements.kind, settings)
     check_approach(model, measurements.approach)
     fraction = settings.train_fraction
@@ -115,8 +113,7 @@ def make_problem(
         )
     train_rows, validation_rows = split_rows(len(measurements), seed, fraction)
     train = measurements.subset(train_rows)
-    if settings.estimates("base"):
-        model = tracker_start(model, train)
+    model = model.kind.start(model, train)
     problem = Problem(model, train, measurements.subset(validation_rows),
                       sigma_m=settings.sigma_m, loss=settings.loss_function)
     return SplitProblem(problem, train_rows, validation_rows, settings)

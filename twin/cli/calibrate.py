@@ -26,6 +26,7 @@ from twin.cli.inputs import (
     Inputs,
     add_input_flags,
     make_split,
+    refuse_inapplicable,
     resolve_inputs,
     truth_of,
 )
@@ -141,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
 def _run_auto(args: argparse.Namespace, inputs: Inputs, measurements: Measurements) -> int:
     """Fit the nested error models, print the comparison and the chosen one's result."""
     settings = inputs.calibration
-    if len(inputs.rig.ports_m) != 1 or measurements.kind != "length":
+    refuse_inapplicable(inputs, measurements)
+    if len(inputs.rig.ports_m) != 1:
         raise InputError("--errors auto with this rig", "cable lengths from one port",
                          source="--errors")
     try:

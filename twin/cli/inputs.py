@@ -38,10 +38,11 @@ from twin.io.capture_file import (
 )
 from twin.io.measurements import UnitWarning
 from twin.io.truth import load_truth_attachment, load_truth_delta
+from twin.kinds import KINDS
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import m_to_mm, mm_to_m
+from twin.units import mm_to_m
 
 
 def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
@@ -224,31 +225,19 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
                                          load_truth_attachment(path))
 
 
-PORT_IN_METRES_MM = 5.0
-"""Ports within ±5 mm in every coordinate beside lengths of hundreds of mm look like metres."""
-
-
-def _warn_port_unit(inputs: Inputs, measurements: Measurements) -> None:
-    """A one-line hint when the ports look given in metres (the Python API's unit) while the
-    flags and files take millimetres."""
-    if measurements.kind != "length" or not len(inputs.rig.ports_m):
-        return
-    small = np.all(np.abs(m_to_mm(inputs.rig.ports_m)) <= PORT_IN_METRES_MM)
-    if small and float(np.median(measurements.lengths)) > 20 * float(mm_to_m(PORT_IN_METRES_MM)):
+def _warn_rig_unit(inputs: Inputs, measurements: Measurements) -> None:
+    """A one-line hint when the rig looks given in metres (the Python API's unit) while the
+    flags and files take millimetres (:meth:`twin.kinds.base.Kind.unit_hint`)."""
+    hint = KINDS.lookup(measurements.kind).unit_hint(inputs.rig, measurements)
+    if hint is not None:
         where = "--port" if inputs.truth_path is None else str(inputs.measurements_path)
-        warnings.warn(f"{where}: every port coordinate is within ±{PORT_IN_METRES_MM:g} mm while "
-                      "the cable lengths are hundreds of millimetres: the port is read in mm — "
-                      "it looks like metres (0.6 for 600 mm)", UnitWarning, stacklevel=2)
+        warnings.warn(f"{where}: {hint}", UnitWarning, stacklevel=2)
 
 
 def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitProblem:
     """The problem of the resolved inputs, its errors naming the measurement file."""
-    if measurements.kind == "length" and not len(inputs.rig.ports_m):
-        raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
-                         "NAME=X,Y,Z per port, or a capture.toml as INPUT)",
-                         source=inputs.measurements_path)
-    _refuse_inapplicable(inputs, measurements)
-    _warn_port_unit(inputs, measurements)
+    refuse_inapplicable(inputs, measurements)
+    _warn_rig_unit(inputs, measurements)
     try:
         return make_problem(inputs.robot, measurements, rig=inputs.rig,
                             settings=inputs.calibration, seed=seed)
@@ -260,19 +249,15 @@ def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitPr
         raise InputError(exc.found, exc.expected, source=inputs.measurements_path) from None
 
 
-APPLIES = {"--port": ("length", "cable lengths (a port per reading)"),
-           "--distance": ("point", "fixed points (the distance between two of them)")}
-"""The rig flags that apply to one kind of data only, and to which."""
-
-
-def _refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
+def refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
     """Refuse a flag the data cannot use, in one line naming the flag and why, rather than
     ignore it: a port for tracker positions, a distance for cable lengths, a loss scale without
     a robust loss."""
-    for flag, (kind, what) in APPLIES.items():
-        if flag in inputs.flags and measurements.kind != kind:
-            raise InputError(f"{flag} with {measurements.kind} measurements",
-                             f"{flag} only with {what}", source=flag)
+    for kind in KINDS.values():
+        for flag, what in kind.flags:
+            if flag in inputs.flags and measurements.kind != kind.name:
+                raise InputError(f"{flag} with {measurements.kind} measurements",
+                                 f"{flag} only with {what}", source=flag)
     if "--loss-scale" in inputs.flags and inputs.calibration.loss == "linear":
         raise InputError("--loss-scale with the linear loss", "it beside a robust --loss "
                          "(huber, soft_l1, cauchy): least squares has no scale",

@@ -23,6 +23,7 @@ from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
 from twin.io.robot_file import robot_digest, robot_files
+from twin.kinds import Kind
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import (
@@ -137,7 +138,7 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
-        "rig": rig_to_dict(model.rig, model.kind.name),
+        "rig": rig_to_dict(model.rig, model.kind),
         "parameters": [
             {"name": name, "group": group.name, "value": value, "unit": label,
              "sigma": deviation if math.isfinite(deviation) else None,
@@ -156,10 +157,11 @@ def pose_to_list(transform: Any) -> list[float]:
             *rounded(rad_to_deg(angles(transform[:3, :3])), FILE_DEG_DECIMALS)]
 
 
-def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
+def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     """The rig as the calibration was told it (mm, degrees) for measurements of ``kind``: what
-    rebuilds its model. The tracker frame of tracker positions is kept exactly (16 floats)
-    besides its readable pose: it is the rigid fit the calibration started from."""
+    rebuilds its model. The instrument's frame of readings in one (tracker positions:
+    :attr:`twin.kinds.base.Kind.in_instrument_frame`) is kept exactly (16 floats) besides its
+    readable pose: it is the rigid fit the calibration started from."""
     document: dict[str, Any] = {
         "ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
                                                          strict=True)},
@@ -168,7 +170,7 @@ def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
     }
     if rig.estimated_ports:
         document["estimated_ports"] = list(rig.estimated_ports)
-    if kind == "position":
+    if kind.in_instrument_frame:
         document["base_in_tracker"] = {"exact": rig.base_in_tracker.ravel().tolist(),
                                        "pose": pose_to_list(rig.base_in_tracker)}
     if rig.point_names:

@@ -17,6 +17,7 @@ from twin.calibration.selection import ErrorChoice
 from twin.dataset import Measurements
 from twin.geometry.parametrisation import PARALLEL_THRESHOLD_DEG
 from twin.geometry.rigid import angles
+from twin.kinds import KINDS
 from twin.loss import REJECT_SCALES
 from twin.report.display import (
     JOINT_DECIMALS,
@@ -171,14 +172,9 @@ def format_parametrisation(robot: RobotModel) -> list[str]:
 
 def describe_rig(rig: Rig, measurements: Measurements) -> str:
     """``port (600.000, -400.000, 100.000) mm``, ``2 ports (front, left)``, ``tracker
-    positions`` or ``6 fixed points``, with the attachment when it is off the flange."""
-    if measurements.kind == "length":
-        text = f"port {xyz_mm(rig.ports_m[0])}" if len(rig.ports_m) == 1 \
-            else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
-    elif measurements.kind == "position":
-        text = "laser-tracker positions"
-    else:
-        text = f"{len(rig.point_names or measurements.point_names)} fixed points"
+    positions`` or ``6 fixed points`` (the kind's :meth:`~twin.kinds.base.Kind.describe`), with
+    the attachment when it is off the flange."""
+    text = KINDS.lookup(measurements.kind).describe(rig, measurements)
     if np.any(np.abs(rig.attachment_m) > 0):
         text += f", measured point {xyz_mm(rig.attachment_m)} in the flange frame"
     return text

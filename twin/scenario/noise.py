@@ -61,6 +61,11 @@ class NoiseModel:
         if not np.isfinite(self.offset_m):
             raise ValueError("offset_m: expected a finite value")
 
+    @property
+    def encoder_sigma_m(self) -> float:
+        """The encoder's noise 1σ with its resolution folded in (res²/12), m."""
+        return float(np.hypot(self.sigma_m, self.resolution_m / np.sqrt(12.0)))
+
     def joint_sigma_rad(self, robot: RobotModel, q_rad: ArrayLike) -> float:
         """σ_q that gives an RMS flange displacement of ``repeatability_m`` at these poses, rad.
 

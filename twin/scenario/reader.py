@@ -104,12 +104,11 @@ import numpy as np
 
 from twin.arrays import Array
 from twin.dataset import MAX_POSES
-from twin.geometry.rigid import transform
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
-from twin.kinds import KINDS
+from twin.kinds import DEFAULT_KIND, KINDS
 from twin.rig import MAX_TENSION_N
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
@@ -141,8 +140,6 @@ _TABLES = {
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
 """Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
-POSE = "[x, y, z, rx, ry, rz] in mm and degrees"
-"""How a placement is written: position (mm) and fixed-axis angles (deg, R = Rz Ry Rx)."""
 
 
 def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
@@ -162,9 +159,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     passed_through = {key: dict(top.table(key, expected="a table (read by twin.study)").values)
                       for key in ("study", "expect")}
     instrument = _instrument(tables)
-    port_m, port_told_m, port_error_m = _port(tables["port"], instrument)
     perturbation = _perturbation(tables["perturbation"], robot)
-    plan, count = _poses(tables["poses"], tables["fixture"], instrument, source.parent)
+    plan, count = _poses(tables["poses"], instrument, source.parent)
     cable_range = _cable_range(tables["encoder"])
     joint_errors, draw_phases = _joint_errors(tables["joints"], robot.n_joints)
     physics = _physics(tables["physics"], robot)
@@ -173,9 +169,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         description=top.text("description", ""),
         seed=top.integer("seed", minimum=0),
         robot=robot,
-        port_m=port_m,
-        port_told_m=port_told_m,
-        port_error_m=port_error_m,
+        instrument=instrument,
         perturbation=perturbation,
         pose_count=count,
         pose_plan=plan,
@@ -187,7 +181,6 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         study=passed_through["study"],
         expect=passed_through["expect"],
         source=source,
-        instrument=instrument,
     )
     return replace(scenario, calibration=parse_calibration(tables["calibration"],
                                                            scenario.reading_sigma_m))
@@ -203,27 +196,6 @@ def _robot(top: Table, folder: Path) -> RobotModel:
                         "robot = \"arm.urdf\" beside them")
     return load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
                                  base_link=links["base_link"], tip_link=links["tip_link"])
-
-
-def _port(port: Table, instrument: Instrument) -> tuple[Array | None, Array | None, float]:
-    """``[port]``: the true port, the one told (or the error to draw it with), m; none but
-    for cable lengths."""
-    if instrument.kind != "length":
-        if port.values:
-            raise port.error(sorted(port.values)[0], f"a port with {instrument.kind} "
-                             "measurements", "no [port] table (only cable lengths have ports)")
-        return None, None, 0.0
-    if not instrument.station_names:
-        port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
-        port_m = mm_to_m(port.vector("position_mm", 3))
-    else:
-        port_m = instrument.stations_m[0]
-    if port.has("told_mm") and port.has("told_error_mm"):
-        raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
-    if port.has("told_mm") and instrument.station_names:
-        raise port.error("told_mm", "told_mm with stations", "told_error_mm for every station")
-    told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
-    return port_m, told_m, float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
 
 
 def _perturbation(pert: Table, robot: RobotModel) -> Perturbation:
@@ -246,22 +218,13 @@ def _perturbation(pert: Table, robot: RobotModel) -> Perturbation:
     return Perturbation(distribution, scale, robot.is_length)
 
 
-def _poses(poses: Table, fixture: Table, instrument: Instrument, folder: Path
-           ) -> tuple[Path | None, int]:
-    """``[poses]``: the plan file (or None) and the number of poses to draw (fixed points:
-    one per touch of every socket of every placement of the ``[fixture]``)."""
+def _poses(poses: Table, instrument: Instrument, folder: Path) -> tuple[Path | None, int]:
+    """``[poses]``: the plan file (or None) and the number of poses to draw, unless the
+    instrument sets them (fixed points: one per touch of every socket of every placement)."""
+    fixed = instrument.setup.pose_count
+    if fixed is not None:
+        return None, fixed
     plan = folder / poses.text("plan") if poses.has("plan") else None
-    if instrument.kind == "point":
-        for key in ("count", "plan"):
-            if poses.has(key):
-                raise poses.error(key, f"{key} with fixed points",
-                                  "[fixture] placements and touches (they set the poses)")
-        points = len(instrument.sockets_m) * len(instrument.placements)
-        count = points * instrument.touches
-        if count > MAX_POSES:
-            raise fixture.error("touches", f"{instrument.touches} touches of {points} sockets "
-                                f"({count} poses)", f"at most {MAX_POSES} poses in all")
-        return plan, count
     if plan is None:
         poses.required("count", "the number of poses (or a plan)")
     return plan, poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") \
@@ -349,62 +312,12 @@ def _noise(encoder: Table, joints: Table) -> NoiseModel:
     )
 
 
-def _pose(values: Array) -> Array:
-    """``[x, y, z, rx, ry, rz]`` (mm, deg; R = Rz Ry Rx) as a 4×4 transform, m."""
-    return transform(mm_to_m(values[:3]), deg_to_rad(values[3:]))
-
-
 def _instrument(tables: dict[str, Table]) -> Instrument:
-    """The ``[cable]``, ``[measurement]``, ``[fixture]`` tables and ``[port.stations_mm]``."""
-    measurement, cable, fixture = tables["measurement"], tables["cable"], tables["fixture"]
-    kind = measurement.text("kind", "length", choices=tuple(KINDS))
-    if kind == "length":
-        for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
-            if measurement.has(key):
-                raise measurement.error(key, f"{key} with cable lengths",
-                                        "[encoder] for the cable's noise, [cable] for its "
-                                        "attachment")
-        point_table = cable
-    else:
-        if cable.values:
-            raise cable.error(sorted(cable.values)[0], f"a [cable] table with {kind} "
-                              "measurements", "[measurement] attachment_mm")
-        point_table = measurement
-    attachment = mm_to_m(point_table.vector("attachment_mm", 3, default=[0.0, 0.0, 0.0]))
-    told = mm_to_m(point_table.vector("told_attachment_mm", 3)) \
-        if point_table.has("told_attachment_mm") else attachment
-    names: tuple[str, ...] = ()
-    stations = np.zeros((0, 3))
-    port = tables["port"]
-    if port.has("stations_mm"):
-        if kind != "length" or port.has("position_mm"):
-            raise port.error("stations_mm", "stations with position_mm or without cable "
-                             "lengths", "either position_mm or [port.stations_mm]")
-        block = port.table("stations_mm")
-        names = tuple(str(name) for name in block.values)
-        if not names:
-            raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
-        stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
-    sigma = measurement.vector("sigma_mm", 3, per_joint=True, minimum=0.0, default=0.0)
-    tracker = _pose(measurement.vector("tracker_pose", 6, expected=POSE)) \
-        if measurement.has("tracker_pose") else np.eye(4)
-    if kind != "position" and measurement.has("tracker_pose"):
-        raise measurement.error("tracker_pose", f"a tracker with {kind} measurements",
-                                "kind = \"position\"")
-    if (kind == "point") != bool(fixture.values):
-        raise fixture.error(sorted(fixture.values)[0] if fixture.values else "sockets_mm",
-                            "a [fixture] table" if fixture.values else "no [fixture] table",
-                            "[fixture] with fixed points (kind = \"point\") only")
-    sockets, placements, touches = np.zeros((0, 3)), np.zeros((0, 4, 4)), 0
-    if kind == "point":
-        sockets = mm_to_m(fixture.rows("sockets_mm", 3, expected="a list of [x, y, z] in mm"))
-        placements = np.stack([_pose(row) for row in fixture.rows(
-            "placements", 6, expected=f"a list of {POSE}")])
-        touches = fixture.integer("touches", 12, minimum=1, maximum=MAX_POSES)
-    return Instrument(kind=kind, attachment_m=attachment, attachment_told_m=told,
-                      station_names=names, stations_m=stations, sigma_m=mm_to_m(sigma),
-                      base_in_tracker=tracker, sockets_m=sockets, placements=placements,
-                      touches=touches, tell_distances=fixture.boolean("distances", True))
+    """``[measurement] kind``, and the tables its kind reads
+    (:meth:`twin.kinds.base.Kind.read_setup`: ``[cable]``, ``[port]``, ``[measurement]``,
+    ``[fixture]``…)."""
+    kind = KINDS.lookup(tables["measurement"].text("kind", DEFAULT_KIND, choices=tuple(KINDS)))
+    return Instrument(kind.name, kind.read_setup(tables))
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -120,9 +120,8 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     n = sim.robot.n_joints
     dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, first in x
     jitter = sim.joint_sigma_rad**2 * float(np.mean(np.sum(dl_dq**2, axis=1)))
-    if sim.measurements.kind != "length":  # tracker noise or seating error, per axis
-        return float(np.sqrt(np.mean(sim.scenario.instrument.sigma_m**2) + jitter))
-    return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
+    instrument = sim.scenario.instrument.setup.instrument_sigma_m(noise.encoder_sigma_m)
+    return float(np.sqrt(instrument**2 + jitter))
 
 
 def _mm(value_m: float) -> float:
