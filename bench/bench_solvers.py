@@ -30,7 +30,7 @@ from twin.calibration.setup import make_problem
 from twin.io.robot_file import default_robot
 from twin.problem import Problem
 from twin.robot import random_poses
-from twin.solvers import get_solver
+from twin.solvers import SOLVERS, get_solver
 from twin.solvers.base import Tracker
 from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES
 from twin.stopping import Budget
@@ -105,7 +105,7 @@ def main() -> None:
     lm_time = rows["lm"][0]
     for name, (seconds, result) in rows.items():
         validation = problem.model.residuals(result.x, problem.validation)
-        print(f"{name:<12} {get_solver(name).alias:<5} {seconds:9.4f} {seconds / lm_time:8.1f} "
+        print(f"{name:<12} {SOLVERS.alias(name):<5} {seconds:9.4f} {seconds / lm_time:8.1f} "
               f"{result.iterations:5d} {result.evaluations:7d} "
               f"{m_to_mm(np.sqrt(np.mean(validation**2))):14.5f}  {result.stop_label}")
 

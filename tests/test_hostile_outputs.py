@@ -197,17 +197,17 @@ def test_a_second_writer_of_a_study_folder(second: str, tmp_path: Path) -> None:
     folder = tmp_path / "study"
     first = _study(folder, 5000)
     try:
-        _wait_for(folder / LOCK_NAME, first)
+        _wait_for(folder / "results.csv", first, lines=1)
         late = _study(folder, 5000, second)
         _, error = late.communicate(timeout=TIMEOUT_S)
     finally:
         first.send_signal(signal.SIGTERM)
-        first.communicate(timeout=TIMEOUT_S)
+        _, first_error = first.communicate(timeout=TIMEOUT_S)
     assert late.returncode == 2, error
     assert error.count("\n") == 1 and "Traceback" not in error, error
     assert error.startswith(f"twin: error: {folder}: found another command writing this folder "
                             f"(twin study, pid {first.pid} on host ")
-    assert first.returncode == 143
+    assert first.returncode == 143, first_error
     rows = _rows(folder)
     assert len(rows) == len(set(rows))
     assert not (folder / LOCK_NAME).exists()

@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 from conftest import Refusals
 
-from twin.study.definition import MAX_STUDY_TRIALS, MAX_SWEEP_POINTS, MAX_TRIALS
+from twin.choices import MAX_TRIALS
+from twin.study.definition import MAX_STUDY_TRIALS, MAX_SWEEP_POINTS
 
 ROOT = Path(__file__).resolve().parents[1]
 TIMEOUT_S = 60.0

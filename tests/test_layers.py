@@ -108,7 +108,7 @@ def test_the_import_graph_has_no_cycle() -> None:
         assert found is None, "import cycle: " + " -> ".join(found or [])
 
 
-FOUNDATIONS = {"twin.errors", "twin.units", "twin.arrays", "twin.distribution",
+FOUNDATIONS = {"twin.errors", "twin.units", "twin.arrays", "twin.distribution", "twin.choices",
                "twin.report.display"}
 """Imported by every layer: one exception root, SI conversions, the array type, the
 distribution's extras and plug-in registry, and how a number is shown."""

@@ -24,7 +24,8 @@ CONVERGED = Budget()
 
 def test_registered_last_without_a_paper_alias() -> None:
     """lm-base is a method beyond the paper: no M-number, after the paper's methods."""
-    assert list(SOLVERS)[-1] == "lm-base" and get_solver("LM-BASE").alias == ""
+    assert list(SOLVERS)[-1] == "lm-base" and get_solver("LM-BASE").name == "lm-base"
+    assert SOLVERS.alias("lm-base") == "" and SOLVERS.alias("lm") == "m2"
 
 
 def test_lm_base_holds_the_dependent_unknowns_and_meets_the_bound(

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twin.choices import LOSSES
 from twin.errors import UnknownChoiceError
-from twin.loss import LOSSES, REJECT_SCALES, Loss
+from twin.loss import REJECT_SCALES, Loss
 
 
 @pytest.mark.parametrize("name", LOSSES)

@@ -27,10 +27,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 
-MAX_POSES = 100_000
-"""The most poses a plan, a scenario or a verification may ask for: a typo like 1e9 must be an
-error, not an exhausted memory."""
-
 
 class Labels(NamedTuple):
     """A name per row out of a list: the port each cable ran from, the fixed point a ball sat

@@ -17,10 +17,10 @@ asked for.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _metadata_version
-from typing import NamedTuple, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 from twin.errors import InputError, UnknownChoiceError
 
@@ -137,6 +137,10 @@ class Registry(Mapping[str, Member]):
     def __len__(self) -> int:
         return len(self._members)
 
+    def alias(self, name: str) -> str:
+        """The alias of member ``name`` (the paper's ``m2`` of ``lm``), or "" if it has none."""
+        return next((alias for alias, member in self._aliases.items() if member == name), "")
+
     def choices(self) -> list[str]:
         """``name (alias)`` (or ``name``) for every member, for help texts and messages."""
         aliases = {name: alias for alias, name in self._aliases.items()}
@@ -160,3 +164,26 @@ class Registry(Mapping[str, Member]):
         if key not in self._members:
             raise UnknownChoiceError(self.kind, name, [*self.choices(), *also], source=source)
         return self[key]
+
+
+def lazy_exports(package: str, homes: Mapping[str, Iterable[str]]) -> Callable[[str], Any]:
+    """A package's module ``__getattr__`` (PEP 562) that imports each public name from its
+    module when first read, so that importing the package loads none of them: the command
+    line's help then needs no numpy. Declare the names for type checkers under
+    ``if TYPE_CHECKING:``.
+
+    Args:
+        package: The package's ``__name__``, for the message of an unknown name.
+        homes: The names each module holds, by the module's dotted name.
+    """
+    home = {name: module for module, names in homes.items() for name in names}
+
+    def attribute(name: str) -> Any:
+        module = home.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(module), name)
+        setattr(importlib.import_module(package), name, value)
+        return value
+
+    return attribute

@@ -29,14 +29,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
+from twin.choices import LOSSES
 from twin.errors import UnknownChoiceError
 
-LOSSES = ("linear", "huber", "soft_l1", "cauchy")
-"""The losses, least squares first."""
 REJECT_SCALES = 3.0
 """A row whose residual exceeds this many loss scales counts as rejected."""
-DEFAULT_SCALE_SIGMAS = 3.0
-"""Without a stated scale, the loss scale is this many times the stated noise σ."""
 _SERIES_Z = 1e-8
 """Below this z, ln(1 + z)/z is evaluated by its series (1 − z/2), free of 0/0."""
 

@@ -21,13 +21,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
+from twin.choices import MAX_TENSION_N
 
 PORT_LABELS = "port"
 """The measurement labels (:attr:`twin.dataset.Measurements.labels`) whose indices say which of
 :attr:`Rig.ports_m` each row's cable ran from (port 0 without them)."""
-MAX_TENSION_N = 1000.0
-"""Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
-bend an IRB 120 rather than load it."""
 
 
 def _origin() -> Array:

@@ -28,13 +28,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array
+from twin.choices import PROTOCOLS
 from twin.errors import UnknownChoiceError
 from twin.units import mm_to_m
 
-PROTOCOLS = ("converge", "paper")
-"""Names of the stopping protocols, the default first."""
-MAX_ITERATIONS = 100_000
-"""The largest iteration limit a file or flag may ask for."""
 PAPER_FTOL_M2 = float(mm_to_m(1.0) ** 2 * 1e-3)
 """The paper's f-change threshold, 0.001 mm², in m²."""
 BOUND_RTOL = 1e-10

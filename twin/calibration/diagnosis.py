@@ -20,7 +20,8 @@ import numpy as np
 from twin.analysis.misfit import FAR
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.setup import make_model
-from twin.loss import DEFAULT_SCALE_SIGMAS, Loss
+from twin.choices import DEFAULT_SCALE_SIGMAS
+from twin.loss import Loss
 from twin.problem import Problem
 from twin.report.display import SIGNIFICANT, mm
 from twin.solvers import get_solver

@@ -17,10 +17,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.errors import InputError
-from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES, Loss
+from twin.loss import Loss
 from twin.problem import DEFAULT_SIGMA_M
-from twin.stopping import MAX_ITERATIONS, PROTOCOLS, Budget
+from twin.stopping import Budget
 from twin.unknowns import ERRORS, check_errors
 
 TRAIN_FRACTION = 0.8

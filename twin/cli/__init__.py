@@ -53,7 +53,6 @@ from twin.cli import (
 from twin.cli.arguments import ArgumentParser, UsageError
 from twin.distribution import missing_extra
 from twin.errors import InputError, TwinError
-from twin.hardware.capture_session import refuse_capture_journal
 from twin.io.paths import check_command_paths, check_distinct_outputs, command_scope
 
 SUBCOMMANDS = (calibrate, simulate, identify, plan, predict, compensate, export, study, check,
@@ -121,6 +120,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     warnings.showwarning = _show_warning
     try:
+        from twin.hardware.capture_session import refuse_capture_journal
+
         with _sigterm_as_interrupt(), command_scope():
             check_command_paths(vars(args).values())
             check_distinct_outputs(vars(args))

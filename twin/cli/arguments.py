@@ -229,8 +229,9 @@ def add_error_groups(parser: argparse.ArgumentParser, help: str, *, auto: bool =
 
 def add_cable_tension(parser: argparse.ArgumentParser, help: str,
                       default: float | None = None) -> None:
-    """``--cable-tension``: the cable's pull in N, from 0 to :data:`twin.rig.MAX_TENSION_N`."""
-    from twin.rig import MAX_TENSION_N
+    """``--cable-tension``: the cable's pull in N, from 0 to :data:`twin.choices.MAX_TENSION_N`.
+    """
+    from twin.choices import MAX_TENSION_N
 
     parser.add_argument("--cable-tension", type=number(0.0, MAX_TENSION_N), default=default,
                         metavar="N", help=help)
@@ -309,3 +310,41 @@ def error_groups(*, auto: bool) -> Callable[[str], tuple[str, ...]]:
                                              ) from None
 
     return parse
+
+
+def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
+                    tension_help: str, auto: bool = False) -> None:
+    """INPUT, the robot and rig flags, ``--errors`` (with ``auto`` when asked) and
+    ``--cable-tension``: what `twin calibrate` and `twin identify` read alike."""
+    add_input(parser, input_help)
+    add_robot_flags(parser)
+    add_rig_flags(parser)
+    add_error_groups(parser, errors_help, auto=auto)
+    add_cable_tension(parser, tension_help)
+
+
+def add_rig_flags(parser: argparse.ArgumentParser) -> None:
+    """The flags that tell the rig and which of its unknowns to identify (calibrate, identify).
+    """
+    parser.add_argument("--port", action="append", metavar="[NAME=]X,Y,Z",
+                        help="encoder port in mm, robot base frame; NAME=X,Y,Z, repeated, for "
+                        "an encoder moved between ports (the CSV's port column names each "
+                        "row's)")
+    parser.add_argument("--estimate-port", action="append", nargs="?", const=ALL_PORTS,
+                        metavar="NAME", help="also identify a correction of the ports (of the "
+                        "named one, repeated for several; the others stay as measured)")
+    parser.add_argument("--attachment", metavar="X,Y,Z",
+                        help="the measured point (cable eyelet, tracker target, ball) in the "
+                        "flange frame, mm (default 0,0,0: the flange centre)")
+    parser.add_argument("--estimate-attachment", action="store_true",
+                        help="also identify the measured point in the flange frame")
+    parser.add_argument("--estimate-base", action="store_true",
+                        help="tracker positions: also identify the tracker-to-base transform, "
+                        "started at a rigid fit of the nominal model's points")
+    parser.add_argument("--distance", action="append", metavar="A,B=MM",
+                        help="fixed points: a known distance between the points named A and B, "
+                        "mm (a ball fixture's socket spacing); repeat for several")
+
+
+ALL_PORTS = ""
+"""What a bare --estimate-port stands for: every port."""

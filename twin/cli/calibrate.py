@@ -9,12 +9,12 @@ compliance beside it), or ``auto`` fits nested choices and keeps the one the dat
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-from twin.calibration.diagnosis import likely_causes
-from twin.calibration.pipeline import solve_many
-from twin.calibration.selection import choose_errors, warn_weak_data
+from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.cli.arguments import (
     AUTO_ERRORS,
+    add_input_flags,
     add_output,
     add_seed,
     integer,
@@ -22,25 +22,14 @@ from twin.cli.arguments import (
     share,
     sigma_mm,
 )
-from twin.cli.inputs import (
-    Inputs,
-    add_input_flags,
-    make_split,
-    refuse_inapplicable,
-    resolve_inputs,
-    truth_of,
-)
-from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.io.measurements import load_measurements
-from twin.io.results import choice_to_dict, result_to_dict, write_json
-from twin.io.truth import load_truth_delta
-from twin.loss import DEFAULT_SCALE_SIGMAS, LOSSES
-from twin.report.text import format_choice, format_comparison, format_result
 from twin.solvers import SOLVERS, get_solver
-from twin.stopping import MAX_ITERATIONS, PROTOCOLS
 from twin.unknowns import ERRORS
-from twin.viz import add_rerun_flags, calibration_log
+from twin.viz.options import add_rerun_flags
+
+if TYPE_CHECKING:
+    from twin.cli.inputs import Inputs
+    from twin.dataset import Measurements
 
 NAME = "calibrate"
 HELP = "identify the robot's errors from cable, tracker or fixed-point measurements"
@@ -102,6 +91,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.calibration.diagnosis import likely_causes
+    from twin.calibration.pipeline import solve_many
+    from twin.calibration.selection import warn_weak_data
+    from twin.cli.inputs import make_split, resolve_inputs, truth_of
+    from twin.io.measurements import load_measurements
+    from twin.io.results import result_to_dict, write_json
+    from twin.io.truth import load_truth_delta
+    from twin.report.text import format_comparison, format_result
+    from twin.viz.commands import calibration_log
+
     inputs = resolve_inputs(args)
     robot, measurements_path = inputs.robot, inputs.measurements_path
     everything = args.method.strip().lower() == "all"
@@ -141,6 +140,11 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_auto(args: argparse.Namespace, inputs: Inputs, measurements: Measurements) -> int:
     """Fit the nested error models, print the comparison and the chosen one's result."""
+    from twin.calibration.selection import choose_errors
+    from twin.cli.inputs import refuse_inapplicable
+    from twin.io.results import choice_to_dict, result_to_dict, write_json
+    from twin.report.text import format_choice, format_result
+
     settings = inputs.calibration
     refuse_inapplicable(inputs, measurements)
     if len(inputs.rig.ports_m) != 1:

@@ -16,7 +16,7 @@ from twin.cli.arguments import (
     pause,
     seconds,
 )
-from twin.hardware.rws.client import PASSWORD_VARIABLE, USER_VARIABLE
+from twin.hardware.rws.protocol import PASSWORD_VARIABLE, USER_VARIABLE
 from twin.io.paths import InputPath
 
 MAX_READINGS = 1000

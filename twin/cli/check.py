@@ -6,10 +6,10 @@ import argparse
 import math
 import sys
 
+from twin.choices import DEFAULT_TOLERANCE, MAX_TOLERANCE
 from twin.cli.study import add_study_arguments, executor_from_args, methods_from_args
 from twin.errors import InputError
 from twin.io.paths import InputPath, OutputFile
-from twin.study.baseline import DEFAULT_TOLERANCE, MAX_TOLERANCE
 
 EXIT_FAILED = 1
 

@@ -17,11 +17,9 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import NDArray
-
-from twin.analysis.metrics import Metrics
+from twin.choices import MAX_POSES
 from twin.cli.arguments import (
     RESULT_ROBOT,
     add_cable_tension,
@@ -32,30 +30,19 @@ from twin.cli.arguments import (
     given_robot,
     integer,
 )
-from twin.cli.frames import RAPID_SUFFIXES, parse_frames, parse_pose_mm
-from twin.compensation.check import CompensationCheck
-from twin.compensation.ik import STATUS_OK
-from twin.compensation.joints import (
-    InOrder,
-    compensate_pose_rows,
-    compensate_program_rows,
-    compensate_target_rows,
-)
-from twin.compensation.poses import controller_tool0, flange_targets
-from twin.dataset import MAX_POSES
 from twin.errors import InputError
-from twin.io.atomic import write_atomic
-from twin.io.identified import load_result, warn_result_cautions
-from twin.io.measurements import load_poses
 from twin.io.paths import InputPath
-from twin.io.png import save_png
-from twin.io.pose_tables import load_pose_targets, write_corrected
-from twin.io.rapid import ENCODING, read_module
-from twin.io.rapid_filter import filter_module, format_filter_rows
-from twin.model import Model
-from twin.report.display import deg, deg_values, mm
-from twin.report.plots import compensation_histogram
-from twin.robot import RobotModel
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from twin.analysis.metrics import Metrics
+    from twin.compensation.check import CompensationCheck
+    from twin.compensation.joints import InOrder
+    from twin.model import Model
+    from twin.robot import RobotModel
+
 
 VERIFY_TARGETS = 1000
 
@@ -116,6 +103,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    import numpy as np
+
+    from twin.compensation.joints import compensate_program_rows
+    from twin.io.identified import load_result, warn_result_cautions
+    from twin.io.measurements import load_poses
+    from twin.io.pose_tables import write_corrected
+
     if args.verify is not None:
         for flag in ("identified", "out", "robot", "xacro_arg", "cable_tension", "tool", "wobj",
                      "tool0_in_flange"):
@@ -156,6 +150,13 @@ def run(args: argparse.Namespace) -> int:
 def _targets(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray[np.float64],
              rng: np.random.Generator) -> tuple[InOrder, NDArray[np.float64]]:
     """Targets of a CSV: flange positions, or full TCP poses in a work object with a tool."""
+    import numpy as np
+
+    from twin.cli.frames import parse_frames
+    from twin.compensation.joints import compensate_pose_rows, compensate_target_rows
+    from twin.compensation.poses import flange_targets
+    from twin.io.pose_tables import load_pose_targets
+
     targets = load_pose_targets(args.targets, stdin=True)
     frames = parse_frames(args)
     if any(name is not None for name in (*frames.tools, *frames.wobjs)):
@@ -178,6 +179,9 @@ def _targets(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArr
 
 def _tool0(args: argparse.Namespace, robot: RobotModel) -> NDArray[np.float64]:
     """The controller's tool0 in twin's flange frame: the flag's, or what twin knows."""
+    from twin.cli.frames import parse_pose_mm
+    from twin.compensation.poses import controller_tool0
+
     if args.tool0_in_flange is not None:
         return parse_pose_mm(args.tool0_in_flange, "--tool0-in-flange", full=True)
     known = controller_tool0(robot)
@@ -192,6 +196,12 @@ def _tool0(args: argparse.Namespace, robot: RobotModel) -> NDArray[np.float64]:
 def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray[np.float64],
            rng: np.random.Generator) -> int:
     """Filter a RAPID module: every target rewritten, the rest of it byte for byte."""
+    from twin.cli.frames import RAPID_SUFFIXES, parse_frames
+    from twin.compensation.poses import controller_tool0
+    from twin.io.atomic import write_atomic
+    from twin.io.rapid import ENCODING, read_module
+    from twin.io.rapid_filter import filter_module, format_filter_rows
+
     if args.out.suffix.lower() not in RAPID_SUFFIXES:
         raise InputError(f"{args.out}", "an output RAPID module (.mod, .modx, .sys)",
                          source="--out")
@@ -206,6 +216,11 @@ def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray
 
 
 def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
+    import numpy as np
+
+    from twin.compensation.ik import STATUS_OK
+    from twin.report.display import deg, deg_values
+
     solved = ordered.solved
     statuses, counts = np.unique(solved.status, return_counts=True)
     text = f"{len(solved.q_rad)} rows: " + ", ".join(
@@ -227,6 +242,8 @@ def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
 
 def _verify(args: argparse.Namespace) -> int:
     """Simulate, calibrate, and compare true flange errors with and without compensation."""
+    from twin.io.png import save_png
+    from twin.report.plots import compensation_histogram
     from twin.scenario import load_scenario
     from twin.sim.verification import verify_compensation
 
@@ -247,6 +264,8 @@ def _verify(args: argparse.Namespace) -> int:
 
 
 def _row(label: str, m: Metrics) -> str:
+    from twin.report.display import mm
+
     return f"  {label:<34}" + "".join(mm(v, width=10, unit=False) for v in (m.mae, m.rmse, m.max))
 
 

@@ -16,13 +16,6 @@ from twin.cli.arguments import (
 )
 from twin.errors import InputError, UnknownChoiceError
 from twin.export import FORMATS, export_text
-from twin.io.atomic import write_atomic
-from twin.io.identified import (
-    ResultWarning,
-    load_result,
-    result_groups,
-    warn_result_cautions,
-)
 from twin.io.paths import InputPath, read_text
 from twin.unknowns import ERRORS
 
@@ -52,6 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.io.atomic import write_atomic
+    from twin.io.identified import ResultWarning, load_result, result_groups, warn_result_cautions
+
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
     loaded = load_result(args.result, given_robot(args), args.method)

@@ -5,14 +5,16 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import NDArray
-
-from twin.compensation.poses import pose_matrices
 from twin.errors import InputError
-from twin.io.rapid_filter import Frames
-from twin.units import mm_to_m
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from twin.io.rapid_filter import Frames
+
 
 RAPID_SUFFIXES = (".mod", ".modx", ".sys")
 """The file name endings of a RAPID module."""
@@ -26,6 +28,9 @@ def parse_pose_mm(text: str, flag: str, *, full: bool = False) -> NDArray[np.flo
         InputError: naming the flag, for anything but 3 (or, unless ``full``, 7) finite
             numbers, or a quaternion that is not a unit one.
     """
+    from twin.compensation.poses import pose_matrices
+    from twin.units import mm_to_m
+
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
@@ -55,4 +60,6 @@ def _named(values: list[str] | None, flag: str) -> dict[str | None, NDArray[np.f
 
 def parse_frames(args: argparse.Namespace) -> Frames:
     """The tools and work objects the flags give, by name (None for the unnamed one)."""
+    from twin.io.rapid_filter import Frames
+
     return Frames(_named(args.tool, "--tool"), _named(args.wobj, "--wobj"))

@@ -3,35 +3,17 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import NDArray
-
-from twin.analysis.identifiability import WEAK_RTOL, Identifiability
-from twin.analysis.uncertainty import WORKSPACE_POSES
-from twin.calibration.assessment import assess, flange_error_map
-from twin.cli.arguments import (
-    add_output,
-    add_seed,
-    sigma_mm,
-)
-from twin.cli.inputs import add_input_flags, make_split, resolve_inputs, truth_of
-from twin.io.measurements import load_measurements
-from twin.io.png import save_png
-from twin.io.results import assessment_to_dict, write_json
-from twin.model import Model
-from twin.report.display import SIGMA_DECIMALS, SIGNIFICANT, mm, slot
-from twin.report.plots import accuracy_map
-from twin.report.text import (
-    describe_rig,
-    format_fit,
-    format_held,
-    format_joint_groups,
-    format_truth,
-    has_point,
-)
-from twin.units import DH_KEYS, m_to_mm, slot_label
+from twin.cli.arguments import add_input_flags, add_output, add_seed, sigma_mm
 from twin.unknowns import ERRORS
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from twin.analysis.identifiability import Identifiability
+    from twin.model import Model
 
 NAME = "identify"
 HELP = "report what a measurement set identifies, and how well"
@@ -65,6 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _identifiability_lines(ident: Identifiability) -> list[str]:
+    from twin.analysis.identifiability import WEAK_RTOL
+
     lines = [
         f"  rank {ident.rank} of {ident.n_params} (singular values of the column-scaled "
         f"Jacobian below {ident.tolerance:g} of the largest count as zero), "
@@ -79,6 +63,11 @@ def _identifiability_lines(ident: Identifiability) -> list[str]:
 
 def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     """Per-parameter 1σ in mm and degrees; '—' for the dependent (not identifiable) ones."""
+    import numpy as np
+
+    from twin.report.display import SIGMA_DECIMALS, slot
+    from twin.units import DH_KEYS, slot_label
+
     shape = model.robot.dh.shape
     is_length = model.robot.is_length
     table = model.block(sigma, "dh").reshape(shape)
@@ -99,6 +88,24 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.analysis.uncertainty import WORKSPACE_POSES
+    from twin.calibration.assessment import assess, flange_error_map
+    from twin.cli.inputs import make_split, resolve_inputs, truth_of
+    from twin.io.measurements import load_measurements
+    from twin.io.png import save_png
+    from twin.io.results import assessment_to_dict, write_json
+    from twin.report.display import SIGNIFICANT, mm
+    from twin.report.plots import accuracy_map
+    from twin.report.text import (
+        describe_rig,
+        format_fit,
+        format_held,
+        format_joint_groups,
+        format_truth,
+        has_point,
+    )
+    from twin.units import m_to_mm
+
     inputs = resolve_inputs(args)
     robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)

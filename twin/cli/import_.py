@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from twin.choices import ANGLE_UNITS, LENGTH_UNITS
 from twin.cli.arguments import add_output, number
-from twin.io.importers.csv_files import ANGLE_UNITS, LENGTH_UNITS
 from twin.io.paths import InputPath
 
 NAME = "import"

@@ -10,77 +10,22 @@ import argparse
 import warnings
 from dataclasses import replace
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
-import numpy as np
-from numpy.typing import NDArray
-
-from twin.analysis.misfit import reading_sigma
-from twin.calibration.accuracy import TruthErrors, workspace_truth_errors
-from twin.calibration.result import CalibrationResult, SplitProblem
-from twin.calibration.setup import make_problem
-from twin.cli.arguments import (
-    AUTO_ERRORS,
-    add_cable_tension,
-    add_error_groups,
-    add_input,
-    add_robot_flags,
-    robot_from_flags,
-)
-from twin.dataset import Measurements
+from twin.cli.arguments import ALL_PORTS, AUTO_ERRORS, robot_from_flags
 from twin.errors import InputError, UnknownChoiceError
-from twin.io.capture_file import (
-    CalibrationSettings,
-    load_capture,
-    parse_distances,
-    parse_named_port,
-    parse_port_mm,
-)
-from twin.io.measurements import UnitWarning
-from twin.io.truth import load_truth_attachment, load_truth_delta
-from twin.kinds import KINDS
-from twin.problem import DEFAULT_SIGMA_M
-from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.units import mm_to_m
 
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
-def add_input_flags(parser: argparse.ArgumentParser, *, input_help: str, errors_help: str,
-                    tension_help: str, auto: bool = False) -> None:
-    """INPUT, the robot and rig flags, ``--errors`` (with ``auto`` when asked) and
-    ``--cable-tension``: what `twin calibrate` and `twin identify` read alike."""
-    add_input(parser, input_help)
-    add_robot_flags(parser)
-    add_rig_flags(parser)
-    add_error_groups(parser, errors_help, auto=auto)
-    add_cable_tension(parser, tension_help)
+    from twin.calibration.accuracy import TruthErrors
+    from twin.calibration.result import CalibrationResult, SplitProblem
+    from twin.dataset import Measurements
+    from twin.io.capture_file import CalibrationSettings
+    from twin.rig import Rig
+    from twin.robot import RobotModel
 
-
-def add_rig_flags(parser: argparse.ArgumentParser) -> None:
-    """The flags that tell the rig and which of its unknowns to identify (calibrate, identify).
-    """
-    parser.add_argument("--port", action="append", metavar="[NAME=]X,Y,Z",
-                        help="encoder port in mm, robot base frame; NAME=X,Y,Z, repeated, for "
-                        "an encoder moved between ports (the CSV's port column names each "
-                        "row's)")
-    parser.add_argument("--estimate-port", action="append", nargs="?", const=ALL_PORTS,
-                        metavar="NAME", help="also identify a correction of the ports (of the "
-                        "named one, repeated for several; the others stay as measured)")
-    parser.add_argument("--attachment", metavar="X,Y,Z",
-                        help="the measured point (cable eyelet, tracker target, ball) in the "
-                        "flange frame, mm (default 0,0,0: the flange centre)")
-    parser.add_argument("--estimate-attachment", action="store_true",
-                        help="also identify the measured point in the flange frame")
-    parser.add_argument("--estimate-base", action="store_true",
-                        help="tracker positions: also identify the tracker-to-base transform, "
-                        "started at a rigid fit of the nominal model's points")
-    parser.add_argument("--distance", action="append", metavar="A,B=MM",
-                        help="fixed points: a known distance between the points named A and B, "
-                        "mm (a ball fixture's socket spacing); repeat for several")
-
-
-ALL_PORTS = ""
-"""What a bare --estimate-port stands for: every port."""
 
 
 class Inputs(NamedTuple):
@@ -108,6 +53,10 @@ class Inputs(NamedTuple):
 
 def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     """The rig of the capture (or none) with the flags' ports, attachment and distances."""
+    import numpy as np
+
+    from twin.io.capture_file import parse_distances, parse_named_port, parse_port_mm
+
     rig = base
     ports = getattr(args, "port", None)
     if ports:
@@ -148,6 +97,9 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
     Raises:
         InputError: naming the flag of a setting that is wrong.
     """
+    from twin.analysis.misfit import reading_sigma
+    from twin.units import mm_to_m
+
     flagged = {"estimate_port": "port", "estimate_offset": "offset",
                "estimate_attachment": "attachment", "estimate_base": "base"}
     estimate = {*base.estimate, *(name for flag, name in flagged.items()
@@ -180,6 +132,10 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
         InputError: if a file or flag is wrong (cable lengths without a port are refused when
             the data are read).
     """
+    from twin.io.capture_file import CalibrationSettings, load_capture
+    from twin.problem import DEFAULT_SIGMA_M
+    from twin.rig import Rig
+
     input_path = args.input
     flag_robot = robot_from_flags(args)  # the IRB 120 without --robot
     tension = getattr(args, "cable_tension", None)
@@ -216,6 +172,9 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
     """The true D-H errors and the errors against the truth over the workspace, when the
     capture has a truth file and the model is the D-H table alone (joint-level errors are
     held to the twin's physical flange in studies, docs/studies.md)."""
+    from twin.calibration.accuracy import workspace_truth_errors
+    from twin.io.truth import load_truth_attachment, load_truth_delta
+
     path = inputs.truth_path
     if path is None or not path.exists() or inputs.calibration.errors != ("dh",):
         return None, None
@@ -228,6 +187,9 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
 def _warn_rig_unit(inputs: Inputs, measurements: Measurements) -> None:
     """A one-line hint when the rig looks given in metres (the Python API's unit) while the
     flags and files take millimetres (:meth:`twin.kinds.base.Kind.unit_hint`)."""
+    from twin.io.measurements import UnitWarning
+    from twin.kinds import KINDS
+
     hint = KINDS.lookup(measurements.kind).unit_hint(inputs.rig, measurements)
     if hint is not None:
         where = "--port" if inputs.truth_path is None else str(inputs.measurements_path)
@@ -236,6 +198,8 @@ def _warn_rig_unit(inputs: Inputs, measurements: Measurements) -> None:
 
 def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitProblem:
     """The problem of the resolved inputs, its errors naming the measurement file."""
+    from twin.calibration.setup import make_problem
+
     refuse_inapplicable(inputs, measurements)
     _warn_rig_unit(inputs, measurements)
     try:
@@ -253,6 +217,8 @@ def refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
     """Refuse a flag the data cannot use, in one line naming the flag and why, rather than
     ignore it: a port for tracker positions, a distance for cable lengths, a loss scale without
     a robust loss."""
+    from twin.kinds import KINDS
+
     for kind in KINDS.values():
         for flag, what in kind.flags:
             if flag in inputs.flags and measurements.kind != kind.name:

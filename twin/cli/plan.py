@@ -10,13 +10,9 @@ for the sides of visiting it in order, as `twin capture` does.
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import NDArray
-
-from twin.analysis.uncertainty import WORKSPACE_POSES
-from twin.calibration.settings import CalibrationSettings
-from twin.calibration.setup import make_model
+from twin.choices import DEFAULT_SETTLE_S, DEFAULT_SPEED, MAX_POSES
 from twin.cli.arguments import (
     add_cable_tension,
     add_error_groups,
@@ -28,33 +24,20 @@ from twin.cli.arguments import (
     robot_from_flags,
     sigma_mm,
 )
-from twin.dataset import MAX_POSES
-from twin.design.optimal import DesignScore
-from twin.design.planning import (
-    PortPlan,
-    SamplerFactory,
-    StationsPlan,
-    joint_limit_sampler,
-    plan_for_ports,
-    plan_for_stations,
-)
 from twin.errors import InputError
-from twin.io.atomic import write_atomic
-from twin.io.capture_file import parse_named_port
-from twin.io.pose_tables import write_plan
-from twin.io.rapid_plan import (
-    DEFAULT_SETTLE_S,
-    DEFAULT_SPEED,
-    PlanOptions,
-    check_identifier,
-    plan_module,
-)
-from twin.model import Model
-from twin.report.display import AS_GIVEN, SIGNIFICANT, mm, mm_values
-from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.units import deg_to_rad, mm_to_m
 from twin.unknowns import ERRORS
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from twin.design.optimal import DesignScore
+    from twin.design.planning import PortPlan, SamplerFactory, StationsPlan
+    from twin.io.rapid_plan import PlanOptions
+    from twin.model import Model
+    from twin.rig import Rig
+    from twin.robot import RobotModel
+
 
 DEFAULT_CANDIDATES = 2000
 """Candidate poses drawn within the joint limits."""
@@ -118,6 +101,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _score_row(label: str, score: DesignScore) -> str:
+    from twin.report.display import mm
+
     o = score.observability
     return (f"  {label:<8}{o.o1:>11.4g}{o.o3:>11.4g}{o.o4:>11.4g}{o.condition:>11.4g}"
             f"{mm(score.flange_rms_m, width=14, unit=False)}")
@@ -125,6 +110,13 @@ def _score_row(label: str, score: DesignScore) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    import numpy as np
+
+    from twin.design.planning import plan_for_ports, plan_for_stations
+    from twin.io.capture_file import parse_named_port
+    from twin.rig import Rig
+    from twin.units import mm_to_m
+
     robot = robot_from_flags(args)
     _check_module_flags(args, robot)
     parsed = [parse_named_port(value, "--port", "") for value in args.port]
@@ -160,6 +152,11 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_module_flags(args: argparse.Namespace, robot: RobotModel) -> PlanOptions | None:
     """The RAPID options when --out names a module (checked before any work), else None."""
+    import numpy as np
+
+    from twin.io.rapid_plan import PlanOptions, check_identifier, plan_module
+    from twin.units import deg_to_rad
+
     flags = {"--speed": args.speed, "--tool": args.tool, "--wobj": args.wobj,
              "--settle": args.settle, "--home": args.home}
     if args.out.suffix.lower() != ".mod":
@@ -190,6 +187,10 @@ def _check_module_flags(args: argparse.Namespace, robot: RobotModel) -> PlanOpti
 def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float64],
            port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> None:
     """The plan as a CSV, or (.mod) as a RAPID module."""
+    from twin.io.atomic import write_atomic
+    from twin.io.pose_tables import write_plan
+    from twin.io.rapid_plan import plan_module
+
     options = _check_module_flags(args, robot)
     if options is None:
         write_plan(args.out, q_rad, port_names, port)
@@ -199,6 +200,8 @@ def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float6
 
 def _sampler(args: argparse.Namespace) -> SamplerFactory:
     """Candidates the twin can measure, or (--joint-limits-only) any within the limits."""
+    from twin.design.planning import joint_limit_sampler
+
     if not args.feasible:
         return joint_limit_sampler
     from twin.sim.poses import feasible_sampler
@@ -208,6 +211,9 @@ def _sampler(args: argparse.Namespace) -> SamplerFactory:
 
 def _model(args: argparse.Namespace, robot: RobotModel, rig: Rig) -> Model:
     """The model the calibration will fit, as the flags say."""
+    from twin.calibration.settings import CalibrationSettings
+    from twin.calibration.setup import make_model
+
     estimate = (*(["port"] if args.estimate_port else []),
                 *(["offset"] if args.estimate_offset else []))
     try:
@@ -227,11 +233,17 @@ def _check_poses(args: argparse.Namespace, model: Model, stations: int, per: str
 
 def _sigma(args: argparse.Namespace) -> str:
     """The noise the bound is computed at, as `twin identify` shows it."""
+    from twin.report.display import SIGNIFICANT, mm
+    from twin.units import mm_to_m
+
     return mm(mm_to_m(args.sigma), significant=SIGNIFICANT)
 
 
 def _ports_report(args: argparse.Namespace, robot: RobotModel, model: Model,
                   ports_m: NDArray[np.float64], plan: PortPlan) -> str:
+    from twin.analysis.uncertainty import WORKSPACE_POSES
+    from twin.report.display import AS_GIVEN, mm, mm_values
+
     choice, chosen = plan.choice, plan.choice.plans[plan.choice.best]
     lines = []
     if len(ports_m) > 1:
@@ -257,6 +269,10 @@ def _ports_report(args: argparse.Namespace, robot: RobotModel, model: Model,
 
 def _stations_report(args: argparse.Namespace, robot: RobotModel, model: Model, rig: Rig,
                      plan: StationsPlan) -> str:
+    import numpy as np
+
+    from twin.analysis.uncertainty import WORKSPACE_POSES
+
     used = np.bincount(plan.port, minlength=len(rig.ports_m))
     return "\n".join([
         f"{robot.name}: {args.poses} D-optimal (pose, station) pairs of "

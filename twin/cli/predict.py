@@ -5,9 +5,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from twin.calibration.predict import predict
 from twin.cli.arguments import (
     RESULT_ROBOT,
     add_output,
@@ -16,11 +13,7 @@ from twin.cli.arguments import (
     given_robot,
 )
 from twin.errors import InputError
-from twin.io.capture_file import parse_port_mm
-from twin.io.identified import load_result, warn_result_cautions
-from twin.io.measurements import joint_columns, load_poses
 from twin.io.paths import InputPath
-from twin.io.pose_tables import write_prediction
 
 NAME = "predict"
 HELP = "predict the measured point (and cable length) with an identified model"
@@ -54,6 +47,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    import numpy as np
+
+    from twin.calibration.predict import predict
+    from twin.io.capture_file import parse_port_mm
+    from twin.io.identified import load_result, warn_result_cautions
+    from twin.io.measurements import joint_columns, load_poses
+    from twin.io.pose_tables import write_prediction
+
     identified = load_result(args.identified, given_robot(args), args.method)
     robot = identified.robot
     warn_result_cautions(args.identified, args.method, "the prediction")

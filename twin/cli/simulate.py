@@ -11,7 +11,7 @@ from twin.cli.arguments import (
     add_seed,
 )
 from twin.errors import InputError
-from twin.viz import add_rerun_flags, record_simulation
+from twin.viz.options import add_rerun_flags
 
 NAME = "simulate"
 HELP = "simulate a capture with the MuJoCo digital twin"
@@ -44,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from twin.report.display import LENGTH_DECIMALS, plain, xyz_mm
     from twin.scenario import load_scenario
     from twin.sim import simulate, write_simulation
+    from twin.viz.commands import record_simulation
 
     with folder_lock(args.out, "twin simulate"):
         real = real_measurements(args.out)

@@ -6,6 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
+from twin.choices import MAX_TRIALS, PROTOCOLS
 from twin.cli.arguments import (
     add_output,
     add_scenario,
@@ -13,11 +14,9 @@ from twin.cli.arguments import (
 )
 from twin.errors import InputError
 from twin.solvers import SOLVERS
-from twin.stopping import PROTOCOLS
-from twin.study.definition import MAX_TRIALS
 from twin.study.executors import Executor, open_executor
 from twin.study.executors.cluster import reach_scheduler
-from twin.viz import add_rerun_flags, open_from_args
+from twin.viz.options import add_rerun_flags
 
 if TYPE_CHECKING:
     from twin.study.definition import StudyPlan
@@ -105,6 +104,7 @@ def _run_locked(args: argparse.Namespace, plan: StudyPlan, executor: Executor) -
     from twin.study.markdown import summary_markdown, trial_markdown
     from twin.study.runner import open_store, run_trials, write_report
     from twin.study.store import TrialOutcome
+    from twin.viz.commands import open_from_args
 
     open_store(plan, args.out)  # a folder of another study is refused before the banner
     print(f"twin study: {plan.cases[0].scenario.name}, {len(plan.cases)} case(s) × "

@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from twin.cli.arguments import add_scenario, integer, number
-from twin.hardware.rws.client import (
+from twin.hardware.rws.protocol import (
     FACTORY_PASSWORD,
     FACTORY_USER,
     PASSWORD_VARIABLE,

@@ -10,7 +10,7 @@ from twin.cli.arguments import (
     add_seed,
     integer,
 )
-from twin.hardware.encoders.url import ENCODERS
+from twin.hardware.encoders import ENCODERS
 
 URL_QUERY = {"ascii": "protocol=ascii", "modbus": "protocol=modbus&scale=0.001"}
 """What the driver needs besides the path: the Modbus device counts µm in registers 0–1."""

@@ -22,11 +22,14 @@ the
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from twin.distribution import Lazy, Registry
-from twin.robot import RobotModel
 
-Exporter = Callable[[RobotModel], str]
+if TYPE_CHECKING:
+    from twin.robot import RobotModel
+
+Exporter = Callable[["RobotModel"], str]
 
 FORMATS: Registry[Exporter] = Registry("export format", {
     name: Lazy(f"twin.export.{name.replace('-', '_')}:export")

@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError, UnknownChoiceError
-from twin.hardware.encoders.url import ENCODERS
+from twin.hardware.encoders import ENCODERS
 from twin.hardware.robot_sources.sim import read_pose
 from twin.units import m_to_mm, mm_to_m
 

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from twin.analysis.misfit import reading_sigma
 from twin.calibration.settings import CalibrationSettings
+from twin.choices import MAX_TENSION_N
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.calibration_table import KEYS, calibration_lines, parse_calibration
@@ -42,7 +43,7 @@ from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
 from twin.io.table import Table
 from twin.problem import DEFAULT_SIGMA_M
-from twin.rig import MAX_TENSION_N, Distance, Rig
+from twin.rig import Distance, Rig
 from twin.robot import RobotModel
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
 

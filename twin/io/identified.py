@@ -27,6 +27,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.choices import MAX_TENSION_N
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.capture_file import parse_port_mm
 from twin.io.paths import read_json
@@ -34,7 +35,7 @@ from twin.io.robot_file import default_robot, robot_digest, robot_from_files
 from twin.io.truth import parse_dh_rows
 from twin.kinds import KINDS
 from twin.model import Model
-from twin.rig import MAX_TENSION_N, Distance, Rig
+from twin.rig import Distance, Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,

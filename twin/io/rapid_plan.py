@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array
+from twin.choices import DEFAULT_SETTLE_S, DEFAULT_SPEED
 from twin.errors import InputError
 from twin.io.rapid import format_number
 from twin.robot import RobotModel
@@ -50,8 +51,6 @@ SPEEDS = ("v5", "v10", "v20", "v30", "v40", "v50", "v60", "v80", "v100", "v150",
           "v400", "v500", "v600", "v800", "v1000", "v1500", "v2000", "v2500", "v3000", "v4000",
           "v5000", "v6000", "v7000", "vmax")
 """ABB's predefined speeddata."""
-DEFAULT_SPEED = "v100"
-DEFAULT_SETTLE_S = 0.5
 MAX_NAME_CHARS = 32
 """RAPID identifiers are at most 32 characters."""
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")

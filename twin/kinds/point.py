@@ -31,7 +31,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
-from twin.dataset import MAX_POSES, Labels, Measurements
+from twin.choices import MAX_POSES
+from twin.dataset import Labels, Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import point_position
 from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured

@@ -33,7 +33,7 @@ from twin.report.display import (
 )
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.solvers import get_solver
+from twin.solvers import SOLVERS, get_solver
 from twin.units import DH_KEYS, slot_label
 
 if TYPE_CHECKING:
@@ -364,7 +364,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
     lines.append(f"  {'before':<10}  {'':<5}"
                  + "".join(mm(v, width=9, unit=False) for v in first.metrics["before"]))
     for name, result in results.items():
-        alias = get_solver(name).alias.upper()
+        alias = SOLVERS.alias(name).upper()
         lines.append(
             f"  {name:<10}  {alias:<5}"
             + "".join(mm(v, width=9, unit=False) for v in result.metrics["validation"])

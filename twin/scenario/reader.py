@@ -103,13 +103,12 @@ from typing import Any
 import numpy as np
 
 from twin.arrays import Array
-from twin.dataset import MAX_POSES
+from twin.choices import MAX_POSES, MAX_TENSION_N
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
 from twin.kinds import DEFAULT_KIND, KINDS
-from twin.rig import MAX_TENSION_N
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario

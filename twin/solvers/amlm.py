@@ -80,5 +80,5 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return tracker.finish(amlm(tracker, problem.x0, budget))
 
 
-SOLVER = Solver(name="amlm", alias="m7", title="Adaptive-momentum Levenberg–Marquardt",
+SOLVER = Solver(name="amlm", title="Adaptive-momentum Levenberg–Marquardt",
                 solve=_solve)

@@ -22,4 +22,4 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return run_cascade(problem, budget, rng, "amlm-bipso", ("amlm", amlm), ("bipso", bipso))
 
 
-SOLVER = Solver(name="amlm-bipso", alias="m9", title="AMLM cascaded with BIPSO", solve=_solve)
+SOLVER = Solver(name="amlm-bipso", title="AMLM cascaded with BIPSO", solve=_solve)

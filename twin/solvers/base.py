@@ -1,6 +1,6 @@
 """The one interface every calibration method implements, and the bookkeeping they share.
 
-A method is a :class:`Solver`: a name, a paper alias and a function
+A method is a :class:`Solver`: a name, a title and a function
 ``solve(problem, budget, rng) -> SolverResult``. Solvers evaluate the objective only through a
 :class:`Tracker`, which counts evaluations, records the per-iteration history (f, train and
 validation RMSE) and measures wall time the same way for all of them. Every run, and every
@@ -99,14 +99,13 @@ class Solver:
     """A calibration method.
 
     Attributes:
-        name: CLI name, e.g. ``"lm"``.
-        alias: The paper's label, e.g. ``"m2"``; empty for methods not in the paper.
+        name: CLI name, e.g. ``"lm"`` (the paper's label, ``"m2"``, is the registry's alias:
+            :data:`twin.solvers.SOLVERS`).
         title: Human-readable name.
         solve: ``solve(problem, budget, rng) -> SolverResult``.
     """
 
     name: str
-    alias: str
     title: str
     solve: SolveFunction
 

@@ -38,4 +38,4 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return tracker.finish(bipso(tracker, problem.x0, budget, rng))
 
 
-SOLVER = Solver(name="bipso", alias="m8", title="B-spline-interpolated PSO", solve=_solve)
+SOLVER = Solver(name="bipso", title="B-spline-interpolated PSO", solve=_solve)

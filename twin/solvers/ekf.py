@@ -21,4 +21,4 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return tracker.finish(ekf(tracker, problem.x0, budget, rng))
 
 
-SOLVER = Solver(name="ekf", alias="m1", title="Extended Kalman filter", solve=_solve)
+SOLVER = Solver(name="ekf", title="Extended Kalman filter", solve=_solve)

@@ -76,4 +76,4 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return run_cascade(problem, budget, rng, "ekf-qibas", ("ekf", ekf), ("qibas", qibas))
 
 
-SOLVER = Solver(name="ekf-qibas", alias="m5", title="EKF cascaded with QIBAS", solve=_solve)
+SOLVER = Solver(name="ekf-qibas", title="EKF cascaded with QIBAS", solve=_solve)

@@ -46,5 +46,5 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return run_cascade(problem, budget, rng, "ekf-qpso", ("ekf", ekf), ("qpso", qpso))
 
 
-SOLVER = Solver(name="ekf-qpso", alias="m6", title="EKF cascaded with quantum-behaved PSO",
+SOLVER = Solver(name="ekf-qpso", title="EKF cascaded with quantum-behaved PSO",
                 solve=_solve)

@@ -255,4 +255,4 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return tracker.finish(levenberg_marquardt(tracker, problem.x0, budget))
 
 
-SOLVER = Solver(name="lm", alias="m2", title="Levenberg–Marquardt", solve=_solve)
+SOLVER = Solver(name="lm", title="Levenberg–Marquardt", solve=_solve)

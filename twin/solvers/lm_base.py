@@ -53,5 +53,5 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
 
 
 SOLVER = Solver(
-    name="lm-base", alias="", title="Levenberg–Marquardt on the base parameters", solve=_solve
+    name="lm-base", title="Levenberg–Marquardt on the base parameters", solve=_solve
 )

@@ -24,4 +24,4 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return tracker.finish(particle_swarm(tracker, problem.x0, budget, rng, n_interpolated=0))
 
 
-SOLVER = Solver(name="pso", alias="m3", title="Particle swarm optimisation", solve=_solve)
+SOLVER = Solver(name="pso", title="Particle swarm optimisation", solve=_solve)

@@ -49,5 +49,5 @@ def _solve(problem: Problem, budget: Budget, rng: np.random.Generator) -> Solver
     return run_cascade(problem, budget, rng, "ukf-vslm", ("ukf", ukf), ("vslm", vslm))
 
 
-SOLVER = Solver(name="ukf-vslm", alias="m4", title="UKF cascaded with variable-step LM",
+SOLVER = Solver(name="ukf-vslm", title="UKF cascaded with variable-step LM",
                 solve=_solve)

@@ -43,11 +43,6 @@ MIN_CHANGED = math.ceil(-math.log2(SIGNIFICANCE))
 MOVED = 3
 """Trials named as those that moved most."""
 VERDICTS = ("pass", "regression", "inconclusive")
-DEFAULT_TOLERANCE = 0.05
-"""Relative worsening below which a significant change is not a regression (5 %)."""
-MAX_TOLERANCE = 1.0
-"""Largest relative worsening a tolerance may allow (100 %: a metric twice as bad); beyond it
-no change is a regression and the comparison can never fail."""
 
 
 class Metric(NamedTuple):

@@ -22,12 +22,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple, TextIO
 
+from twin.choices import DEFAULT_TOLERANCE, MAX_TOLERANCE
 from twin.errors import InputError
 from twin.io.lock import folder_lock
 from twin.report.display import percent
 from twin.study.baseline import (
-    DEFAULT_TOLERANCE,
-    MAX_TOLERANCE,
     MIN_CHANGED,
     Comparison,
     compare_studies,

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from twin.dataset import MAX_POSES
+from twin.choices import MAX_POSES, MAX_TRIALS
 from twin.errors import InputError
 from twin.io.paths import read_bytes, read_toml
 from twin.io.robot_file import robot_files
@@ -33,8 +33,6 @@ from twin.solvers import SOLVERS, get_solver
 STUDY_KEYS = ("trials", "methods", "workspace_poses", "sweep")
 DEFAULT_TRIALS = 10
 DEFAULT_WORKSPACE_POSES = 500
-MAX_TRIALS = 100_000
-"""Most trials per case, from ``[study] trials`` as from ``--trials``."""
 MAX_SWEEP_POINTS = 1000
 """Most sweep points: each is a whole scenario, copied and validated again before any trial."""
 MAX_STUDY_TRIALS = 1_000_000

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.stats import wilcoxon
 
 from twin.errors import UnknownChoiceError
-from twin.solvers import get_solver
+from twin.solvers import SOLVERS, get_solver
 from twin.study.rows import TrialRow
 
 PAPER_REFERENCE = "m9"
@@ -54,7 +54,7 @@ methods that reach the same point differ by round-off, which a rank test must no
 def alias(method: str) -> str:
     """The paper's label of a method (``m2``), or "" for methods beyond the paper."""
     try:
-        return get_solver(method).alias
+        return SOLVERS.alias(get_solver(method).name)
     except UnknownChoiceError:
         return ""
 

@@ -8,40 +8,26 @@ resolves the names. New groups plug in here and in nothing else of the core.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
-from twin.distribution import Registry
+from twin.distribution import Lazy, Registry, lazy_exports
 from twin.errors import InputError
-from twin.rig import Rig
-from twin.robot import RobotModel
-from twin.unknowns import (
-    attachment,
-    backlash,
-    compliance,
-    dh,
-    link_compliance,
-    offset,
-    points,
-    port,
-    tracker,
-    transmission,
-)
-from twin.unknowns.group import Group, Stage
 
-Factory = Callable[[RobotModel, Rig], Group]
+if TYPE_CHECKING:
+    from twin.rig import Rig
+    from twin.robot import RobotModel
+    from twin.unknowns.group import Group, Stage
+
+Factory = Callable[["RobotModel", "Rig"], "Group"]
 
 GROUPS: Registry[Factory] = Registry("error group", {
-    "dh": dh.make,
-    "transmission": transmission.make,
-    "backlash": backlash.make,
-    "compliance": compliance.make,
-    "link_compliance": link_compliance.make,
-    "port": port.make,
-    "offset": offset.make,
-    "attachment": attachment.make,
-    "base": tracker.make,
-    "points": points.make,
-})
-"""Every unknown group, by name, in the order x lays them out."""
+    name: Lazy(f"twin.unknowns.{module}:make") for name, module in (
+        ("dh", "dh"), ("transmission", "transmission"), ("backlash", "backlash"),
+        ("compliance", "compliance"), ("link_compliance", "link_compliance"), ("port", "port"),
+        ("offset", "offset"), ("attachment", "attachment"), ("base", "tracker"),
+        ("points", "points"))})
+"""Every unknown group, by name, in the order x lays them out; a group's module is imported when
+it is first made (the names alone need no numpy: the command line's help lists them)."""
 ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")
 """The robot's error groups, which a calibration chooses (``--errors``, ``[calibration] errors``);
 the rig's (port, offset) come with the estimate flags."""
@@ -91,5 +77,7 @@ def make_groups(names: list[str] | tuple[str, ...], robot: RobotModel, rig: Rig
                          "holds each joint's compliance, link by link")
     return tuple(factory(robot, rig) for name, factory in GROUPS.items() if name in names)
 
+
+__getattr__ = lazy_exports(__name__, {"twin.unknowns.group": ("Group", "Stage")})
 
 __all__ = ["ERRORS", "GROUPS", "Group", "Stage", "check_errors", "make_groups"]

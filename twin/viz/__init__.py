@@ -13,8 +13,19 @@ recording modules (and ``rerun``) only when a flag asks for them. See ``docs/rer
   logged, where, and how it is laid out.
 """
 
-from twin.viz.commands import calibration_log, open_from_args, record_simulation
-from twin.viz.options import RerunOptions, add_rerun_flags, rerun_options
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from twin.distribution import lazy_exports
+
+if TYPE_CHECKING:
+    from twin.viz.commands import calibration_log, open_from_args, record_simulation
+    from twin.viz.options import RerunOptions, add_rerun_flags, rerun_options
+
+__getattr__ = lazy_exports(__name__, {
+    "twin.viz.commands": ("calibration_log", "open_from_args", "record_simulation"),
+    "twin.viz.options": ("RerunOptions", "add_rerun_flags", "rerun_options")})
 
 __all__ = [
     "RerunOptions",

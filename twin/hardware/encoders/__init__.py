@@ -7,13 +7,31 @@ opens one.
 
 from __future__ import annotations
 
-from twin.hardware.encoders.base import (
-    Encoder,
-    EncoderDisconnectedError,
-    EncoderError,
-    EncoderReadError,
-)
-from twin.hardware.encoders.url import ENCODERS, EncoderConfig, load_device, parse_url, resolve
+from typing import TYPE_CHECKING
+
+from twin.distribution import Lazy, Registry, lazy_exports
+
+if TYPE_CHECKING:
+    from twin.hardware.encoders.base import (
+        Encoder,
+        EncoderDisconnectedError,
+        EncoderError,
+        EncoderReadError,
+    )
+    from twin.hardware.encoders.url import EncoderConfig, load_device, parse_url, resolve
+
+ENCODERS: Registry[type[Encoder]] = Registry("protocol", {
+    "ascii": Lazy("twin.hardware.encoders.ascii:AsciiEncoder"),
+    "modbus": Lazy("twin.hardware.encoders.modbus:ModbusEncoder"),
+})
+"""Every driver, by the ``protocol`` key of a device's configuration
+(:class:`~twin.hardware.encoders.url.EncoderConfig`) that selects it; a driver's module (and
+pyserial, minimalmodbus) is imported when it is opened."""
+
+__getattr__ = lazy_exports(__name__, {
+    "twin.hardware.encoders.base": ("Encoder", "EncoderDisconnectedError", "EncoderError",
+                                    "EncoderReadError"),
+    "twin.hardware.encoders.url": ("EncoderConfig", "load_device", "parse_url", "resolve")})
 
 __all__ = [
     "ENCODERS",

@@ -26,22 +26,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qsl, quote, urlsplit
 
-from twin.distribution import Lazy, Registry
 from twin.errors import InputError, UnknownChoiceError
+from twin.hardware.encoders import ENCODERS
 from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.units import LENGTH_FACTORS
 
 if TYPE_CHECKING:
-    from twin.hardware.encoders.base import Encoder
+    pass
 
-ENCODERS: Registry[type[Encoder]] = Registry("protocol", {
-    "ascii": Lazy("twin.hardware.encoders.ascii:AsciiEncoder"),
-    "modbus": Lazy("twin.hardware.encoders.modbus:ModbusEncoder"),
-})
-"""Every driver, by the ``protocol`` key that selects it; a driver's module (and pyserial,
-minimalmodbus) is imported when it is opened. Here, beside the key, because the driver
-interface (:mod:`twin.hardware.encoders.base`) takes the configuration this module parses."""
 PARITIES = ("N", "E", "O", "M", "S")
 WORD_ORDERS = ("big", "little")
 """Modbus 32-bit word order: ``big`` high word first (ABCD), ``little`` low word first (CDAB)."""

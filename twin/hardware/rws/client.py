@@ -28,11 +28,15 @@ from numpy.typing import NDArray
 
 from twin.errors import InputError, TwinError
 from twin.hardware.rws import protocol
-from twin.hardware.rws.protocol import AXES, PayloadError
+from twin.hardware.rws.protocol import (
+    AXES,
+    FACTORY_PASSWORD,
+    FACTORY_USER,
+    PASSWORD_VARIABLE,
+    USER_VARIABLE,
+    PayloadError,
+)
 
-USER_VARIABLE, PASSWORD_VARIABLE = "TWIN_RWS_USER", "TWIN_RWS_PASSWORD"
-FACTORY_USER, FACTORY_PASSWORD = "Default User", "robotics"
-"""ABB's factory account (RobotWare 6 and 7)."""
 SCHEMES = {"rws": (1, "http", 80), "rws2": (2, "https", 443)}
 """URL scheme: RWS version, transport, default port."""
 RETRY_S = 0.2

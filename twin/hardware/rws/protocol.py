@@ -43,6 +43,10 @@ from xml.sax.saxutils import escape, quoteattr
 from twin.errors import TwinError
 
 VERSIONS = (1, 2)
+USER_VARIABLE, PASSWORD_VARIABLE = "TWIN_RWS_USER", "TWIN_RWS_PASSWORD"
+"""The environment variables a controller's user and password are read from."""
+FACTORY_USER, FACTORY_PASSWORD = "Default User", "robotics"
+"""ABB's factory account (RobotWare 6 and 7)."""
 MECHUNIT = "ROB_1"
 """The robot's mechanical unit."""
 JOINTTARGET_TYPE, DATA_TYPE, EXECUTION_TYPE = "ms-jointtarget", "rap-data", "rap-execution"

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.choices import ANGLE_UNITS, LENGTH_UNITS
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.importers.base import Imported, outside_limits
 from twin.io.measurements import joint_columns
@@ -36,8 +37,6 @@ from twin.kinds import KINDS, Kind
 from twin.robot import RobotModel
 from twin.units import LENGTH_FACTORS, deg_to_rad
 
-ANGLE_UNITS = ("rad", "deg")
-LENGTH_UNITS = ("m", "mm")
 WHAT = "a CSV of joint angles and readings"
 
 

@@ -1,0 +1,252 @@
+"""Where users wait, each ratio measured side by side in one run and printed beside its goal.
+
+Run by hand: ``.venv/bin/python bench/bench_speed.py`` (about two minutes on 2 cores);
+``--tiny`` runs every part at a smoke size (CI: ``tests/test_bench_smoke.py``), whose figures
+mean nothing. BLAS is pinned to one thread in this process (set before numpy loads), as every
+study worker is.
+
+1. **Start-up**: ``twin --version`` against ``python -c "import numpy"``, median wall time of
+   repeated runs. Goal: at most 2×.
+2. **The hot kernel**: residuals and their 24-column D-H Jacobian at 96 poses of the IRB 120,
+   evaluations per second of :meth:`twin.model.Model.jacobian` against a plain batched
+   finite-difference reference in the same run (the lengths of the 25 tables x and x + h·e_k,
+   the flange centre carried through each joint's D-H motions on arrays over every table and
+   pose at once, then forward differences). Both are checked to agree first. Goal: at least 6×.
+3. **M9 under the paper's protocol** (AMLM 30 + BIPSO 30, 100 particles) against LM run to
+   convergence, CPU time of the solve on the same simulated paper rig. Goal: at most 5×.
+4. **Study CPU per trial**: geometric_irb120 with LM, every trial's post-fit checks included,
+   in this process, against the figure of the commit this work started from (``BEFORE``,
+   measured with this script's part 4 at that commit). Goal: at most 1/5. The trials' results
+   are the same (tests/test_study.py compares a study's results.csv with the previous path).
+5. **Study throughput**: trials per second of wall time on 1 and 2 workers, local processes
+   and a Dask LocalCluster, start-up and shut-down measured apart and subtracted; CPU per
+   trial of each. Goal: 2 local workers at least 1.8× one.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_variable] = "1"  # before numpy loads
+
+import argparse  # noqa: E402
+import io  # noqa: E402
+import resource  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from dataclasses import replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+from _timing import median_time  # noqa: E402
+
+from twin.calibration.setup import make_model, make_problem  # noqa: E402
+from twin.io.robot_file import default_robot  # noqa: E402
+from twin.rig import Rig  # noqa: E402
+from twin.robot import random_poses  # noqa: E402
+from twin.solvers import get_solver  # noqa: E402
+from twin.units import mm_to_m  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+GEOMETRIC = ROOT / "scenarios" / "geometric_irb120.toml"
+PAPER = ROOT / "scenarios" / "paper_irb120.toml"
+PORT_M = mm_to_m([600.0, -400.0, 100.0])
+STEP = 1e-7
+"""Forward-difference step of the reference, m and rad."""
+BEFORE_COMMIT = "599d482"
+BEFORE_TRIAL_CPU_S = 0.0415
+"""Part 4 at commit 599d482 (in this process, BLAS on one thread, 20 trials): 41.5 ms of CPU
+per trial; through `twin study` on local processes, whose BLAS was not pinned, 148 ms."""
+
+
+def _goal(label: str, ratio: float, goal: str, met: bool) -> None:
+    print(f"  {label:<52} {ratio:8.2f}×   goal {goal:<8} {'met' if met else 'NOT MET'}")
+
+
+def startup(repeats: int) -> None:
+    """`twin --version` vs `python -c "import numpy"`, median wall time."""
+    twin = [sys.executable, "-m", "twin", "--version"]
+    numpy_only = [sys.executable, "-c", "import numpy"]
+
+    def run(command: list[str]) -> Callable[[], None]:
+        return lambda: subprocess.run(command, check=True, capture_output=True)
+
+    run(twin)()
+    run(numpy_only)()
+    twin_s, _ = median_time(run(twin), repeats)
+    numpy_s, _ = median_time(run(numpy_only), repeats)
+    print(f"1. start-up, median of {repeats}: twin --version {twin_s * 1e3:.0f} ms, "
+          f"import numpy {numpy_s * 1e3:.0f} ms")
+    _goal("twin --version / import numpy", twin_s / numpy_s, "<= 2", twin_s <= 2 * numpy_s)
+
+
+def _dh_lengths(tables: np.ndarray, q: np.ndarray, port_m: np.ndarray) -> np.ndarray:
+    """The reference: cable lengths of K standard D-H tables (K, 4, n) at poses q (m, n), the
+    flange centre carried from the flange to the base through each joint's
+    Rz(q + θ) · Tz(d) · Tx(a) · Rx(α), arrays over tables and poses; shape (K, m)."""
+    shape = (tables.shape[0], q.shape[0])
+    x, y, z = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    for i in range(tables.shape[-1] - 1, -1, -1):
+        a, d, alpha, theta = (tables[:, k, i, None] for k in range(4))
+        ca, sa = np.cos(alpha), np.sin(alpha)
+        y, z = ca * y - sa * z, sa * y + ca * z
+        x = x + a
+        z = z + d
+        angle = q[:, i] + theta
+        ct, st = np.cos(angle), np.sin(angle)
+        x, y = ct * x - st * y, st * x + ct * y
+    return np.sqrt((x - port_m[0]) ** 2 + (y - port_m[1]) ** 2 + (z - port_m[2]) ** 2)
+
+
+def kernel(poses: int, seconds: float) -> None:
+    """Model.jacobian against the batched finite-difference reference, evaluations per second."""
+    robot = default_robot()
+    rng = np.random.default_rng(0)
+    model = make_model(robot, Rig.cable(PORT_M))
+    x = rng.uniform(-1, 1, model.n_params) * model.radius
+    data = model.measure(x, random_poses(robot, poses, rng))
+    lengths = data.length_m
+    steps = np.vstack([np.zeros(model.n_params), STEP * np.eye(model.n_params)])
+
+    def reference() -> tuple[np.ndarray, np.ndarray]:
+        tables = (robot.dh.ravel() + x + steps).reshape(-1, *robot.dh.shape)
+        r = _dh_lengths(tables, data.q_rad, PORT_M) - lengths
+        return r[0], ((r[1:] - r[0]) / STEP).T
+
+    def ours() -> tuple[np.ndarray, np.ndarray]:
+        return model.jacobian(x, data)
+
+    (r_ref, j_ref), (r_ours, j_ours) = reference(), ours()
+    assert np.allclose(r_ref, r_ours, rtol=0, atol=1e-12), "residuals disagree"
+    assert np.allclose(j_ref, j_ours, rtol=0, atol=1e-5), "Jacobians disagree"
+    rates = {}
+    for label, function in (("reference", reference), ("twin", ours)):
+        count, start = 0, time.perf_counter()
+        while time.perf_counter() - start < seconds:
+            function()
+            count += 1
+        rates[label] = count / (time.perf_counter() - start)
+    print(f"2. residual + {model.n_params}-column Jacobian at {poses} poses: twin "
+          f"{rates['twin']:,.0f}/s, batched finite differences {rates['reference']:,.0f}/s")
+    _goal("twin / finite-difference reference", rates["twin"] / rates["reference"], ">= 6",
+          rates["twin"] >= 6 * rates["reference"])
+
+
+def _cpu(function: Callable[[], object], repeats: int) -> float:
+    """Median CPU time of ``repeats`` calls, s."""
+    times = []
+    for _ in range(repeats):
+        start = time.process_time()
+        function()
+        times.append(time.process_time() - start)
+    return statistics.median(times)
+
+
+def paper_m9(poses: int, repeats: int, particles: int | None) -> None:
+    """M9 under the paper's protocol vs LM to convergence, CPU of the solve."""
+    from twin.scenario import load_scenario
+    from twin.sim.simulate import simulate
+    from twin.solvers import swarm
+
+    if particles is not None:
+        swarm.N_PARTICLES = swarm.N_INTERPOLATED = particles
+    scenario = load_scenario(PAPER)
+    sim = simulate(scenario, 0)
+    data = sim.measurements.subset(np.arange(min(poses, len(sim.measurements))))
+    times = {}
+    for method, stop in (("lm", "converge"), ("amlm-bipso", "paper")):
+        settings = replace(scenario.calibration, stop=stop)
+        split = make_problem(sim.robot, data, None, rig=sim.rig_told_pulled, settings=settings)
+        solver = get_solver(method)
+        times[method] = _cpu(lambda solver=solver, split=split: solver.solve(
+            split.problem, split.settings.budget, np.random.default_rng(0)), repeats)
+    print(f"3. paper rig, {len(data)} poses: M9 (paper protocol) {times['amlm-bipso'] * 1e3:.1f} "
+          f"ms CPU, LM to convergence {times['lm'] * 1e3:.1f} ms CPU")
+    _goal("M9 (paper) / LM (converge)", times["amlm-bipso"] / times["lm"], "<= 5",
+          times["amlm-bipso"] <= 5 * times["lm"])
+
+
+def study_cpu(trials: int) -> None:
+    """CPU per trial of the geometric study with LM, in this process."""
+    from twin.study.definition import load_study
+    from twin.study.trial import TrialSpec, run_trial, workspace
+
+    plan = load_study(GEOMETRIC, trials=trials, methods=["lm"])
+    case = plan.cases[0]
+    spec = TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
+    space = workspace(spec)
+    run_trial(spec, case.label, trials, space)  # imports and caches
+    start = time.process_time()
+    for trial in range(trials):
+        run_trial(spec, case.label, trial, space)
+    cpu = (time.process_time() - start) / trials
+    print(f"4. study, {GEOMETRIC.name} with LM, {trials} trials in this process: "
+          f"{cpu * 1e3:.1f} ms CPU per trial; at {BEFORE_COMMIT} {BEFORE_TRIAL_CPU_S * 1e3:.1f} ms")
+    _goal("CPU per trial / before", cpu / BEFORE_TRIAL_CPU_S, "<= 0.2",
+          cpu <= 0.2 * BEFORE_TRIAL_CPU_S)
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def study_scaling(trials: int, folder: Path) -> None:
+    """Trials per wall second on 1 and 2 workers, local processes and Dask."""
+    from twin.study.definition import load_study
+    from twin.study.executors.cluster import DaskCluster
+    from twin.study.executors.local import LocalProcesses
+    from twin.study.runner import run_trials
+
+    plan = load_study(GEOMETRIC, trials=trials, methods=["lm"])
+    rates: dict[str, float] = {}
+    for label, make in (("local", LocalProcesses), ("dask", lambda n: DaskCluster(workers=n))):
+        for workers in (1, 2):
+            start = time.perf_counter()
+            with make(workers):
+                pass
+            overhead = time.perf_counter() - start
+            cpu, start = _children_cpu(), time.perf_counter()
+            run_trials(plan, folder / f"{label}{workers}", make(workers), stream=io.StringIO())
+            wall = time.perf_counter() - start - overhead
+            cpu = _children_cpu() - cpu
+            rates[f"{label}{workers}"] = trials / wall
+            shown = f", {cpu / trials * 1e3:.1f} ms CPU per trial" if label == "local" else ""
+            print(f"5. {label}, {workers} worker(s): start + stop {overhead:.1f} s, {trials} "
+                  f"trials {wall:.1f} s: {trials / wall:.1f} trials/s{shown}")
+    for label in ("local", "dask"):
+        ratio = rates[f"{label}2"] / rates[f"{label}1"]
+        _goal(f"{label}: 2 workers / 1 worker, trials per second", ratio,
+              ">= 1.8" if label == "local" else "-", ratio >= 1.8 or label == "dask")
+    print(f"  load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores: other "
+          "work on the machine takes cores from the workers")
+
+
+def main() -> None:
+    """Run every part and print the ratios beside their goals."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--tiny", action="store_true", help="smoke sizes: figures mean nothing")
+    parser.add_argument("--parts", default="12345", help="which parts to run (default all)")
+    args = parser.parse_args()
+    tiny = args.tiny
+    if "1" in args.parts:
+        startup(repeats=1 if tiny else 15)
+    if "2" in args.parts:
+        kernel(poses=8 if tiny else 96, seconds=0.05 if tiny else 3.0)
+    if "3" in args.parts:
+        paper_m9(poses=40 if tiny else 120, repeats=1 if tiny else 5,
+                 particles=6 if tiny else None)
+    if "4" in args.parts:
+        study_cpu(trials=1 if tiny else 20)
+    if "5" in args.parts:
+        with tempfile.TemporaryDirectory() as temporary:
+            study_scaling(2 if tiny else 120, Path(temporary))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,62 @@
+"""`twin --version` and `twin CMD --help` answer without loading numpy, scipy or an adapter's
+library: each command imports what it uses when it runs (twin/cli/, twin/__init__.py)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from twin.cli import SUBCOMMANDS
+from twin.distribution import EXTRAS
+
+HEAVY = sorted({"numpy", "scipy", "matplotlib", *EXTRAS})
+"""Libraries a command loads only when it runs."""
+
+
+def _loaded_after(calls: list[list[str]]) -> dict[str, list[str]]:
+    """Run ``twin.cli.main`` on each argument list, each in a fresh interpreter; the heavy
+    libraries each left in ``sys.modules``."""
+    found = {}
+    for argv in calls:
+        code = ("import contextlib, io, json, sys\n"
+                "from twin.cli import main\n"
+                "with contextlib.redirect_stdout(io.StringIO()), "
+                "contextlib.redirect_stderr(io.StringIO()):\n"
+                "    try:\n"
+                f"        main({argv!r})\n"
+                "    except SystemExit:\n"
+                "        pass\n"
+                f"print(json.dumps(sorted(m for m in {HEAVY!r} if m in sys.modules)))")
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              check=True)
+        found[" ".join(argv)] = json.loads(done.stdout)
+    return found
+
+
+def test_version_and_every_help_load_no_heavy_library() -> None:
+    """--version, the command list and each command's --help leave numpy, scipy, matplotlib
+    and every adapter's library unloaded."""
+    calls = [["--version"], ["--help"], *([module.NAME, "--help"] for module in SUBCOMMANDS)]
+    loaded = _loaded_after(calls)
+    assert set(loaded) == {" ".join(call) for call in calls}
+    assert {call: libraries for call, libraries in loaded.items() if libraries} == {}
+
+
+def test_a_command_that_runs_loads_what_it_uses() -> None:
+    """The check above can fail: a command that runs (here one that fails on its input after
+    parsing) does load numpy."""
+    loaded = _loaded_after([["predict", "--identified", "/nonexistent.json", "--joints",
+                             "/nonexistent.csv", "--out", "/tmp/twin-startup-unused.csv"]])
+    assert "numpy" in next(iter(loaded.values()))
+
+
+def test_the_package_is_lazy_and_its_names_resolve() -> None:
+    """`import twin` loads no numpy; reading a public name imports its module."""
+    code = ("import sys, twin\n"
+            "before = 'numpy' in sys.modules\n"
+            "calibrate = twin.calibrate\n"
+            "print(before, 'numpy' in sys.modules, calibrate.__module__)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.split() == ["False", "True", "twin.calibration.pipeline"]

@@ -1,0 +1,40 @@
+"""The names and limits a user chooses among — stopping protocols, losses, sizes, tolerances,
+units, program defaults — in one module that imports nothing.
+
+The command line shows them in its help and checks its flags against them before any command
+runs; keeping them here, free of numpy, is what lets ``twin CMD --help`` answer at once. The
+module that acts on each value imports it from here (and is where its meaning is described).
+"""
+
+from __future__ import annotations
+
+PROTOCOLS = ("converge", "paper")
+"""Names of the stopping protocols, the default first (:mod:`twin.stopping`)."""
+MAX_ITERATIONS = 100_000
+"""The largest iteration limit a file or flag may ask for."""
+LOSSES = ("linear", "huber", "soft_l1", "cauchy")
+"""The losses, least squares first (:mod:`twin.loss`)."""
+DEFAULT_SCALE_SIGMAS = 3.0
+"""Without a stated scale, the loss scale is this many times the stated noise σ."""
+MAX_POSES = 100_000
+"""The most poses a plan, a scenario or a verification may ask for: a typo like 1e9 must be an
+error, not an exhausted memory."""
+MAX_TRIALS = 100_000
+"""Most trials per case, from ``[study] trials`` as from ``--trials``."""
+DEFAULT_TOLERANCE = 0.05
+"""Relative worsening below which a significant change is not a regression (5 %,
+:mod:`twin.study.baseline`)."""
+MAX_TOLERANCE = 1.0
+"""Largest relative worsening a tolerance may allow (100 %: a metric twice as bad); beyond it
+no change is a regression and the comparison can never fail."""
+ANGLE_UNITS = ("rad", "deg")
+"""Units of the joint angles of another tool's CSV (:mod:`twin.io.importers.csv_files`)."""
+LENGTH_UNITS = ("m", "mm")
+"""Units of its lengths and positions."""
+DEFAULT_SPEED = "v100"
+"""The speeddata of a RAPID plan's moves (:mod:`twin.io.rapid_plan`)."""
+DEFAULT_SETTLE_S = 0.5
+"""The pause of a RAPID plan at each pose before the reading, s."""
+MAX_TENSION_N = 1000.0
+"""Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
+bend an IRB 120 rather than load it."""
