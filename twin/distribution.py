@@ -42,6 +42,8 @@ EXTRAS = {
     "rosbags": "ros",
     "dask": "cluster",
     "distributed": "cluster",
+    "numba": "fast",
+    "llvmlite": "fast",
 }
 """The extra that installs each adapter library, by its top-level import name."""
 

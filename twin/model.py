@@ -29,9 +29,11 @@ from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
 from twin.geometry.kinematics import (
     PointJacobian,
+    Turns,
     flange_transform,
     point_position,
     trace_point,
+    turns,
 )
 from twin.kinds import Kind, Measured
 from twin.rig import Rig
@@ -65,6 +67,7 @@ class Model:
     _joint_turned: NDArray[np.intp] = field(init=False, repr=False, compare=False)
     _joint_sums: Array = field(init=False, repr=False, compare=False)
     _joint_basis: Callable[[Measurements], Array] = field(init=False, repr=False, compare=False)
+    _turns: Callable[[Measurements], Turns] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         slices, start = {}, 0
@@ -92,6 +95,9 @@ class Model:
         object.__setattr__(self, "_joint_turned", turned)
         object.__setattr__(self, "_joint_sums", sums)
         object.__setattr__(self, "_joint_basis", cached(self._joined_bases))
+        # The measured joints never change during a fit: their cosines and sines are made once
+        # per measurement set, and every evaluation on it reuses them.
+        object.__setattr__(self, "_turns", cached(lambda data: turns(data.q_rad)))
 
     # --- the unknowns ---------------------------------------------------------------------
 
@@ -202,11 +208,15 @@ class Model:
     def joints(self, x: ArrayLike, data: Measurements) -> Array:
         """Where the joints stand: recorded angles plus the joint-level corrections of x (..., p),
         shape (m, n) without joint groups, else (..., m, n), rad."""
-        x = self._check(x)
+        return self._joint_turns(self._check(x), data).q_rad
+
+    def _joint_turns(self, x: Array, data: Measurements) -> Turns:
+        """:meth:`joints` with their cosines and sines, from the measurement set's own."""
+        measured = self._turns(data)
         if not self._joint_columns.size:
-            return np.asarray(data.q_rad, dtype=np.float64)
-        turns = self._joint_basis(data) * x[..., None, self._joint_columns]  # (..., m, P)
-        return np.asarray(data.q_rad + turns @ self._joint_sums, dtype=np.float64)
+            return measured
+        shift = self._joint_basis(data) * x[..., None, self._joint_columns]  # (..., m, P)
+        return measured.shifted(shift @ self._joint_sums)
 
     def _joined_bases(self, data: Measurements) -> Array:
         """How far each joint-level coefficient turns its joint at each pose, (m, P), rad per
@@ -219,7 +229,7 @@ class Model:
     def positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The measured point in the base frame at every pose, shape (..., m, 3), m."""
         x = self._check(x)
-        return point_position(self.robot.structure, self.table(x), self.joints(x, data),
+        return point_position(self.robot.structure, self.table(x), self._joint_turns(x, data),
                               self.point(x))
 
     def _measurement_values(self, x: Array) -> dict[str, Array]:
@@ -273,7 +283,7 @@ class Model:
         """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
         shape (..., m, 3), m, base frame — where the identified model puts the flange."""
         x = self._check(x)
-        return point_position(self.robot.structure, self.table(x), self.joints(x, data))
+        return point_position(self.robot.structure, self.table(x), self._joint_turns(x, data))
 
     def flange_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
         """∂(flange centre)/∂x at every pose, shape (m, 3, p), for unknowns x (p,): the table and
@@ -286,7 +296,7 @@ class Model:
         return self._chain_jacobian(self._check(x), data, measured=True)
 
     def _chain_jacobian(self, x: Array, data: Measurements, measured: bool) -> Array:
-        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
                             self.point(x) if measured else None)
         jacobian = np.zeros((len(data), 3, self.n_params))
         self._chain_rule(trace.jacobian(), data, measured, jacobian)
@@ -333,7 +343,7 @@ class Model:
             ``(r, J)``: residuals (M,) in m, Jacobian ∂r/∂x (M, p).
         """
         x = self._check(x)
-        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
                             self.point(x))
         kind = self.kind.jacobian(Measured(trace.position), self._measurement_values(x), data,
                                   self.rig)

@@ -32,6 +32,7 @@ How it is computed, and why:
 from __future__ import annotations
 
 import warnings
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -252,11 +253,26 @@ def measurement_identifiability(
     attachment_z), the unknown with the wide bound carries the combination and the D-H error,
     bounded to ±5 mm, is the one held.
     """
-    _, jacobian = model.identifiable_jacobian(np.asarray(x, dtype=np.float64), data)
+    x = np.asarray(x, dtype=np.float64)
+    key = (x.tobytes(), float(rtol))
+    for model_ref, data_ref, kept_key, kept in _KEPT:
+        if model_ref() is model and data_ref() is data and kept_key == key:
+            return kept
+    _, jacobian = model.identifiable_jacobian(x, data)
     prefer = [index for group in model.groups
               if group.stage in (Stage.MEASUREMENT, Stage.POINT)
               for index in range(model.n_params)[model.slice(group.name)]]
-    return identifiability(jacobian, model.names, rtol, prefer=prefer)
+    found = identifiability(jacobian, model.names, rtol, prefer=prefer)
+    _KEPT[:] = [*_KEPT[-(KEPT - 1):], (weakref.ref(model), weakref.ref(data), key, found)]
+    return found
+
+
+KEPT = 8
+"""Identifiabilities :func:`measurement_identifiability` keeps: a calibration asks for the same
+one (the start's, on the training poses) from the hold, the uncertainty and the checks after
+it; they are read-only values of immutable inputs, recognised by identity and held weakly."""
+_KEPT: list[tuple[weakref.ref[Model], weakref.ref[Measurements], tuple[bytes, float],
+                  Identifiability]] = []
 
 
 def spread_rank(model: Model, robot: RobotModel, rng: np.random.Generator,

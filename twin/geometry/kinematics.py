@@ -28,6 +28,7 @@ poses or tables.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from functools import cache
 from typing import Any, NamedTuple
@@ -168,26 +169,63 @@ def _check_shapes(structure: Structure, dh: Array, q_rad: Array) -> None:
         raise ValueError(f"q_rad: shape {q_rad.shape}, expected (..., m, {n})")
 
 
+class Turns(NamedTuple):
+    """Joint angles with their cosines and sines, joint-major and contiguous: what every
+    evaluation on the same poses reuses (a fit never changes its measured joints; make them
+    once per data set with :func:`turns`, and :meth:`shifted` for angles moved by x).
+
+    Attributes:
+        q_rad: The angles as given, shape (..., m, n), rad.
+        cos: cos q, joint-major, shape (n, ..., m).
+        sin: sin q, joint-major, shape (n, ..., m).
+    """
+
+    q_rad: Array
+    cos: Array
+    sin: Array
+
+    def shifted(self, delta_rad: ArrayLike) -> Turns:
+        """The angles q + δ, their cosines and sines by the angle-sum identity (the
+        transcendentals run on δ alone); δ of shape (..., m, n), rad."""
+        delta = np.asarray(delta_rad, dtype=np.float64)
+        moved = np.moveaxis(delta, -1, 0)
+        c, s = np.cos(moved), np.sin(moved)
+        ndim = max(moved.ndim, self.cos.ndim)
+        cq, sq = _joint_major(self.cos, ndim), _joint_major(self.sin, ndim)
+        return Turns(self.q_rad + delta, cq * c - sq * s, sq * c + cq * s)
+
+
+def turns(q_rad: ArrayLike | Turns) -> Turns:
+    """Joint angles q (..., m, n), rad, with their cosines and sines (:class:`Turns`); a
+    :class:`Turns` is returned as it is."""
+    if isinstance(q_rad, Turns):
+        return q_rad
+    q = np.asarray(q_rad, dtype=np.float64)
+    major = np.ascontiguousarray(np.moveaxis(q, -1, 0))
+    return Turns(q, np.cos(major), np.sin(major))
+
+
 def _joint_major(array: Array, ndim: int) -> Array:
-    """(batch..., m, n) to (n, 1..., batch..., m) with ``ndim`` dimensions, for broadcasting."""
-    moved = np.moveaxis(array, -1, 0)
-    return moved.reshape(moved.shape[0], *(1,) * (ndim - moved.ndim), *moved.shape[1:])
+    """(n, batch..., m) to (n, 1..., batch..., m) with ``ndim`` dimensions, for broadcasting."""
+    return array.reshape(array.shape[0], *(1,) * (ndim - array.ndim), *array.shape[1:])
 
 
-def _cos_sin(structure: Structure, dh: Array, q_rad: Array
+def _cos_sin(structure: Structure, dh: Array, angles: Turns
              ) -> tuple[int, list[tuple[Array, ...]], Array]:
     """Per joint and slot the values the motions need, joint-major and broadcastable.
 
     Returns:
         ``(ndim, per_joint, slots)``: per joint a tuple (cos, sin) for each slot, where the joint
-        slot's angle is q + θ (by the angle-sum identity, so that the transcendentals run on
-        the poses and on the tables apart, not on every table-pose pair) and other angle slots
-        are table-only; ``slots`` the table joint-major, shape (4, n, 1..., batch..., 1).
+        slot's angle is q + θ (by the angle-sum identity, from the poses' cached cos q, sin q
+        and the tables' cos θ, sin θ: no transcendental runs on a table-pose pair) and other
+        angle slots are table-only; ``slots`` the table joint-major, shape
+        (4, n, 1..., batch..., 1). Every array is contiguous with the poses innermost.
     """
-    ndim = max(dh.ndim, q_rad.ndim)  # of (n, batch..., m) once joint-major
-    slots = np.stack([_joint_major(dh[..., k, None, :], ndim) for k in range(4)])
-    q = _joint_major(q_rad, ndim)
-    cq, sq = np.cos(q), np.sin(q)
+    ndim = max(dh.ndim, angles.q_rad.ndim)  # of (n, batch..., m) once joint-major
+    table = np.moveaxis(dh, (-2, -1), (0, 1))  # (4, n, batch...)
+    slots = np.ascontiguousarray(table.reshape(4, structure.n_joints,
+                                               *(1,) * (ndim - dh.ndim), *table.shape[2:], 1))
+    cq, sq = _joint_major(angles.cos, ndim), _joint_major(angles.sin, ndim)
     cos_slots, sin_slots = np.cos(slots), np.sin(slots)
     ct = cq * cos_slots[JOINT_SLOT] - sq * sin_slots[JOINT_SLOT]
     st = sq * cos_slots[JOINT_SLOT] + cq * sin_slots[JOINT_SLOT]
@@ -199,14 +237,71 @@ def _cos_sin(structure: Structure, dh: Array, q_rad: Array
     return ndim, per_joint, slots
 
 
-def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
+KERNEL_VARIABLE = "TWIN_KERNEL"
+"""Environment variable choosing the kernel: ``numpy`` forces the numpy path; unset or
+``auto`` takes the compiled one (:mod:`twin.geometry.compiled`) when numba is installed."""
+
+
+@cache
+def _compiled() -> Any:
+    """The compiled kernel's module, or None (numba not installed, or ``TWIN_KERNEL=numpy``)."""
+    if os.environ.get(KERNEL_VARIABLE, "auto") == "numpy":
+        return None
+    try:
+        from twin.geometry import compiled
+    except ImportError:
+        return None
+    return compiled
+
+
+@cache
+def _plan_rows(parametrisation: tuple[str, ...]) -> NDArray[np.int64]:
+    """The motions base to flange as rows (kind, axis, slot, joint, driven), shape (4n, 5):
+    what the compiled kernel reads."""
+    rows = [(kind, axis, slot, joint, int(slot == JOINT_SLOT))
+            for kind, axis, _, _, slot, joint in _plan(parametrisation)]
+    return np.ascontiguousarray(rows, dtype=np.int64)
+
+
+class _Compiled(NamedTuple):
+    """The inputs of the compiled kernel, batch dimensions flattened."""
+
+    batch: tuple[int, ...]
+    table: Array
+    cos: Array
+    sin: Array
+    start: Array
+
+
+def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
+                     point_m: ArrayLike | None) -> _Compiled | None:
+    """The kernel's inputs, or None where the batch shapes are beyond it (the numpy path
+    broadcasts any): tables (K, 4, n), angles of the poses or one set per table, a point or one
+    per table."""
+    batch = dh.shape[:-2]
+    size = int(np.prod(batch, dtype=np.int64))
+    q_batch = angles.q_rad.shape[:-2]
+    local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
+    if q_batch not in ((), batch) or local.shape[:-1] not in ((), batch) or size == 0:
+        return None
+    n, m = structure.n_joints, angles.q_rad.shape[-2]
+    start = (local @ structure.tool[:3, :3].T + structure.tool[:3, 3]).reshape(-1, 3)
+    shape = (n, size if q_batch else 1, m)
+    return _Compiled(batch, np.ascontiguousarray(dh.reshape(size, 4, n)),
+                     np.ascontiguousarray(angles.cos.reshape(shape)),
+                     np.ascontiguousarray(angles.sin.reshape(shape)),
+                     np.ascontiguousarray(start))
+
+
+def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
                    point_m: ArrayLike | None = None) -> Array:
     """A point fixed to the flange, in the base frame.
 
     Args:
         structure: What the table means.
         dh: Parameter tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad, or their :class:`Turns`
+            (cosines and sines made once for the poses).
         point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
             tables), m; the flange centre (origin) if None.
 
@@ -216,9 +311,15 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
     # The hot path of the swarms: one point carried from the flange to the base,
     # p ← motion(p), on joint-major arrays.
     dh = np.asarray(dh, dtype=np.float64)
-    q_rad = np.asarray(q_rad, dtype=np.float64)
-    _check_shapes(structure, dh, q_rad)
-    _, per_joint, slots = _cos_sin(structure, dh, q_rad)
+    angles = turns(q_rad)
+    _check_shapes(structure, dh, angles.q_rad)
+    compiled = _compiled()
+    inputs = None if compiled is None else _compiled_inputs(structure, dh, angles, point_m)
+    if inputs is not None:
+        out = compiled.positions(inputs.table, _plan_rows(structure.parametrisation),
+                                 inputs.cos, inputs.sin, inputs.start, structure.base)
+        return np.asarray(out.reshape(*inputs.batch, -1, 3))
+    _, per_joint, slots = _cos_sin(structure, dh, angles)
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
     start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
     p = [start[..., k, None] for k in range(3)]  # (..., 1): broadcast over the poses
@@ -409,32 +510,72 @@ class PointTrace:
                              flange.transpose(order))
 
 
-def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
-                point_m: ArrayLike | None = None) -> PointTrace:
+class CompiledTrace:
+    """:class:`PointTrace` computed by the compiled kernel (:mod:`twin.geometry.compiled`), for
+    the batch shapes it takes (made by :func:`trace_point`).
+
+    Attributes:
+        position: The point in the base frame, shape (..., m, 3), m.
+    """
+
+    def __init__(self, structure: Structure, inputs: _Compiled) -> None:
+        self._structure = structure
+        self._inputs = inputs
+        self._plan = _plan_rows(structure.parametrisation)
+        out = _compiled().positions(inputs.table, self._plan, inputs.cos, inputs.sin,
+                                    inputs.start, structure.base)
+        self.position = np.asarray(out.reshape(*inputs.batch, -1, 3))
+
+    def jacobian(self, directions: ArrayLike | None = None) -> PointJacobian:
+        """As :meth:`PointTrace.jacobian`."""
+        inputs, structure = self._inputs, self._structure
+        n, m = structure.n_joints, self.position.shape[-2]
+        if directions is None:
+            w = np.eye(3)[None, None]
+        else:
+            w_m = np.asarray(directions, dtype=np.float64)
+            if w_m.shape[:-3] not in ((), inputs.batch):
+                w_m = np.broadcast_to(w_m, (*inputs.batch, *w_m.shape[-3:]))
+            w = w_m.reshape(-1, *w_m.shape[-3:])
+        _, columns, rotation = _compiled().jacobian(
+            inputs.table, self._plan, inputs.cos, inputs.sin, inputs.start, structure.base,
+            structure.tool, np.ascontiguousarray(w))
+        table = columns.reshape(*inputs.batch, m, -1, 4 * n)
+        return PointJacobian(self.position, table,
+                             table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
+                             rotation.reshape(*inputs.batch, m, -1, 3))
+
+
+def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
+                point_m: ArrayLike | None = None) -> PointTrace | CompiledTrace:
     """A point fixed to the flange, in the base frame, kept for its derivatives.
 
     Args:
         structure: What the table means.
         dh: Parameter tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        q_rad: Joint angles, shape (m, n) or (..., m, n), rad, or their :class:`Turns`.
         point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
             tables), m; the flange centre (origin) if None.
     """
-    # As point_position (the point carried from the flange to the base), with the joint angle
-    # q + θ taken whole, and every carried component kept for PointTrace.jacobian; arrays are
+    # As point_position (the point carried from the flange to the base), with every carried
+    # component kept for PointTrace.jacobian; arrays are
     # joint-major with a row axis (batch..., 1, m), so that r directions broadcast over it.
     dh = np.asarray(dh, dtype=np.float64)
-    q_rad = np.asarray(q_rad, dtype=np.float64)
-    _check_shapes(structure, dh, q_rad)
+    angles = turns(q_rad)
+    _check_shapes(structure, dh, angles.q_rad)
+    inputs = None if _compiled() is None else _compiled_inputs(structure, dh, angles, point_m)
+    if inputs is not None:
+        return CompiledTrace(structure, inputs)
     n = structure.n_joints
-    batch = max(dh.ndim, q_rad.ndim) - 2
+    batch = max(dh.ndim, angles.q_rad.ndim) - 2
     table = dh.transpose(dh.ndim - 2, dh.ndim - 1, *range(dh.ndim - 2))  # (4, n, batch...)
     table = table.reshape(4, n, *(1,) * (batch - table.ndim + 2), *table.shape[2:], 1, 1)
-    q = q_rad.transpose(q_rad.ndim - 1, *range(q_rad.ndim - 1))  # (n, batch..., m)
-    q = q.reshape(n, *(1,) * (batch - q.ndim + 2), *q.shape[1:-1], 1, q.shape[-1])
-    turned = q + table[JOINT_SLOT]
-    cos_turned, sin_turned = np.cos(turned), np.sin(turned)
+    cq, sq = (v.reshape(n, *(1,) * (batch - v.ndim + 2), *v.shape[1:-1], 1, v.shape[-1])
+              for v in (angles.cos, angles.sin))  # (n, batch..., 1, m)
     values, cos_values, sin_values = table, np.cos(table), np.sin(table)
+    # cos(q + θ), sin(q + θ) by the angle sum, from the poses' cached cos q and sin q
+    cos_turned = cq * cos_values[JOINT_SLOT] - sq * sin_values[JOINT_SLOT]
+    sin_turned = sq * cos_values[JOINT_SLOT] + cq * sin_values[JOINT_SLOT]
     if dh.ndim == 2:  # one table: its entries as numbers, not (1, 1) arrays, which numpy
         # multiplies half as fast again
         values, cos_values, sin_values = (v[..., 0, 0].tolist()

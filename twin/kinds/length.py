@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array, frozen_array
+from twin.arrays import Array, frozen_array, lengths
 from twin.dataset import Labels, Measurements, approach_directions
 from twin.errors import InputError
 from twin.geometry.kinematics import Structure, point_position
@@ -57,7 +57,7 @@ def cable_length(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, port_m: 
         Lengths, shape (..., m), m.
     """
     positions = point_position(structure, dh, q_rad, point_m)
-    return np.linalg.norm(positions - np.asarray(port_m), axis=-1)
+    return lengths(positions - np.asarray(port_m, dtype=np.float64))
 
 
 def length_measurements(q_rad: ArrayLike, length_m: ArrayLike, *,
@@ -145,7 +145,7 @@ class Length(Kind):
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = ‖p − port‖ + offset − L, shape (..., m), m."""
-        length = np.linalg.norm(at.position_m - self._ports(values, data, rig), axis=-1)
+        length = lengths(at.position_m - self._ports(values, data, rig))
         if "offset" in values:
             length = length + values["offset"][..., :1]
         return np.asarray(length - data.value(LENGTH), dtype=np.float64)
@@ -162,7 +162,7 @@ class Length(Kind):
         """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on the rows
         of estimated port j; ∂r/∂c = 1."""
         difference = at.position_m - self._ports(values, data, rig)
-        distance = np.linalg.norm(difference, axis=-1)
+        distance = lengths(difference)
         u = difference / distance[:, None]
         by_group: dict[str, Array] = {}
         if "port" in values:

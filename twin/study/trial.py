@@ -14,7 +14,7 @@ Against the truth, for each method:
   really is — MuJoCo at rest with transmission error, backlash and sag (``Twin.at_rest``), the
   workspace poses visited in order from home — against the identified model's prediction at the
   same commanded poses and approach directions;
-- **Cramér–Rao bound** of that error (:func:`twin.analysis.uncertainty.cramer_rao_flange_rms`) for
+- **Cramér–Rao bound** of that error (:func:`twin.analysis.uncertainty.cramer_rao_rms`) for
 the
   trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
   cable), averaged over the poses, from the fitted model's Jacobian (joint groups included).
@@ -38,7 +38,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import measurement_identifiability
-from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_point_rms, rms_distance
+from twin.analysis.uncertainty import cramer_rao_rms, rms_distance
 from twin.arrays import Array
 from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
@@ -169,8 +169,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     x_true = true_unknowns(sim, model)
     _, jacobian = model.jacobian(x_true, train)
     sigma_m = noise_sigma_m(sim, jacobian)
-    crlb_m = cramer_rao_flange_rms(model, x_true, train, sigma_m, q_workspace)
-    point_crlb_m = cramer_rao_point_rms(model, x_true, train, sigma_m, q_workspace)
+    crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace)
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[TrialRow] = []
     methods: dict[str, Any] = {}

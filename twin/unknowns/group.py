@@ -22,6 +22,7 @@ import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import TypeVar
 
 import numpy as np
 
@@ -101,23 +102,28 @@ class Group:
         return len(self.names)
 
 
+Value = TypeVar("Value")
+
 CACHED = 4
 """Measurement sets a :func:`cached` basis keeps: a fit alternates between its training and
 validation poses."""
 
 
-def cached(basis: Callable[[Measurements], Array]) -> Callable[[Measurements], Array]:
-    """A joints-stage basis that depends on the measurements alone (not on x), computed once per
-    measurement set: a fit evaluates it at every residual and Jacobian on the same poses, and
-    measurements are immutable. Sets are recognised by identity and held weakly."""
-    kept: list[tuple[weakref.ref[Measurements], Array]] = []
+def cached(basis: Callable[[Measurements], Value]) -> Callable[[Measurements], Value]:
+    """A value that depends on the measurements alone (not on x) — a joints-stage basis, the
+    poses' cosines and sines — computed once per measurement set: a fit evaluates it at every
+    residual and Jacobian on the same poses, and measurements are immutable. Sets are
+    recognised by identity and held weakly; arrays are kept read-only."""
+    kept: list[tuple[weakref.ref[Measurements], Value]] = []
 
-    def lookup(data: Measurements) -> Array:
+    def lookup(data: Measurements) -> Value:
         for reference, value in kept:
             if reference() is data:
                 return value
         value = basis(data)
-        value.setflags(write=False)
+        for array in (value if isinstance(value, tuple) else (value,)):
+            if isinstance(array, np.ndarray):
+                array.setflags(write=False)
         kept[:] = [*kept[-(CACHED - 1):], (weakref.ref(data), value)]
         return value
 

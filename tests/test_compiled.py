@@ -1,0 +1,93 @@
+"""The compiled kernel (:mod:`twin.geometry.compiled`, extra ``fast``) against the numpy path
+it replaces, which stays the reference: positions and Jacobians of every parametrisation, with
+base and tool transforms, for the batch shapes the model uses, equal to round-off. (The numpy
+path's own Jacobians are held to finite differences in tests/test_kinematics.py and
+tests/test_model.py, which run on whichever kernel is installed.)"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from twin.geometry import kinematics
+from twin.geometry.kinematics import (
+    KERNEL_VARIABLE,
+    PARAMETRISATIONS,
+    Structure,
+    point_position,
+    trace_point,
+    turns,
+)
+
+pytest.importorskip("numba")
+
+RTOL = 1e-12
+"""Both kernels run the same operations in another order: round-off apart."""
+
+
+def _rigid(rng: np.random.Generator) -> np.ndarray:
+    transform = np.eye(4)
+    transform[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    transform[:3, 3] = rng.normal(scale=0.1, size=3)
+    return transform
+
+
+def _both(monkeypatch: pytest.MonkeyPatch, compute):  # type: ignore[no-untyped-def]
+    """compute() on the compiled kernel, then on the numpy path."""
+    monkeypatch.delenv(KERNEL_VARIABLE, raising=False)
+    kinematics._compiled.cache_clear()
+    assert kinematics._compiled() is not None
+    fast = compute()
+    monkeypatch.setenv(KERNEL_VARIABLE, "numpy")
+    kinematics._compiled.cache_clear()
+    assert kinematics._compiled() is None
+    reference = compute()
+    monkeypatch.delenv(KERNEL_VARIABLE)
+    kinematics._compiled.cache_clear()
+    return fast, reference
+
+
+def _close(fast: np.ndarray, reference: np.ndarray) -> None:
+    assert fast.shape == reference.shape
+    np.testing.assert_allclose(fast, reference, rtol=0, atol=RTOL * np.max(np.abs(reference)))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_positions_and_jacobians_equal_the_numpy_path(seed: int,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """Mixed parametrisations, base and tool, one table and a batch of tables, a point per
+    table, joints shifted per table, directions per pose or the base axes."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 8))
+    structure = Structure(tuple(rng.choice(PARAMETRISATIONS, n)), base=_rigid(rng),
+                          tool=_rigid(rng))
+    m, k = 40, 5
+    q = rng.uniform(-3, 3, (m, n))
+    table = rng.normal(scale=0.3, size=(4, n))
+    tables = table + rng.normal(scale=0.01, size=(k, 4, n))
+    shifted = turns(q).shifted(rng.normal(scale=0.01, size=(k, m, n)))
+    point = rng.normal(scale=0.05, size=3)
+    points = rng.normal(scale=0.05, size=(k, 3))
+    directions = rng.normal(size=(m, 2, 3))
+    cases = [
+        (table, q, None, None),
+        (table, turns(q), point, directions),
+        (tables, q, point, None),
+        (tables, shifted, points, directions),
+    ]
+    for dh, angles, at, along in cases:
+        fast, reference = _both(monkeypatch, lambda dh=dh, angles=angles, at=at, along=along: (
+            point_position(structure, dh, angles, at),
+            trace_point(structure, dh, angles, at).jacobian(along)))
+        _close(fast[0], reference[0])
+        for got, expected in zip(fast[1], reference[1], strict=True):
+            _close(got, expected)
+
+
+def test_shapes_beyond_the_kernel_take_the_numpy_path() -> None:
+    """A batch of poses against one table broadcasts in numpy: the kernel is not asked."""
+    structure = Structure.standard(6)
+    q = np.zeros((3, 7, 6))
+    assert kinematics._compiled_inputs(structure, np.zeros((4, 6)), turns(q), None) is None
+    assert point_position(structure, np.zeros((4, 6)), q).shape == (3, 7, 3)

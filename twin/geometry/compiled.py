@@ -1,0 +1,171 @@
+"""The hot kernel compiled with numba (optional extra ``fast``): a flange point carried to the
+base for a batch of tables and poses, and its Jacobian along chosen directions.
+
+The same algorithm as :mod:`twin.geometry.kinematics` (the reference, and the path taken
+without numba): the point is carried from the flange to the base through the elementary
+motions of :data:`~twin.geometry.kinematics._MOTIONS`, each direction w from the base to the
+flange, and a motion's column is w·e (translation along e) or w·(e × p) (rotation about e), p
+the point in the frame before the motion. Loops run over motions outside and poses inside, so
+the compiler vectorises over poses. Compiled once and cached on disk (``cache=True``): the
+first call in a fresh install compiles, later processes load the machine code.
+
+Chains here are revolute: the joint variable adds to the joint slot's angle, whose cosine and
+sine come from the poses' cached cos q, sin q by the angle-sum identity.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from twin.arrays import Array
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m: int
+            ) -> tuple[Array, Array]:
+    """cos and sin of every motion's angle for table k at every pose, shape (motions, m) each;
+    the joint slot's is q + θ, the others the table's (the same at every pose)."""
+    motions = plan.shape[0]
+    cos = np.empty((motions, m))
+    sin = np.empty((motions, m))
+    for index in range(motions):
+        slot, joint, driven = plan[index, 2], plan[index, 3], plan[index, 4]
+        value = table[k, slot, joint]
+        c, s = math.cos(value), math.sin(value)
+        if driven:
+            for i in range(m):
+                cos[index, i] = cq[joint, kq, i] * c - sq[joint, kq, i] * s
+                sin[index, i] = sq[joint, kq, i] * c + cq[joint, kq, i] * s
+        else:
+            for i in range(m):
+                cos[index, i] = c
+                sin[index, i] = s
+    return cos, sin
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def positions(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base: Array
+              ) -> Array:
+    """The point in the base frame for K tables at m poses.
+
+    Args:
+        table: Tables, shape (K, 4, n), m and rad.
+        plan: The motions base to flange, rows (kind, axis, slot, joint, driven), (4n, 5).
+        cq: cos q joint-major, shape (n, 1 or K, m). sq: sin q, likewise.
+        start: The point in the last joint's frame (tool applied), shape (1 or K, 3), m.
+        base: The base transform, (4, 4).
+
+    Returns:
+        Shape (K, m, 3), m.
+    """
+    tables, m = table.shape[0], cq.shape[2]
+    out = np.empty((tables, m, 3))
+    p = np.empty((3, m))
+    for k in range(tables):
+        kq, kp = min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1)
+        cos, sin = _angles(table, plan, cq, sq, k, kq, m)
+        for axis in range(3):
+            for i in range(m):
+                p[axis, i] = start[kp, axis]
+        for index in range(plan.shape[0] - 1, -1, -1):
+            kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
+            if kind == 1:
+                value = table[k, slot, joint]
+                for i in range(m):
+                    p[axis, i] += value
+                continue
+            ja, jb = (axis + 1) % 3, (axis + 2) % 3
+            for i in range(m):
+                c, s = cos[index, i], sin[index, i]
+                pa, pb = p[ja, i], p[jb, i]
+                p[ja, i] = c * pa - s * pb
+                p[jb, i] = s * pa + c * pb
+        for i in range(m):
+            for row in range(3):
+                out[k, i, row] = (base[row, 0] * p[0, i] + base[row, 1] * p[1, i]
+                                  + base[row, 2] * p[2, i] + base[row, 3])
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base: Array,
+             tool: Array, directions: Array) -> tuple[Array, Array, Array]:
+    """The point and its derivatives along r directions per pose, for K tables at m poses.
+
+    Args:
+        table, plan, cq, sq, start, base: As :func:`positions`.
+        tool: The tool transform, (4, 4).
+        directions: Directions in the base frame, shape (1 or K, 1 or m, r, 3).
+
+    Returns:
+        ``(position, table_columns, rotation)``: shapes (K, m, 3), (K, m, r, 4n) in the error
+        vector's order (slot-major), (K, m, r, 3).
+    """
+    tables, m = table.shape[0], cq.shape[2]
+    motions, r = plan.shape[0], directions.shape[2]
+    n = motions // 4
+    position = np.empty((tables, m, 3))
+    columns = np.empty((tables, m, r, 4 * n))
+    rotation = np.empty((tables, m, r, 3))
+    before = np.empty((motions, 3, m))
+    p = np.empty((3, m))
+    w = np.empty((3, m))
+    for k in range(tables):
+        kq, kp, kw = (min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1),
+                      min(k, directions.shape[0] - 1))
+        cos, sin = _angles(table, plan, cq, sq, k, kq, m)
+        for axis in range(3):
+            for i in range(m):
+                p[axis, i] = start[kp, axis]
+        for index in range(motions - 1, -1, -1):
+            kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
+            if kind == 1:
+                value = table[k, slot, joint]
+                for i in range(m):
+                    p[axis, i] += value
+                continue
+            ja, jb = (axis + 1) % 3, (axis + 2) % 3
+            for i in range(m):
+                c, s = cos[index, i], sin[index, i]
+                pa, pb = p[ja, i], p[jb, i]
+                p[ja, i] = c * pa - s * pb
+                p[jb, i] = s * pa + c * pb
+            for row in range(3):
+                for i in range(m):
+                    before[index, row, i] = p[row, i]
+        for i in range(m):
+            for row in range(3):
+                position[k, i, row] = (base[row, 0] * p[0, i] + base[row, 1] * p[1, i]
+                                       + base[row, 2] * p[2, i] + base[row, 3])
+        for direction in range(r):
+            for i in range(m):
+                iw = min(i, directions.shape[1] - 1)
+                for row in range(3):  # R_baseᵀ w
+                    w[row, i] = (base[0, row] * directions[kw, iw, direction, 0]
+                                 + base[1, row] * directions[kw, iw, direction, 1]
+                                 + base[2, row] * directions[kw, iw, direction, 2])
+            for index in range(motions):
+                kind, axis, slot, joint = (plan[index, 0], plan[index, 1], plan[index, 2],
+                                           plan[index, 3])
+                column = slot * n + joint
+                if kind == 1:
+                    for i in range(m):
+                        columns[k, i, direction, column] = w[axis, i]
+                    continue
+                ja, jb = (axis + 1) % 3, (axis + 2) % 3
+                for i in range(m):
+                    c, s = cos[index, i], sin[index, i]
+                    wa, wb = w[ja, i], w[jb, i]
+                    columns[k, i, direction, column] = (wb * before[index, ja, i]
+                                                        - wa * before[index, jb, i])
+                    w[ja, i] = c * wa + s * wb
+                    w[jb, i] = c * wb - s * wa
+            for i in range(m):
+                for row in range(3):  # R_toolᵀ w
+                    rotation[k, i, direction, row] = (tool[0, row] * w[0, i]
+                                                      + tool[1, row] * w[1, i]
+                                                      + tool[2, row] * w[2, i])
+    return position, columns, rotation
