@@ -67,7 +67,7 @@ def _document(**changes: object) -> dict:
         ({"joints__backlash_arcsec": [1.0, 2.0]}, "[joints] backlash_arcsec", "[1.0, 2.0]"),
         ({"physics__stiffness_nm_per_rad": None}, "[physics] stiffness_nm_per_rad", "nothing"),
         ({"physics__compliance": False}, "[physics] stiffness_nm_per_rad", "compliance = false"),
-        ({"calibration__train_fraction": 1.0}, "[calibration] train_fraction", "1.0"),
+        ({"calibration__train_fraction": 1.5}, "[calibration] train_fraction", "1.5"),
         ({"calibration__errors": ["dh", "gears"]}, "[calibration] errors", "'gears'"),
         ({"calibration__errors": []}, "[calibration] errors", "[]"),
         ({"physics__mass_error": 1.5}, "[physics] mass_error", "1.5"),

@@ -17,6 +17,7 @@ from twin.distribution import lazy_exports
 
 if TYPE_CHECKING:
     from twin.analysis.metrics import Metrics
+    from twin.calibration.crossval import CrossValidation, cross_validate
     from twin.calibration.pipeline import calibrate, calibrate_many
     from twin.calibration.predict import Prediction, predict
     from twin.calibration.result import CalibrationResult
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
 
 __getattr__ = lazy_exports(__name__, {
     "twin.analysis.metrics": ("Metrics",),
+    "twin.calibration.crossval": ("CrossValidation", "cross_validate"),
     "twin.calibration.pipeline": ("calibrate", "calibrate_many"),
     "twin.calibration.predict": ("Prediction", "predict"),
     "twin.calibration.result": ("CalibrationResult",),
@@ -64,6 +66,7 @@ __all__ = [
     "Budget",
     "CalibrationResult",
     "CalibrationSettings",
+    "CrossValidation",
     "Distance",
     "IdentifiedModel",
     "InputError",
@@ -81,6 +84,7 @@ __all__ = [
     "cable_length",
     "calibrate",
     "calibrate_many",
+    "cross_validate",
     "default_robot",
     "flange_transform",
     "load_measurements",

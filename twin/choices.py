@@ -38,3 +38,9 @@ DEFAULT_SETTLE_S = 0.5
 MAX_TENSION_N = 1000.0
 """Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
 bend an IRB 120 rather than load it."""
+QUANTITY_UNITS = ("mm", "m", "deg", "rad", "arcsec", "urad/Nm", "µrad/(N·m)")
+"""The units a value typed with its number may carry (``--bounds a2=20mm``;
+:data:`twin.units.QUANTITY_UNITS` converts them)."""
+MIN_FOLDS = 2
+MAX_FOLDS = 1000
+"""The fewest and most folds of a cross-validation (:mod:`twin.calibration.crossval`)."""

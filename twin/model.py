@@ -132,6 +132,20 @@ class Model:
         return (np.concatenate([group.lower for group in self.groups]),
                 np.concatenate([group.upper for group in self.groups]))
 
+    def prior_weight(self) -> Array:
+        """1/σ of each unknown's zero-mean Gaussian prior, 0 where none, shape (p,)."""
+        return np.concatenate([group.prior_weight for group in self.groups]) if self.groups \
+            else np.zeros(0)
+
+    def scale(self) -> Array:
+        """How far each unknown may plausibly move, shape (p,): its prior's σ, else half its
+        search range — the unit of the step tests and of the norm in which what the data
+        cannot see is held at the nominal (:mod:`twin.analysis.unseen`)."""
+        lower, upper = self.bounds()
+        weight = self.prior_weight()
+        return np.where(weight > 0, 1.0 / np.where(weight > 0, weight, 1.0),
+                        0.5 * (upper - lower))
+
     @property
     def needs_approach(self) -> bool:
         """Whether a group reads the direction each joint approached its pose from (backlash):
@@ -161,15 +175,16 @@ class Model:
     def with_rig(self, rig: Rig, x: ArrayLike) -> tuple[Model, Array]:
         """This model for another rig (other ports, another cable tension), and unknowns x (p,)
         carried over: the groups are made again for it (compliance depends on the cable's
-        pull); a group whose size changes with the rig (a correction per port) starts again at
-        zero.
+        pull), with the bounds, priors and fixed parameters they had; a group whose size
+        changes with the rig (a correction per port) starts again at zero.
 
         Returns:
             ``(model, x)``: the model for ``rig`` and its unknowns, shape (p',).
         """
         x = self._check(x)
-        model = Model(self.robot, rig, self.kind,
-                      make_groups([group.name for group in self.groups], self.robot, rig))
+        model = Model(self.robot, rig, self.kind, tuple(
+            group.like(self.group(group.name)) for group in
+            make_groups([group.name for group in self.groups], self.robot, rig)))
         carried = np.zeros(model.n_params)
         for group in model.groups:
             if group.size == self.group(group.name).size:
@@ -357,6 +372,21 @@ class Model:
             if group.stage == Stage.MEASUREMENT:
                 jacobian[:, self.slice(group.name)] = kind.by_group[group.name]
         return kind.residuals, jacobian
+
+    def joint_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
+        """How each residual row moves with the recorded joint angles, ∂r/∂q, shape (M, n),
+        m/rad, at one x (p,): the rows that are not a pose's (known distances) do not move.
+        Noise in the recorded angles reaches the rows through it (errors in variables); a
+        joint-level correction's own dependence on q is second order and left out."""
+        x = self._check(x)
+        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
+                            self.point(x))
+        kind = self.kind.jacobian(Measured(trace.position), self._measurement_values(x), data,
+                                  self.rig)
+        m, rows = len(data), self.kind.rows_per_pose
+        moves = np.zeros((kind.residuals.size, self.robot.n_joints))
+        moves[: m * rows] = trace.jacobian(kind.by_position).joints.reshape(m * rows, -1)
+        return moves
 
     def symmetries(self, x: ArrayLike) -> Array:
         """The kind's known gauge directions at x (:meth:`twin.kinds.base.Kind.symmetries`),

@@ -1,5 +1,19 @@
-"""A calibration problem as the solvers see it: model, data split, bounds and start.
+"""A calibration problem as the solvers see it: model, data split, bounds, start — and the one
+objective every method minimises.
 
+The objective's rows are formed here and nowhere else, so that every method (least squares,
+filters, swarms, cascades) minimises the same thing:
+
+1. the training residuals, each row r_i scaled by σ / σ_i — σ the stated noise of a reading,
+   σ_i that row's own (:meth:`Problem.row_sigma`: the reading's noise and the joints' noise
+   through the row's Jacobian, errors in variables; σ_i = σ, and the rows unchanged, when the
+   joints are taken as exact);
+2. a robust loss on those rows, if any (:mod:`twin.loss`);
+3. then one row ``σ · x_j / σ_p,j`` per unknown with a prior N(0, σ_p,j²) (method-notes §7:
+   Tikhonov regularisation towards the nominal, never touched by the loss).
+
+Every row is a reading of noise σ under the stated model, so the filters take each as a
+measurement of variance σ², and f = mean of the rows' costs (m²) is the objective.
 How long a method runs is its :class:`~twin.stopping.Budget`.
 """
 
@@ -8,12 +22,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.loss import LEAST_SQUARES, Loss
 from twin.model import Model
-from twin.stopping import scale
 from twin.units import mm_to_m
 
 DEFAULT_SIGMA_M = float(mm_to_m(0.01))
@@ -22,16 +36,22 @@ DEFAULT_SIGMA_M = float(mm_to_m(0.01))
 
 @dataclass(frozen=True)
 class Problem:
-    """What a solver gets: minimise f(x) = mean r(x)² over the training poses inside the box
-    (with a robust loss, the mean of each row's cost, :mod:`twin.loss`).
+    """What a solver gets: minimise f(x), the mean of the objective's rows' costs (module
+    docstring), over the training poses inside the box.
 
     Attributes:
         model: Maps unknowns x (p,) to residuals.
         train: Poses the objective is computed on.
-        validation: Held-out poses, for the history only; solvers never fit to them.
-        sigma_m: Expected length noise (1σ), m: the measurement noise of the filters.
+        validation: Held-out poses, for the history only; solvers never fit to them (may be
+            empty: every pose trained on).
+        sigma_m: Expected noise (1σ) of a reading, m: the measurement noise of the filters and
+            the unit every row of the objective is scaled to.
         x0: Start (and centre of the initial swarms), shape (p,); empty means zeros (nominal).
         loss: How much each residual row counts; least squares by default.
+        joint_sigma_rad: The noise 1σ of each recorded joint angle, shape (n,), rad (a
+            resolution r gives r/√12); zeros (the default) take the joints as exact.
+        linearised_at: Where the rows' joint Jacobians g_i = ∂r_i/∂q are evaluated, shape (p,);
+            empty means ``x0``. A calibration evaluates them again at its first answer.
     """
 
     model: Model
@@ -40,17 +60,33 @@ class Problem:
     sigma_m: float = DEFAULT_SIGMA_M
     x0: Array = field(default_factory=lambda: np.zeros(0))
     loss: Loss = LEAST_SQUARES
+    joint_sigma_rad: Array = field(default_factory=lambda: np.zeros(0))
+    linearised_at: Array = field(default_factory=lambda: np.zeros(0))
+    _train_weight: Array = field(init=False, repr=False, compare=False)
+    _prior: Array = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        p, n = self.model.n_params, self.model.robot.n_joints
         x0 = np.array(self.x0, dtype=np.float64)
         if x0.size == 0:
-            x0 = np.zeros(self.model.n_params)
-        if x0.shape != (self.model.n_params,):
-            raise ValueError(f"x0: shape {x0.shape}, expected ({self.model.n_params},)")
+            x0 = np.zeros(p)
+        if x0.shape != (p,):
+            raise ValueError(f"x0: shape {x0.shape}, expected ({p},)")
         if not self.sigma_m > 0:
             raise ValueError("sigma_m must be > 0")
-        x0.setflags(write=False)
-        object.__setattr__(self, "x0", x0)
+        joints = np.array(self.joint_sigma_rad, dtype=np.float64)
+        joints = np.zeros(n) if joints.size == 0 else joints
+        if joints.shape != (n,) or not np.all(np.isfinite(joints) & (joints >= 0)):
+            raise ValueError(f"joint_sigma_rad: expected ({n},) values >= 0")
+        at = np.array(self.linearised_at, dtype=np.float64)
+        at = x0.copy() if at.size == 0 else at
+        if at.shape != (p,):
+            raise ValueError(f"linearised_at: shape {at.shape}, expected ({p},)")
+        for name, value in (("x0", x0), ("joint_sigma_rad", joints), ("linearised_at", at)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "_train_weight", self.sigma_m / self.row_sigma(self.train))
+        object.__setattr__(self, "_prior", np.flatnonzero(self.model.prior_weight() > 0))
 
     @property
     def lower(self) -> Array:
@@ -64,5 +100,86 @@ class Problem:
 
     @property
     def scale(self) -> Array:
-        """Scale of each unknown for the step tests: half its search range, shape (p,)."""
-        return scale(self.lower, self.upper)
+        """Scale of each unknown for the step tests, shape (p,): its prior's σ, else half its
+        search range (:meth:`twin.model.Model.scale`)."""
+        return self.model.scale()
+
+    @property
+    def in_variables(self) -> bool:
+        """Whether the joints' noise enters the rows' variances (errors in variables)."""
+        return bool(np.any(self.joint_sigma_rad > 0))
+
+    def row_sigma(self, data: Measurements) -> Array:
+        """The noise 1σ of each residual row of ``data``, shape (M,), m: the reading's σ and the
+        joints' noise through the row's Jacobian, sqrt(σ² + Σ_j (∂r_i/∂q_j σ_q,j)²)
+        (method-notes §7), evaluated at :attr:`linearised_at`; σ for every row when the joints
+        are exact."""
+        if not self.in_variables:
+            rows = self.model.residuals(self.x0, data).shape[-1]
+            return np.full(rows, self.sigma_m)
+        moves = self.model.joint_jacobian(self.linearised_at, data) * self.joint_sigma_rad
+        return np.asarray(np.sqrt(self.sigma_m**2 + np.sum(moves**2, axis=1)), dtype=np.float64)
+
+    @property
+    def train_weight(self) -> Array:
+        """σ / σ_i of each training row, shape (M,): 1 when the joints are exact."""
+        return self._train_weight
+
+    @property
+    def prior_rows(self) -> int:
+        """How many prior rows the objective appends."""
+        return int(self._prior.size)
+
+    def data_residuals(self, x: ArrayLike) -> Array:
+        """The training rows scaled to the noise σ, r_i σ / σ_i, for unknowns (..., p): shape
+        (..., M), m."""
+        return self.model.residuals(x, self.train) * self._train_weight
+
+    def data_jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
+        """:meth:`data_residuals` (M,) and their Jacobian (M, p) at one x (p,)."""
+        r, jacobian = self.model.jacobian(x, self.train)
+        return r * self._train_weight, jacobian * self._train_weight[:, None]
+
+    def _prior_residuals(self, x: ArrayLike) -> Array:
+        weight = self.sigma_m * self.model.prior_weight()[self._prior]
+        return np.asarray(np.asarray(x, dtype=np.float64)[..., self._prior] * weight,
+                          dtype=np.float64)
+
+    def residuals(self, x: ArrayLike) -> Array:
+        """The objective's rows before the loss, for unknowns (..., p): the scaled training rows,
+        then the prior rows σ x_j / σ_p,j; shape (..., M + P), m."""
+        return np.concatenate([self.data_residuals(x), self._prior_residuals(x)], axis=-1)
+
+    def jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
+        """:meth:`residuals` (M + P,) and their Jacobian (M + P, p) at one x (p,)."""
+        r, jacobian = self.data_jacobian(x)
+        prior = np.zeros((self._prior.size, self.model.n_params))
+        prior[np.arange(self._prior.size), self._prior] = \
+            self.sigma_m * self.model.prior_weight()[self._prior]
+        return (np.concatenate([r, self._prior_residuals(x)]),
+                np.concatenate([jacobian, prior]))
+
+    def cost(self, rows: ArrayLike) -> Array:
+        """f: the mean of the rows' costs (the loss on the training rows, squares of the prior
+        rows), for rows (..., M + P) of :meth:`residuals`: shape (...,), m²."""
+        rows = np.asarray(rows, dtype=np.float64)
+        split = rows.shape[-1] - self._prior.size
+        total = np.sum(self.loss.cost(rows[..., :split]), axis=-1) \
+            + np.sum(rows[..., split:] ** 2, axis=-1)
+        return np.asarray(total / rows.shape[-1], dtype=np.float64)
+
+    def loss_rows(self, rows: ArrayLike, jacobian: ArrayLike) -> tuple[Array, Array]:
+        """The rows least squares iterates on (:meth:`twin.loss.Loss.rows` on the training rows,
+        the prior rows as they are), from :meth:`jacobian`'s: (M + P,), (M + P, p)."""
+        rows = np.asarray(rows, dtype=np.float64)
+        jacobian = np.asarray(jacobian, dtype=np.float64)
+        split = rows.size - self._prior.size
+        r, J = self.loss.rows(rows[:split], jacobian[:split])
+        return np.concatenate([r, rows[split:]]), np.concatenate([J, jacobian[split:]])
+
+    def loss_weights(self, rows: ArrayLike) -> Array:
+        """The loss's IRLS weight ρ'(z) of each row of :meth:`residuals` (1 for a prior row),
+        shape (M + P,)."""
+        rows = np.asarray(rows, dtype=np.float64)
+        split = rows.size - self._prior.size
+        return np.concatenate([self.loss.weights(rows[:split]), np.ones(self._prior.size)])

@@ -142,6 +142,16 @@ DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
 decimals a result keeps. An unknown group with a unit of its own adds it here."""
 
 
+QUANTITY_UNITS: dict[str, tuple[str, float]] = {  # keyed as twin.choices.QUANTITY_UNITS
+    "mm": ("m", M_PER_MM), "m": ("m", 1.0),
+    "deg": ("rad", np.pi / 180.0), "rad": ("rad", 1.0),
+    "arcsec": ("rad", np.pi / (180.0 * ARCSEC_PER_DEG)),
+    "urad/Nm": (COMPLIANCE_UNIT, 1.0 / MICRO), "µrad/(N·m)": (COMPLIANCE_UNIT, 1.0 / MICRO),
+}
+"""The units a value typed with its number may carry (``--bounds a2=20mm``, ``dh=0.5deg``):
+for each, the SI unit of the unknowns it applies to and the factor to it."""
+
+
 def to_display(values_si: ArrayLike, units: tuple[str, ...] | list[str]
                ) -> tuple[list[float], list[str]]:
     """Values in SI units to the units people read (mm, degrees…), rounded as results keep

@@ -25,9 +25,15 @@ class Metrics(NamedTuple):
     """max |r|."""
 
 
+NO_ROWS = Metrics(float("nan"), float("nan"), float("nan"), float("nan"))
+"""The metrics of no residuals (a split that leaves no validation pose): not a number."""
+
+
 def metrics(residuals: ArrayLike) -> Metrics:
-    """Metrics of a residual vector, shape (m,)."""
+    """Metrics of a residual vector, shape (m,); :data:`NO_ROWS` for an empty one."""
     r = np.asarray(residuals, dtype=np.float64)
+    if not r.size:
+        return NO_ROWS
     return Metrics(
         rmse=float(np.sqrt(np.mean(r**2))),
         mae=float(np.mean(np.abs(r))),

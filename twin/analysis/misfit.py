@@ -18,7 +18,10 @@ resolution's res²/12 folded in, ``--sigma``, and the robot's repeatability seen
 direction, ``--repeatability``: :func:`reading_sigma`) and the noise measured by repeat
 readings: rows with the same joint angles (and port or fixed point) should read the same, and
 their pooled spread is measured noise no model can remove. With a robust loss the rows it
-rejects are left out of the test (they are listed apart).
+rejects are left out of the test (they are listed apart). When the recorded joint angles are
+noisy too (a resolution, ``--joint-resolution-deg``), each row has its own variance, the
+reading's plus the joints' through the row's Jacobian (errors in variables, method-notes §7):
+the test uses those variances, as the fit weights its rows by them.
 """
 
 from __future__ import annotations
@@ -128,7 +131,8 @@ def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
 
 
 def misfit_test(residuals_m: ArrayLike, rank: int, stated_sigma_m: float,
-                repeat: tuple[float, int] | None = None) -> Misfit:
+                repeat: tuple[float, int] | None = None,
+                row_sigma_m: ArrayLike | None = None) -> Misfit:
     """Test training residuals against the noise (see the module docstring).
 
     Args:
@@ -136,13 +140,22 @@ def misfit_test(residuals_m: ArrayLike, rank: int, stated_sigma_m: float,
         rank: Identified combinations L.
         stated_sigma_m: The instrument's stated noise 1σ, m (> 0).
         repeat: The noise measured by repeat readings and its degrees of freedom, if any.
+        row_sigma_m: Each row's own noise 1σ, shape (N,), m, when the joints' noise enters it
+            (errors in variables, :meth:`twin.problem.Problem.row_sigma`): the test is then
+            ``T = Σ (r_i / σ_i)²``, the variances the fit weighted its rows by, and the noise
+            reported their RMS.
     """
     r = np.asarray(residuals_m, dtype=np.float64)
-    noise, source = stated_sigma_m, "stated σ"
+    sigma = np.full(r.size, stated_sigma_m) if row_sigma_m is None \
+        else np.asarray(row_sigma_m, dtype=np.float64)
+    noise = float(np.sqrt(np.mean(sigma**2))) if sigma.size else stated_sigma_m
+    source = "stated σ" if row_sigma_m is None else \
+        "stated σ with the joints' noise through each row's Jacobian"
     if repeat is not None and repeat[0] > noise:
         noise, source = repeat[0], f"repeat readings, {repeat[1]} degrees of freedom"
+        sigma = np.full(r.size, noise)
     dof = max(r.size - rank, 1)
-    statistic = float(r @ r) / noise**2
+    statistic = float(np.sum((r / sigma) ** 2))
     threshold = chi2_quantile(1.0 - ALPHA, dof)
     rmse = float(np.sqrt(np.mean(r**2)))
     return Misfit(rmse, noise, source, statistic, dof, threshold, bool(statistic > threshold))

@@ -66,10 +66,10 @@ def seen_covariance(jacobian: ArrayLike, seen_x: ArrayLike, sigma_m: float) -> A
 
 def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float) -> Unseen:
     """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m), in the unknowns
-    scaled by half their search range: what a calibration of such data holds."""
-    lower, upper = model.bounds()
+    scaled by how far each may move (:meth:`twin.model.Model.scale`): what a calibration of
+    such data holds."""
     nominal = measurement_identifiability(model, np.zeros(model.n_params), data)
-    return unseen_directions(model, x, data, sigma_m, 0.5 * (upper - lower), nominal)
+    return unseen_directions(model, x, data, sigma_m, model.scale(), nominal)
 
 
 def rms_distance(a_m: ArrayLike, b_m: ArrayLike) -> float:
@@ -232,8 +232,11 @@ def calibration_uncertainty(
     rank: int,
     q_workspace_rad: ArrayLike,
     unseen: Unseen,
+    row_weight: ArrayLike | None = None,
 ) -> CalibrationUncertainty:
-    """Covariance and predicted accuracy of an identified x from its training data.
+    """Covariance and predicted accuracy of an identified x from its training data — with
+    priors (:meth:`twin.model.Model.prior_weight`), the posterior's: the data's information
+    ``JᵀJ / σ̂²`` and the priors' ``diag(1/σ_p²)`` added.
 
     Args:
         model: The fitted measurement model.
@@ -244,11 +247,19 @@ def calibration_uncertainty(
         q_workspace_rad: Poses where the flange accuracy is predicted, shape (k, n), rad.
         unseen: What the training poses cannot see (held at the start): the covariance and the
             accuracy are those of the other combinations.
+        row_weight: σ / σ_i of each training row (M,) when the rows' noise differs (errors
+            in variables): the rows are scaled by it, and σ̂ is that of a scaled row.
     """
     x = np.asarray(x, dtype=np.float64)
     residuals, jacobian = model.identifiable_jacobian(x, train)
+    if row_weight is not None:
+        weight = np.asarray(row_weight, dtype=np.float64)
+        residuals, jacobian = residuals * weight, jacobian * weight[:, None]
     noise = residual_sigma(residuals, rank)
-    covariance = seen_covariance(jacobian, unseen.seen_x, noise)
+    prior = model.prior_weight()
+    covariance = seen_covariance(
+        np.concatenate([jacobian / noise, np.diag(prior)[prior > 0]]), unseen.seen_x, 1.0) \
+        if noise > 0 else seen_covariance(jacobian, unseen.seen_x, 0.0)
     held = np.linalg.norm(unseen.seen, axis=1) < HELD_ROW_TOL
     sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     poses = model.poses(q_workspace_rad)

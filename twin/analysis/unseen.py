@@ -8,10 +8,12 @@ start in the **bound-scaled** unknowns z = x / w:
     x ← x − W N Nᵀ W⁻¹ x,
 
 w the half-range of each unknown's search box (a millimetre of δa and 1.6 mrad of δθ weigh as
-the box says they may) for the robot's unknowns, and :data:`RIG_WEIGHT` times that for the
-rig's (port, offset, attachment, tracker frame, fixed points): the robot stays at its nominal
-along what the data cannot see and the rig — which has no nominal to keep, it is what was
-measured — takes up the trade (an estimated port turns about joint 1's axis, not θ1).
+the box says they may) — or its prior's σ where the user gave one
+(:meth:`twin.model.Model.scale`: what the user says each unknown may plausibly do) — for the
+robot's unknowns, and :data:`RIG_WEIGHT` times that for the rig's (port, offset, attachment,
+tracker frame, fixed points): the robot stays at its nominal along what the data cannot see
+and the rig — which has no nominal to keep, it is what was measured — takes up the trade (an
+estimated port turns about joint 1's axis, not θ1).
 
 N the orthonormal basis (in z) of the unseen directions. The candidates are the null
 directions of the training poses at the **start** geometry — the identifiability null space at
@@ -23,8 +25,10 @@ geometry lets the data see it after all: it is held when, at the identified unkn
 - it has a component in the exact null space there (α6 of a flange-centre cable never moves
   a reading; a gauge motion of an estimated port), or
 - its Cramér–Rao σ (σ̂ of the fit's noise estimate, every other unknown free) exceeds
-  :data:`HELD_SIGMA` half-ranges of the box: the box, not the data, would decide it (θ6 when
-  a6 is a fraction of a millimetre and the model misses something).
+  :data:`HELD_SIGMA` half-ranges of the box (or σ of its prior): the box or the prior, not the
+  data, would decide it (θ6 when a6 is a fraction of a millimetre and the model misses
+  something). The test reads the data alone (the priors' rows left out), so that a prior never
+  makes a direction look seen; rows of unequal noise count by their weights.
 
 So θ6 of the paper's rig stays at exactly 0, while a large true error that makes a candidate
 visible (a6 of 5 mm in the bounds regime) keeps it free, and noise-free data hold only what no
@@ -144,7 +148,8 @@ def _column_units(jacobian: Array, scale: Array) -> Array:
 
 
 def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: float,
-                      scale: ArrayLike, nominal: Identifiability) -> Unseen:
+                      scale: ArrayLike, nominal: Identifiability,
+                      row_weight: ArrayLike | None = None) -> Unseen:
     """What ``data`` cannot see at the unknowns x (module docstring).
 
     Args:
@@ -153,13 +158,19 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
         data: The poses (the training poses of a fit).
         noise_m: The noise 1σ of a reading the Cramér–Rao test uses, m (0: the rank test
             alone).
-        scale: Half the search range of each unknown, shape (p,).
+        scale: How far each unknown may plausibly move, shape (p,): its prior's σ, else half
+            its search range (:meth:`twin.model.Model.scale`).
         nominal: What the same poses identify at the start geometry: its null directions are
             the candidates.
+        row_weight: σ / σ_i of each row of ``data`` (M,), when the rows' noise differs (errors
+            in variables, :class:`twin.problem.Problem`); ``noise_m`` is then that of a
+            scaled row.
     """
     scale = np.asarray(scale, dtype=np.float64)
     weight = np.where(rig_unknowns(model), RIG_WEIGHT, 1.0) * scale
     _, jacobian = model.identifiable_jacobian(np.asarray(x, dtype=np.float64), data)
+    if row_weight is not None:
+        jacobian = jacobian * np.asarray(row_weight, dtype=np.float64)[:, None]
     scaled = jacobian * scale
     _, s, vt = np.linalg.svd(scaled, full_matrices=True)
     s = np.concatenate([s, np.zeros(scale.size - s.size)])

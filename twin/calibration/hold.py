@@ -71,8 +71,10 @@ class Held(NamedTuple):
 
 
 def _objective(problem: Problem, x: Array) -> tuple[Array, float]:
-    """The training residuals at x (p,) and the objective f, m²."""
-    residuals = problem.model.residuals(x, problem.train)
+    """The training rows at x (p,), each scaled to the noise of a reading
+    (:meth:`twin.problem.Problem.data_residuals`), and their mean cost f, m² — what the data
+    say, without the priors: the data's fit is what the start is compared with."""
+    residuals = problem.data_residuals(x)
     return residuals, float(np.mean(problem.loss.cost(residuals)))
 
 
@@ -81,11 +83,11 @@ def _polish(problem: Problem, x: Array, target: Array, seen_x: Array) -> Array:
     ``target``, inside the search box."""
     lower, upper = problem.lower, problem.upper
     for _ in range(POLISH_ITERATIONS):
-        residuals, jacobian = problem.model.jacobian(x, problem.train)
+        residuals, jacobian = problem.data_jacobian(x)
         gap = residuals - target
         step = np.linalg.lstsq(jacobian @ seen_x, -gap, rcond=None)[0]
         moved = np.clip(x + seen_x @ step, lower, upper)
-        change = problem.model.residuals(moved, problem.train) - target
+        change = problem.data_residuals(moved) - target
         if np.linalg.norm(change) >= np.linalg.norm(gap):
             break
         x = moved
@@ -116,7 +118,8 @@ def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
     # The noise of the rows the loss keeps: outliers a robust loss rejects are not noise.
     kept = target[~problem.loss.rejected(target)] if problem.loss.robust else target
     noise = residual_sigma(kept, rank) if kept.size > rank else 0.0
-    unseen = unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal)
+    unseen = unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal,
+                               problem.train_weight)
     moved = unseen.along(x - start)
     held, along = x, unseen
     # Where the data trade unknowns nonlinearly (an eyelet's turn about the flange axis for
@@ -128,7 +131,7 @@ def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
         held = np.clip(start + along.remove(held - start), problem.lower, problem.upper)
         held = _polish(problem, held, target, along.seen_x)
         along = unseen_directions(problem.model, held, problem.train, noise, problem.scale,
-                                  nominal)
+                                  nominal, problem.train_weight)
     _, f_held = _objective(problem, held)
     _, f_start = _objective(problem, start)
     rows = target.size

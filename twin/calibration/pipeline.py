@@ -23,10 +23,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
-from twin.analysis.metrics import metrics
+from twin.analysis.metrics import Metrics, metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
 from twin.analysis.uncertainty import WORKSPACE_POSES, calibration_uncertainty
 from twin.arrays import Array
+from twin.calibration.held_out import held_out_residuals
 from twin.calibration.hold import hold_unseen
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.settings import CalibrationSettings
@@ -70,11 +71,14 @@ def rejected_poses(problem: Problem, x: ArrayLike, data: Measurements) -> NDArra
 
 
 def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_workspace: Array
-            ) -> tuple[Misfit, NDArray[np.intp], Measurements, Gauge]:
-    """The fit test, the rejected rows, the training poses kept and the unobservable motions."""
-    problem, train_rows, validation_rows, _ = split
+            ) -> tuple[Misfit, NDArray[np.intp], Measurements, Array | None, Gauge]:
+    """The fit test, the rejected rows, the training poses kept (and their rows' weights σ/σ_i
+    when they differ) and the unobservable motions."""
+    problem, train_rows, validation_rows = split.problem, split.train_rows, split.validation_rows
     out_train = rejected_poses(problem, x, problem.train)
-    out_validation = rejected_poses(problem, x, problem.validation)
+    # Rows of the measurements: a separate file's rejected rows are not among them.
+    out_validation = rejected_poses(problem, x, problem.validation) if not split.held_out \
+        else np.zeros(0, dtype=bool)
     rejected = np.sort(np.concatenate([train_rows[out_train], validation_rows[out_validation]]))
     rows = problem.model.kind.rows_per_pose
     # A loss that rejects nearly everything (a swarm far from the optimum) leaves no degree of
@@ -82,10 +86,25 @@ def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_worksp
     enough = rows * int(np.sum(~out_train)) > identified.rank
     kept = problem.train.subset(np.flatnonzero(~out_train)) if enough else problem.train
     residuals = problem.model.residuals(x, kept)
+    row_sigma = problem.row_sigma(kept) if problem.in_variables else None
     misfit = misfit_test(residuals, identified.rank, problem.sigma_m,
-                         repeat_sigma(kept, residuals, rows))
+                         repeat_sigma(kept, residuals, rows), row_sigma)
     gauge = unobservable_motions(problem.model, x, identified.null_space, q_workspace)
-    return misfit, rejected.astype(np.intp), kept, gauge
+    weight = None if row_sigma is None else problem.sigma_m / row_sigma
+    return misfit, rejected.astype(np.intp), kept, weight, gauge
+
+
+def _metrics(problem: Problem, x: Array) -> dict[str, Metrics]:
+    """``before`` (the start on the validation poses, or on the training poses when there are
+    none), ``train`` and, when there are validation poses, ``validation``
+    (:func:`twin.calibration.held_out.held_out_residuals`)."""
+    model, train, validation = problem.model, problem.train, problem.validation
+    trained = metrics(model.residuals(x, train))
+    if not len(validation):
+        return {"before": metrics(model.residuals(problem.x0, train)), "train": trained}
+    return {"before": metrics(held_out_residuals(model, problem.x0, train, validation)),
+            "train": trained,
+            "validation": metrics(held_out_residuals(model, x, train, validation))}
 
 
 def solve_many(
@@ -99,8 +118,7 @@ def solve_many(
     """:func:`calibrate_many` on a problem already made (and so already checked) by
     :func:`make_problem`."""
     solvers = [get_solver(name) for name in methods]
-    problem, train_rows, validation_rows, _ = split
-    before = metrics(problem.model.residuals(problem.x0, problem.validation))
+    problem = split.problem
     nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
     budget = split.settings.budget
@@ -110,19 +128,16 @@ def solve_many(
         held = hold_unseen(problem, solved.x, nominal)
         solved = solved._replace(x=held.x)
         identified = measurement_identifiability(problem.model, solved.x, problem.train)
-        misfit, rejected, kept, gauge = _assess(split, solved.x, identified, q_workspace)
+        misfit, rejected, kept, weight, gauge = _assess(split, solved.x, identified,
+                                                        q_workspace)
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
-            train_rows=train_rows, validation_rows=validation_rows,
-            metrics={
-                "before": before,
-                "train": metrics(problem.model.residuals(solved.x, problem.train)),
-                "validation": metrics(problem.model.residuals(solved.x, problem.validation)),
-            },
+            train_rows=split.train_rows, validation_rows=split.validation_rows,
+            metrics=_metrics(problem, solved.x),
             identifiability=nominal,
             identified_identifiability=identified,
             uncertainty=calibration_uncertainty(
-                problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen
+                problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen, weight
             ),
             settings=split.settings,
             misfit=misfit,
@@ -130,6 +145,7 @@ def solve_many(
             gauge=gauge,
             unseen=held.unseen,
             held=held,
+            held_out=split.held_out,
         )
         if on_result is not None:
             on_result(results[solver.name])

@@ -39,7 +39,8 @@ class CalibrationResult:
         train_rows: Row indices used for identification, shape (m_train,).
         validation_rows: Held-out row indices, shape (m_val,).
         metrics: ``{"before", "train", "validation"}`` metrics in m; ``before`` is the nominal
-            model on the validation poses.
+            model on the validation poses — on the training poses, and no ``validation``,
+            when there are none (every pose trained on).
         identifiability: What the training poses identify at the start (nominal) geometry.
         identified_identifiability: The same at the identified geometry.
         uncertainty: Noise estimate, base-parameter covariance and predicted flange accuracy.
@@ -54,6 +55,8 @@ class CalibrationResult:
             start (:mod:`twin.analysis.unseen`).
         held: What holding them did to the method's answer, and whether the start was kept
             instead (:mod:`twin.calibration.hold`).
+        held_out: Where the validation poses come from when they are not a split of the
+            measurements (a separate file); empty for a split.
     """
 
     robot: RobotModel
@@ -72,6 +75,12 @@ class CalibrationResult:
     gauge: Gauge | None = None
     unseen: Unseen | None = None
     held: Held | None = None
+    held_out: str = ""
+
+    @property
+    def validated(self) -> bool:
+        """Whether there were validation poses (``metrics["validation"]``)."""
+        return "validation" in self.metrics
 
     @property
     def x(self) -> Array:
@@ -111,6 +120,18 @@ class CalibrationResult:
         """Names of the unknowns the method left on a bound of the search box."""
         lower, upper = self.model.bounds()
         return tuple(np.asarray(self.model.names)[at_bounds(self.solver.x, lower, upper)])
+
+    @property
+    def prior_decided(self) -> tuple[str, ...]:
+        """Names of the unknowns their prior, not the data, decided: a prior given, and the
+        data adding less information than it — a posterior σ above :data:`PRIOR_DECIDED` of the
+        prior's — or none (held at the nominal)."""
+        weight = self.model.prior_weight()
+        if self.uncertainty is None or not np.any(weight > 0):
+            return ()
+        ratio = self.uncertainty.sigma * weight  # posterior σ / prior σ; NaN where held
+        decided = (weight > 0) & ~(ratio <= PRIOR_DECIDED)
+        return tuple(np.asarray(self.model.names)[decided])
 
     @property
     def ports_m(self) -> Array:
@@ -158,6 +179,11 @@ class CalibrationResult:
             else 0.0
 
 
+PRIOR_DECIDED = float(np.sqrt(0.5))
+"""An unknown with a posterior σ above this share of its prior's σ was decided by the prior: the
+data's information about it (1/σ_data² = 1/σ² − 1/σ_p²) is less than the prior's."""
+
+
 class SplitProblem(NamedTuple):
     """A problem, the rows of the measurements it trains and validates on, and the settings it
     was made from."""
@@ -169,3 +195,7 @@ class SplitProblem(NamedTuple):
     """Held-out row indices, shape (m_val,)."""
     settings: CalibrationSettings
     """What is estimated and how (:mod:`twin.calibration.settings`)."""
+    held_out: str = ""
+    """Where the validation poses come from when they are not a split of the measurements (a
+    separate file, named; ``validation_rows`` then empty: every row trains); empty for a
+    split."""

@@ -8,8 +8,11 @@ scenario's ``[calibration]`` table (:mod:`twin.io.calibration_table`) and the Py
 Every rule about the settings is checked here, once: the error groups as a set (the table
 ``dh`` is always among them; ``compliance`` and ``link_compliance`` exclude each other), the rig
 unknowns among :data:`RIG_UNKNOWNS`, the loss and its scale, the stopping protocol and its
-iteration limit, the noise, the train share. A mistake is an :class:`~twin.errors.InputError`
-naming the setting (``where``); the reader of a flag or a file adds its ``source``.
+iteration limit, the noise, the train share, and what may move and how far — the search box,
+the priors and the fixed parameters (:mod:`twin.unknowns.limits`; their names are resolved
+against the model's unknowns when it is made, :func:`twin.calibration.setup.make_model`). A
+mistake is an :class:`~twin.errors.InputError` naming the setting (``where``); the reader of a
+flag or a file adds its ``source``.
 """
 
 from __future__ import annotations
@@ -23,9 +26,10 @@ from twin.loss import Loss
 from twin.problem import DEFAULT_SIGMA_M
 from twin.stopping import Budget
 from twin.unknowns import ERRORS, check_errors
+from twin.unknowns.limits import Bound, Prior, parse_fix
 
 TRAIN_FRACTION = 0.8
-"""Share of the poses used for identification (paper: 80 / 20)."""
+"""Share of the poses used for identification (paper: 80 / 20); 1 trains on every pose."""
 RIG_UNKNOWNS = {"port": "--estimate-port", "offset": "--estimate-offset",
                 "attachment": "--estimate-attachment", "base": "--estimate-base"}
 """The rig's unknown groups a calibration may add, and the flag that asks for each."""
@@ -47,7 +51,14 @@ class CalibrationSettings:
             :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times ``sigma_m``.
         stop: The stopping protocol (:data:`twin.stopping.PROTOCOLS`).
         max_iterations: Iteration limit of every method and stage, or None (the protocol's).
-        train_fraction: Share of the poses used for identification, in (0, 1).
+        train_fraction: Share of the poses used for identification, in (0, 1]: 1 trains on
+            every pose (no validation poses: score on another file, or cross-validate).
+        bounds: The search box, as rules over the unknowns (:class:`~twin.unknowns.limits.Bound`
+            or its text, ``"dh=20mm"``), applied in order over each group's own box (the
+            paper's ±5 mm / ±8° for the table).
+        priors: Zero-mean Gaussian priors (:class:`~twin.unknowns.limits.Prior` or its text,
+            ``"dh=1mm"``), applied in order; none by default.
+        fix: Unknowns held at the nominal and left out (names, families or groups).
     """
 
     errors: tuple[str, ...] = ("dh",)
@@ -58,6 +69,9 @@ class CalibrationSettings:
     stop: str = PROTOCOLS[0]
     max_iterations: int | None = None
     train_fraction: float = TRAIN_FRACTION
+    bounds: tuple[Bound, ...] = ()
+    priors: tuple[Prior, ...] = ()
+    fix: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "errors", check_errors(self.errors))
@@ -76,8 +90,14 @@ class CalibrationSettings:
         _check(self.stop in PROTOCOLS, "stop", self.stop, "one of " + ", ".join(PROTOCOLS))
         _check(self.max_iterations is None or 1 <= self.max_iterations <= MAX_ITERATIONS,
                "max_iterations", self.max_iterations, f"an integer from 1 to {MAX_ITERATIONS}")
-        _check(0 < self.train_fraction < 1, "train_fraction", self.train_fraction,
-               "a share in (0, 1)")
+        _check(0 < self.train_fraction <= 1, "train_fraction", self.train_fraction,
+               "a share in (0, 1]")
+        object.__setattr__(self, "bounds", tuple(
+            rule if isinstance(rule, Bound) else Bound.parse(rule) for rule in self.bounds))
+        object.__setattr__(self, "priors", tuple(
+            rule if isinstance(rule, Prior) else Prior.parse(rule) for rule in self.priors))
+        object.__setattr__(self, "fix", tuple(dict.fromkeys(parse_fix(name)
+                                                            for name in self.fix)))
 
     def estimates(self, name: str) -> bool:
         """Whether the rig unknown ``name`` is identified."""
@@ -106,4 +126,4 @@ def _check(ok: bool, name: str, value: object, expected: str) -> None:
         raise InputError(f"{value!r}", expected, where=name)
 
 
-__all__ = ["ERRORS", "RIG_UNKNOWNS", "TRAIN_FRACTION", "CalibrationSettings"]
+__all__ = ["ERRORS", "RIG_UNKNOWNS", "TRAIN_FRACTION", "Bound", "CalibrationSettings", "Prior"]

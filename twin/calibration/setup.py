@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from twin.calibration.result import SplitProblem
 from twin.calibration.settings import RIG_UNKNOWNS, CalibrationSettings
@@ -19,6 +19,7 @@ from twin.problem import Problem
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import make_groups
+from twin.unknowns.limits import restrict
 
 DEFAULT_SETTINGS = CalibrationSettings()
 """The paper's calibration: the D-H errors alone, least squares, run to convergence."""
@@ -37,11 +38,18 @@ def make_model(robot: RobotModel, rig: Rig, kind: str = DEFAULT_KIND,
         settings: Which groups to identify.
 
     Some kinds always identify a group (fixed-point data their fixed points, group ``points``:
-    :attr:`twin.kinds.base.Kind.implied`).
+    :attr:`twin.kinds.base.Kind.implied`). The settings' bounds, priors and fixed parameters
+    apply to the groups (:func:`twin.unknowns.limits.restrict`).
+
+    Raises:
+        InputError: for a bound, prior or fix that names no unknown of the model or has another
+            unit (``where``: ``bounds``, ``priors``, ``fix``).
     """
     measured = KINDS.lookup(kind)
     names = [*settings.groups, *measured.implied]
-    return Model(robot, rig, measured, make_groups(names, robot, rig))
+    groups = restrict(make_groups(names, robot, rig), settings.bounds, settings.priors,
+                      settings.fix)
+    return Model(robot, rig, measured, groups)
 
 
 def cable_rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
@@ -65,6 +73,60 @@ def _check_unknowns(settings: CalibrationSettings, kind: str) -> None:
                                  if group in groups or group == "attachment"))
 
 
+def _prepared(robot: RobotModel, measurements: Measurements, setup: Rig,
+              settings: CalibrationSettings) -> tuple[Measurements, Rig]:
+    """The measurements and the rig as the model reads them: ports matched by name, fixed
+    points started (:meth:`twin.kinds.base.Kind.prepare`)."""
+    _check_unknowns(settings, measurements.kind)
+    setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements)
+    return measurements, setup
+
+
+def _held_out(validation: Measurements, kind: str, model: Model) -> Measurements:
+    """A separate file's measurements as the model reads them (validation only).
+
+    Raises:
+        InputError: for another kind of measurement, fixed points (their points are the
+            training data's own unknowns) or what the model reads and the file lacks.
+    """
+    implied = model.kind.implied
+    if validation.kind != kind or implied:
+        raise InputError(f"{validation.kind} measurements to validate on",
+                         f"{kind} measurements like the training data's"
+                         + (f" ({model.kind.what} are validated by --cv-by: their "
+                            f"{'/'.join(implied)} are the training data's unknowns)"
+                            if implied else ""), where="validation")
+    held_out = model.kind.prepare(model.robot, model.rig, validation)[1]
+    check_approach(model, held_out.approach)
+    return held_out
+
+
+def _rows(model: Model, measurements: Measurements, settings: CalibrationSettings, seed: int,
+          rows: tuple[NDArray[np.intp], NDArray[np.intp]] | None, every: bool
+          ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The training and validation rows: given, every row (a separate file validates), or a
+    seeded split by the settings' share.
+
+    Raises:
+        InputError: if the training rows are fewer than the unknowns need.
+    """
+    fraction = 1.0 if every else settings.train_fraction
+    if rows is not None:
+        train_rows, validation_rows = (np.sort(np.asarray(part, dtype=np.intp)) for part in rows)
+        fraction = 1.0  # what the training rows need alone
+    else:
+        train_rows, validation_rows = split_rows(len(measurements), seed, fraction)
+    needed = required_poses(model.n_params, fraction, model.kind.rows_per_pose)
+    have = len(measurements) if rows is None else len(train_rows)
+    if have < needed:
+        share = f"with a {round(100 * fraction)}/{100 - round(100 * fraction)} split" \
+            if fraction < 1 else "with every pose trained on" if rows is None \
+            else "in a fold's training poses (fewer folds, or more poses)"
+        raise InputError(f"{have} {'poses' if rows is None else 'training poses'}",
+                         f"at least {needed} for {model.n_params} unknowns {share}")
+    return train_rows, validation_rows
+
+
 def make_problem(
     robot: RobotModel,
     measurements: Measurements,
@@ -73,6 +135,8 @@ def make_problem(
     rig: Rig | None = None,
     settings: CalibrationSettings = DEFAULT_SETTINGS,
     seed: int = 0,
+    validation: Measurements | None = None,
+    rows: tuple[NDArray[np.intp], NDArray[np.intp]] | None = None,
 ) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
@@ -91,29 +155,26 @@ def make_problem(
         rig: The nominal rig (ports, attachment point, tracker frame, known distances).
         settings: What to estimate, the noise, the loss and the split.
         seed: Seed of the train/validation split.
+        validation: Measurements of a separate file to validate on; then every row of
+            ``measurements`` trains.
+        rows: The training and validation rows of ``measurements`` (a fold of a
+            cross-validation), instead of the seeded split.
 
     Raises:
-        InputError: if there are fewer poses than the unknowns need, the measurements lack
-            what a group reads (the approach directions of backlash), or an unknown is asked
-            for that these measurements cannot have (a port of tracker data…).
+        InputError: if there are fewer training poses than the unknowns need, the
+            measurements lack what a group reads (the approach directions of backlash), or an
+            unknown is asked for that these measurements cannot have (a port of tracker
+            data…).
     """
-    setup = cable_rig(port_m, rig)
-    _check_unknowns(settings, measurements.kind)
-    setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements)
+    measurements, setup = _prepared(robot, measurements, cable_rig(port_m, rig), settings)
     model = make_model(robot, setup, measurements.kind, settings)
     check_approach(model, measurements.approach)
-    fraction = settings.train_fraction
-    needed = required_poses(model.n_params, fraction, model.kind.rows_per_pose)
-    if len(measurements) < needed:
-        percent = round(100 * fraction)
-        raise InputError(
-            f"{len(measurements)} poses",
-            f"at least {needed} for {model.n_params} unknowns with a {percent}/{100 - percent} "
-            "split",
-        )
-    train_rows, validation_rows = split_rows(len(measurements), seed, fraction)
+    held_out = None if validation is None else _held_out(validation, measurements.kind, model)
+    train_rows, validation_rows = _rows(model, measurements, settings, seed, rows,
+                                        held_out is not None)
     train = measurements.subset(train_rows)
     model = model.kind.start(model, train)
-    problem = Problem(model, train, measurements.subset(validation_rows),
-                      sigma_m=settings.sigma_m, loss=settings.loss_function)
-    return SplitProblem(problem, train_rows, validation_rows, settings)
+    problem = Problem(model, train, measurements.subset(validation_rows) if held_out is None
+                      else held_out, sigma_m=settings.sigma_m, loss=settings.loss_function)
+    return SplitProblem(problem, train_rows, validation_rows, settings,
+                        held_out="" if held_out is None else "a separate file")

@@ -153,10 +153,10 @@ def number(minimum: float, maximum: float, *, above: bool = False) -> Callable[[
 
 
 def share(text: str) -> float:
-    """An argparse type: a share strictly between 0 and 1."""
+    """An argparse type: a share above 0, at most 1."""
     value = _number(text)
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"found {text!r}, expected a share in (0, 1)")
+    if not 0 < value <= 1:
+        raise argparse.ArgumentTypeError(f"found {text!r}, expected a share in (0, 1]")
     return value
 
 
@@ -281,6 +281,63 @@ def given_robot(args: argparse.Namespace) -> RobotModel | None:
     if args.robot is None and not (args.base_link or args.tip_link):
         return None
     return robot_from_flags(args)
+
+
+def rules(kind: str) -> Callable[[str], tuple[Any, ...]]:
+    """An argparse type: comma-separated rules of :mod:`twin.unknowns.limits`, each a bound,
+    a prior or a fix as ``kind`` says (read when the flag is, so that ``--help`` loads
+    nothing)."""
+
+    def read(text: str) -> tuple[Any, ...]:
+        from twin.errors import InputError
+        from twin.unknowns.limits import Bound, Prior, parse_fix
+
+        parse = {"bounds": Bound.parse, "priors": Prior.parse, "fix": parse_fix}[kind]
+        try:
+            return tuple(parse(item) for item in text.split(","))
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(f"found {exc.found}, expected {exc.expected}"
+                                             ) from None
+
+    return read
+
+
+def add_limit_flags(parser: argparse.ArgumentParser) -> None:
+    """``--bounds``, ``--prior``, ``--fix``: what may move and how far (repeated or
+    comma-separated, applied in order after a capture's)."""
+    from twin.choices import QUANTITY_UNITS
+
+    parser.add_argument(
+        "--bounds", type=rules("bounds"), action="append", metavar="SELECT=W|LOW:HIGH",
+        help="the search box instead of each group's own (the paper's ±5 mm / ±8° for the D-H "
+        "table): SELECT an unknown (a2), a family (a, theta) or a group (dh, port), W a "
+        f"half-width or LOW:HIGH with a unit ({', '.join(QUANTITY_UNITS)}); dh=20mm bounds "
+        "the table's lengths, dh=10deg its angles; later rules win (docs/measurements.md)")
+    parser.add_argument(
+        "--prior", type=rules("priors"), action="append", metavar="SELECT=SIGMA",
+        help="a Gaussian prior N(0, σ²) around the nominal (Tikhonov rows x/σ appended to the "
+        "residuals), e.g. dh=1mm,dh=0.5deg; the report names the unknowns the prior, not the "
+        "data, decided")
+    parser.add_argument(
+        "--fix", type=rules("fix"), action="append", metavar="SELECT",
+        help="unknowns held at the nominal and left out, e.g. theta6,d (robot errors and the "
+        "attachment; a rig unknown is fixed by not estimating it)")
+
+
+def add_validation_flags(parser: argparse.ArgumentParser) -> None:
+    """``--validate``, ``--cv``, ``--cv-by``: where held-out figures come from."""
+    from twin.choices import MAX_FOLDS, MIN_FOLDS
+
+    parser.add_argument("--validate", type=InputPath, metavar="FILE.csv",
+                        help="score the model on this measurement file (same robot and rig); "
+                        "every pose of INPUT trains")
+    parser.add_argument("--cv", type=integer(MIN_FOLDS, MAX_FOLDS), metavar="K",
+                        help="k-fold cross-validation: each of K seeded random folds held out "
+                        "in turn; then the model is fitted on every pose")
+    parser.add_argument("--cv-by", metavar="COLUMN",
+                        help="leave one group out: the poses grouped by this label column of "
+                        "INPUT (a placement, a session), each group held out in turn; then "
+                        "the model is fitted on every pose")
 
 
 AUTO_ERRORS = "auto"

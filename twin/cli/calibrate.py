@@ -15,8 +15,10 @@ from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.cli.arguments import (
     AUTO_ERRORS,
     add_input_flags,
+    add_limit_flags,
     add_output,
     add_seed,
+    add_validation_flags,
     integer,
     method_name,
     share,
@@ -83,22 +85,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="iteration limit of every method and cascade stage (default: the "
                         "protocol's, 200 to converge, 60 / 30 + 30 for the paper's)")
     parser.add_argument("--train-fraction", type=share, metavar="SHARE",
-                        help="share of the poses used for identification (default: the "
-                        "capture's, else 0.8)")
+                        help="share of the poses used for identification, 1 for every pose "
+                        "(default: the capture's, else 0.8)")
+    add_validation_flags(parser)
+    add_limit_flags(parser)
     add_output(parser, "OUT.json", "write the result as JSON", flag="--json", required=False)
     add_rerun_flags(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
+    from twin.calibration.crossval import final_settings
     from twin.calibration.diagnosis import likely_causes
     from twin.calibration.pipeline import solve_many
     from twin.calibration.selection import warn_weak_data
     from twin.cli.inputs import make_split, resolve_inputs, truth_of
+    from twin.cli.validation import cross_validation, validation_file
     from twin.io.measurements import load_measurements
-    from twin.io.results import result_to_dict, write_json
+    from twin.io.results import cross_validation_to_dict, result_to_dict, write_json
     from twin.io.truth import load_truth_delta
-    from twin.report.text import format_comparison, format_result
+    from twin.report.text import format_comparison, format_cross_validation, format_result
     from twin.viz.commands import calibration_log
 
     inputs = resolve_inputs(args)
@@ -111,8 +117,11 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--errors auto with --method all", "one method to compare the "
                              "error models with", source="--errors")
         return _run_auto(args, inputs, measurements)
-    split = make_split(inputs, measurements, args.seed)
+    if args.cv or args.cv_by:  # the model reported is fitted on every pose
+        inputs = inputs._replace(calibration=final_settings(inputs.calibration))
+    split = make_split(inputs, measurements, args.seed, validation_file(args, inputs))
     warn_weak_data(robot, split, inputs.calibration.errors, measurements_path, args.seed)
+    crossed = cross_validation(args, inputs, measurements, methods)
     truth = None
     if inputs.truth_path is not None and inputs.truth_path.exists():
         truth = load_truth_delta(inputs.truth_path, robot.n_joints, robot.is_length)
@@ -126,8 +135,14 @@ def run(args: argparse.Namespace) -> int:
             misfit = result.misfit is not None and result.misfit.misfit
             causes = likely_causes(split, result) if misfit else ()
             truth, errors = truth_of(inputs, result)
-            print(format_result(result, truth, truth=errors, causes=causes))
+            if crossed is not None:
+                print(format_cross_validation(crossed))
+                print()
+            print(format_result(result, truth, truth=errors, causes=causes,
+                                cross_validated=crossed is not None))
             document = result_to_dict(result, causes=causes, truth=errors)
+            if crossed is not None:
+                document["cross_validation"] = cross_validation_to_dict(crossed)
         else:
             print(format_comparison(results))
             document = {"methods": {name: result_to_dict(r) for name, r in results.items()}}

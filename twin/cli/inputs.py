@@ -40,10 +40,13 @@ class Inputs(NamedTuple):
     """What to estimate and how; its noise the instrument's and the robot's repeatability
     (:func:`twin.analysis.misfit.reading_sigma`)."""
     flags: frozenset[str] = frozenset()
-    """The rig and loss flags given (``--port``, ``--distance``, ``--attachment``,
-    ``--loss-scale``): checked against the data once they are read."""
+    """The rig, loss and limit flags given (``--port``, ``--distance``, ``--attachment``,
+    ``--loss-scale``, ``--bounds``, ``--prior``, ``--fix``): checked against the data once they
+    are read."""
     distance_source: str = "--distance"
     """Where the known distances come from: the flag, or the capture file."""
+    settings_source: str = ""
+    """The capture file whose ``[calibration]`` table the settings start from, if any."""
 
     @property
     def port_m(self) -> NDArray[np.float64] | None:
@@ -83,7 +86,8 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
 
 FLAGS = {"errors": "--errors", "estimate": "--estimate-port", "sigma_m": "--sigma",
          "loss": "--loss", "loss_scale_m": "--loss-scale", "stop": "--stop",
-         "max_iterations": "--max-iterations", "train_fraction": "--train-fraction"}
+         "max_iterations": "--max-iterations", "train_fraction": "--train-fraction",
+         "bounds": "--bounds", "priors": "--prior", "fix": "--fix"}
 """The flag that sets each calibration setting, named by an error in it."""
 
 
@@ -117,6 +121,10 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
         **{key: getattr(args, flag) for key, flag in (
             ("loss", "loss"), ("stop", "stop"), ("max_iterations", "max_iterations"),
             ("train_fraction", "train_fraction")) if getattr(args, flag, None) is not None},
+        # A flag's rules come after the capture's: applied later, they win.
+        **{key: (*getattr(base, key), *(rule for given in getattr(args, flag) for rule in given))
+           for key, flag in (("bounds", "bounds"), ("priors", "prior"), ("fix", "fix"))
+           if getattr(args, flag, None)},
     }
     try:
         return replace(base, **changes)
@@ -141,7 +149,9 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     tension = getattr(args, "cable_tension", None)
     flags = frozenset(flag for flag, name in (("--port", "port"), ("--distance", "distance"),
                                               ("--attachment", "attachment"),
-                                              ("--loss-scale", "loss_scale"))
+                                              ("--loss-scale", "loss_scale"),
+                                              ("--bounds", "bounds"), ("--prior", "prior"),
+                                              ("--fix", "fix"))
                       if getattr(args, name, None) is not None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
@@ -156,6 +166,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
                                             capture.repeatability_m),
             flags=flags,
             distance_source="--distance" if "--distance" in flags else str(input_path),
+            settings_source=str(input_path),
         )
     return Inputs(
         robot=flag_robot,
@@ -196,21 +207,48 @@ def _warn_rig_unit(inputs: Inputs, measurements: Measurements) -> None:
         warnings.warn(f"{where}: {hint}", UnitWarning, stacklevel=2)
 
 
-def make_split(inputs: Inputs, measurements: Measurements, seed: int) -> SplitProblem:
-    """The problem of the resolved inputs, its errors naming the measurement file."""
+def prepare_error(inputs: Inputs, exc: InputError) -> InputError:
+    """A mistake found while making the problem, as made in the flag or file it comes from (the
+    measurement file when nothing else is named)."""
+    if exc.source is not None:
+        return exc
+    if exc.where == "distances":
+        return exc.at(inputs.distance_source, where="")
+    if exc.where in LIMIT_FLAGS:
+        flag = LIMIT_FLAGS[str(exc.where)]
+        return exc.at(flag, where="") if flag in inputs.flags or not inputs.settings_source \
+            else exc.at(inputs.settings_source, where=f"calibration.{exc.where}")
+    return InputError(exc.found, exc.expected, source=inputs.measurements_path)
+
+
+def make_split(inputs: Inputs, measurements: Measurements, seed: int,
+               validation: Validation | None = None) -> SplitProblem:
+    """The problem of the resolved inputs (validated on a separate file when given), its
+    errors naming the flag or file they come from."""
     from twin.calibration.setup import make_problem
 
     refuse_inapplicable(inputs, measurements)
     _warn_rig_unit(inputs, measurements)
     try:
-        return make_problem(inputs.robot, measurements, rig=inputs.rig,
-                            settings=inputs.calibration, seed=seed)
+        split = make_problem(inputs.robot, measurements, rig=inputs.rig,
+                             settings=inputs.calibration, seed=seed,
+                             validation=None if validation is None else validation.measurements)
     except InputError as exc:
-        if exc.source is not None:
-            raise
-        if exc.where == "distances":
-            raise exc.at(inputs.distance_source, where="") from None
-        raise InputError(exc.found, exc.expected, source=inputs.measurements_path) from None
+        if exc.where == "validation" and validation is not None:
+            raise exc.at(validation.path, where="") from None
+        raise prepare_error(inputs, exc) from None
+    return split if validation is None else split._replace(held_out=str(validation.path))
+
+
+class Validation(NamedTuple):
+    """A separate file to validate on (``--validate``)."""
+
+    path: Path
+    measurements: Measurements
+
+
+LIMIT_FLAGS = {"bounds": "--bounds", "priors": "--prior", "fix": "--fix"}
+"""The flag of each setting of what may move, named by an error in it."""
 
 
 def refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:

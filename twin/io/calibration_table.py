@@ -12,6 +12,9 @@
     train_fraction = 0.8
     stop = "converge"                 # or "paper" (twin.stopping)
     max_iterations = 200              # another iteration limit
+    bounds = ["dh=20mm", "a2=50mm"]   # the search box (twin.unknowns.limits), in order
+    priors = ["dh=1mm", "dh=0.5deg"]  # Gaussian priors around the nominal
+    fix = ["theta6"]                  # held at the nominal, left out
 
 The noise σ is not a key here: the file's instrument (a capture's ``[encoder]``, a scenario's
 noise) states it, and the reader is given it.
@@ -29,7 +32,11 @@ from twin.units import m_to_mm, mm_to_m
 from twin.unknowns import ERRORS
 
 KEYS = ("errors", *(f"estimate_{name}" for name in RIG_UNKNOWNS), "loss", "loss_scale_mm",
-        "train_fraction", "stop", "max_iterations")
+        "train_fraction", "stop", "max_iterations", "bounds", "priors", "fix")
+LIMITS = {"bounds": "a list of bounds such as \"dh=20mm\" or \"a2=-5:20mm\"",
+          "priors": "a list of priors such as \"dh=1mm\"",
+          "fix": "a list of unknowns, families or groups such as \"theta6\""}
+"""The keys of what may move and how far, and what each holds."""
 """The keys of a ``[calibration]`` table."""
 
 
@@ -59,6 +66,9 @@ def parse_calibration(table: Table, sigma_m: float) -> CalibrationSettings:
         values["train_fraction"] = table.number("train_fraction")
     if table.has("max_iterations"):
         values["max_iterations"] = table.integer("max_iterations")
+    for key, expected in LIMITS.items():
+        if table.has(key):
+            values[key] = tuple(table.strings(key, expected=expected))
     try:
         return CalibrationSettings(**values)
     except InputError as exc:
@@ -80,6 +90,11 @@ def calibration_lines(settings: CalibrationSettings) -> list[str]:
         lines.append(f"loss_scale_mm = {float(m_to_mm(settings.loss_scale_m))!r}")
     if settings.max_iterations is not None:
         lines.append(f"max_iterations = {settings.max_iterations}")
+    for key, rules in (("bounds", [rule.text for rule in settings.bounds]),
+                       ("priors", [rule.text for rule in settings.priors]),
+                       ("fix", list(settings.fix))):
+        if rules:
+            lines.append(f"{key} = {json.dumps(rules, ensure_ascii=False)}")
     return lines
 
 

@@ -12,9 +12,12 @@ A result is applied (exported, compensated) only where it can be right:
   twin kept the robot needs it given, and its ``robot`` (name and nominal D-H table) must be
   it, the table within :data:`ROBOT_TOLERANCE_MM` and :data:`ROBOT_TOLERANCE_DEG` (a model
   file stores 1 µm and 1e-6 degree);
-- within the search bounds every method keeps to (±5 mm, ±8°, :data:`twin.unknowns.dh.BOUND_M`
-  and :data:`twin.unknowns.dh.BOUND_RAD`), give or take :data:`BOUND_TOLERANCE_MM` and
-  :data:`BOUND_TOLERANCE_DEG` for the rounding of the file.
+- within the search box the calibration kept to — the one the result records (each unknown's
+  ``lower`` and ``upper``, the user's ``--bounds``), else the paper's (±5 mm, ±8°,
+  :data:`twin.unknowns.dh.BOUND_M` and :data:`twin.unknowns.dh.BOUND_RAD`) — give or take
+  :data:`BOUND_TOLERANCE_MM` and :data:`BOUND_TOLERANCE_DEG` for the rounding of the file.
+
+The model is rebuilt with the calibration's fixed parameters, box and priors (``unknowns``).
 """
 
 from __future__ import annotations
@@ -41,7 +44,6 @@ from twin.units import (
     DH_IS_LENGTH,
     DH_KEYS,
     deg_to_rad,
-    dh_rows_to_display,
     display_unit,
     from_display,
     m_to_mm,
@@ -49,7 +51,7 @@ from twin.units import (
     rad_to_deg,
     to_display,
 )
-from twin.unknowns import make_groups
+from twin.unknowns import Group, make_groups
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
@@ -196,29 +198,34 @@ def check_same_robot(recorded: RobotModel, given: RobotModel, path: Path, where:
 
 
 def check_bounds(delta: NDArray[np.float64], path: Path, where: str,
-                 is_length: NDArray[np.bool_] | None = None) -> None:
+                 is_length: NDArray[np.bool_] | None = None,
+                 box: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> None:
     """Refuse table errors beyond the search bounds: no method returns them, so the file is not
     what a calibration wrote.
 
     Args:
         delta: Table errors, shape (4, n), m and rad.
         is_length: Which entries are lengths, (4, n); D-H's rows if None.
+        box: The search box the result records, (lower, upper), each (4, n), m and rad (0 and
+            0 where a parameter was fixed); the paper's ±5 mm / ±8° if None.
     """
     lengths = np.broadcast_to(np.array(DH_IS_LENGTH)[:, None], delta.shape) \
         if is_length is None else is_length
-    bound = np.where(lengths, DH_BOUND_M + mm_to_m(BOUND_TOLERANCE_MM),
-                     DH_BOUND_RAD + deg_to_rad(BOUND_TOLERANCE_DEG))
-    beyond = np.abs(delta) > bound
+    tolerance = np.where(lengths, mm_to_m(BOUND_TOLERANCE_MM), deg_to_rad(BOUND_TOLERANCE_DEG))
+    bound = np.where(lengths, DH_BOUND_M, DH_BOUND_RAD)
+    lower, upper = (-bound, bound) if box is None else box
+    beyond = (delta < lower - tolerance) | (delta > upper + tolerance)
     if np.any(beyond):
         row, joint = np.argwhere(beyond)[0]
         key = DH_KEYS[row]
-        value = dh_rows_to_display(delta, lengths)[key][joint]
-        raise InputError(
-            f"δ{key}{joint + 1} = {value:g} {display_unit(key, bool(lengths[row, joint]))}",
-            "D-H errors within the "
-            f"search bounds (±{float(m_to_mm(DH_BOUND_M)):g} mm, "
-            f"±{float(rad_to_deg(DH_BOUND_RAD)):g} deg)", source=path,
-            where=f"{where}delta.{key}")
+        length = bool(lengths[row, joint])
+        unit = display_unit(key, length)
+        value, low, high = (float(m_to_mm(v) if length else rad_to_deg(v))
+                            for v in (delta[row, joint], lower[row, joint], upper[row, joint]))
+        shown = f"±{high:g}" if np.isclose(-low, high) else f"{low:g} to {high:g}"
+        raise InputError(f"δ{key}{joint + 1} = {value:g} {unit}",
+                         f"D-H errors within the search bounds ({shown} {unit} for "
+                         f"δ{key}{joint + 1})", source=path, where=f"{where}delta.{key}")
 
 
 def load_result_delta(
@@ -242,6 +249,8 @@ def load_result_delta(
     """
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
+    if isinstance(entry.get("unknowns"), dict):  # checked against the box it records
+        return load_result(path, robot, method).delta
     robot, older = result_robot(entry, robot, path, where)
     delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
                           robot.is_length)
@@ -269,8 +278,9 @@ def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None
     """Warn (:class:`ResultWarning`) before ``use`` (``"exporting"``, ``"compensating"``…) a
     result whose data could not see some motions of the flange (``unobservable.motions``: the
     identified model is placed along them by its start, not by the data), with unknowns a bound
-    of the search box decided (``at_bounds``, named), or whose model did not fit its data
-    (``misfit``). Nothing for a result written before they were recorded.
+    of the search box decided (``at_bounds``, named) or a prior decided (``prior_decided``,
+    named), or whose model did not fit its data (``misfit``). Nothing for a result written
+    before they were recorded.
 
     Raises:
         InputError: if the file is not a result, or ``method`` is missing or unknown.
@@ -294,6 +304,12 @@ def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None
                       f"{', '.join(map(str, bounded))} (each ended on a bound): the truth may lie "
                       f"beyond it, or the data barely see it, and {use} uses the bound's value",
                       ResultWarning, stacklevel=2)
+    decided = entry.get("prior_decided")
+    if isinstance(decided, list) and decided:
+        warnings.warn(f"{path}: the prior, not the data, decided {', '.join(map(str, decided))} "
+                      "(the data add less to each than its prior): they sit near the nominal "
+                      f"because the prior says so, and {use} inherits that", ResultWarning,
+                      stacklevel=2)
     misfit = entry.get("misfit")
     if isinstance(misfit, dict) and misfit.get("misfit") is True:
         warnings.warn(f"{path}: the model did not fit its data (training RMSE {misfit.get('rmse')}"
@@ -419,6 +435,67 @@ def _parameter_values(parameters: list[Any], path: Path, where: str
                          where=f"{where}unknowns.parameters") from None
 
 
+def _limit_values(parameters: list[Any], key: str, path: Path, where: str
+                  ) -> dict[str, float]:
+    """Each parameter's recorded ``key`` (``lower``, ``upper``, ``prior_sigma``) in SI, by name;
+    parameters without it (a result written before the limits were recorded, or no prior) are
+    left out."""
+    found = {}
+    for k, parameter in enumerate(parameters):
+        if not isinstance(parameter, dict) or parameter.get(key) is None:
+            continue
+        value, unit = parameter[key], parameter.get("unit")
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value) or not isinstance(unit, str):
+            raise InputError(f"{value!r}", "a finite number in the parameter's unit",
+                             source=path, where=f"{where}unknowns.parameters[{k}].{key}")
+        try:
+            found[str(parameter.get("name"))] = float(from_display([value], [unit])[0])
+        except KeyError:
+            raise InputError(f"the unit {unit!r}", "a unit twin writes", source=path,
+                             where=f"{where}unknowns.parameters[{k}]") from None
+    return found
+
+
+def _recorded_limits(groups: tuple[Group, ...], unknowns: dict[str, Any], path: Path,
+                     where: str) -> tuple[Group, ...]:
+    """The groups as the calibration restricted them: its fixed parameters left out, its box
+    and priors (``unknowns.fixed``, each parameter's ``lower``, ``upper``, ``prior_sigma``);
+    each group's own where the file records none.
+
+    Raises:
+        InputError: for a fixed name no group has, or a box or prior that is not one.
+    """
+    fixed = unknowns.get("fixed", [])
+    every = [name for group in groups for name in group.names]
+    if not isinstance(fixed, list) or not all(name in every for name in fixed):
+        raise InputError(f"{fixed!r}", "a list of the groups' parameter names", source=path,
+                         where=f"{where}unknowns.fixed")
+    parameters = unknowns["parameters"]
+    lower, upper, sigma = (_limit_values(parameters, key, path, where)
+                           for key in ("lower", "upper", "prior_sigma"))
+    restricted = []
+    for group in groups:
+        low = np.array([lower.get(name, bound) for name, bound in zip(
+            group.names, group.lower, strict=True)])
+        high = np.array([upper.get(name, bound) for name, bound in zip(
+            group.names, group.upper, strict=True)])
+        weight = np.array([1.0 / sigma[name] if sigma.get(name, 0.0) > 0 else 0.0
+                           for name in group.names])
+        if np.any((low > 0) | (high < 0) | (low >= high)):
+            k = int(np.argmax((low > 0) | (high < 0) | (low >= high)))
+            raise InputError(f"{group.names[k]} bounds {low[k]:g} to {high[k]:g}",
+                             "a box that holds the nominal (0)", source=path,
+                             where=f"{where}unknowns.parameters")
+        keep = ~np.isin(np.asarray(group.names, dtype=object), np.asarray(fixed, dtype=object))
+        try:
+            restricted.append(group.restricted(keep, low, high, weight))
+        except ValueError as exc:
+            raise InputError(str(exc), "fixed parameters of the robot's errors or the "
+                             "attachment", source=path, where=f"{where}unknowns.fixed") from None
+    return tuple(restricted)
+
+
 def load_result(path: str | Path, robot: RobotModel | None = None, method: str | None = None
                 ) -> IdentifiedModel:
     """The identified model of a result file, on the nominal robot it carries.
@@ -443,7 +520,6 @@ def load_result(path: str | Path, robot: RobotModel | None = None, method: str |
                           robot.is_length)
     if older:
         check_result_robot(entry, robot, path, where)
-    check_bounds(delta, path, where, robot.is_length)
     unknowns = entry.get("unknowns")
     if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
         raise InputError("no 'unknowns'", "a result written by this version of twin calibrate",
@@ -454,9 +530,11 @@ def load_result(path: str | Path, robot: RobotModel | None = None, method: str |
         raise InputError(f"{groups!r}", "a list of unknown group names", source=path,
                          where=f"{where}unknowns.groups")
     try:
-        model = Model(robot, rig, KINDS.lookup(str(unknowns.get("kind"))),
-                      make_groups(groups, robot, rig))
+        model = Model(robot, rig, KINDS.lookup(str(unknowns.get("kind"))), _recorded_limits(
+            make_groups(groups, robot, rig), unknowns, path, where))
     except InputError as exc:
+        if exc.source is not None:
+            raise
         raise InputError(exc.found, exc.expected, source=path,
                          where=f"{where}unknowns") from None
     if model.has("compliance"):
@@ -468,6 +546,11 @@ def load_result(path: str | Path, robot: RobotModel | None = None, method: str |
                          f"the {model.n_params} unknowns of groups {', '.join(groups)} "
                          f"({', '.join(model.names[:4])}…)", source=path,
                          where=f"{where}unknowns.parameters")
+    box = model.bounds()
+    dh = model.group("dh")
+    check_bounds(delta, path, where, robot.is_length,
+                 (dh.spread(model.block(box[0], "dh")).reshape(robot.dh.shape),
+                  dh.spread(model.block(box[1], "dh")).reshape(robot.dh.shape)))
     values, labels, x = _parameter_values(parameters, path, where)
     expected = to_display(np.zeros(model.n_params), model.units)[1]
     lower, upper = model.bounds()

@@ -226,6 +226,22 @@ def _refuse_other_labels(table: Columns, kind: Kind, path: str | Path) -> None:
                                  where=f"line {table.header_line}")
 
 
+def load_labels(path: str | Path, column: str) -> list[str]:
+    """The text of one column of a measurement CSV, one label per data row (a placement, a
+    session: what cross-validation groups the poses by).
+
+    Raises:
+        InputError: if the file has no such column, or a cell is empty.
+    """
+    table = read_columns(path, (), f"a measurement CSV with a column {column!r}",
+                         labels=(column,))
+    if column not in table.labels:
+        raise InputError(f"no column {column!r} (columns {','.join(table.header)})",
+                         "the label column to group the poses by", source=path,
+                         where=f"line {table.header_line}")
+    return table.labels[column]
+
+
 def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                       stdin: bool = False) -> Measurements:
     """Read a measurement CSV (degrees, mm) into SI measurements; see the module docstring.

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
+from twin.calibration.crossval import CrossValidation
 from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
@@ -108,7 +109,8 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
     uncertainty = result.uncertainty
     if uncertainty is not None:
         model = result.model
-        sigma_dh = model.block(uncertainty.sigma, "dh").reshape(result.robot.dh.shape)
+        sigma_dh = model.group("dh").spread(model.block(uncertainty.sigma, "dh")).reshape(
+            result.robot.dh.shape)  # 0 where fixed
         fields["sigma"] = {
             key: _finite_or_none(values)
             for key, values in _sigma_display(sigma_dh, result.robot).items()
@@ -134,21 +136,37 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     values, labels = to_display(result.solver.x, model.units)
     sigma = to_display(result.uncertainty.sigma, model.units)[0] \
         if result.uncertainty is not None else [math.nan] * model.n_params
-    held = set(result.at_bounds)
+    lower, upper = (to_display(bound, model.units)[0] for bound in model.bounds())
+    weight = model.prior_weight()
+    prior = to_display(1.0 / np.where(weight > 0, weight, np.inf), model.units)[0]
+    held, decided = set(result.at_bounds), set(result.prior_decided)
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
         "rig": rig_to_dict(model.rig, model.kind),
+        "fixed": [name for group in model.groups for name in group.full_names
+                  if name not in group.names],
         "parameters": [
-            {"name": name, "group": group.name, "value": value, "unit": label,
-             "sigma": deviation if math.isfinite(deviation) else None,
-             "at_bound": name in held}
+            {"name": name, "group": group.name, "value": values[k], "unit": labels[k],
+             "sigma": sigma[k] if math.isfinite(sigma[k]) else None,
+             "lower": lower[k], "upper": upper[k],
+             "prior_sigma": prior[k] if weight[k] > 0 else None,
+             "at_bound": name in held, "prior_decided": name in decided}
             for group in model.groups
-            for name, value, label, deviation in zip(
-                group.names, values[model.slice(group.name)], labels[model.slice(group.name)],
-                sigma[model.slice(group.name)], strict=True)
+            for k, name in zip(range(model.n_params)[model.slice(group.name)], group.names,
+                               strict=True)
         ],
     }
+
+
+def limits_to_dict(result: CalibrationResult) -> dict[str, Any]:
+    """The ``limits`` JSON object: what the user said may move and how far (the rules as given;
+    each unknown's box and prior are in ``unknowns.parameters``)."""
+    settings = result.settings
+    return {"bounds": [rule.text for rule in settings.bounds],
+            "priors": [rule.text for rule in settings.priors],
+            "fix": list(settings.fix),
+            "default_bounds": "each group's own: the paper's ±5 mm / ±8° for the D-H table"}
 
 
 def pose_to_list(transform: Any) -> list[float]:
@@ -270,6 +288,9 @@ def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
     document.update(
         {
             "metrics": {name: _metrics_mm(m) for name, m in result.metrics.items()},
+            "validation": {"poses": int(result.validation_rows.size) if not result.held_out
+                           else None, "source": result.held_out or "split",
+                           "train_poses": int(result.train_rows.size)},
             "iterations": solver.iterations,
             "evaluations": solver.evaluations,
             "seconds": solver.seconds,
@@ -284,18 +305,35 @@ def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
                 ],
             },
             "at_bounds": list(result.at_bounds),
+            "prior_decided": list(result.prior_decided),
+            "limits": limits_to_dict(result),
             "history": [
                 {
                     "iteration": record.iteration,
                     "f": significant(record.f_m2 * MM2_PER_M2),
                     "rmse": _mm(record.train_rmse_m)[0],
-                    "validation_rmse": _mm(record.validation_rmse_m)[0],
+                    "validation_rmse": _finite_or_none(_mm(record.validation_rmse_m))[0],
                 }
                 for record in solver.history
             ],
         }
     )
     return document
+
+
+def cross_validation_to_dict(crossed: CrossValidation) -> dict[str, Any]:
+    """The ``cross_validation`` JSON object: how the folds were made, each fold's held-out
+    rows (0-based) and metrics (mm), the pooled metrics and the RMSE over the folds."""
+    mean, rms, spread = crossed.rmse_over_folds()
+    return {
+        "method": crossed.method, "how": crossed.how,
+        "folds": [{"label": fold.label, "rows": fold.rows.tolist(),
+                   "before": _metrics_mm(fold.before), "held_out": _metrics_mm(fold.held_out),
+                   "train": _metrics_mm(fold.train)} for fold in crossed.folds],
+        "pooled": _metrics_mm(crossed.pooled),
+        "pooled_before": _metrics_mm(crossed.pooled_before),
+        "rmse_over_folds": {"mean": _mm(mean)[0], "rms": _mm(rms)[0], "std": _mm(spread)[0]},
+    }
 
 
 def choice_to_dict(choice: ErrorChoice) -> dict[str, Any]:
@@ -308,7 +346,8 @@ def choice_to_dict(choice: ErrorChoice) -> dict[str, Any]:
             {"errors": list(candidate.errors), "unknowns": candidate.unknowns,
              "rank": candidate.rank, "bic": significant(candidate.bic),
              "train_rmse": _mm(candidate.result.metrics["train"].rmse)[0],
-             "validation_rmse": _mm(candidate.result.metrics["validation"].rmse)[0],
+             "validation_rmse": _mm(candidate.result.metrics["validation"].rmse)[0]
+             if candidate.result.validated else None,
              "chosen": k == choice.chosen}
             for k, candidate in enumerate(choice.candidates)],
         "skipped": list(choice.skipped),

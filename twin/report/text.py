@@ -12,7 +12,8 @@ from twin.analysis.identifiability import WEAK_RTOL, Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
 from twin.analysis.uncertainty import WORKSPACE_POSES
-from twin.calibration.result import CalibrationResult
+from twin.calibration.crossval import CrossValidation
+from twin.calibration.result import PRIOR_DECIDED, CalibrationResult
 from twin.calibration.selection import ErrorChoice
 from twin.dataset import Measurements
 from twin.geometry.parametrisation import PARALLEL_THRESHOLD_DEG
@@ -154,6 +155,25 @@ def format_stop(result: CalibrationResult) -> list[str]:
     if held:
         lines.append("  at a bound of the search box: " + ", ".join(held)
                      + " (the truth may lie outside the box, or the data barely see it)")
+    return lines + format_limits(result)
+
+
+def format_limits(result: CalibrationResult) -> list[str]:
+    """What the user said may move and how far (nothing when the defaults hold), and the
+    unknowns a prior, not the data, decided."""
+    settings, lines = result.settings, []
+    rules = [(what, ", ".join(texts)) for what, texts in (
+        ("search box", [rule.text for rule in settings.bounds]),
+        ("priors (σ around the nominal)", [rule.text for rule in settings.priors]),
+        ("fixed at the nominal", list(settings.fix))) if texts]
+    if rules:
+        lines.append("  " + "; ".join(f"{what}: {text}" for what, text in rules)
+                     + " (the rest: each group's own box, the paper's ±5 mm / ±8° for the "
+                     "D-H table)")
+    decided = result.prior_decided
+    if decided:
+        lines.append(f"  decided by the prior, not the data (posterior σ above "
+                     f"{PRIOR_DECIDED:.2f} of the prior's): " + ", ".join(decided))
     return lines
 
 
@@ -249,7 +269,8 @@ def has_point(result: CalibrationResult) -> bool:
 
 
 def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | None = None,
-                  *, truth: TruthErrors | None = None, causes: Sequence[Cause] = ()) -> str:
+                  *, truth: TruthErrors | None = None, causes: Sequence[Cause] = (),
+                  cross_validated: bool = False) -> str:
     """Before/after metrics, run statistics and the identified D-H errors as a table.
 
     Args:
@@ -257,15 +278,15 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         truth_delta: The true D-H errors, shape (4, n), m and rad, to print beside, if known.
         truth: The errors against the truth over the workspace, if known.
         causes: The likely causes of a misfit (:func:`twin.calibration.diagnosis.likely_causes`).
+        cross_validated: Whether a cross-validation was printed above (the model fitted on
+            every pose after it).
     """
     solver = get_solver(result.method)
     lines = [
         f"{result.robot.name} — {solver.name} ({solver.title}), seed {result.seed}, "
-        f"{result.train_rows.size} train / {result.validation_rows.size} validation poses",
+        + _poses_line(result, cross_validated),
         "  residuals [mm]          RMSE      MAE*       std       MAX",
-        _metric_row("before (valid.)", result.metrics["before"]),
-        _metric_row("after, train", result.metrics["train"]),
-        _metric_row("after, validation", result.metrics["validation"]),
+        *_metric_rows(result),
         f"  {result.solver.iterations} iterations, {result.solver.evaluations} evaluations, "
         f"{result.solver.seconds:.3f} s ({result.budget.protocol} protocol)",
         *format_stop(result),
@@ -297,6 +318,34 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         lines.append(row)
     lines += format_joint_groups(result)
     return "\n".join(lines)
+
+
+def _poses_line(result: CalibrationResult, cross_validated: bool) -> str:
+    """How many poses trained and where the validation poses come from."""
+    trained = result.train_rows.size
+    if cross_validated and not result.held_out:
+        return f"{trained} poses, every one trained on (held out: the cross-validation above)"
+    if result.held_out:
+        shown = result.metrics.get("validation")
+        return f"{trained} train poses, validated on {result.held_out}" + (
+            "" if shown is not None else " (no poses)")
+    if not result.validated:
+        share = result.settings.train_fraction
+        rounded = f"; a training share of {share:g} rounds to every pose" if share < 1 else ""
+        return (f"{trained} poses, every one trained on (no validation poses{rounded}: "
+                "--validate FILE or --cv K for held-out figures)")
+    return f"{trained} train / {result.validation_rows.size} validation poses"
+
+
+def _metric_rows(result: CalibrationResult) -> list[str]:
+    """Before and after, on the validation poses when there are some; the start on the
+    training poses, labelled so, when there are none."""
+    if not result.validated:
+        return [_metric_row("before (train)", result.metrics["before"]),
+                _metric_row("after, train", result.metrics["train"])]
+    return [_metric_row("before (valid.)", result.metrics["before"]),
+            _metric_row("after, train", result.metrics["train"]),
+            _metric_row("after, validation", result.metrics["validation"])]
 
 
 JOINT_GROUP_COLUMNS = {"transmission": ("sin q", "cos q", "sin 2q", "cos 2q"),
@@ -333,6 +382,33 @@ def format_joint_groups(result: CalibrationResult) -> list[str]:
     return lines
 
 
+def format_cross_validation(crossed: CrossValidation) -> str:
+    """Each fold's held-out residuals against the nominal's, the pooled figures of every
+    held-out row, and the RMSE over the folds (mean, RMS, spread)."""
+    solver = get_solver(crossed.method)
+    rows = sum(fold.rows.size for fold in crossed.folds)
+    width = max(12, *(len(fold.label) + 2 for fold in crossed.folds))
+    lines = [f"Cross-validation — {solver.name}, {crossed.how}: {len(crossed.folds)} folds, "
+             f"each of the {rows} poses held out once",
+             f"  {'held out':<{width}}{'poses':>6}{'before RMSE':>13}{'RMSE':>10}{'MAE*':>10}"
+             f"{'MAX':>10}{'train RMSE':>12}  [mm]"]
+    for fold in crossed.folds:
+        lines.append(f"  {fold.label:<{width}}{fold.rows.size:>6}"
+                     + mm(fold.before.rmse, width=13, unit=False)
+                     + "".join(mm(value, width=10, unit=False) for value in
+                               (fold.held_out.rmse, fold.held_out.mae, fold.held_out.max))
+                     + mm(fold.train.rmse, width=12, unit=False))
+    pooled = crossed.pooled
+    lines.append(f"  {'pooled':<{width}}{rows:>6}" + mm(crossed.pooled_before.rmse, width=13,
+                                                           unit=False)
+                 + "".join(mm(value, width=10, unit=False)
+                           for value in (pooled.rmse, pooled.mae, pooled.max)))
+    mean, rms, spread = crossed.rmse_over_folds()
+    lines.append(f"  held-out RMSE over the folds: mean {mm(mean)}, RMS {mm(rms)}, std "
+                 f"{mm(spread)}; the model below is fitted on every pose")
+    return "\n".join(lines)
+
+
 def format_choice(choice: ErrorChoice) -> str:
     """The ``--errors auto`` table: each nested error model's unknowns, rank, residuals and
     BIC, the chosen one marked, and the rule."""
@@ -342,7 +418,8 @@ def format_choice(choice: ErrorChoice) -> str:
              f"{'valid. RMSE':>13}{'BIC':>12}  [mm]"]
     for k, candidate in enumerate(choice.candidates):
         train = mm(candidate.result.metrics["train"].rmse, width=12, unit=False)
-        validation = mm(candidate.result.metrics["validation"].rmse, width=13, unit=False)
+        validation = mm(candidate.result.metrics["validation"].rmse, width=13, unit=False) \
+            if candidate.result.validated else f"{'—':>13}"
         mark = "  <- chosen" if k == choice.chosen else ""
         lines.append(f"  {'+'.join(candidate.errors):<44}{candidate.unknowns:>9}"
                      f"{candidate.rank:>6}{train}{validation}"
@@ -356,8 +433,11 @@ def format_choice(choice: ErrorChoice) -> str:
 def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
     """A table like the paper's Table 6: validation metrics and time per method."""
     first = next(iter(results.values()))
+    shown = "validation" if first.validated else "train"
     lines = [
-        f"  {first.budget.protocol} protocol; validation residuals",
+        f"  {first.budget.protocol} protocol; "
+        + ("validation residuals" if first.validated else
+           "training residuals (no validation poses: every pose trained on)"),
         "  method      paper    RMSE     MAE*      std      MAX [mm]   time [s]   iter    evals"
         "  stopped by",
     ]
@@ -367,7 +447,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         alias = SOLVERS.alias(name).upper()
         lines.append(
             f"  {name:<10}  {alias:<5}"
-            + "".join(mm(v, width=9, unit=False) for v in result.metrics["validation"])
+            + "".join(mm(v, width=9, unit=False) for v in result.metrics[shown])
             + f"{result.solver.seconds:>11.3f}{result.solver.iterations:>7}"
             f"{result.solver.evaluations:>9}  {result.solver.stop_label}"
         )

@@ -2,8 +2,9 @@
 
 Each of the 4n parameters gets an independent draw: uniform in ±scale, or normal with σ = scale,
 where the scale is given per parameter kind (a, d in m; α, θ and a Hayati joint's β in rad) and
-optionally per joint. The paper's search bounds are ±5 mm / ±8°; draws are clipped to them (by
-each entry's unit) so that the truth is always inside the box every method searches.
+optionally per joint. Draws are clipped to the box the scenario's calibration searches — the
+paper's ±5 mm / ±8° unless its ``[calibration] bounds`` say otherwise — so that the truth is
+always inside it.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.arrays import Array
+from twin.arrays import Array, frozen_array
 from twin.units import DH_IS_LENGTH
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
@@ -31,11 +32,14 @@ class Perturbation:
             joint), α [rad], θ [rad].
         is_length: Which entries are lengths, shape (4, n) (the robot's
             :attr:`~twin.robot.RobotModel.is_length`); D-H's rows if None.
+        box: The search box the draws are clipped to, (lower, upper), each (4, n), m and rad;
+            the paper's ±5 mm / ±8° if None.
     """
 
     distribution: str
     scale: Array
     is_length: NDArray[np.bool_] | None = None
+    box: tuple[Array, Array] | None = None
 
     def __post_init__(self) -> None:
         if self.distribution not in DISTRIBUTIONS:
@@ -52,11 +56,14 @@ class Perturbation:
         if lengths.shape != scale.shape:
             raise ValueError(f"is_length: shape {lengths.shape}, expected {scale.shape}")
         object.__setattr__(self, "is_length", lengths)
+        bound = np.where(lengths, DH_BOUND_M, DH_BOUND_RAD)
+        lower, upper = (-bound, bound) if self.box is None else self.box
+        object.__setattr__(self, "box", (frozen_array(lower, scale.shape, "box"),
+                                         frozen_array(upper, scale.shape, "box")))
 
     def draw(self, rng: np.random.Generator) -> Array:
-        """One table of errors, shape (4, n), m and rad, inside the paper's search bounds."""
+        """One table of errors, shape (4, n), m and rad, inside the search box."""
         unit = rng.uniform(-1.0, 1.0, self.scale.shape) if self.distribution == "uniform" \
             else rng.normal(0.0, 1.0, self.scale.shape)
-        assert self.is_length is not None  # set in __post_init__
-        bound = np.where(self.is_length, DH_BOUND_M, DH_BOUND_RAD)
-        return np.asarray(np.clip(unit * self.scale, -bound, bound), dtype=np.float64)
+        assert self.box is not None  # set in __post_init__
+        return np.asarray(np.clip(unit * self.scale, *self.box), dtype=np.float64)

@@ -109,6 +109,7 @@ from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
 from twin.kinds import DEFAULT_KIND, KINDS
+from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
@@ -118,6 +119,8 @@ from twin.scenario.noise import NoiseModel
 from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation
 from twin.scenario.physics import Physics
 from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
+from twin.unknowns import make_groups
+from twin.unknowns.limits import group_box
 
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
         "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
@@ -181,8 +184,11 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         expect=passed_through["expect"],
         source=source,
     )
-    return replace(scenario, calibration=parse_calibration(tables["calibration"],
-                                                           scenario.reading_sigma_m))
+    calibration = parse_calibration(tables["calibration"], scenario.reading_sigma_m)
+    lower, upper = group_box(make_groups(["dh"], robot, Rig())[0], calibration.bounds)
+    box = (np.reshape(lower, robot.dh.shape), np.reshape(upper, robot.dh.shape))
+    return replace(scenario, calibration=calibration,
+                   perturbation=replace(perturbation, box=box))
 
 
 def _robot(top: Table, folder: Path) -> RobotModel:

@@ -60,8 +60,8 @@ def verify_compensation(scenario: Scenario, *, seed: int | None = None, method: 
              f"calibrating {'+'.join(scenario.calibration.errors)}…")
     result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told_pulled, method=method,
                        settings=scenario.calibration, seed=sim.seed)
-    validation = result.metrics["validation"]
-    progress(f"  {result.method}: validation RMSE {mm(validation.rmse)} "
+    scored = "validation" if result.validated else "train"
+    progress(f"  {result.method}: {scored} RMSE {mm(result.metrics[scored].rmse)} "
              f"(before {mm(result.metrics['before'].rmse)})")
     twin = Twin.build(sim.true_robot, sim.port_m, scenario.physics, sim.joint_errors,
                       sim.rig.attachment_m)

@@ -37,12 +37,12 @@ class IterationRecord(NamedTuple):
 
     iteration: int
     f_m2: float
-    """Objective f = mean r² on the training poses (with a robust loss, the mean row cost), m².
-    """
+    """Objective f on the training poses, m²: mean r² (with a robust loss, the mean row cost;
+    with unequal row variances or priors, of the objective's rows, :mod:`twin.problem`)."""
     train_rmse_m: float
-    """RMSE on the training poses, √f, m."""
+    """√f, m: the RMSE on the training poses for plain least squares."""
     validation_rmse_m: float
-    """RMSE on the validation poses, m."""
+    """RMSE on the validation poses, m; NaN without validation poses."""
 
 
 class Outcome(NamedTuple):
@@ -123,31 +123,33 @@ class Tracker:
         self._start = time.perf_counter()
 
     def residuals(self, x: ArrayLike) -> Array:
-        """Training residuals for unknowns of shape (..., p): shape (..., m), m."""
+        """The objective's rows for unknowns of shape (..., p): shape (..., R), m
+        (:meth:`twin.problem.Problem.residuals`: the training rows, then the prior rows)."""
         x = np.asarray(x, dtype=np.float64)
         self.evaluations += int(np.prod(x.shape[:-1], dtype=np.int64))
-        return self.problem.model.residuals(x, self.problem.train)
+        return self.problem.residuals(x)
 
     def cost(self, x: ArrayLike) -> Array:
-        """Objective f = mean r² (with a robust loss, the mean row cost) for unknowns of shape
-        (..., p): shape (...,), m²."""
-        return np.mean(self.problem.loss.cost(self.residuals(x)), axis=-1)
+        """Objective f, the mean of the rows' costs, for unknowns of shape (..., p): shape
+        (...,), m²."""
+        return self.problem.cost(self.residuals(x))
 
     def jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
-        """The rows least squares iterates on at one x of shape (p,): the training residuals
-        (M,) and Jacobian (M, p), reweighted by the problem's loss (:meth:`twin.loss.Loss.rows`;
-        unchanged for least squares), so that mean(rows²) = f.
+        """The rows least squares iterates on at one x of shape (p,): the objective's rows (R,)
+        and Jacobian (R, p), the training rows reweighted by the problem's loss
+        (:meth:`twin.problem.Problem.loss_rows`; unchanged for least squares), so that
+        mean(rows²) = f.
 
         Counts as one objective evaluation and one Jacobian evaluation.
         """
-        return self.problem.loss.rows(*self.model_jacobian(x))
+        return self.problem.loss_rows(*self.model_jacobian(x))
 
     def model_jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
-        """The training residuals (M,) and their Jacobian (M, p) at one x, as the model gives
-        them (no loss applied); counted as :meth:`jacobian`."""
+        """The objective's rows (R,) and their Jacobian (R, p) at one x, before the loss;
+        counted as :meth:`jacobian`."""
         self.evaluations += 1
         self.jacobians += 1
-        return self.problem.model.jacobian(x, self.problem.train)
+        return self.problem.jacobian(x)
 
     def record(self, x: ArrayLike, f_m2: float) -> None:
         """Append the state after an iteration; ``f_m2`` is the training objective at x (p,).
@@ -171,8 +173,8 @@ class Tracker:
         """The recorded iterations, with the validation RMSE of each x (evaluated on each
         access)."""
         model, validation = self.problem.model, self.problem.validation
-        rmse: list[float] = []
-        for start in range(0, len(self._x), HISTORY_BATCH):
+        rmse: list[float] = [] if len(validation) else [float("nan")] * len(self._x)
+        for start in range(0, len(self._x) if len(validation) else 0, HISTORY_BATCH):
             residuals = model.residuals(np.stack(self._x[start:start + HISTORY_BATCH]),
                                         validation)
             rmse.extend(np.sqrt(np.mean(residuals**2, axis=-1)).tolist())

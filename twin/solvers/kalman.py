@@ -93,9 +93,9 @@ Linearise = Callable[[Tracker, Array, Array], Linearisation]
 def ekf_linearisation(tracker: Tracker, x: Array, P: Array) -> Linearisation:
     """First-order (EKF) linearisation at x: residuals and analytic Jacobian, one evaluation."""
     r, J = tracker.model_jacobian(x)
-    loss = tracker.problem.loss
-    return Linearisation(x, r, J, np.zeros_like(r), float(np.mean(loss.cost(r))),
-                         loss.weights(r))
+    problem = tracker.problem
+    return Linearisation(x, r, J, np.zeros_like(r), float(problem.cost(r)),
+                         problem.loss_weights(r))
 
 
 def ukf_linearisation(tracker: Tracker, x: Array, P: Array) -> Linearisation:
@@ -115,9 +115,9 @@ def ukf_linearisation(tracker: Tracker, x: Array, P: Array) -> Linearisation:
     H = np.linalg.solve(P, cross).T
     explained = np.einsum("mp,pm->m", H, cross)
     total = np.mean(spread**2, axis=0)
-    loss = tracker.problem.loss
+    problem = tracker.problem
     return Linearisation(x, np.mean(r[1:], axis=0), H, np.maximum(total - explained, 0.0),
-                         float(np.mean(loss.cost(r[0]))), loss.weights(r[0]))
+                         float(problem.cost(r[0])), problem.loss_weights(r[0]))
 
 
 def run_filter(
@@ -139,24 +139,28 @@ def run_filter(
     problem = tracker.problem
     lower, upper, unit = problem.lower, problem.upper, problem.scale
     x_prior = np.clip(x0, lower, upper)
-    P_prior = np.diag((PRIOR_FRACTION * upper) ** 2)
-    q_m2 = (PROCESS_FRACTION * upper) ** 2
+    half = 0.5 * (upper - lower)  # the bound of a symmetric box
+    P_prior = np.diag((PRIOR_FRACTION * half) ** 2)
+    q_m2 = (PROCESS_FRACTION * half) ** 2
     diagonal = np.diag_indices_from(P_prior)
     x, P = x_prior, P_prior
     model = linearise(tracker, x, P)
     # Every residual row is a scalar measurement: a pose of a 3-D kind gives three.
     order = rng.permutation(model.residual_m.size)
+    # A prior row (the last ones) is a reading of variance σ² exactly: no misfit to count.
+    prior = order >= model.residual_m.size - problem.prior_rows
     if not tracker.started:
         tracker.record(x, model.f_m2)
     for _ in range(budget.max_iterations):
         r_m2 = max(problem.sigma_m**2, model.f_m2)  # see the module docstring
         x, P = x_prior.copy(), P_prior.copy()  # each pass filters from the prior: see above
-        for i in order:  # sequential by nature: each update conditions on the ones before it
-            P[diagonal] += q_m2
+        for i, exact in zip(order, prior, strict=True):  # sequential by nature: each update
+            P[diagonal] += q_m2                           # conditions on the ones before it
             h = model.jacobian[i]
             predicted_m = model.residual_m[i] + h @ (x - model.x)
             pxz = P @ h
-            s = float(h @ pxz) + r_m2 / model.weights[i] + model.extra_variance_m2[i]
+            s = float(h @ pxz) + (problem.sigma_m**2 if exact else r_m2) / model.weights[i] \
+                + model.extra_variance_m2[i]
             gain = pxz / s
             x -= gain * predicted_m
             P -= np.outer(gain, pxz)

@@ -38,6 +38,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.metrics import NO_ROWS
 from twin.analysis.uncertainty import cramer_rao_rms, rms_distance
 from twin.arrays import Array
 from twin.calibration.accuracy import rigid_truth, truth_errors
@@ -82,15 +83,17 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     """The unknowns x a perfect calibration returns, shape (p,), SI: the D-H errors, the
     transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
     hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
-    the port's correction and the offset."""
+    the port's correction and the offset (of the robot's errors, those the calibration did not
+    fix)."""
     x = np.zeros(model.n_params)
-    x[model.slice("dh")] = sim.delta.ravel()
-    if model.has("transmission"):
-        x[model.slice("transmission")] = np.nan_to_num(sim.joint_errors.coefficients()).ravel()
-    if model.has("backlash"):
-        x[model.slice("backlash")] = 0.5 * sim.joint_errors.backlash_rad
-    if model.has("compliance"):
-        x[model.slice("compliance")] = sim.scenario.physics.compliance(sim.robot.n_joints)
+    robot_errors = {
+        "dh": lambda: sim.delta.ravel(),
+        "transmission": lambda: np.nan_to_num(sim.joint_errors.coefficients()).ravel(),
+        "backlash": lambda: 0.5 * sim.joint_errors.backlash_rad,
+        "compliance": lambda: sim.scenario.physics.compliance(sim.robot.n_joints)}
+    for name, truth in robot_errors.items():
+        if model.has(name):
+            x[model.slice(name)] = model.group(name).take(truth())
     rig = model.rig
     if model.has("port"):
         index = rig.estimated_port_index
@@ -182,7 +185,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
-        before_m, train_m, validation_m = (result.metrics[stage]
+        before_m, train_m, validation_m = (result.metrics.get(stage, NO_ROWS)
                                            for stage in ("before", "train", "validation"))
         rows.append(TrialRow(
             trial=trial, case=case, seed=seed, method=name,
