@@ -28,14 +28,16 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
 from twin.geometry.kinematics import (
+    JOINT_SLOT,
     PointJacobian,
     Turns,
     flange_transform,
+    flange_turn_jacobian,
     point_position,
     trace_point,
     turns,
 )
-from twin.kinds import Kind, Measured
+from twin.kinds import Kind, KindJacobian, Measured
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
@@ -289,10 +291,8 @@ class Model:
         x = self._check(x)
         if not self.kind.reads_rotation:
             return Measured(self.positions(x, data))
-        table, joints, point = self.table(x), self.joints(x, data), self.point(x)
-        flange = flange_transform(self.robot.structure, table, joints)
-        position = flange[..., :3, :3] @ point[..., None, :, None]
-        return Measured(position[..., 0] + flange[..., :3, 3], flange[..., :3, :3])
+        flange = flange_transform(self.robot.structure, self.table(x), self.joints(x, data))
+        return Measured(self.positions(x, data), flange[..., :3, :3])
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
@@ -357,17 +357,10 @@ class Model:
         Returns:
             ``(r, J)``: residuals (M,) in m, Jacobian ∂r/∂x (M, p).
         """
-        x = self._check(x)
-        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
-                            self.point(x))
-        kind = self.kind.jacobian(Measured(trace.position), self._measurement_values(x), data,
-                                  self.rig)
+        kind, moves = self._moves(self._check(x), data)
         m, rows = len(data), self.kind.rows_per_pose
         jacobian = np.zeros((kind.residuals.size, self.n_params))
-        # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
-        # along those directions alone (one row per pose for a length, not three).
-        self._chain_rule(trace.jacobian(kind.by_position), data, True,
-                         jacobian[: m * rows].reshape(m, rows, self.n_params))
+        self._chain_rule(moves, data, True, jacobian[: m * rows].reshape(m, rows, self.n_params))
         for group in self.groups:
             if group.stage == Stage.MEASUREMENT:
                 jacobian[:, self.slice(group.name)] = kind.by_group[group.name]
@@ -378,15 +371,33 @@ class Model:
         m/rad, at one x (p,): the rows that are not a pose's (known distances) do not move.
         Noise in the recorded angles reaches the rows through it (errors in variables); a
         joint-level correction's own dependence on q is second order and left out."""
-        x = self._check(x)
-        trace = trace_point(self.robot.structure, self.table(x), self.joints(x, data),
-                            self.point(x))
-        kind = self.kind.jacobian(Measured(trace.position), self._measurement_values(x), data,
-                                  self.rig)
+        kind, moves = self._moves(self._check(x), data)
         m, rows = len(data), self.kind.rows_per_pose
-        moves = np.zeros((kind.residuals.size, self.robot.n_joints))
-        moves[: m * rows] = trace.jacobian(kind.by_position).joints.reshape(m * rows, -1)
-        return moves
+        joints = np.zeros((kind.residuals.size, self.robot.n_joints))
+        joints[: m * rows] = moves.joints.reshape(m * rows, -1)
+        return joints
+
+    def _moves(self, x: Array, data: Measurements) -> tuple[KindJacobian, PointJacobian]:
+        """The kind's residuals and derivatives at one x, and how each pose's rows move with
+        the table, the joints and the measured point (:meth:`_chain_rule` takes them to x)."""
+        table, joints = self.table(x), self._joint_turns(x, data)
+        trace = trace_point(self.robot.structure, table, joints, self.point(x))
+        flange = spins = None
+        if self.kind.reads_rotation:
+            flange, spins = flange_turn_jacobian(self.robot.structure, table, joints.q_rad)
+        kind = self.kind.jacobian(Measured(trace.position, flange),
+                                  self._measurement_values(x), data, self.rig)
+        # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
+        # along those directions alone (one row per pose for a length, not three).
+        moves = trace.jacobian(kind.by_position)
+        if kind.by_rotation is not None and spins is not None:
+            # Rows that read the flange's orientation turn with it: ∂r/∂ω times the flange's
+            # angular velocity per table entry, whose θ columns are the joints' rates.
+            spun = kind.by_rotation @ spins  # (m, rows, 4n)
+            n = self.robot.n_joints
+            moves = moves._replace(table=moves.table + spun, joints=moves.joints
+                                   + spun[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n])
+        return kind, moves
 
     def symmetries(self, x: ArrayLike) -> Array:
         """The kind's known gauge directions at x (:meth:`twin.kinds.base.Kind.symmetries`),

@@ -15,7 +15,7 @@ errors (:mod:`twin.unknowns`):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,6 +46,17 @@ class Distance(NamedTuple):
     """The distance, m."""
 
 
+class Part(Protocol):
+    """What a measurement kind keeps in the rig beyond the parts every kind shares: its own
+    frozen value (the tool rotation of 6-D poses, the planes of plane data), defined, started,
+    read and written by its kind (:mod:`twin.kinds`)."""
+
+    def places(self, group: str) -> tuple[str, ...]:
+        """The named places whose corrections the measurement-stage group ``group`` holds (the
+        planes of group ``planes``), or () when this part sizes no such group."""
+        ...
+
+
 @dataclass(frozen=True)
 class Rig:
     """Ports of the cable, the point of the tool that is measured, the tracker's frame and the
@@ -68,6 +79,7 @@ class Rig:
         point_names: A name per fixed point, length f.
         points_m: The fixed points in the robot base frame, shape (f, 3), m.
         distances: Known distances between named fixed points.
+        part: What the measurement kind keeps beyond these (:class:`Part`), or None.
     """
 
     ports_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
@@ -79,6 +91,12 @@ class Rig:
     point_names: tuple[str, ...] = ()
     points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
     distances: tuple[Distance, ...] = ()
+    part: Part | None = None
+
+    def places(self, group: str) -> tuple[str, ...]:
+        """The named places of the kind's part a measurement-stage group corrects
+        (:meth:`Part.places`), () without a part."""
+        return () if self.part is None else self.part.places(group)
 
     def __post_init__(self) -> None:
         ports = np.asarray(self.ports_m, dtype=np.float64).reshape(-1, 3)

@@ -53,7 +53,7 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
         seed: Seed of the workspace poses and of the calibration.
     """
     model = split.problem.model
-    data = model.kind.prepare(robot, model.rig, measurements)[1]
+    data = model.kind.prepare(robot, model.rig, measurements, split.settings.noise)[1]
     x0 = np.zeros(model.n_params)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
     nominal = measurement_identifiability(model, x0, data)

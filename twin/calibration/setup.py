@@ -14,6 +14,7 @@ from twin.calibration.start import check_approach
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.kinds import DEFAULT_KIND, KINDS
+from twin.kinds.base import Noise
 from twin.model import Model
 from twin.problem import Problem
 from twin.rig import Rig
@@ -78,11 +79,13 @@ def _prepared(robot: RobotModel, measurements: Measurements, setup: Rig,
     """The measurements and the rig as the model reads them: ports matched by name, fixed
     points started (:meth:`twin.kinds.base.Kind.prepare`)."""
     _check_unknowns(settings, measurements.kind)
-    setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements)
+    setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements,
+                                                                   settings.noise)
     return measurements, setup
 
 
-def _held_out(validation: Measurements, kind: str, model: Model) -> Measurements:
+def _held_out(validation: Measurements, kind: str, model: Model, noise: Noise
+              ) -> Measurements:
     """A separate file's measurements as the model reads them (validation only).
 
     Raises:
@@ -96,7 +99,7 @@ def _held_out(validation: Measurements, kind: str, model: Model) -> Measurements
                          + (f" ({model.kind.what} are validated by --cv-by: their "
                             f"{'/'.join(implied)} are the training data's unknowns)"
                             if implied else ""), where="validation")
-    held_out = model.kind.prepare(model.robot, model.rig, validation)[1]
+    held_out = model.kind.prepare(model.robot, model.rig, validation, noise)[1]
     check_approach(model, held_out.approach)
     return held_out
 
@@ -169,7 +172,8 @@ def make_problem(
     measurements, setup = _prepared(robot, measurements, cable_rig(port_m, rig), settings)
     model = make_model(robot, setup, measurements.kind, settings)
     check_approach(model, measurements.approach)
-    held_out = None if validation is None else _held_out(validation, measurements.kind, model)
+    held_out = None if validation is None else _held_out(validation, measurements.kind, model,
+                                                           settings.noise)
     train_rows, validation_rows = _rows(model, measurements, settings, seed, rows,
                                         held_out is not None)
     train = measurements.subset(train_rows)

@@ -85,6 +85,7 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
 
 
 FLAGS = {"errors": "--errors", "estimate": "--estimate-port", "sigma_m": "--sigma",
+         "sigma_rad": "--sigma-deg",
          "loss": "--loss", "loss_scale_m": "--loss-scale", "stop": "--stop",
          "max_iterations": "--max-iterations", "train_fraction": "--train-fraction",
          "bounds": "--bounds", "priors": "--prior", "fix": "--fix"}
@@ -102,10 +103,11 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
         InputError: naming the flag of a setting that is wrong.
     """
     from twin.analysis.misfit import reading_sigma
-    from twin.units import mm_to_m
+    from twin.units import deg_to_rad, mm_to_m
 
     flagged = {"estimate_port": "port", "estimate_offset": "offset",
-               "estimate_attachment": "attachment", "estimate_base": "base"}
+               "estimate_attachment": "attachment", "estimate_base": "base",
+               "estimate_tool": "tool"}
     estimate = {*base.estimate, *(name for flag, name in flagged.items()
                                   if getattr(args, flag, None))}
     errors = getattr(args, "errors", None)
@@ -118,6 +120,8 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
                                  repeatability_m if repeatability is None
                                  else float(mm_to_m(repeatability))),
         "loss_scale_m": base.loss_scale_m if scale is None else float(mm_to_m(scale)),
+        "sigma_rad": base.sigma_rad if getattr(args, "sigma_deg", None) is None
+        else float(deg_to_rad(args.sigma_deg)),
         **{key: getattr(args, flag) for key, flag in (
             ("loss", "loss"), ("stop", "stop"), ("max_iterations", "max_iterations"),
             ("train_fraction", "train_fraction")) if getattr(args, flag, None) is not None},
@@ -257,11 +261,14 @@ def refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
     a robust loss."""
     from twin.kinds import KINDS
 
+    applies: dict[str, dict[str, str]] = {}
     for kind in KINDS.values():
         for flag, what in kind.flags:
-            if flag in inputs.flags and measurements.kind != kind.name:
-                raise InputError(f"{flag} with {measurements.kind} measurements",
-                                 f"{flag} only with {what}", source=flag)
+            applies.setdefault(flag, {})[kind.name] = what
+    for flag, kinds in applies.items():
+        if flag in inputs.flags and measurements.kind not in kinds:
+            raise InputError(f"{flag} with {measurements.kind} measurements",
+                             f"{flag} only with " + " or ".join(kinds.values()), source=flag)
     if "--loss-scale" in inputs.flags and inputs.calibration.loss == "linear":
         raise InputError("--loss-scale with the linear loss", "it beside a robust --loss "
                          "(huber, soft_l1, cauchy): least squares has no scale",

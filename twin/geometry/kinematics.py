@@ -623,6 +623,21 @@ def flange_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike
     return flange, np.concatenate([linear, angular], axis=-2)
 
 
+def flange_turn_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike
+                         ) -> tuple[Array, Array]:
+    """The flange's orientation and how it turns with the table: base_R_flange
+    (..., m, 3, 3), and its angular velocity in the base frame per unit of each table entry,
+    shape (..., m, 3, 4n) in the error vector's order (a rotation's axis, zero for a
+    translation; a joint's θ column is its joint's rate)."""
+    _, motions, flange = _walk(structure, dh, q_rad, record=True)
+    n = structure.n_joints
+    table = np.zeros((*flange.shape[:-2], 3, 4 * n))
+    for kind, joint, slot, axis, _ in motions:
+        if kind == _ROT:
+            table[..., slot * n + joint] = axis
+    return flange[..., :3, :3], table
+
+
 def _columns(motions: list[tuple[int, int, int, Array, Array]], p: Array) -> Array:
     """How the point p moves with each motion: u for a translation along u, u × (p − o) for a
     rotation about u through o; shape (..., m, 3, len(motions)), all in one cross product."""

@@ -40,17 +40,19 @@ LIMITS = {"bounds": "a list of bounds such as \"dh=20mm\" or \"a2=-5:20mm\"",
 """The keys of a ``[calibration]`` table."""
 
 
-def parse_calibration(table: Table, sigma_m: float) -> CalibrationSettings:
+def parse_calibration(table: Table, sigma_m: float, sigma_rad: float | None = None
+                      ) -> CalibrationSettings:
     """The settings of a ``[calibration]`` table (every key optional) and the file's noise.
 
     Args:
         table: The table (its allowed keys are the caller's: :data:`KEYS` and any of its own).
         sigma_m: The noise 1σ of one reading the file states, m.
+        sigma_rad: The noise 1σ of an angle it states, rad (6-D poses), or None.
 
     Raises:
         InputError: naming the file and key of the first wrong value.
     """
-    values: dict[str, Any] = {"sigma_m": sigma_m}
+    values: dict[str, Any] = {"sigma_m": sigma_m, "sigma_rad": sigma_rad}
     if table.has("errors"):
         values["errors"] = tuple(table.strings("errors", expected="a non-empty list of error "
                                                "groups among " + ", ".join(ERRORS)))

@@ -20,6 +20,7 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     sigma_mm = 0.01                   # the instrument's noise 1σ (misfit test, filters)
     resolution_mm = 0.004             # its resolution
     repeatability_mm = 0.01           # the robot's RMS flange repeatability (noise of a pose)
+    sigma_deg = 0.01                  # a 6-D instrument's angle noise 1σ, degrees
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from twin.io.table import Table
 from twin.problem import DEFAULT_SIGMA_M
 from twin.rig import Distance, Rig
 from twin.robot import RobotModel
-from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
+from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m
 
 _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder", "ports", "rig")
 _RIG_KEYS = ("attachment_mm", "distances")
@@ -86,6 +87,13 @@ class Capture:
         resolution = float(mm_to_m(self.encoder.get("resolution_mm", 0.0)))
         total = math.hypot(sigma, resolution / math.sqrt(12.0))
         return total if total > 0 else DEFAULT_SIGMA_M
+
+    @property
+    def angle_sigma_rad(self) -> float | None:
+        """The instrument's angle noise the capture states (``[encoder]`` sigma_deg), rad;
+        None when it states none."""
+        sigma = float(deg_to_rad(self.encoder.get("sigma_deg", 0.0)))
+        return sigma if sigma > 0 else None
 
     @property
     def repeatability_m(self) -> float:
@@ -137,6 +145,8 @@ def load_capture(path: str | Path) -> Capture:
     encoder = document.table("encoder")
     for key in ("sigma_mm", "resolution_mm", "repeatability_mm"):
         encoder.number(key, 0.0, minimum=0.0, expected="a noise in mm >= 0")
+    encoder.number("sigma_deg", 0.0, minimum=0.0, maximum=90.0,
+                   expected="an angle noise in degrees, 0 to 90")
     folder = path.parent
     table = document.table("calibration", allowed=(*KEYS, "cable_tension_n"))
     rig = replace(_parse_rig(document), tension_n=table.number(
@@ -151,7 +161,8 @@ def load_capture(path: str | Path) -> Capture:
         encoder=dict(encoder.values),
         rig=rig,
     )
-    return replace(capture, calibration=parse_calibration(table, capture.reading_sigma_m))
+    return replace(capture, calibration=parse_calibration(table, capture.reading_sigma_m,
+                                                          capture.angle_sigma_rad))
 
 
 def parse_distance(value: object, source: str | Path, where: str) -> Distance:

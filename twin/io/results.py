@@ -85,6 +85,8 @@ def identifiability_to_dict(identifiability: Identifiability, at: str) -> dict[s
         "unidentifiable": list(identifiability.unidentifiable),
         "base": list(identifiability.base_names),
         "at": at,
+        **({"beyond_points": list(identifiability.beyond_points)}
+           if identifiability.beyond_points else {}),
     }
 
 
@@ -197,6 +199,8 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     if rig.distances:
         document["distances"] = [{"points": [d.first, d.second], "length": _mm(d.length_m)[0]}
                                  for d in rig.distances]
+    if rig.part is not None:
+        document[kind.name] = kind.part_document(rig.part)
     return document
 
 

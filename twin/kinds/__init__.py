@@ -10,11 +10,13 @@ from __future__ import annotations
 from twin.distribution import Registry
 from twin.kinds.base import Canvas, Kind, KindJacobian, Measured
 from twin.kinds.length import Length
+from twin.kinds.plane import Plane
 from twin.kinds.point import Point
+from twin.kinds.pose import Pose
 from twin.kinds.position import Position
 
-KINDS: Registry[Kind] = Registry("measurement kind",
-                                 {kind.name: kind for kind in (Length(), Position(), Point())})
+KINDS: Registry[Kind] = Registry("measurement kind", {
+    kind.name: kind for kind in (Length(), Position(), Point(), Pose(), Plane())})
 """Every measurement kind, by the name :attr:`twin.dataset.Measurements.kind` gives
 (``KINDS.lookup(name)``)."""
 

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.kinds.bench import Fields, Setup
-from twin.rig import Rig
+from twin.rig import Part, Rig
 from twin.robot import RobotModel
 
 if TYPE_CHECKING:
@@ -54,8 +54,18 @@ class Measured(NamedTuple):
     position_m: Array
     """The measured point in the base frame, shape (..., m, 3), m."""
     rotation: Array | None = None
-    """The tool frame's orientation in the base frame, base_R_tool, shape (..., m, 3, 3);
-    None unless the kind reads orientations (:attr:`Kind.reads_rotation`)."""
+    """The flange's orientation in the base frame, base_R_flange, shape (..., m, 3, 3); None
+    unless the kind reads orientations (:attr:`Kind.reads_rotation`)."""
+
+
+class Noise(NamedTuple):
+    """The noise of one reading a calibration is told: what weighs a kind's rows of different
+    units against each other (an orientation's against a position's)."""
+
+    sigma_m: float
+    """Of a length or coordinate, m."""
+    sigma_rad: float | None = None
+    """Of an angle, rad; None: the kind's own default."""
 
 
 class KindJacobian(NamedTuple):
@@ -68,9 +78,9 @@ class KindJacobian(NamedTuple):
     by_group: dict[str, Array]
     """∂r/∂x_g of each measurement-stage group the kind reads, shape (M, p_g)."""
     by_rotation: Array | None = None
-    """∂r/∂ω of each pose's rows w.r.t. a small turn ω of the tool frame about the base axes
-    (base_R_tool → exp([ω]×) base_R_tool), shape (m, rows_per_pose, 3); None for kinds that do
-    not read orientations."""
+    """∂r/∂ω of each pose's rows w.r.t. a small turn ω of the flange about the base axes
+    (base_R_flange → Exp(ω) base_R_flange), shape (m, rows_per_pose, 3); None for kinds that
+    do not read orientations."""
 
 
 class Canvas(Protocol):
@@ -95,6 +105,29 @@ class Canvas(Protocol):
 def no_symmetries(model: Model, x: Array) -> Array:
     """No direction to project out: shape (p, 0)."""
     return np.zeros((model.n_params, 0))
+
+
+ORIGIN_TOL_M = 1e-12
+"""A chain's fixed base or tool translation, or a known attachment, shorter than this counts as
+none (a common scale of every length is then a symmetry: nothing of fixed length is left)."""
+
+
+def length_scale(model: Model, x: Array) -> Array | None:
+    """A common scale of every length the model holds, as a direction of x (p,): the table's
+    lengths and the estimated attachment, about the base origin; the kind adds its own places.
+    None when something of fixed length is left (a base or tool translation, a known
+    attachment off the flange), which pins the scale."""
+    structure = model.robot.structure
+    fixed = max(np.linalg.norm(structure.base[:3, 3]), np.linalg.norm(structure.tool[:3, 3]))
+    attachment_fixed = not model.has("attachment") \
+        and np.linalg.norm(model.rig.attachment_m) > ORIGIN_TOL_M
+    if fixed >= ORIGIN_TOL_M or attachment_fixed:
+        return None
+    scale = np.zeros(model.n_params)
+    scale[model.slice("dh")] = np.where(structure.is_length, model.table(x), 0.0).ravel()
+    if model.has("attachment"):
+        scale[model.slice("attachment")] = model.point(x)
+    return scale
 
 
 def mm_cells(values_mm: Array) -> list[str]:
@@ -138,6 +171,11 @@ class Kind(ABC):
     """Whether the instrument reads the flange centre unless told otherwise (a cable hooks on
     the flange), so that its measured point is worth naming only when it is off the flange (a
     tracker target or a ball is always named)."""
+    measurement_keys: ClassVar[tuple[str, ...]] = ()
+    """The keys of a scenario's ``[measurement]`` table it reads, beside ``kind``."""
+    scenario_tables: ClassVar[tuple[tuple[str, tuple[str, ...]], ...]] = ()
+    """The scenario tables it alone reads, each with its keys (``[fixture]`` of fixed points);
+    a scenario of another kind may not have them."""
     in_instrument_frame: ClassVar[bool] = False
     """Whether its readings are in the instrument's own frame (the rig's
     :attr:`~twin.rig.Rig.base_in_tracker`), which results keep and the twin's truth states."""
@@ -145,6 +183,11 @@ class Kind(ABC):
     """Whether its residuals read the tool frame's orientation (:attr:`Measured.rotation`)."""
     prediction_note: ClassVar[str] = ""
     """What its :meth:`prediction_columns` are, beside their names (`` (mm, tracker frame)``)."""
+    point_rows: ClassVar[tuple[int, ...]] = ()
+    """For a kind that reads more than a point, which of each pose's rows are the point's (a
+    pose's x, y, z): the identifiability report names what the other rows add."""
+    beyond_noun: ClassVar[str] = ""
+    """What the rows beyond the point's are (``orientations``)."""
     random_poses: ClassVar[bool] = True
     """Whether its readings at random well-spread poses can stand for its data (what the
     identifiability of well-spread poses compares with); not for fixed points, which random
@@ -193,10 +236,11 @@ class Kind(ABC):
 
     # --- the calibration ------------------------------------------------------------------
 
-    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements
+    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
                 ) -> tuple[Rig, Measurements]:
         """The rig and data a calibration fits: the rig completed from the data (the places
-        they name) and the data's labels matched to the rig's (its ports by name).
+        they name) and the noise (how its rows weigh), the data's labels matched to the rig's
+        (its ports by name).
 
         Raises:
             InputError: for what the rig lacks or the data name that the rig does not have.
@@ -227,6 +271,25 @@ class Kind(ABC):
         """The readings the identified model predicts at poses (:meth:`template` rows), by
         name: what ``twin predict`` writes beside the measured point (none by default)."""
         return {}
+
+    def part_document(self, part: Part) -> dict[str, Any]:
+        """The kind's part of the rig (:attr:`twin.rig.Rig.part`) as a result file keeps it:
+        what rebuilds the fitted model exactly."""
+        raise NotImplementedError(f"{self.name} measurements keep no part in the rig")
+
+    def read_part(self, document: Any) -> Part | None:
+        """The kind's part of the rig from a result file (:meth:`part_document`; None when the
+        file has none).
+
+        Raises:
+            InputError: naming the key that is wrong (no source: the reader adds the file).
+        """
+        return None
+
+    def report(self, model: Model, x: Array) -> list[str]:
+        """Lines of the text report about what only this kind knows: its part of the rig as
+        identified (a tool's rotation); none by default."""
+        return []
 
     # --- files ----------------------------------------------------------------------------
 

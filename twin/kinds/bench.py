@@ -85,6 +85,8 @@ class Rest(Protocol):
     """Cable lengths from each row's port, shape (m,), m; NaN without a cable."""
     point_m: Array
     """The measured point in the base frame, shape (m, 3), m."""
+    rotation: Array
+    """The flange's orientation in the base frame, base_R_flange, shape (m, 3, 3)."""
 
 
 class Visit(NamedTuple):
@@ -174,6 +176,11 @@ class Setup(Protocol):
         noise (σ with its resolution folded in)."""
         ...
 
+    def angle_sigma_rad(self) -> float | None:
+        """The noise 1σ of one angle reading the instrument states, rad; None: it reads no
+        angle."""
+        ...
+
     def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
         """The instrument's noise as a capture file's ``[encoder]`` table states it, mm, given
         the scenario's encoder noise σ and resolution, m."""
@@ -211,6 +218,10 @@ def refuse(fields: Fields, found: str, expected: str) -> None:
     """Refuse a table that should be empty, naming its first key."""
     if fields.values:
         raise fields.error(sorted(fields.values)[0], found, expected)
+
+
+TARGET_KEYS = ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm")
+"""The ``[measurement]`` keys of an instrument that reads a target in its own frame."""
 
 
 class Target(NamedTuple):
@@ -251,12 +262,6 @@ def read_target(tables: Mapping[str, Fields], name: str, *, frame: bool) -> Targ
         raise measurement.error("tracker_pose", f"a tracker with {name} measurements",
                                 "kind = \"position\"")
     return Target(attachment, told, mm_to_m(sigma), tracker)
-
-
-def refuse_fixture(tables: Mapping[str, Fields]) -> None:
-    """Refuse a ``[fixture]`` table (only fixed points have one)."""
-    refuse(tables["fixture"], "a [fixture] table",
-           "[fixture] with fixed points (kind = \"point\") only")
 
 
 def refuse_port(tables: Mapping[str, Fields], name: str) -> None:

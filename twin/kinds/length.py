@@ -21,8 +21,16 @@ from twin.arrays import Array, frozen_array, lengths
 from twin.dataset import Labels, Measurements, approach_directions
 from twin.errors import InputError
 from twin.geometry.kinematics import Structure, point_position
-from twin.kinds.base import ANCHOR_RADIUS_M, Canvas, Kind, KindJacobian, Measured, mm_cells
-from twin.kinds.bench import Bench, Captured, Fields, refuse_fixture
+from twin.kinds.base import (
+    ANCHOR_RADIUS_M,
+    Canvas,
+    Kind,
+    KindJacobian,
+    Measured,
+    Noise,
+    mm_cells,
+)
+from twin.kinds.bench import Bench, Captured, Fields
 from twin.report.display import POSITION_DECIMALS, mm, xyz_mm
 from twin.rig import PORT_LABELS, Rig
 from twin.robot import RobotModel
@@ -174,7 +182,7 @@ class Length(Kind):
             by_group["offset"] = np.ones((len(data), 1))
         return KindJacobian(distance - data.value(LENGTH), u[:, None, :], by_group)
 
-    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements
+    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
                 ) -> tuple[Rig, Measurements]:
         """The rows' ports matched to the rig's (:func:`match_ports`).
 
@@ -319,6 +327,10 @@ class CableSetup:
         """The encoder's."""
         return encoder_sigma_m
 
+    def angle_sigma_rad(self) -> float | None:
+        """None: no angle is read."""
+        return None
+
     def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
         """The encoder's σ and resolution."""
         return {"sigma_mm": float(m_to_mm(sigma_m)),
@@ -377,7 +389,6 @@ def read_cable(tables: Mapping[str, Fields]) -> CableSetup:
         if not names:
             raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
         stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
-    refuse_fixture(tables)
     if not moved:
         port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
         names, stations = ("port",), mm_to_m(port.vector("position_mm", 3))[None]

@@ -35,7 +35,15 @@ from twin.choices import MAX_POSES
 from twin.dataset import Labels, Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import point_position
-from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured
+from twin.kinds.base import (
+    MARK_RADIUS_M,
+    Canvas,
+    Kind,
+    KindJacobian,
+    Measured,
+    Noise,
+    length_scale,
+)
 from twin.kinds.bench import (
     POSE_TEXT,
     Bench,
@@ -56,9 +64,6 @@ if TYPE_CHECKING:
 
 DISTANCE_WEIGHT = 10.0
 """Weight of a known-distance row against a reading's rows (its noise a tenth of theirs)."""
-ORIGIN_TOL_M = 1e-12
-"""A chain's fixed base or tool translation shorter than this counts as none (scale is then a
-symmetry: nothing of fixed length is left)."""
 POINT = "point"
 """The labels of each row's fixed place."""
 
@@ -86,6 +91,8 @@ class Point(Kind):
     columns_text = "point"
     flags = (("--distance", "fixed points (the distance between two of them)"),)
     random_poses = False
+    measurement_keys = ("sigma_mm", "attachment_mm", "told_attachment_mm")
+    scenario_tables = (("fixture", ("sockets_mm", "placements", "touches", "distances")),)
 
     @staticmethod
     def _points(values: Mapping[str, Array], rig: Rig) -> Array:
@@ -145,7 +152,7 @@ class Point(Kind):
                                                  distance_rows.reshape(len(pairs), 3 * f)])
         return KindJacobian(residuals, np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), by_group)
 
-    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements
+    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
                 ) -> tuple[Rig, Measurements]:
         """The rig with the fixed points of the data, each started at the mean of the nominal
         model's measured points of its rows (every row: a start, not a fit).
@@ -210,14 +217,8 @@ class Point(Kind):
         turn[model.slice("dh").start + 3 * n] = 1.0  # θ1, slot 3 of joint 1
         turn[model.slice("points")] = np.cross(axis, points - origin).ravel()
         directions = [turn]
-        fixed = max(np.linalg.norm(structure.base[:3, 3]), np.linalg.norm(structure.tool[:3, 3]))
-        attachment_fixed = not model.has("attachment") \
-            and np.linalg.norm(model.rig.attachment_m) > ORIGIN_TOL_M
-        if not model.rig.distances and fixed < ORIGIN_TOL_M and not attachment_fixed:
-            scale = np.zeros(model.n_params)
-            scale[model.slice("dh")] = np.where(structure.is_length, model.table(x), 0.0).ravel()
-            if model.has("attachment"):
-                scale[model.slice("attachment")] = model.point(x)
+        scale = None if model.rig.distances else length_scale(model, x)
+        if scale is not None:
             scale[model.slice("points")] = (points - origin).ravel()
             directions.append(scale)
         return np.stack(directions, axis=1)
@@ -300,6 +301,10 @@ class FixtureSetup:
     def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
         """The RMS of the per-axis seating σ."""
         return per_axis_sigma(self.sigma_m)
+
+    def angle_sigma_rad(self) -> float | None:
+        """None: no angle is read."""
+        return None
 
     def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
         """The RMS of the per-axis seating σ."""

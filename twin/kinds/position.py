@@ -23,12 +23,12 @@ from twin.errors import InputError
 from twin.geometry.rigid import angles, kabsch, rotation, rotation_derivatives
 from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured, mm_cells
 from twin.kinds.bench import (
+    TARGET_KEYS,
     Bench,
     Captured,
     Fields,
     per_axis_sigma,
     read_target,
-    refuse_fixture,
     refuse_port,
 )
 from twin.report.display import xyz_mm
@@ -117,6 +117,7 @@ class Position(Kind):
     columns_text = "x,y,z (mm)"
     messages = ("geometry_msgs/msg/PointStamped", "geometry_msgs/msg/PoseStamped")
     in_instrument_frame = True
+    measurement_keys = TARGET_KEYS
 
     def template(self, q_rad: Array, rig: Rig, labels: Mapping[str, NDArray[np.intp]]
                  ) -> Measurements:
@@ -194,7 +195,6 @@ class Position(Kind):
         """``[measurement]``: the target, the tracker's noise and pose; no ``[cable]``,
         ``[fixture]`` or ``[port]``."""
         target = read_target(tables, self.name, frame=True)
-        refuse_fixture(tables)
         refuse_port(tables, self.name)
         return TrackerSetup(target.attachment_m, target.attachment_told_m, target.sigma_m,
                             target.frame)
@@ -249,6 +249,10 @@ class TrackerSetup:
     def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
         """The RMS of the per-axis σ."""
         return per_axis_sigma(self.sigma_m)
+
+    def angle_sigma_rad(self) -> float | None:
+        """None: no angle is read."""
+        return None
 
     def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
         """The RMS of the per-axis σ."""

@@ -52,13 +52,17 @@ def _metric_row(label: str, m: Metrics) -> str:
                                       for v in (m.rmse, m.mae, m.std, m.max))
 
 
-def _nominal_lines(nominal: Identifiability) -> list[str]:
-    return [
+def _nominal_lines(nominal: Identifiability, beyond: str) -> list[str]:
+    lines = [
         f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
         f"{nominal.n_params}, condition {nominal.condition:.3g} "
         f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
         "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
     ]
+    if nominal.beyond_points:
+        lines.append(f"  {beyond} see what positions alone cannot: "
+                     + ", ".join(nominal.beyond_points))
+    return lines
 
 
 def _held_lines(result: CalibrationResult) -> list[str]:
@@ -125,7 +129,7 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     nominal, identified = result.identifiability, result.identified_identifiability
     lines = []
     if nominal is not None:
-        lines += _nominal_lines(nominal)
+        lines += _nominal_lines(nominal, result.model.kind.beyond_noun)
         lines += format_held(result)
     if identified is not None:
         lifted = " (the identified geometry lifts held directions off zero)" \
@@ -218,6 +222,7 @@ def format_rig(result: CalibrationResult) -> list[str]:
                      f"rx ry rz ({deg_values(angles(transform[:3, :3]))}) deg")
     if model.has("points"):
         lines.append(f"  identified fixed points: {len(model.rig.point_names)} (in the JSON)")
+    lines += model.kind.report(model, result.solver.x)
     return lines
 
 
@@ -453,7 +458,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         )
     lines.append("  " + MAE_NOTE)
     if first.identifiability is not None:
-        lines += _nominal_lines(first.identifiability)
+        lines += _nominal_lines(first.identifiability, first.model.kind.beyond_noun)
         lines += _held_lines(first)[:1]
     kept = [name for name, result in results.items()
             if result.held is not None and result.held.kept_start]

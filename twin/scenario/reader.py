@@ -122,14 +122,17 @@ from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import make_groups
 from twin.unknowns.limits import group_box
 
+_KIND_TABLES = {table: keys for kind in KINDS.values() for table, keys in kind.scenario_tables}
+"""The tables of one kind alone (a fixed-point scenario's ``[fixture]``…)."""
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
-        "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
+        "cable", "measurement", *_KIND_TABLES, "perturbation", "poses", "encoder", "joints",
         "physics", "calibration", "study", "expect")
 _TABLES = {
     "port": ("position_mm", "told_error_mm", "told_mm", "stations_mm"),
     "cable": ("attachment_mm", "told_attachment_mm"),
-    "measurement": ("kind", "sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"),
-    "fixture": ("sockets_mm", "placements", "touches", "distances"),
+    "measurement": ("kind", *dict.fromkeys(key for kind in KINDS.values()
+                                           for key in kind.measurement_keys)),
+    **_KIND_TABLES,
     "perturbation": ("distribution", "a_mm", "d_mm", "beta_deg", "alpha_deg", "theta_deg"),
     "poses": ("count", "plan", "min_flange_height_mm", "cable_clearance_mm"),
     "encoder": ("range_mm", "sigma_mm", "resolution_mm", "outlier_rate", "outlier_mm",
@@ -184,7 +187,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         expect=passed_through["expect"],
         source=source,
     )
-    calibration = parse_calibration(tables["calibration"], scenario.reading_sigma_m)
+    calibration = parse_calibration(tables["calibration"], scenario.reading_sigma_m,
+                                    instrument.setup.angle_sigma_rad())
     lower, upper = group_box(make_groups(["dh"], robot, Rig())[0], calibration.bounds)
     box = (np.reshape(lower, robot.dh.shape), np.reshape(upper, robot.dh.shape))
     return replace(scenario, calibration=calibration,
@@ -321,8 +325,21 @@ def _instrument(tables: dict[str, Table]) -> Instrument:
     """``[measurement] kind``, and the tables its kind reads
     (:meth:`twin.kinds.base.Kind.read_setup`: ``[cable]``, ``[port]``, ``[measurement]``,
     ``[fixture]``…)."""
-    kind = KINDS.lookup(tables["measurement"].text("kind", DEFAULT_KIND, choices=tuple(KINDS)))
-    return Instrument(kind.name, kind.read_setup(tables))
+    measurement = tables["measurement"]
+    kind = KINDS.lookup(measurement.text("kind", DEFAULT_KIND, choices=tuple(KINDS)))
+    for other in KINDS.values():
+        for table, _ in other.scenario_tables:
+            if other is not kind and tables[table].values:
+                raise tables[table].error(sorted(tables[table].values)[0], f"a [{table}] table",
+                                          f"[{table}] with {other.what} "
+                                          f"(kind = \"{other.name}\") only")
+    setup = kind.read_setup(tables)
+    for key in measurement.values:
+        if key != "kind" and key not in kind.measurement_keys:
+            raise measurement.error(key, f"{key} with {kind.what}",
+                                    f"[measurement] keys for {kind.what}: "
+                                    + ", ".join(("kind", *kind.measurement_keys)))
+    return Instrument(kind.name, setup)
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -138,7 +138,8 @@ class Simulation:
         """
         data = self.measurements
         kind = KINDS.lookup(data.kind)
-        told, data = kind.prepare(self.robot, self.rig_told, data)
+        told, data = kind.prepare(self.robot, self.rig_told, data,
+                                  self.scenario.calibration.noise)
         nominal = kind.align(Model(self.robot, told, kind, ()), data)
         rigid = Model(self.true_robot, self.rig, kind, ()).positions(np.zeros(0), data)
         shift = self.true_robot.flange_positions(self.q_actual_rad) \
@@ -304,8 +305,9 @@ class Bench:
         """The true robot's rigid model at q: no joint errors, no cable."""
         point = point_position(self.robot.structure, self.robot.dh, q_rad,
                                self.scenario.instrument.attachment_m)
-        return AtRest(q_rad, np.full(len(q_rad), np.nan), self.robot.flange_positions(q_rad),
-                      point)
+        flange = self.robot.flange_transforms(q_rad)
+        return AtRest(q_rad, np.full(len(q_rad), np.nan), flange[:, :3, 3], point,
+                      flange[:, :3, :3])
 
     def read_lengths(self, length_m: Array, rng: np.random.Generator
                      ) -> tuple[Array, NDArray[np.intp]]:

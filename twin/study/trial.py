@@ -45,7 +45,9 @@ from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
 from twin.calibration.result import CalibrationResult
 from twin.dataset import approach_directions
-from twin.geometry.rigid import angles
+from twin.geometry.rigid import angles, log_rotation
+from twin.kinds.plane import plane_corrections, plane_part
+from twin.kinds.pose import pose_part
 from twin.model import Model
 from twin.robot import random_poses
 from twin.scenario import Scenario
@@ -84,7 +86,8 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
     hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
     the port's correction and the offset (of the robot's errors, those the calibration did not
-    fix)."""
+    fix); the rig's other unknowns (attachment, instrument frame, fixed points, tool rotation,
+    planes) as the corrections of the model's start."""
     x = np.zeros(model.n_params)
     robot_errors = {
         "dh": lambda: sim.delta.ravel(),
@@ -108,6 +111,11 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
         x[model.slice("base")] = np.r_[true[:3, 3] - turn @ start[:3, 3], angles(turn)]
     if model.has("points"):
         x[model.slice("points")] = (sim.rig.points_m - rig.points_m).ravel()
+    if model.has("tool"):
+        turn = pose_part(rig).tool_rotation.T @ pose_part(sim.rig).tool_rotation
+        x[model.slice("tool")] = log_rotation(turn)
+    if model.has("planes"):
+        x[model.slice("planes")] = plane_corrections(plane_part(rig), plane_part(sim.rig))
     return x
 
 
