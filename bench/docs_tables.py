@@ -768,6 +768,8 @@ def _kind_trial(regime: str, trial: int, settings: CalibrationSettings, data_kin
             "covariance": cramer_rao_covariance(model, x_true, train, sigma)}
 
 
+NULL_SHARE = 1e-6
+"""An unknown with less than this of its unit vector in the null space is identified alone."""
 POSE_SETUPS = (("6-D poses, tool frame told", "pose", ("base",)),
                ("6-D poses, tool frame estimated (--estimate-tool)", "pose", ("base", "tool")),
                ("their positions alone (a tracker)", "position", ("base",)))
@@ -785,7 +787,9 @@ def pose_table() -> str:
         cells = []
         for name in ("alpha6", "theta6"):
             i = model.names.index(name)
-            seen = all(name not in t["result"].identifiability.unidentifiable for t in trials)
+            # Seen alone: its unit vector has nothing along the training poses' null space.
+            seen = all(np.max(np.abs(t["result"].identifiability.null_space[i]), initial=0.0)
+                       < NULL_SHARE for t in trials)
             if not seen:
                 cells += ["not identifiable", "—", "—"]
                 continue

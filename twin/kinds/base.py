@@ -31,10 +31,10 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
-from twin.dataset import Measurements
+from twin.dataset import Labels, Measurements
 from twin.kinds.bench import Fields, Setup
 from twin.rig import Part, Rig
 from twin.robot import RobotModel
@@ -153,6 +153,9 @@ class Kind(ABC):
     data: nothing else tells where they are)."""
     columns: ClassVar[tuple[str, ...]] = ()
     """Its numeric columns in a measurement file, each required."""
+    unitless: ClassVar[tuple[str, ...]] = ()
+    """Those of its columns that are not lengths (a quaternion's): an importer told another
+    length unit leaves them as written."""
     labels: ClassVar[tuple[str, ...]] = ()
     """Its label (text) columns in a measurement file that are required."""
     optional_labels: ClassVar[tuple[str, ...]] = ()
@@ -346,3 +349,31 @@ class Kind(ABC):
         lie from the true robot's rigid model (its measured points (m, 3), m), per row, m:
         what no D-H fit can absorb. The measured point's 3-D gap by default."""
         return np.asarray(rest.point_m - rigid_m, dtype=np.float64).ravel()
+
+
+class PlaceKind(Kind):
+    """A kind whose readings are one label: the unknown place each row's measured point was
+    brought to (a fixed point, a plane), named in a file column of the label's name."""
+
+    place: ClassVar[str]
+    """The label's name, and its file column."""
+
+    def labelled(self, q_rad: ArrayLike, index: ArrayLike, names: Sequence[str] = (),
+                 approach: ArrayLike | None = None) -> Measurements:
+        """Measurements of this kind: joint angles (m, n), rad, each row's place (m,), the
+        places' names if known, the approach directions (m, n) if recorded."""
+        return Measurements(np.asarray(q_rad, dtype=np.float64), self.name,
+                            labels={self.place: Labels(tuple(names),
+                                                       np.asarray(index, dtype=np.intp))},
+                            approach=None if approach is None else np.asarray(approach))
+
+    def from_columns(self, q_rad: Array, numbers: Mapping[str, Array],
+                     labels: Mapping[str, list[str]], lines: Sequence[int],
+                     approach: NDArray[np.int8] | None) -> Measurements:
+        """The places' names."""
+        places = Labels.of(labels[self.place])
+        return self.labelled(q_rad, places.indices, places.names, approach)
+
+    def to_columns(self, data: Measurements) -> list[tuple[str, list[str]]]:
+        """The places' names (``point1``… for unnamed ones)."""
+        return [(self.place, data.labels[self.place].per_row(self.place))]

@@ -11,18 +11,19 @@ imports it, and nothing there asks which kind it serves.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.arrays import Array
+from twin.arrays import Array, frozen_array
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.rigid import transform
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import deg_to_rad, mm_to_m
+from twin.units import deg_to_rad, m_to_mm, mm_to_m
 
 
 class Fields(Protocol):
@@ -203,6 +204,54 @@ class Setup(Protocol):
 def per_axis_sigma(sigma_m: Array) -> float:
     """The RMS of a noise 1σ given per axis (3,), m: one reading's σ."""
     return float(np.sqrt(np.mean(sigma_m**2)))
+
+
+@dataclass(frozen=True)
+class TargetSetup:
+    """What every instrument that reads a target on the tool has (a tracker's target, a ball,
+    a probe, a 6-D frame's origin), with the defaults of one that reads it with a noise per
+    axis, sets no poses of its own and builds no cable; each kind's setup adds its own.
+
+    Attributes:
+        attachment_m: The true target in the flange frame, shape (3,), m.
+        attachment_told_m: The target the calibration is told, shape (3,), m.
+        sigma_m: Noise 1σ per axis of a reading (a ball's seating, a probe's trigger), shape
+            (3,), m.
+    """
+
+    attachment_m: Array
+    attachment_told_m: Array
+    sigma_m: Array
+
+    def __post_init__(self) -> None:
+        for name in ("attachment_m", "attachment_told_m", "sigma_m"):
+            object.__setattr__(self, name, frozen_array(getattr(self, name), (3,), name))
+
+    @property
+    def ports_m(self) -> Array:
+        """No cable: shape (0, 3)."""
+        return np.zeros((0, 3))
+
+    @property
+    def pose_count(self) -> int | None:
+        """None: the scenario's ``[poses]`` set them."""
+        return None
+
+    def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
+        """The RMS of the per-axis σ."""
+        return per_axis_sigma(self.sigma_m)
+
+    def angle_sigma_rad(self) -> float | None:
+        """None: no angle is read."""
+        return None
+
+    def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
+        """The RMS of the per-axis σ."""
+        return {"sigma_mm": float(m_to_mm(per_axis_sigma(self.sigma_m)))}
+
+    def truth(self, rig: Rig) -> dict[str, Any]:
+        """Nothing beyond the rig's fixed points."""
+        return {}
 
 
 POSE_TEXT = "[x, y, z, rx, ry, rz] in mm and degrees"

@@ -31,23 +31,23 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
-from twin.dataset import Labels, Measurements
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import point_position
 from twin.kinds.base import (
     MARK_RADIUS_M,
     Canvas,
-    Kind,
     KindJacobian,
     Measured,
     Noise,
+    PlaceKind,
     length_scale,
 )
 from twin.kinds.bench import (
     Bench,
     Captured,
     Fields,
-    per_axis_sigma,
+    TargetSetup,
     read_target,
     refuse_port,
 )
@@ -76,10 +76,7 @@ def plane_measurements(q_rad: ArrayLike, plane: ArrayLike, *, plane_names: Seque
                        approach: ArrayLike | None = None) -> Measurements:
     """Touches of planes: joint angles (m, n), rad, and the index of the plane each row's
     measured point touched (m,), with the name of each index if known."""
-    return Measurements(np.asarray(q_rad, dtype=np.float64), Plane.name,
-                        labels={PLANE: Labels(tuple(plane_names),
-                                              np.asarray(plane, dtype=np.intp))},
-                        approach=None if approach is None else np.asarray(approach))
+    return Plane().labelled(q_rad, plane, plane_names, approach)
 
 
 def in_plane_axes(normals: Array) -> tuple[Array, Array]:
@@ -190,10 +187,11 @@ def fit_plane(points_m: Array) -> tuple[Array, float]:
     return normal, float(normal @ centre)
 
 
-class Plane(Kind):
+class Plane(PlaceKind):
     """Touches of planes (:mod:`twin.kinds.plane`)."""
 
     name = "plane"
+    place = PLANE
     what = "touches of planes"
     rows_per_pose = 1
     groups = (GROUP,)
@@ -345,18 +343,6 @@ class Plane(Kind):
                 f"{mm(offset, 4)} from the base origin"
                 for name, normal, offset in zip(part.names, normals, offsets, strict=True)]
 
-    def from_columns(self, q_rad: Array, numbers: Mapping[str, Array],
-                     labels: Mapping[str, list[str]], lines: Sequence[int],
-                     approach: NDArray[np.int8] | None) -> Measurements:
-        """The ``plane`` names."""
-        planes = Labels.of(labels[PLANE])
-        return plane_measurements(q_rad, planes.indices, plane_names=planes.names,
-                                  approach=approach)
-
-    def to_columns(self, data: Measurements) -> list[tuple[str, list[str]]]:
-        """``plane``."""
-        return [(PLANE, data.labels[PLANE].per_row("plane"))]
-
     def describe(self, rig: Rig, data: Measurements) -> str:
         """``40 touches of 3 planes``."""
         return f"{len(data)} touches of {len(plane_part(rig).names or data.names(PLANE))} planes"
@@ -399,7 +385,7 @@ class Plane(Kind):
 
 
 @dataclass(frozen=True)
-class PlaneSetup:
+class PlaneSetup(TargetSetup):
     """Planes in the twin (:class:`twin.kinds.bench.Setup`): each touched ``touches`` times at
     points drawn uniformly on a square patch around its point, from configurations found on
     the twin; the probe triggers with an error of σ per axis (along the normal, σ of the
@@ -416,14 +402,22 @@ class PlaneSetup:
         tell_distances: Whether the calibration is told the distances of parallel planes.
     """
 
-    attachment_m: Array
-    attachment_told_m: Array
-    sigma_m: Array
     points_m: Array
     normals: Array
     touches: int
     size_m: float
     tell_distances: bool = True
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        points = np.asarray(self.points_m, dtype=np.float64).reshape(-1, 3)
+        if not len(points) or self.touches < PLANE_POINTS:
+            raise ValueError(f"planes need points and touches >= {PLANE_POINTS}")
+        object.__setattr__(self, "points_m", frozen_array(points, points.shape, "points_m"))
+        normals = frozen_array(self.normals, points.shape, "normals")
+        if not np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-9):
+            raise ValueError("normals: expected unit vectors")
+        object.__setattr__(self, "normals", normals)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -450,26 +444,9 @@ class PlaneSetup:
         return tuple(found)
 
     @property
-    def ports_m(self) -> Array:
-        """No cable: shape (0, 3)."""
-        return np.zeros((0, 3))
-
-    @property
     def pose_count(self) -> int | None:
         """A pose per touch of every plane."""
         return len(self.points_m) * self.touches
-
-    def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
-        """The RMS of the per-axis trigger σ."""
-        return per_axis_sigma(self.sigma_m)
-
-    def angle_sigma_rad(self) -> float | None:
-        """None: no angle is read."""
-        return None
-
-    def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
-        """The RMS of the per-axis trigger σ."""
-        return {"sigma_mm": float(m_to_mm(per_axis_sigma(self.sigma_m)))}
 
     def rigs(self, rng: np.random.Generator) -> tuple[Rig, Rig]:
         """The true planes; the calibration is told the ball and (if told) the distances of

@@ -25,23 +25,23 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 from twin.choices import MAX_POSES
-from twin.dataset import Labels, Measurements
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import point_position
 from twin.kinds.base import (
     MARK_RADIUS_M,
     Canvas,
-    Kind,
     KindJacobian,
     Measured,
     Noise,
+    PlaceKind,
     length_scale,
 )
 from twin.kinds.bench import (
@@ -49,14 +49,14 @@ from twin.kinds.bench import (
     Bench,
     Captured,
     Fields,
-    per_axis_sigma,
+    TargetSetup,
     pose_mm_deg,
     read_target,
     refuse_port,
 )
 from twin.rig import Distance, Rig
 from twin.robot import RobotModel
-from twin.units import m_to_mm, mm_to_m
+from twin.units import mm_to_m
 
 if TYPE_CHECKING:
     from twin.model import Model
@@ -73,16 +73,14 @@ def point_measurements(q_rad: ArrayLike, point: ArrayLike, *, point_names: Seque
     """Fixed points: joint angles (m, n), rad, and the index of the place each row's measured
     point was at (m,), with the name of each index if known (approach as
     :func:`twin.kinds.length.length_measurements`)."""
-    return Measurements(np.asarray(q_rad, dtype=np.float64), Point.name,
-                        labels={POINT: Labels(tuple(point_names),
-                                              np.asarray(point, dtype=np.intp))},
-                        approach=None if approach is None else np.asarray(approach))
+    return Point().labelled(q_rad, point, point_names, approach)
 
 
-class Point(Kind):
+class Point(PlaceKind):
     """Fixed points (:mod:`twin.kinds.point`)."""
 
     name = "point"
+    place = POINT
     what = "fixed points"
     rows_per_pose = 3
     groups = ("points",)
@@ -174,18 +172,6 @@ class Point(Kind):
                                      where="distances")
         return replace(rig, point_names=names, points_m=starts), data
 
-    def from_columns(self, q_rad: Array, numbers: Mapping[str, Array],
-                     labels: Mapping[str, list[str]], lines: Sequence[int],
-                     approach: NDArray[np.int8] | None) -> Measurements:
-        """The ``point`` names."""
-        places = Labels.of(labels[POINT])
-        return point_measurements(q_rad, places.indices, point_names=places.names,
-                                  approach=approach)
-
-    def to_columns(self, data: Measurements) -> list[tuple[str, list[str]]]:
-        """``point``."""
-        return [(POINT, data.labels[POINT].per_row("point"))]
-
     def describe(self, rig: Rig, data: Measurements) -> str:
         """``6 fixed points``."""
         return f"{len(rig.point_names or data.names(POINT))} fixed points"
@@ -225,7 +211,7 @@ class Point(Kind):
 
 
 @dataclass(frozen=True)
-class FixtureSetup:
+class FixtureSetup(TargetSetup):
     """A ball fixture in the twin (:class:`twin.kinds.bench.Setup`): its sockets set down at
     several placements; for each socket the arm brings the ball (the measured point) into it
     from ``touches`` different configurations, found on the twin. The ball seats with an
@@ -241,18 +227,13 @@ class FixtureSetup:
         tell_distances: Whether the calibration is told the socket spacings.
     """
 
-    attachment_m: Array
-    attachment_told_m: Array
-    sigma_m: Array
     sockets_m: Array
     placements: Array
     touches: int
     tell_distances: bool = True
 
     def __post_init__(self) -> None:
-        for name, shape in (("attachment_m", (3,)), ("attachment_told_m", (3,)),
-                            ("sigma_m", (3,))):
-            object.__setattr__(self, name, frozen_array(getattr(self, name), shape, name))
+        super().__post_init__()
         sockets = np.asarray(self.sockets_m, dtype=np.float64).reshape(-1, 3)
         placements = np.asarray(self.placements, dtype=np.float64).reshape(-1, 4, 4)
         if not len(sockets) or not len(placements) or self.touches < 1:
@@ -289,26 +270,9 @@ class FixtureSetup:
         return tuple(found)
 
     @property
-    def ports_m(self) -> Array:
-        """No cable: shape (0, 3)."""
-        return np.zeros((0, 3))
-
-    @property
     def pose_count(self) -> int | None:
         """A pose per touch of every socket of every placement."""
         return len(self.sockets_m) * len(self.placements) * self.touches
-
-    def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
-        """The RMS of the per-axis seating σ."""
-        return per_axis_sigma(self.sigma_m)
-
-    def angle_sigma_rad(self) -> float | None:
-        """None: no angle is read."""
-        return None
-
-    def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
-        """The RMS of the per-axis seating σ."""
-        return {"sigma_mm": float(m_to_mm(per_axis_sigma(self.sigma_m)))}
 
     def rigs(self, rng: np.random.Generator) -> tuple[Rig, Rig]:
         """The true sockets; the calibration is told the ball and (if told) the spacings."""
@@ -322,11 +286,6 @@ class FixtureSetup:
         q, point = bench.touch(rig.points_m, self.touches, self.sigma_m, rng)
         return Captured(point_measurements(q, point, point_names=rig.point_names),
                         bench.rigid(q), np.zeros(0, dtype=np.intp), 0.0)
-
-    def truth(self, rig: Rig) -> dict[str, Any]:
-        """Nothing beyond the fixed points."""
-        return {}
-
 
 def read_fixture(tables: Mapping[str, Fields], name: str) -> FixtureSetup:
     """``[measurement]`` (the ball, its seating σ) and ``[fixture]`` (sockets, placements,

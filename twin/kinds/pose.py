@@ -57,6 +57,7 @@ from twin.kinds.bench import (
     Bench,
     Captured,
     Fields,
+    TargetSetup,
     per_axis_sigma,
     read_target,
     refuse_port,
@@ -167,6 +168,7 @@ class Pose(Kind):
     rows_per_pose = 6
     groups = ("base", "tool")
     columns = (*COLUMNS, *QUATERNION)
+    unitless = QUATERNION
     columns_text = "x,y,z,qw,qx,qy,qz (mm, unit quaternion)"
     in_instrument_frame = True
     reads_rotation = True
@@ -391,7 +393,7 @@ def pose_readings(points_m: Array, flange_rotations: Array, setup: PoseSetup,
 
 
 @dataclass(frozen=True)
-class PoseSetup:
+class PoseSetup(TargetSetup):
     """A 6-DoF instrument in the twin (:class:`twin.kinds.bench.Setup`): the tool frame at
     rest, carried into the instrument's frame by its true pose and read with Gaussian noise of
     σ per axis on the position and σ_θ per axis on the orientation (:func:`pose_readings`).
@@ -405,32 +407,15 @@ class PoseSetup:
         tool_rotation: The tool frame's true rotation in the flange frame, (3, 3).
     """
 
-    attachment_m: Array
-    attachment_told_m: Array
-    sigma_m: Array
     sigma_rad: Array
     base_in_instrument: Array
     tool_rotation: Array
 
     def __post_init__(self) -> None:
-        for name, shape in (("attachment_m", (3,)), ("attachment_told_m", (3,)),
-                            ("sigma_m", (3,)), ("sigma_rad", (3,)),
-                            ("base_in_instrument", (4, 4)), ("tool_rotation", (3, 3))):
+        super().__post_init__()
+        for name, shape in (("sigma_rad", (3,)), ("base_in_instrument", (4, 4)),
+                            ("tool_rotation", (3, 3))):
             object.__setattr__(self, name, frozen_array(getattr(self, name), shape, name))
-
-    @property
-    def ports_m(self) -> Array:
-        """No cable: shape (0, 3)."""
-        return np.zeros((0, 3))
-
-    @property
-    def pose_count(self) -> int | None:
-        """None: the scenario's ``[poses]`` set them."""
-        return None
-
-    def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
-        """The RMS of the per-axis position σ."""
-        return per_axis_sigma(self.sigma_m)
 
     def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
         """The RMS of the per-axis position σ (mm) and angle σ (degrees)."""

@@ -27,7 +27,7 @@ from twin.kinds.bench import (
     Bench,
     Captured,
     Fields,
-    per_axis_sigma,
+    TargetSetup,
     read_target,
     refuse_port,
 )
@@ -214,7 +214,7 @@ def tracker_readings(points_m: Array, base_in_tracker: Array, sigma_m: Array,
 
 
 @dataclass(frozen=True)
-class TrackerSetup:
+class TrackerSetup(TargetSetup):
     """A laser tracker in the twin (:class:`twin.kinds.bench.Setup`): the measured point at
     rest, carried into the tracker's frame by the true ``base_in_tracker`` and read with
     Gaussian noise of σ per axis (:func:`tracker_readings`).
@@ -226,37 +226,12 @@ class TrackerSetup:
         base_in_tracker: The true tracker frame: where the base sits in it, shape (4, 4), m.
     """
 
-    attachment_m: Array
-    attachment_told_m: Array
-    sigma_m: Array
     base_in_tracker: Array
 
     def __post_init__(self) -> None:
-        for name, shape in (("attachment_m", (3,)), ("attachment_told_m", (3,)),
-                            ("sigma_m", (3,)), ("base_in_tracker", (4, 4))):
-            object.__setattr__(self, name, frozen_array(getattr(self, name), shape, name))
-
-    @property
-    def ports_m(self) -> Array:
-        """No cable: shape (0, 3)."""
-        return np.zeros((0, 3))
-
-    @property
-    def pose_count(self) -> int | None:
-        """None: the scenario's ``[poses]`` set them."""
-        return None
-
-    def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
-        """The RMS of the per-axis σ."""
-        return per_axis_sigma(self.sigma_m)
-
-    def angle_sigma_rad(self) -> float | None:
-        """None: no angle is read."""
-        return None
-
-    def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
-        """The RMS of the per-axis σ."""
-        return {"sigma_mm": float(m_to_mm(per_axis_sigma(self.sigma_m)))}
+        super().__post_init__()
+        object.__setattr__(self, "base_in_tracker",
+                           frozen_array(self.base_in_tracker, (4, 4), "base_in_tracker"))
 
     def rigs(self, rng: np.random.Generator) -> tuple[Rig, Rig]:
         """The true tracker frame; the calibration is told the target alone (the frame it

@@ -150,7 +150,8 @@ def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
             continue
         try:
             q = np.array([_number(fields[j]) for j in joints])
-            values = [_number(fields[j]) * to_mm for j in reading]
+            values = [_number(fields[j]) * (1.0 if column in kind.unitless else to_mm)
+                      for j, column in zip(reading, kind.columns, strict=True)]
         except (ValueError, IndexError):
             dropped.append(f"{where}: a field that is not a finite number: dropped")
             continue
