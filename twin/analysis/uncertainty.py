@@ -64,12 +64,13 @@ def seen_covariance(jacobian: ArrayLike, seen_x: ArrayLike, sigma_m: float) -> A
     return np.asarray(seen @ reduced @ seen.T, dtype=np.float64)
 
 
-def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float) -> Unseen:
-    """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m), in the unknowns
-    scaled by how far each may move (:meth:`twin.model.Model.scale`): what a calibration of
-    such data holds."""
+def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float,
+                row_weight: ArrayLike | None = None) -> Unseen:
+    """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m; of a row scaled
+    by ``row_weight`` when given), in the unknowns scaled by how far each may move
+    (:meth:`twin.model.Model.scale`): what a calibration of such data holds."""
     nominal = measurement_identifiability(model, np.zeros(model.n_params), data)
-    return unseen_directions(model, x, data, sigma_m, model.scale(), nominal)
+    return unseen_directions(model, x, data, sigma_m, model.scale(), nominal, row_weight)
 
 
 def rms_distance(a_m: ArrayLike, b_m: ArrayLike) -> float:
@@ -165,16 +166,21 @@ def workspace_grid(robot: RobotModel, n_per_axis: int) -> tuple[Array, Array, Ar
     return q2, q3, q
 
 
-def cramer_rao_covariance(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float
-                          ) -> Array:
+def cramer_rao_covariance(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float,
+                          row_sigma_m: ArrayLike | None = None) -> Array:
     """The Cramér–Rao covariance of the combinations the poses identify at that noise (the
     others every calibration holds), shape (p, p); arguments as :func:`cramer_rao_rms`."""
     _, jacobian = model.identifiable_jacobian(x_true, data)
-    return seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m).seen_x, sigma_m)
+    weight = None if row_sigma_m is None else sigma_m / np.asarray(row_sigma_m, dtype=np.float64)
+    if weight is not None:
+        jacobian = jacobian * weight[:, None]
+    return seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m, weight).seen_x,
+                           sigma_m)
 
 
 def cramer_rao_rms(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float,
-                   q_rad: ArrayLike) -> tuple[float, float]:
+                   q_rad: ArrayLike, row_sigma_m: ArrayLike | None = None
+                   ) -> tuple[float, float]:
     """Cramér–Rao bounds on the RMS position errors over the poses ``q_rad`` of the flange and
     of the measured point (eyelet, tracker target, ball), m each, of the combinations the
     poses identify at that noise (the others every calibration holds). With the attachment
@@ -186,18 +192,23 @@ def cramer_rao_rms(model: Model, x_true: ArrayLike, data: Measurements, sigma_m:
         data: The poses that are measured (their readings are not used).
         sigma_m: Measurement noise 1σ, m.
         q_rad: Workspace poses where the errors are evaluated, shape (k, n).
+        row_sigma_m: Each row's own noise 1σ, shape (M,), m, when the rows differ (the
+            joints' noise through each row's Jacobian, :meth:`twin.problem.Problem.row_sigma`):
+            the bound of the best estimator linear in the readings, which weights each row by
+            1/σ_i² (Gauss–Markov; the Cramér–Rao bound itself for Gaussian noise).
     """
-    covariance = cramer_rao_covariance(model, x_true, data, sigma_m)
+    covariance = cramer_rao_covariance(model, x_true, data, sigma_m, row_sigma_m)
     poses = model.poses(q_rad)
     return (predicted_flange_rms(model.flange_jacobian(x_true, poses), covariance),
             predicted_flange_rms(model.position_jacobian(x_true, poses), covariance))
 
 
 def cramer_rao_flange_rms(
-    model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike
+    model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float, q_rad: ArrayLike,
+    row_sigma_m: ArrayLike | None = None,
 ) -> float:
     """The flange's bound of :func:`cramer_rao_rms` alone, m."""
-    covariance = cramer_rao_covariance(model, x_true, data, sigma_m)
+    covariance = cramer_rao_covariance(model, x_true, data, sigma_m, row_sigma_m)
     return predicted_flange_rms(model.flange_jacobian(x_true, model.poses(q_rad)), covariance)
 
 

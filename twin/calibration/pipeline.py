@@ -17,6 +17,7 @@ How it is set up is :mod:`twin.calibration.setup` (from one
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,7 +29,7 @@ from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
 from twin.analysis.uncertainty import WORKSPACE_POSES, calibration_uncertainty
 from twin.arrays import Array
 from twin.calibration.held_out import held_out_residuals
-from twin.calibration.hold import hold_unseen
+from twin.calibration.hold import Held, hold_unseen
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_problem
@@ -36,7 +37,8 @@ from twin.dataset import Measurements
 from twin.problem import Problem
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
-from twin.solvers import get_solver
+from twin.solvers import Solver, SolverResult, get_solver
+from twin.stopping import Budget
 
 
 def calibrate_many(
@@ -107,6 +109,28 @@ def _metrics(problem: Problem, x: Array) -> dict[str, Metrics]:
             "validation": metrics(held_out_residuals(model, x, train, validation))}
 
 
+RELINEARISE_RTOL = 1e-3
+"""With errors in variables, a method is run again when the rows' weights at its first answer
+differ from those at the start by more than this fraction."""
+
+
+def _solve(solver: Solver, problem: Problem, budget: Budget, seed: int,
+           nominal: Identifiability) -> tuple[Problem, SolverResult, Held]:
+    """The method's answer, held along the unseen directions; with errors in variables, solved
+    once more with the rows' variances taken at that answer (the joints' Jacobians g_i move
+    with the geometry, method-notes §7), when they changed. Returns the problem the answer
+    solves, the answer and what holding did."""
+    solved = solver.solve(problem, budget, np.random.default_rng(seed))
+    held = hold_unseen(problem, solved.x, nominal)
+    if problem.in_variables:
+        again = replace(problem, linearised_at=held.x)
+        if np.max(np.abs(again.train_weight / problem.train_weight - 1.0)) > RELINEARISE_RTOL:
+            problem = again
+            solved = solver.solve(problem, budget, np.random.default_rng(seed))
+            held = hold_unseen(problem, solved.x, nominal)
+    return problem, solved._replace(x=held.x), held
+
+
 def solve_many(
     robot: RobotModel,
     split: SplitProblem,
@@ -118,18 +142,16 @@ def solve_many(
     """:func:`calibrate_many` on a problem already made (and so already checked) by
     :func:`make_problem`."""
     solvers = [get_solver(name) for name in methods]
-    problem = split.problem
-    nominal = measurement_identifiability(problem.model, problem.x0, problem.train)
+    nominal = measurement_identifiability(split.problem.model, split.problem.x0,
+                                          split.problem.train)
     q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
-    budget = split.settings.budget
     results = {}
     for solver in solvers:
-        solved = solver.solve(problem, budget, np.random.default_rng(seed))
-        held = hold_unseen(problem, solved.x, nominal)
-        solved = solved._replace(x=held.x)
+        problem, solved, held = _solve(solver, split.problem, split.settings.budget, seed,
+                                       nominal)
         identified = measurement_identifiability(problem.model, solved.x, problem.train)
-        misfit, rejected, kept, weight, gauge = _assess(split, solved.x, identified,
-                                                        q_workspace)
+        misfit, rejected, kept, weight, gauge = _assess(split._replace(problem=problem),
+                                                        solved.x, identified, q_workspace)
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
             train_rows=split.train_rows, validation_rows=split.validation_rows,
@@ -140,12 +162,15 @@ def solve_many(
                 problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen, weight
             ),
             settings=split.settings,
-            misfit=misfit,
+            # A σ fitted to these residuals explains them by construction: no misfit test.
+            misfit=None if split.noise is not None and split.noise.from_residuals else misfit,
             rejected_rows=rejected,
             gauge=gauge,
             unseen=held.unseen,
             held=held,
             held_out=split.held_out,
+            noise=split.noise,
+            row_sigma=problem.row_sigma(problem.train) if problem.in_variables else None,
         )
         if on_result is not None:
             on_result(results[solver.name])

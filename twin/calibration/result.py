@@ -17,6 +17,7 @@ from twin.analysis.uncertainty import CalibrationUncertainty
 from twin.analysis.unseen import Unseen
 from twin.arrays import Array
 from twin.calibration.hold import Held
+from twin.calibration.noise import NoiseEstimate
 from twin.calibration.settings import CalibrationSettings
 from twin.geometry.rigid import rotation
 from twin.loss import Loss
@@ -57,6 +58,9 @@ class CalibrationResult:
             instead (:mod:`twin.calibration.hold`).
         held_out: Where the validation poses come from when they are not a split of the
             measurements (a separate file); empty for a split.
+        noise: How σ was estimated from the data (``settings.sigma_auto``), or None.
+        row_sigma: The noise 1σ of each training row the fit weighted it by, shape (M,), m,
+            when the joints' noise entered them (errors in variables); None otherwise.
     """
 
     robot: RobotModel
@@ -76,6 +80,8 @@ class CalibrationResult:
     unseen: Unseen | None = None
     held: Held | None = None
     held_out: str = ""
+    noise: NoiseEstimate | None = None
+    row_sigma: Array | None = None
 
     @property
     def validated(self) -> bool:
@@ -199,3 +205,5 @@ class SplitProblem(NamedTuple):
     """Where the validation poses come from when they are not a split of the measurements (a
     separate file, named; ``validation_rows`` then empty: every row trains); empty for a
     split."""
+    noise: NoiseEstimate | None = None
+    """How σ was estimated from the data (``sigma_auto``); None when it was stated."""

@@ -18,7 +18,11 @@ flag or a file adds its ``source``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
 
 from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.errors import InputError
@@ -29,6 +33,8 @@ from twin.stopping import Budget
 from twin.unknowns import ERRORS, check_errors
 from twin.unknowns.limits import Bound, Prior, parse_fix
 
+MAX_JOINT_SIGMA_RAD = math.radians(10.0)
+"""The largest joint noise a calibration may be told: 10° (a typo beyond)."""
 TRAIN_FRACTION = 0.8
 """Share of the poses used for identification (paper: 80 / 20); 1 trains on every pose."""
 RIG_UNKNOWNS = {"port": "--estimate-port", "offset": "--estimate-offset",
@@ -67,6 +73,13 @@ class CalibrationSettings:
         priors: Zero-mean Gaussian priors (:class:`~twin.unknowns.limits.Prior` or its text,
             ``"dh=1mm"``), applied in order; none by default.
         fix: Unknowns held at the nominal and left out (names, families or groups).
+        joint_sigma_rad: The noise 1σ of each recorded joint angle, rad — one for every joint
+            or one per joint; a resolution r counts as r/√12. Empty (the default): the joints
+            are exact. Otherwise each row's variance is the reading's and the joints' through
+            the row's Jacobian, and the fit weights the rows by it (errors in variables,
+            :mod:`twin.problem`).
+        sigma_auto: Estimate σ of a reading from the data (repeat readings, else the residuals
+            of a first fit; :mod:`twin.calibration.noise`) instead of ``sigma_m``.
     """
 
     errors: tuple[str, ...] = ("dh",)
@@ -81,6 +94,8 @@ class CalibrationSettings:
     bounds: tuple[Bound, ...] = ()
     priors: tuple[Prior, ...] = ()
     fix: tuple[str, ...] = ()
+    joint_sigma_rad: tuple[float, ...] = ()
+    sigma_auto: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "errors", check_errors(self.errors))
@@ -110,6 +125,25 @@ class CalibrationSettings:
             rule if isinstance(rule, Prior) else Prior.parse(rule) for rule in self.priors))
         object.__setattr__(self, "fix", tuple(dict.fromkeys(parse_fix(name)
                                                             for name in self.fix)))
+        joints = tuple(float(value) for value in np.ravel(self.joint_sigma_rad))
+        _check(all(math.isfinite(value) and 0 <= value <= MAX_JOINT_SIGMA_RAD
+                   for value in joints), "joint_sigma_rad", self.joint_sigma_rad,
+               f"joint noise 1σ from 0 to {math.degrees(MAX_JOINT_SIGMA_RAD):g}°, one for all "
+               "joints or one per joint")
+        object.__setattr__(self, "joint_sigma_rad", joints if any(joints) else ())
+
+    def joint_sigma(self, n_joints: int) -> NDArray[np.float64]:
+        """The noise 1σ of each of ``n_joints`` recorded joint angles, shape (n,), rad (zeros:
+        exact joints).
+
+        Raises:
+            InputError: for another number of values than one or ``n_joints``.
+        """
+        values = np.asarray(self.joint_sigma_rad, dtype=np.float64)
+        if values.size not in (0, 1, n_joints):
+            raise InputError(f"{values.size} joint noise values", f"one for all joints or one "
+                             f"for each of the {n_joints}", where="joint_sigma_rad")
+        return np.zeros(n_joints) + (values if values.size else 0.0)
 
     def estimates(self, name: str) -> bool:
         """Whether the rig unknown ``name`` is identified."""
@@ -138,9 +172,31 @@ class CalibrationSettings:
         return Loss(self.loss, scale)
 
 
+def joint_noise(sigma_rad: Sequence[float] = (), resolution_rad: Sequence[float] = ()
+                ) -> tuple[float, ...]:
+    """The noise 1σ of each recorded joint angle from a stated σ and a resolution r (r/√12, the
+    σ of rounding), added in quadrature; each one value for every joint or one per joint, rad.
+
+    Raises:
+        InputError: for lists of different lengths (neither of them one value).
+    """
+    sigma = np.asarray(sigma_rad, dtype=np.float64).ravel()
+    resolution = np.asarray(resolution_rad, dtype=np.float64).ravel()
+    if sigma.size > 1 and resolution.size > 1 and sigma.size != resolution.size:
+        raise InputError(f"{sigma.size} joint σ and {resolution.size} resolutions",
+                         "one value for all joints or one per joint, the same count",
+                         where="joint_sigma_rad")
+    if not sigma.size and not resolution.size:
+        return ()
+    sigma = sigma if sigma.size else np.zeros(1)
+    resolution = resolution if resolution.size else np.zeros(1)
+    return tuple(np.hypot(sigma, resolution / math.sqrt(12.0)).tolist())
+
+
 def _check(ok: bool, name: str, value: object, expected: str) -> None:
     if not ok:
         raise InputError(f"{value!r}", expected, where=name)
 
 
-__all__ = ["ERRORS", "RIG_UNKNOWNS", "TRAIN_FRACTION", "Bound", "CalibrationSettings", "Prior"]
+__all__ = ["ERRORS", "RIG_UNKNOWNS", "TRAIN_FRACTION", "Bound", "CalibrationSettings", "Prior",
+           "joint_noise"]

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.calibration.noise import with_noise
 from twin.calibration.result import SplitProblem
 from twin.calibration.settings import RIG_UNKNOWNS, CalibrationSettings
 from twin.calibration.split import required_poses, split_rows
@@ -163,6 +164,10 @@ def make_problem(
         rows: The training and validation rows of ``measurements`` (a fold of a
             cross-validation), instead of the seeded split.
 
+    With ``settings.sigma_auto`` σ is estimated from the training poses
+    (:mod:`twin.calibration.noise`): the problem and the split's settings carry it, the split's
+    ``noise`` says how it was found.
+
     Raises:
         InputError: if there are fewer training poses than the unknowns need, the
             measurements lack what a group reads (the approach directions of backlash), or an
@@ -178,7 +183,12 @@ def make_problem(
                                         held_out is not None)
     train = measurements.subset(train_rows)
     model = model.kind.start(model, train)
+    joints = settings.joint_sigma(robot.n_joints)
     problem = Problem(model, train, measurements.subset(validation_rows) if held_out is None
-                      else held_out, sigma_m=settings.sigma_m, loss=settings.loss_function)
+                      else held_out, sigma_m=settings.sigma_m, loss=settings.loss_function,
+                      joint_sigma_rad=joints)
+    noise = None
+    if settings.sigma_auto:
+        problem, settings, noise = with_noise(problem, settings)
     return SplitProblem(problem, train_rows, validation_rows, settings,
-                        held_out="" if held_out is None else "a separate file")
+                        held_out="" if held_out is None else "a separate file", noise=noise)

@@ -182,6 +182,30 @@ sigma_mm = number(0.0, 1000.0, above=True)
 """An argparse type: a length noise 1σ in mm."""
 sigma_deg = number(0.0, 90.0, above=True)
 """An argparse type: an angle noise 1σ in degrees."""
+AUTO_SIGMA = "auto"
+"""The ``--sigma`` value that lets the data say σ (:mod:`twin.calibration.noise`)."""
+
+
+def sigma_or_auto(text: str) -> float | str:
+    """An argparse type: a length noise 1σ in mm, or ``auto``."""
+    if text.strip().lower() == AUTO_SIGMA:
+        return AUTO_SIGMA
+    try:
+        return sigma_mm(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"found {text!r}, expected a noise 1σ in mm in (0, "
+                                         f"1000], or {AUTO_SIGMA}") from None
+
+
+def angles_deg(text: str) -> tuple[float, ...]:
+    """An argparse type: one angle in degrees, or one per joint, comma-separated, each in
+    [0, 10]."""
+    parse = number(0.0, 10.0)
+    try:
+        return tuple(parse(item) for item in text.split(","))
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"found {text!r}, expected an angle in degrees from 0 "
+                                         "to 10, or one per joint, comma-separated") from None
 pause = number(0.0, MAX_SECONDS)
 """An argparse type: a pause in s, finite, at most :data:`MAX_SECONDS`."""
 

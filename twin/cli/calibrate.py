@@ -19,10 +19,12 @@ from twin.cli.arguments import (
     add_output,
     add_seed,
     add_validation_flags,
+    angles_deg,
     integer,
     method_name,
     share,
     sigma_mm,
+    sigma_or_auto,
 )
 from twin.errors import InputError
 from twin.solvers import SOLVERS, get_solver
@@ -61,10 +63,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_seed(parser, "seed of the split and of the method", default=0)
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
-    parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
+    parser.add_argument("--sigma", type=sigma_or_auto, metavar="MM|auto",
                         help="the instrument's noise 1σ in mm: the filters' measurement noise "
                         "and the misfit test's reference (default: the capture's [encoder] "
-                        "sigma_mm with its resolution, else 0.01)")
+                        "sigma_mm with its resolution, else 0.01); auto: estimated from "
+                        "repeat readings, else from the residuals of a first fit (said so)")
+    parser.add_argument("--joint-resolution-deg", type=angles_deg, metavar="DEG[,DEG…]",
+                        help="the resolution the joint angles were recorded to (one, or one "
+                        "per joint): its rounding (r/√12) enters each row's variance through "
+                        "the row's Jacobian, and the fit weights the rows by it (errors in "
+                        "variables; default: the capture's)")
+    parser.add_argument("--joint-sigma-deg", type=angles_deg, metavar="DEG[,DEG…]",
+                        help="the noise 1σ of the recorded joint angles (one, or one per "
+                        "joint), added to the resolution's: as --joint-resolution-deg")
     parser.add_argument("--repeatability", type=sigma_mm, metavar="MM",
                         help="the robot's RMS flange repeatability in mm: noise of every pose "
                         "that no model removes, added to --sigma (a length sees it over one "

@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
-from twin.cli.arguments import ALL_PORTS, AUTO_ERRORS, robot_from_flags
+from twin.cli.arguments import ALL_PORTS, AUTO_ERRORS, AUTO_SIGMA, robot_from_flags
 from twin.errors import InputError, UnknownChoiceError
 
 if TYPE_CHECKING:
@@ -84,12 +84,28 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     return replace(rig, estimated_ports=tuple(dict.fromkeys(estimated)))
 
 
+JOINT_FLAGS = "--joint-resolution-deg or --joint-sigma-deg"
+"""The flags of the joints' noise, named together by an error in it."""
 FLAGS = {"errors": "--errors", "estimate": "--estimate-port", "sigma_m": "--sigma",
          "sigma_rad": "--sigma-deg",
          "loss": "--loss", "loss_scale_m": "--loss-scale", "stop": "--stop",
          "max_iterations": "--max-iterations", "train_fraction": "--train-fraction",
-         "bounds": "--bounds", "priors": "--prior", "fix": "--fix"}
+         "bounds": "--bounds", "priors": "--prior", "fix": "--fix",
+         "joint_sigma_rad": JOINT_FLAGS}
 """The flag that sets each calibration setting, named by an error in it."""
+
+
+def _joint_flags(args: argparse.Namespace, base: CalibrationSettings) -> tuple[float, ...]:
+    """The joints' noise ``--joint-sigma-deg`` and ``--joint-resolution-deg`` state, rad; the
+    capture's without them."""
+    from twin.calibration.settings import joint_noise
+    from twin.units import deg_to_rad
+
+    sigma, resolution = (getattr(args, name, None) for name in ("joint_sigma_deg",
+                                                                "joint_resolution_deg"))
+    if sigma is None and resolution is None:
+        return base.joint_sigma_rad
+    return joint_noise(deg_to_rad(sigma or ()).tolist(), deg_to_rad(resolution or ()).tolist())
 
 
 def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
@@ -112,13 +128,16 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
                                   if getattr(args, flag, None))}
     errors = getattr(args, "errors", None)
     sigma, repeatability = getattr(args, "sigma", None), getattr(args, "repeatability", None)
+    auto = sigma == AUTO_SIGMA
     scale = getattr(args, "loss_scale", None)
     changes = {
         "errors": base.errors if errors in (None, (AUTO_ERRORS,)) else errors,
         "estimate": tuple(estimate),
-        "sigma_m": reading_sigma(float(mm_to_m(sigma)) if sigma else instrument_sigma_m,
-                                 repeatability_m if repeatability is None
-                                 else float(mm_to_m(repeatability))),
+        "sigma_m": reading_sigma(float(mm_to_m(sigma)) if sigma and not auto
+                                 else instrument_sigma_m, repeatability_m
+                                 if repeatability is None else float(mm_to_m(repeatability))),
+        "sigma_auto": auto or base.sigma_auto,
+        "joint_sigma_rad": _joint_flags(args, base),
         "loss_scale_m": base.loss_scale_m if scale is None else float(mm_to_m(scale)),
         "sigma_rad": base.sigma_rad if getattr(args, "sigma_deg", None) is None
         else float(deg_to_rad(args.sigma_deg)),
@@ -155,7 +174,9 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
                                               ("--attachment", "attachment"),
                                               ("--loss-scale", "loss_scale"),
                                               ("--bounds", "bounds"), ("--prior", "prior"),
-                                              ("--fix", "fix"))
+                                              ("--fix", "fix"),
+                                              (JOINT_FLAGS, "joint_sigma_deg"),
+                                              (JOINT_FLAGS, "joint_resolution_deg"))
                       if getattr(args, name, None) is not None)
     if input_path.suffix == ".toml":
         capture = load_capture(input_path)
@@ -218,8 +239,8 @@ def prepare_error(inputs: Inputs, exc: InputError) -> InputError:
         return exc
     if exc.where == "distances":
         return exc.at(inputs.distance_source, where="")
-    if exc.where in LIMIT_FLAGS:
-        flag = LIMIT_FLAGS[str(exc.where)]
+    if exc.where in MODEL_FLAGS:
+        flag = MODEL_FLAGS[str(exc.where)]
         return exc.at(flag, where="") if flag in inputs.flags or not inputs.settings_source \
             else exc.at(inputs.settings_source, where=f"calibration.{exc.where}")
     return InputError(exc.found, exc.expected, source=inputs.measurements_path)
@@ -251,8 +272,10 @@ class Validation(NamedTuple):
     measurements: Measurements
 
 
-LIMIT_FLAGS = {"bounds": "--bounds", "priors": "--prior", "fix": "--fix"}
-"""The flag of each setting of what may move, named by an error in it."""
+MODEL_FLAGS = {"bounds": "--bounds", "priors": "--prior", "fix": "--fix",
+               "joint_sigma_rad": JOINT_FLAGS}
+"""The flag of each setting checked only against the model (what may move, the joints' noise
+per joint), named by an error in it."""
 
 
 def refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:

@@ -161,8 +161,8 @@ def load_capture(path: str | Path) -> Capture:
         encoder=dict(encoder.values),
         rig=rig,
     )
-    return replace(capture, calibration=parse_calibration(table, capture.reading_sigma_m,
-                                                          capture.angle_sigma_rad))
+    return replace(capture, calibration=parse_calibration(
+        table, capture.reading_sigma_m, sigma_rad=capture.angle_sigma_rad))
 
 
 def parse_distance(value: object, source: str | Path, where: str) -> Distance:

@@ -204,9 +204,26 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     return document
 
 
+def noise_to_dict(result: CalibrationResult) -> dict[str, Any]:
+    """The ``noise`` JSON object: the noise of a reading the fit used (mm) and how it was
+    found, the joints' noise (degrees, one per joint) and, with it, each training row's σ
+    (errors in variables, mm: the smallest, median and largest)."""
+    settings = result.settings
+    row_sigma = result.row_sigma
+    return {
+        "sigma": _mm(settings.sigma_m)[0],
+        "estimated": None if result.noise is None else result.noise.describe(),
+        "joint_sigma_deg": rounded(rad_to_deg(settings.joint_sigma_rad), FILE_DEG_DECIMALS),
+        "errors_in_variables": row_sigma is not None,
+        "row_sigma": None if row_sigma is None else dict(zip(
+            ("min", "median", "max"), _mm(np.quantile(row_sigma, [0.0, 0.5, 1.0])),
+            strict=True)),
+    }
+
+
 def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict[str, Any]:
     """``misfit``, ``loss``, ``rejected_rows`` and ``unobservable`` of a result."""
-    document: dict[str, Any] = {}
+    document: dict[str, Any] = {"noise": noise_to_dict(result)}
     misfit = result.misfit
     if misfit is not None:
         document["misfit"] = {

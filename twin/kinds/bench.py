@@ -94,13 +94,15 @@ class Visit(NamedTuple):
     """Poses visited on the twin (:meth:`Bench.visit`)."""
 
     q_rad: Array
-    """The recorded joint angles, shape (m, n), rad."""
+    """The joint angles as recorded (to the controller's resolution), shape (m, n), rad."""
     station: NDArray[np.intp]
     """The station (index into the stations visited) of each pose, shape (m,)."""
     rest: Any
     """Where the arm was at rest (:class:`Rest`)."""
     joint_sigma_rad: float
     """The joint jitter 1σ behind the robot's repeatability, rad."""
+    approach: NDArray[np.int8]
+    """The direction each joint last moved in before each pose, shape (m, n), ±1."""
 
 
 class Captured(NamedTuple):
@@ -125,7 +127,8 @@ class Bench(Protocol):
     def visit(self, stations_m: Sequence[Array | None], rng: np.random.Generator) -> Visit:
         """Poses from the scenario's plan or drawn feasible for each station in turn (a cable
         from the station's port, or none), the joint jitter, and the arm at rest; each station
-        its share of the scenario's poses (the first ones the remainder)."""
+        its share of the scenario's poses (the first ones the remainder); the angles as the
+        controller records them."""
         ...
 
     def touch(self, places_m: Array, touches: int, sigma_m: Array, rng: np.random.Generator

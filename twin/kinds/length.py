@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array, lengths
-from twin.dataset import Labels, Measurements, approach_directions
+from twin.dataset import Labels, Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import Structure, point_position
 from twin.kinds.base import (
@@ -353,7 +353,7 @@ class CableSetup:
         several = len(rig.ports_m) > 1
         data = length_measurements(visit.q_rad, read_m, port=visit.station if several else None,
                                    port_names=rig.port_names if several else (),
-                                   approach=approach_directions(visit.q_rad))
+                                   approach=visit.approach)
         return Captured(data, visit.rest, outliers, visit.joint_sigma_rad)
 
     def truth(self, rig: Rig) -> dict[str, Any]:

@@ -39,7 +39,7 @@ from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array, frozen_array
 from twin.choices import DEFAULT_SIGMA_DEG, DEFAULT_SIGMA_MM
-from twin.dataset import Measurements, approach_directions
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.rigid import (
     angles,
@@ -435,7 +435,7 @@ class PoseSetup(TargetSetup):
         visit = bench.visit([None], rng)
         position, turn = pose_readings(visit.rest.point_m, visit.rest.rotation, self, rng)
         data = pose_measurements(visit.q_rad, position, turn,
-                                 approach=approach_directions(visit.q_rad))
+                                 approach=visit.approach)
         return Captured(data, visit.rest, np.zeros(0, dtype=np.intp), visit.joint_sigma_rad)
 
     def angle_sigma_rad(self) -> float | None:

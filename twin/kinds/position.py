@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
-from twin.dataset import Measurements, approach_directions
+from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.rigid import angles, kabsch, rotation, rotation_derivatives
 from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured, mm_cells
@@ -244,7 +244,7 @@ class TrackerSetup(TargetSetup):
         visit = bench.visit([None], rng)
         readings = tracker_readings(visit.rest.point_m, rig.base_in_tracker, self.sigma_m, rng)
         data = position_measurements(visit.q_rad, readings,
-                                     approach=approach_directions(visit.q_rad))
+                                     approach=visit.approach)
         return Captured(data, visit.rest, np.zeros(0, dtype=np.intp), visit.joint_sigma_rad)
 
     def truth(self, rig: Rig) -> dict[str, Any]:

@@ -23,6 +23,7 @@ from twin.loss import REJECT_SCALES
 from twin.report.display import (
     JOINT_DECIMALS,
     SIGNIFICANT,
+    deg,
     deg_values,
     in_unit,
     joint_level,
@@ -226,6 +227,28 @@ def format_rig(result: CalibrationResult) -> list[str]:
     return lines
 
 
+def format_noise(result: CalibrationResult) -> list[str]:
+    """How each row's noise was taken: σ estimated from the data, and the joints' noise
+    through each row's Jacobian (errors in variables); nothing when σ was stated and the joints
+    exact."""
+    lines = []
+    if result.noise is not None:
+        lines.append(f"  {result.noise.describe()}")
+    if result.row_sigma is not None:
+        joints = np.asarray(result.settings.joint_sigma_rad)
+        shown = ", ".join(deg(value, significant=SIGNIFICANT, unit=False)
+                          for value in np.unique(joints))
+        low, middle, high = np.quantile(result.row_sigma, [0.0, 0.5, 1.0])
+        lines.append(
+            f"  errors in variables: each row weighted by 1/σ_i², σ_i² = σ² + g_iᵀ Σ_q g_i — "
+            f"the reading's σ {mm(result.settings.sigma_m, significant=SIGNIFICANT)} (encoder "
+            f"and repeatability) and the joints' {shown}° (1σ) through the row's Jacobian g_i: "
+            f"σ_i from {mm(low, significant=SIGNIFICANT)} to {mm(high, significant=SIGNIFICANT)}"
+            f" (median {mm(middle, significant=SIGNIFICANT)}); the misfit test uses the same "
+            "variances")
+    return lines
+
+
 def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[str]:
     """The misfit line, the rows the loss rejected, and what the data cannot see."""
     lines = []
@@ -299,6 +322,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         *format_identifiability(result),
     ]
     lines += format_rig(result)
+    lines += format_noise(result)
     lines += format_fit(result, causes)
     if truth is not None:
         lines += format_truth(truth, has_point(result))

@@ -6,6 +6,10 @@ a random sign times U(0.5, 1.5) · ``outlier``, else 0), res the resolution.
 
 Repeatability is the arm's: each pose's joints land N(0, σ_q²) off their target, with one σ_q
 for all joints chosen so that the RMS flange displacement over the poses is ``repeatability``.
+
+The joint angles a controller reports may be rounded (``joint_resolution``, a log written to
+0.1°): the recorded angle is the target rounded to the resolution, the arm stands at the
+target (and its jitter) — the calibration reads angles up to half a step off.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array
 from twin.geometry.kinematics import point_jacobian
 from twin.robot import RobotModel
-from twin.units import m_to_mm
+from twin.units import m_to_mm, rad_to_deg
 
 
 class Readings(NamedTuple):
@@ -42,6 +46,8 @@ class NoiseModel:
         outlier_rate: Probability of an outlier per reading, in [0, 1].
         outlier_m: Typical outlier size, m.
         offset_m: Constant length offset the calibration is not told, m.
+        joint_resolution_rad: The resolution the joint angles are recorded to, one for every
+            joint or one per joint, rad (empty or 0: exact).
     """
 
     sigma_m: float = 0.0
@@ -50,6 +56,7 @@ class NoiseModel:
     outlier_rate: float = 0.0
     outlier_m: float = 0.0
     offset_m: float = 0.0
+    joint_resolution_rad: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("sigma_m", "resolution_m", "repeatability_m", "outlier_m"):
@@ -60,6 +67,17 @@ class NoiseModel:
             raise ValueError(f"outlier_rate: expected [0, 1], got {self.outlier_rate}")
         if not np.isfinite(self.offset_m):
             raise ValueError("offset_m: expected a finite value")
+        resolution = tuple(float(v) for v in np.ravel(self.joint_resolution_rad))
+        if not all(np.isfinite(v) and v >= 0 for v in resolution):
+            raise ValueError("joint_resolution_rad: expected finite values >= 0")
+        object.__setattr__(self, "joint_resolution_rad", resolution)
+
+    def recorded(self, q_rad: ArrayLike) -> Array:
+        """The joint angles as recorded: rounded to the resolution, shape (m, n), rad."""
+        q = np.asarray(q_rad, dtype=np.float64)
+        step = np.zeros(q.shape[-1]) + np.asarray(self.joint_resolution_rad or (0.0,))
+        safe = np.where(step > 0, step, 1.0)
+        return np.asarray(np.where(step > 0, np.round(q / safe) * safe, q), dtype=np.float64)
 
     @property
     def encoder_sigma_m(self) -> float:
@@ -99,4 +117,5 @@ class NoiseModel:
             "outlier_rate": self.outlier_rate,
             "outlier_mm": float(m_to_mm(self.outlier_m)),
             "offset_mm": float(m_to_mm(self.offset_m)),
+            "joint_resolution_deg": rad_to_deg(self.joint_resolution_rad).tolist(),
         }

@@ -60,6 +60,7 @@ joint errors), paths relative to the scenario file::
 
     [joints]                               # joint-level errors (see twin.scenario.joint_errors)
     repeatability_mm = 0.0                 # RMS flange jitter from the joints
+    resolution_deg = 0.0                   # the joint angles recorded to this (or one per joint)
     transmission_arcsec = 0.0              # amplitude, number or one per joint
     transmission_harmonic = 1              # cycles per joint revolution
     transmission_phase_deg = [...]         # one per joint; drawn uniformly when absent
@@ -103,6 +104,7 @@ from typing import Any
 import numpy as np
 
 from twin.arrays import Array
+from twin.calibration.settings import joint_noise
 from twin.choices import MAX_POSES, MAX_TENSION_N
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
@@ -137,8 +139,8 @@ _TABLES = {
     "poses": ("count", "plan", "min_flange_height_mm", "cable_clearance_mm"),
     "encoder": ("range_mm", "sigma_mm", "resolution_mm", "outlier_rate", "outlier_mm",
                 "offset_mm"),
-    "joints": ("repeatability_mm", "transmission_arcsec", "transmission_harmonic",
-               "transmission_phase_deg", "backlash_arcsec"),
+    "joints": ("repeatability_mm", "resolution_deg", "transmission_arcsec",
+               "transmission_harmonic", "transmission_phase_deg", "backlash_arcsec"),
     "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"),
     "calibration": KEYS,
 }
@@ -179,7 +181,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         pose_count=count,
         pose_plan=plan,
         constraints=_constraints(tables["poses"], cable_range),
-        noise=_noise(tables["encoder"], tables["joints"]),
+        noise=_noise(tables["encoder"], tables["joints"], robot.n_joints),
         joint_errors=joint_errors,
         draw_phases=draw_phases,
         physics=physics,
@@ -188,6 +190,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         source=source,
     )
     calibration = parse_calibration(tables["calibration"], scenario.reading_sigma_m,
+                                    joint_noise((), scenario.noise.joint_resolution_rad),
                                     instrument.setup.angle_sigma_rad())
     lower, upper = group_box(make_groups(["dh"], robot, Rig())[0], calibration.bounds)
     box = (np.reshape(lower, robot.dh.shape), np.reshape(upper, robot.dh.shape))
@@ -307,10 +310,12 @@ def _constraints(poses: Table, cable_range: Array) -> PoseConstraints:
     )
 
 
-def _noise(encoder: Table, joints: Table) -> NoiseModel:
+def _noise(encoder: Table, joints: Table, n: int) -> NoiseModel:
     """The reading's noise: ``[encoder]``'s σ, resolution, outliers and offset, the robot's
-    repeatability (``[joints]``)."""
+    repeatability and the resolution its joint angles are recorded to (``[joints]``)."""
     return NoiseModel(
+        joint_resolution_rad=tuple(deg_to_rad(joints.vector(
+            "resolution_deg", n, per_joint=True, minimum=0.0, default=0.0)).tolist()),
         sigma_m=float(mm_to_m(encoder.number("sigma_mm", 0.0, minimum=0.0))),
         resolution_m=float(mm_to_m(encoder.number("resolution_mm", DEFAULT_RESOLUTION_MM,
                                                   minimum=0.0))),

@@ -284,7 +284,8 @@ class Bench:
                           self.scenario.instrument.attachment_m)
 
     def visit(self, stations_m: Sequence[Array | None], rng: np.random.Generator) -> Visit:
-        """Poses station after station (:func:`_poses`), the joint jitter, the arm at rest."""
+        """Poses station after station (:func:`_poses`), the joint jitter, the arm at rest, the
+        angles as recorded (:meth:`twin.scenario.noise.NoiseModel.recorded`)."""
         twins = [self._twin(port) for port in stations_m]
         q, station = _poses(self.scenario, twins, rng)
         joint_sigma = self.scenario.noise.joint_sigma_rad(self.robot, q)
@@ -293,7 +294,8 @@ class Bench:
                               approach_directions(q)[station == k])
                  for k, twin in enumerate(twins)]
         rest = AtRest(*(np.concatenate(parts) for parts in zip(*rests, strict=True)))
-        return Visit(q, station, rest, joint_sigma)
+        return Visit(self.scenario.noise.recorded(q), station, rest, joint_sigma,
+                     approach_directions(q))
 
     def touch(self, places_m: Array, touches: int, sigma_m: Array, rng: np.random.Generator
               ) -> tuple[Array, NDArray[np.intp]]:

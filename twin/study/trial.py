@@ -17,7 +17,9 @@ Against the truth, for each method:
 - **Cramér–Rao bound** of that error (:func:`twin.analysis.uncertainty.cramer_rao_rms`) for
 the
   trial's training poses, with the length-noise variance σ² + res²/12 + (jitter seen along the
-  cable), averaged over the poses, from the fitted model's Jacobian (joint groups included).
+  cable), averaged over the poses, from the fitted model's Jacobian (joint groups included);
+  with joint angles recorded to a resolution, each row's own variance adds the rounding through
+  its ∂ℓ/∂q (the bound of the best linear estimator, which weights the rows by it).
   Outliers are not noise, nor are compliance and joint errors to a D-H-only model, so in those
   regimes the bound is the floor of the Gaussian part only and ratios below 1 can occur;
 - **gauge-free errors**: the flange error modulo the motions the data cannot see, and the
@@ -135,6 +137,19 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     return float(np.sqrt(instrument**2 + jitter))
 
 
+def row_sigma_m(sim: Simulation, jacobian: Array, sigma_m: float) -> Array | None:
+    """Each training row's noise 1σ when the joint angles are recorded to a resolution: the
+    readings' σ and the rounding (r/√12 per joint) through the row's ∂ℓ/∂q, shape (m,), m;
+    None when they are exact (every row's σ is ``sigma_m``)."""
+    resolution = np.asarray(sim.scenario.noise.joint_resolution_rad or (0.0,))
+    if not np.any(resolution > 0):
+        return None
+    n = sim.robot.n_joints
+    dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, as in noise_sigma_m
+    return np.asarray(np.sqrt(sigma_m**2 + np.sum((dl_dq * resolution) ** 2, axis=1) / 12.0),
+                      dtype=np.float64)
+
+
 def _mm(value_m: float) -> float:
     return float(m_to_mm(value_m))
 
@@ -180,7 +195,8 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     x_true = true_unknowns(sim, model)
     _, jacobian = model.jacobian(x_true, train)
     sigma_m = noise_sigma_m(sim, jacobian)
-    crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace)
+    crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace,
+                                          row_sigma_m(sim, jacobian, sigma_m))
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[TrialRow] = []
     methods: dict[str, Any] = {}
