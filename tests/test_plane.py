@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
+from tests.test_viz_rerun import column, read_rrd, scalars
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
 from twin.analysis.uncertainty import cramer_rao_rms
 from twin.calibration.accuracy import rigid_truth, truth_errors
@@ -34,6 +35,7 @@ from twin.robot import RobotModel, random_poses
 from twin.scenario import load_scenario
 from twin.sim import simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
+from twin.viz import entities
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "plane_irb120.toml"
 NORMALS = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
@@ -168,7 +170,10 @@ def test_planes_run_through_the_command_line(tmp_path: Path) -> None:
     assert (out / "measurements.csv").read_text().splitlines()[0] == "q1,q2,q3,q4,q5,q6,plane"
     assert main(["calibrate", str(out / "capture.toml"), "--json", str(out / "result.json"),
                  "--rerun-save", str(out / "calibrate.rrd")]) == 0
-    assert (out / "calibrate.rrd").stat().st_size > 0
+    batches = read_rrd(out / "calibrate.rrd")
+    assert len(column(batches, entities.MEASURED, entities.POSE_TIMELINE)) == 80
+    assert entities.world("planes") in batches
+    assert scalars(batches, entities.residuals_after("lm")).shape == (80,)
     part = json.loads((out / "result.json").read_text())["unknowns"]["rig"]["plane"]
     assert part["names"] == ["plane1", "plane2", "plane3", "plane4"]
     assert main(["predict", "--identified", str(out / "result.json"), "--joints",

@@ -19,6 +19,7 @@ import pytest
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from tests.test_viz_rerun import column, read_rrd, scalars
 from twin.analysis.uncertainty import cramer_rao_covariance, rms_distance
 from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
@@ -36,6 +37,7 @@ from twin.robot import RobotModel, random_poses
 from twin.scenario import load_scenario
 from twin.sim import Simulation, simulate
 from twin.study.trial import noise_sigma_m, true_unknowns
+from twin.viz import entities
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "pose_irb120.toml"
 FRAME = transform([1.6, 0.3, -0.2], [0.05, -0.1, 2.8])
@@ -236,7 +238,13 @@ def test_pose_runs_through_the_command_line(tmp_path: Path) -> None:
     assert main(["simulate", str(SCENARIO), "--out", str(out)]) == 0
     assert main(["calibrate", str(out / "capture.toml"), "--json", str(out / "result.json"),
                  "--rerun-save", str(out / "calibrate.rrd")]) == 0
-    assert (out / "calibrate.rrd").stat().st_size > 0
+    batches = read_rrd(out / "calibrate.rrd")
+    poses = len((out / "measurements.csv").read_text().splitlines()) - 1
+    assert len(column(batches, entities.MEASURED, entities.POSE_TIMELINE)) == poses
+    for axis in "xyz":  # the tool frame's axes as read, a segment per pose
+        assert len(column(batches, entities.world(f"measured_axes/{axis}"),
+                          entities.POSE_TIMELINE)) == poses
+    assert scalars(batches, entities.residuals_after("lm")).shape == (poses,)
     document = json.loads((out / "result.json").read_text())
     part = document["unknowns"]["rig"]["pose"]
     assert len(part["tool_rotation"]) == 9 and part["weight_m_per_rad"] > 0
