@@ -31,7 +31,6 @@ from twin.geometry.kinematics import (
     JOINT_SLOT,
     PointJacobian,
     Turns,
-    flange_transform,
     flange_turn_jacobian,
     point_position,
     trace_point,
@@ -286,13 +285,19 @@ class Model:
                                  template, self.rig)
 
     def measured(self, x: ArrayLike, data: Measurements) -> Measured:
-        """Where the measured point is at every pose for unknowns x (..., p), and the tool
-        frame's orientation if the kind reads it (:class:`twin.kinds.base.Measured`)."""
+        """Where the measured point is at every pose for unknowns x (..., p), and the flange's
+        orientation if the kind reads it (:class:`twin.kinds.base.Measured`)."""
         x = self._check(x)
         if not self.kind.reads_rotation:
             return Measured(self.positions(x, data))
-        flange = flange_transform(self.robot.structure, self.table(x), self.joints(x, data))
-        return Measured(self.positions(x, data), flange[..., :3, :3])
+        # The flange's axes as the points one metre along them less its origin: the point
+        # kernel (compiled where it can be) carries a swarm's tables at once, where a walk
+        # of the whole frame would not.
+        table, joints = self.table(x), self._joint_turns(x, data)
+        structure = self.robot.structure
+        origin = point_position(structure, table, joints)
+        axes = [point_position(structure, table, joints, axis) - origin for axis in np.eye(3)]
+        return Measured(self.positions(x, data), np.stack(axes, axis=-1))
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
