@@ -13,14 +13,15 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
-from twin.analysis.uncertainty import WORKSPACE_POSES, flange_sigma, workspace_grid
+from twin.analysis.uncertainty import flange_sigma
+from twin.analysis.workspace import MEASURED_RANGES, Workspace, data_workspace
 from twin.arrays import Array
 from twin.calibration.pipeline import solve_many
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.dataset import Measurements
 from twin.design.optimal import DesignScore, score_poses
 from twin.model import Model
-from twin.robot import RobotModel, random_poses
+from twin.robot import RobotModel
 
 METHOD = "lm-base"
 """The calibration an assessment runs: LM on the base parameters, with their uncertainty."""
@@ -40,6 +41,8 @@ class Assessment(NamedTuple):
     result: CalibrationResult
     """The lm-base calibration (its identifiability and uncertainty at the identified
     geometry)."""
+    workspace: Workspace
+    """Where the accuracy is stated: within the joint ranges of the measured poses."""
 
 
 def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *, seed: int
@@ -55,28 +58,30 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
     model = split.problem.model
     data = model.kind.prepare(robot, model.rig, measurements, split.settings.noise)[1]
     x0 = np.zeros(model.n_params)
-    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
+    workspace = data_workspace(data.q_rad, np.random.default_rng(seed), covers=MEASURED_RANGES)
     nominal = measurement_identifiability(model, x0, data)
     score = score_poses(model, x0, data.q_rad, nominal.base_mask, split.problem.sigma_m,
-                        q_workspace)
+                        workspace.q_rad)
     result = solve_many(robot, split, [METHOD], seed=seed)[METHOD]
-    return Assessment(data, nominal, score, result)
+    return Assessment(data, nominal, score, result, workspace)
 
 
-def flange_error_map(model: Model, x: Array, covariance: Array, n_per_axis: int = MAP_GRID
-                     ) -> tuple[Array, Array, Array]:
-    """The predicted flange error over a grid of joints 2 and 3, the other joints at 0.
+def flange_error_map(model: Model, x: Array, covariance: Array, workspace: Workspace,
+                     n_per_axis: int = MAP_GRID) -> tuple[Array, Array, Array]:
+    """The predicted flange error over a grid of joints 2 and 3 within the workspace's ranges,
+    the other joints at the middle of theirs (:meth:`twin.analysis.workspace.Workspace.grid`).
 
     Args:
         model: The calibrated model.
         x: Its unknowns, shape (p,).
         covariance: Their covariance, shape (p, p).
+        workspace: The joint ranges the map spans.
         n_per_axis: Grid points per joint.
 
     Returns:
         ``(q2_rad, q3_rad, error_m)``: the grid's axes (a,) and (b,), rad, and the predicted
         RMS flange position error, shape (a, b), m.
     """
-    q2, q3, q = workspace_grid(model.robot, n_per_axis)
+    q2, q3, q = workspace.grid(n_per_axis)
     jacobian = model.flange_jacobian(x, model.poses(q))
     return q2, q3, flange_sigma(jacobian, covariance).reshape(q2.size, q3.size)

@@ -97,7 +97,6 @@ def _held_out_rmse(result: CalibrationResult) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
-    from twin.analysis.uncertainty import WORKSPACE_POSES
     from twin.calibration.assessment import assess, flange_error_map
     from twin.cli.inputs import make_split, resolve_inputs, truth_of
     from twin.io.measurements import load_measurements
@@ -120,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     data = load_measurements(measurements_path, robot, stdin=True)
     split = make_split(inputs, data, args.seed)
     assessment = assess(robot, split, data, seed=args.seed)
-    data, nominal, score, result = assessment
+    data, nominal, score, result, _ = assessment
     model = split.problem.model
     indices = score.observability
     lines = [
@@ -134,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
         f"  Cramér–Rao bound at σ = {mm(inputs.calibration.sigma_m, significant=SIGNIFICANT)}: "
-        f"flange RMS error over {WORKSPACE_POSES} workspace poses {mm(score.flange_rms_m)}",
+        f"flange RMS error over the workspace {mm(score.flange_rms_m)}",
+        f"  workspace: {assessment.workspace.describe()}",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
@@ -166,9 +166,9 @@ def run(args: argparse.Namespace) -> int:
     print("\n".join(lines))
     if args.map:
         save_png(accuracy_map(*flange_error_map(result.model, result.solver.x,
-                                                uncertainty.covariance),
+                                                uncertainty.covariance, assessment.workspace),
                               f"{robot.name}: predicted flange error after lm-base, "
-                              f"{len(data)} poses (q1 = q4 = q5 = q6 = 0)"), args.map)
+                              f"{len(data)} poses (the other joints mid-range)"), args.map)
         print(f"map: {args.map}")
     if args.json:
         write_json(args.json, assessment_to_dict(
