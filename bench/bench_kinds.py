@@ -1,7 +1,7 @@
 """Every measurement kind's hot path, side by side: residuals of a swarm and the analytic
 Jacobian at one point, and the Jacobian against central differences.
 
-Run by hand: ``python bench/bench_kinds.py`` (``--poses 8 --swarm 4`` for a tiny run). For each
+Run by hand: ``python bench/bench_kinds.py`` (``--tiny``: 8 poses, a swarm of 4). For each
 kind on the same poses of the IRB 120 (its D-H errors and its rig's unknowns): the median time
 of the residuals of a swarm of x (what PSO and BIPSO evaluate), of the residuals and analytic
 Jacobian at one x (what LM and the filters call), and of the Jacobian by central differences
@@ -76,7 +76,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=96)
     parser.add_argument("--swarm", type=int, default=100)
+    parser.add_argument("--tiny", action="store_true",
+                        help="smoke size (8 poses, a swarm of 4): no figure means anything")
     args = parser.parse_args()
+    if args.tiny:
+        args.poses, args.swarm = 8, 4
     robot = default_robot()
     rng = np.random.default_rng(0)
     q = random_poses(robot, args.poses, rng)

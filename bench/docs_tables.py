@@ -1090,6 +1090,7 @@ def main() -> None:
         blocks["methods.md"]["bench-calibration"] = lambda: bench_output("bench_calibration.py")
         blocks["methods.md"]["bench-extended"] = lambda: bench_output("bench_extended.py")
         blocks["studies.md"]["bench-study"] = lambda: bench_output("bench_study.py")
+        blocks["studies.md"]["bench-speed"] = lambda: bench_output("bench_speed.py")
         blocks["identifiability.md"]["bench-design"] = lambda: bench_output("bench_design.py")
     known = [block for generated in blocks.values() for block in generated]
     wanted = set(args.only or known)

@@ -150,6 +150,7 @@ def _bound_sigma(model: Model, x_true: np.ndarray, train: Measurements, sigma_m:
     return np.sqrt(np.diag(cramer_rao_covariance(model, x_true, train, sigma_m)))
 
 
+@pytest.mark.slow
 def test_poses_identify_alpha6_and_theta6_within_twice_their_bound() -> None:
     """With the tool frame known and the instrument's frame estimated, the identifiability
     says orientations see α6 and θ6 (a point on the flange cannot), and over 8 trials their
@@ -181,6 +182,7 @@ def test_poses_identify_alpha6_and_theta6_within_twice_their_bound() -> None:
     assert np.all(bound < np.deg2rad(0.01))  # a few arc-seconds: they are seen, not guessed
 
 
+@pytest.mark.slow
 def test_the_tool_frame_is_recovered_over_held_out_poses() -> None:
     """With the tool frame estimated (6-D) as well, what the instrument would read of the tool
     frame at 300 held-out workspace poses — its origin and its orientation, in the instrument's
