@@ -19,7 +19,7 @@ from twin.compensation.configuration import configuration
 from twin.compensation.poses import controller_tool0
 from twin.compensation.targets import reachable_targets
 from twin.io.rapid import format_number, parse_module
-from twin.io.rapid_filter import Filtered, Frames, filter_module
+from twin.io.rapid_filter import Filtered, TargetFrames, filter_module
 from twin.io.robot_file import default_robot
 from twin.rig import Rig
 
@@ -60,13 +60,14 @@ def main() -> None:
 
     def batched() -> Filtered:
         return filter_module(parse_module(text, "bench.mod"), model, x, robot, tool0,
-                             Frames({}, {}), np.random.default_rng(2))
+                             TargetFrames({}, {}), np.random.default_rng(2))
 
     def one_by_one() -> list[Filtered]:
         lines = text.splitlines()
         return [filter_module(parse_module("\n".join([lines[0], lines[1 + k], *lines[n + 1:]]),
-                                           "bench.mod"), model, x, robot, tool0, Frames({}, {}),
-                              np.random.default_rng(2)) for k in range(n)]
+                                           "bench.mod"), model, x, robot, tool0,
+                              TargetFrames({}, {}), np.random.default_rng(2))
+                for k in range(n)]
 
     batched_s, together = median_time(batched, REPEATS)
     loop_s, apart = median_time(one_by_one, REPEATS)

@@ -866,8 +866,8 @@ def twin_check_table(folder: Path) -> str:
                      f"{found['truth']['flange_error']:.4f}"])
     return markdown_table(["scenario", "noise estimate [mm]", "predicted flange RMS [mm]",
                            "true flange RMS [mm]"], rows) + "\n\n" + stamp(
-        "`twin simulate` then `twin identify` (lm-base, 96 training poses, 1000 workspace "
-        "poses), the scenario's seed.")
+        "`twin simulate` then `twin identify` (lm, 96 training poses, 1000 workspace poses), "
+        "the scenario's seed.")
 
 
 CHECK_CAP = 1

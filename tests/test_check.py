@@ -16,7 +16,7 @@ from test_study import SCENARIO, write_scenario
 from twin.cli import main
 from twin.errors import InputError
 from twin.study.baseline import MIN_CHANGED, Metric, compare
-from twin.study.expect import STATS, measure, parse_expect_table, parse_expectation
+from twin.study.expect import STATS, measure_expectation, parse_expect_table, parse_expectation
 from twin.testing import check
 
 PASSING = "crlb_ratio median <= 3.0"
@@ -97,12 +97,14 @@ def test_statistics_match_the_standard_library() -> None:
     for stat in STATS:
         if stat == "share":
             flags = [True, False, True, True]
-            measured = measure(parse_expectation("converged share >= 0.5", "f", "lm"), flags)
+            share = parse_expectation("converged share >= 0.5", "f", "lm")
+            measured = measure_expectation(share, flags)
             assert measured.value == pytest.approx(0.75)
             continue
         expectation = parse_expectation(f"flange_error_mm {stat} <= 1", "f", "lm")
-        assert measure(expectation, values).value == pytest.approx(reference[stat], rel=1e-12)
-    one = measure(parse_expectation("flange_error_mm std <= 1", "f", "lm"), [0.1])
+        assert measure_expectation(expectation, values).value == pytest.approx(reference[stat],
+                                                                               rel=1e-12)
+    one = measure_expectation(parse_expectation("flange_error_mm std <= 1", "f", "lm"), [0.1])
     assert math.isnan(one.value) and "2 trials" in one.note
 
 

@@ -38,7 +38,7 @@ def test_identify_reports_rank_names_and_sigma(
     assert {"theta6", "alpha6", "d2-d3"} <= set(nominal["unidentifiable"])
     assert set(nominal["observability"]) == {"o1", "o3", "o4", "condition"}
     assert 0 < nominal["cramer_rao_flange_rms"] < 0.05
-    assert document["calibration"]["method"] == "lm-base"
+    assert document["calibration"]["method"] == "lm"
     image = imread(png)
     assert image.ndim == 3 and image.shape[0] > 200 and image.shape[1] > 200
 
@@ -186,3 +186,26 @@ def test_plan_a_seven_axis_urdf(tmp_path: Path, capsys: pytest.CaptureFixture[st
     q_rad = np.deg2rad(q_deg)
     assert q_rad.shape == (40, 7)
     assert np.all((robot.lower_rad <= q_rad) & (q_rad <= robot.upper_rad))
+
+
+def test_identify_states_calibrates_noise_and_no_flange_it_cannot_pin(
+    csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """identify runs calibrate's default method, so both state the same noise estimate; with the
+    attachment estimated the data do not pin the flange, and identify states the bound and the
+    prediction of the measured point, never a flange figure (its JSON has no flange bound)."""
+    out = tmp_path / "id.json"
+    flags = ["--port", PORT, "--estimate-attachment"]
+    assert main(["identify", str(csv_path), *flags, "--json", str(out)]) == 0
+    identified = capsys.readouterr().out
+    assert main(["calibrate", str(csv_path), *flags]) == 0
+    calibrated = capsys.readouterr().out
+    noise = re.compile(r"noise estimate (\S+ mm)")
+    assert noise.findall(identified) == noise.findall(calibrated)
+    assert "flange RMS" not in identified
+    assert "Cramér–Rao bound at σ = 0.01 mm: RMS error of the measured point" in identified
+    assert "predicted RMS error of the measured point" in identified
+    nominal = json.loads(out.read_text())["nominal"]
+    assert nominal["cramer_rao_flange_rms"] is None and nominal["cramer_rao_point_rms"] > 0
+    assert main(["identify", str(csv_path), "--port", PORT, "--method", "all"]) == 2
+    assert "--method" in capsys.readouterr().err

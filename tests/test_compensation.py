@@ -26,7 +26,10 @@ from twin.errors import InputError
 from twin.geometry.kinematics import flange_jacobian
 from twin.io.identified import load_result_delta
 from twin.io.results import result_to_dict, write_json
+from twin.io.robot_file import load_robot
 from twin.robot import RobotModel
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_flange_jacobian_matches_finite_differences(true_robot: RobotModel) -> None:
@@ -105,6 +108,22 @@ def test_unreachable_and_out_of_limits_are_flagged(irb120: RobotModel) -> None:
     solved = solve_ik(irb120, target, q - np.array([0, 0, 0.02, 0, 0, 0]))
     assert solved.status.tolist() == [STATUS_JOINT_LIMIT]
     assert solved.q_rad[0, 2] > irb120.upper_rad[2]
+
+
+def test_a_correction_a_turn_away_is_at_the_joint_limit() -> None:
+    """UR5e joint 2 programmed at 359.5°, its limit 360°, a real robot whose θ2 is 1° short:
+    the correction needs 360.5°, whose only angle within the limits is 0.5°, a turn away —
+    the joint would spin round on the way. That row is at its joint limit, not corrected; the
+    row beside it (q2 = 300°) is corrected by 1°."""
+    nominal = load_robot(ROOT / "models" / "ur5e" / "ur5e.urdf")
+    delta = np.zeros_like(nominal.dh)
+    delta[3, 1] = np.deg2rad(-1.0)
+    identified = nominal.perturbed(delta)
+    q = np.deg2rad([[10.0, 359.5, -60.0, 30.0, 45.0, 20.0],
+                    [10.0, 300.0, -60.0, 30.0, 45.0, 20.0]])
+    solved = compensate_program(nominal, identified, q)
+    assert solved.status.tolist() == [STATUS_JOINT_LIMIT, STATUS_OK]
+    assert np.rad2deg(solved.q_rad[1] - q[1]) == pytest.approx([0, 1, 0, 0, 0, 0], abs=1e-6)
 
 
 def test_compensation_with_identified_model_reaches_identification_accuracy(

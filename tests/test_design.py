@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from twin.calibration.setup import make_model
+from twin.compensation.ik import home_pose
 from twin.design.optimal import choose_port, d_optimal_rows, plan_poses, score_poses
+from twin.design.order import visiting_order
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 
@@ -81,3 +83,34 @@ def test_port_choice_avoids_a_port_that_sees_along_one_direction(
     assert choice.best == 1 == int(np.argmin(choice.flange_rms_m))
     assert choice.flange_rms_m[0] > 2 * choice.flange_rms_m[1]
     assert len(choice.plans) == 2
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_visiting_order_is_a_short_tour(irb120: RobotModel, seed: int) -> None:
+    """A plan of 7 poses is visited in a tour from home and back within 5 % of the shortest
+    one (every order tried, the referee), and never longer than the design's order; each
+    pose exactly once."""
+    rng = np.random.default_rng(seed)
+    q = random_poses(irb120, 7, rng)
+    home = home_pose(irb120)
+    visit = visiting_order(irb120, q, home)
+    assert sorted(visit.order.tolist()) == list(range(7))
+
+    def cost(rows: tuple[int, ...]) -> float:
+        path = np.vstack([home, q[list(rows)], home])
+        return float(np.sum(np.max(np.abs(np.diff(path, axis=0)) / irb120.velocity_rad_s,
+                                   axis=1)))
+
+    shortest = min(cost(rows) for rows in itertools.permutations(range(7)))
+    assert cost(tuple(visit.order)) == pytest.approx(visit.travel_s, rel=1e-12)
+    assert visit.travel_s <= 1.05 * shortest
+    assert visit.travel_s <= visit.given_s == pytest.approx(cost(tuple(range(7))), rel=1e-12)
+
+
+def test_the_visiting_order_keeps_each_station_together(irb120: RobotModel) -> None:
+    """With stations, each station's poses are toured in turn, stations in the plan's order."""
+    q = random_poses(irb120, 30, np.random.default_rng(5))
+    port = np.array([1, 0, 2] * 10)
+    visit = visiting_order(irb120, q, home_pose(irb120), port)
+    assert port[visit.order].tolist() == [1] * 10 + [0] * 10 + [2] * 10
+    assert sorted(visit.order.tolist()) == list(range(30))

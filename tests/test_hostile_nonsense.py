@@ -188,3 +188,13 @@ def test_rank_deficient_data_are_warned_about_before_the_calibration(
     write_measurements(spread, measurements)
     run = _calibrate_process(spread)
     assert run.returncode == 0 and "twin: warning" not in run.stdout, run.stdout
+
+
+def test_table_columns_never_run_together() -> None:
+    """A value as wide as its column or wider keeps a space before it (a 500 m link once read
+    ``499059.9413499059.7919``)."""
+    from twin.report.display import slot
+
+    row = slot(499.0599413, True, width=10) + slot(499.0597919, True, width=10)
+    assert row.split() == ["499059.9413", "499059.7919"]
+    assert slot(0.0012953, True, width=10) == "    1.2953"

@@ -10,6 +10,7 @@ a command as Ctrl-C does. Every case that runs a process has a timeout.
 
 from __future__ import annotations
 
+import fnmatch
 import os
 import shutil
 import signal
@@ -22,16 +23,19 @@ import pytest
 from conftest import Refusals, snapshot
 from test_capture import SCENARIO, SETTLE, Device
 
+from twin.cli import main
 from twin.io.atomic import temporary_beside
 from twin.io.capture_file import load_capture
 from twin.io.lock import LOCK_NAME
 from twin.io.measurements import load_measurements
+from twin.io.paths import CAPTURE_FOLDER, STUDY_FOLDER
 from twin.scenario import parse_scenario
 from twin.sim import simulate, write_simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 SIM_SCENARIO = ROOT / "scenarios" / "geometric_irb120.toml"
 CSV = ROOT / "examples" / "irb120_lm" / "measurements.csv"
+EXPECT = ROOT / "examples" / "check" / "lm_ekf.toml"
 PORT = "600,-400,100"
 PLAN = "q1,q2,q3,q4,q5,q6\n10,20,-30,40,50,60\n-20,10,20,30,-40,50\n30,-10,10,-30,20,-60\n"
 TWIN = [sys.executable, "-m", "twin"]
@@ -81,8 +85,20 @@ def capture_copy(real_capture: Path, tmp_path: Path) -> Path:
          "--rerun-save: found {tmp}/sim, the same path as --out"),
         (["study", str(SIM_SCENARIO), "--out", "{tmp}/s", "--rerun-save", "{tmp}/link"],
          "--rerun-save: found {tmp}/link, the same path as --out"),
+        (["check", str(SIM_SCENARIO), "--out", "{tmp}/out", "--junit",
+          "{tmp}/out/results.csv", "--methods", "lm", "--trials", "1"],
+         "--junit: found {tmp}/out/results.csv, a file the command writes into the --out "
+         "folder, expected another name (the folder's own: results.csv"),
+        (["check", str(SIM_SCENARIO), "--out", "{tmp}/out", "--junit", "{tmp}/out/summary.md",
+          "--methods", "lm", "--trials", "1"],
+         "--junit: found {tmp}/out/summary.md, a file the command writes into the --out"),
+        (["simulate", str(SIM_SCENARIO), "--out", "{tmp}/sim", "--rerun-save",
+          "{tmp}/sim/capture.toml"],
+         "--rerun-save: found {tmp}/sim/capture.toml, a file the command writes into the "
+         "--out folder"),
     ],
-    ids=["junit=out", "json=rerun", "under json", "map=json", "simulate", "symlink"],
+    ids=["junit=out", "json=rerun", "under json", "map=json", "simulate", "symlink",
+         "junit=results", "junit=summary", "rerun=capture"],
 )
 def test_two_outputs_at_one_place(argv: list[str], match: str, tmp_path: Path,
                                   refusals: Refusals) -> None:
@@ -91,6 +107,33 @@ def test_two_outputs_at_one_place(argv: list[str], match: str, tmp_path: Path,
     (tmp_path / "link").symlink_to(tmp_path / "s")
     refusals.cli([arg.format(tmp=tmp_path) for arg in argv], [tmp_path, CSV],
                  match.format(tmp=tmp_path))
+
+
+def test_an_output_of_another_name_may_go_into_the_folder(tmp_path: Path) -> None:
+    """A name the folder's command does not write is the user's to choose (`--junit
+    DIR/junit.xml` beside the study's files): both are written."""
+    out = tmp_path / "out"
+    assert main(["check", str(SIM_SCENARIO), "--out", str(out), "--junit",
+                 str(out / "junit.xml"), "--methods", "lm,ekf", "--trials", "1", "--expect",
+                 str(EXPECT), "--no-figures"]) in (0, 1)
+    assert (out / "junit.xml").read_text().startswith("<?xml")
+    assert (out / "results.csv").read_text().startswith("trial,case,")
+    assert _undeclared(out, STUDY_FOLDER) == ["junit.xml"]
+
+
+def _undeclared(folder: Path, patterns: tuple[str, ...]) -> list[str]:
+    """The names in ``folder`` that none of the patterns a command declares it writes match."""
+    return sorted(path.name for path in folder.iterdir()
+                  if not any(fnmatch.fnmatchcase(path.name, p) for p in patterns))
+
+
+def test_a_capture_folder_holds_only_what_its_commands_declare(
+        real_capture: Path, capture_copy: Path, tmp_path: Path) -> None:
+    """The names the CLI keeps other outputs from are every name `twin capture` and `twin
+    simulate` (over a capture, with --force) write: nothing else appears in their folders."""
+    assert _undeclared(real_capture, CAPTURE_FOLDER) == []
+    assert main(["simulate", str(SIM_SCENARIO), "--out", str(capture_copy), "--force"]) == 0
+    assert _undeclared(capture_copy, CAPTURE_FOLDER) == []
 
 
 def test_two_outputs_hard_linked(tmp_path: Path, refusals: Refusals) -> None:
@@ -165,15 +208,18 @@ def test_no_output_file_replaces_a_capture_journal(capture_copy: Path, tmp_path:
                   journal], [capture_copy], f"{journal}: found a capture's measurements")
 
 
-def _study(folder: Path, trials: int, command: str = "study") -> subprocess.Popen[str]:
-    """`twin study` (or `twin check`, of an LM expectation) of LM trials, as a process."""
+def _study(folder: Path, trials: int, command: str = "study", *, group: bool = False
+           ) -> subprocess.Popen[str]:
+    """`twin study` (or `twin check`, of an LM expectation) of LM trials, as a process (the
+    leader of a process group of its own if ``group``)."""
     argv = [*TWIN, command, str(SIM_SCENARIO), "--out", str(folder), "--trials", str(trials),
             "--methods", "lm"]
     if command == "check":
         expect = folder.parent / "expect.toml"
         expect.write_text('[expect]\nlm = ["converged share >= 0.5"]\n')
         argv += ["--no-figures", "--expect", str(expect)]
-    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=group)
 
 
 def _wait_for(path: Path, process: subprocess.Popen[str], lines: int = 0) -> None:
@@ -292,3 +338,28 @@ def test_sigterm_stops_a_study_as_ctrl_c(tmp_path: Path) -> None:
     rows = _rows(folder)
     assert len(rows) == len(set(rows))
     assert set(rows) == set(done) | {(str(trial), "lm") for trial in range(10)}
+
+
+@pytest.mark.parametrize("command", ["study", "check"])
+def test_sigterm_to_the_process_group_stops_workers_quietly(command: str,
+                                                          tmp_path: Path) -> None:
+    """A supervisor (`timeout`, systemd, a CI job) stops the whole process group: the workers
+    printed a traceback each, and 2 runs in 9 never exited. Now: exit 143, one line, every
+    recorded trial whole, no worker left."""
+    folder = tmp_path / "study"
+    study = _study(folder, 5000, command, group=True)
+    _wait_for(folder / "results.csv", study, lines=2)
+    os.killpg(study.pid, signal.SIGTERM)
+    _, error = study.communicate(timeout=TIMEOUT_S)
+    assert study.returncode == 143, error
+    assert error.endswith("\ntwin: terminated\n") and "Traceback" not in error, error
+    done = _rows(folder)
+    assert 0 < len(done) == len(set(done))
+    deadline = time.monotonic() + TIMEOUT_S
+    while True:  # the group is empty once every worker has exited
+        try:
+            os.killpg(study.pid, 0)
+        except ProcessLookupError:
+            break
+        assert time.monotonic() < deadline, "a worker outlived the command"
+        time.sleep(0.05)

@@ -180,16 +180,19 @@ ROBOT = (ROOT / "models" / "irb120.toml").read_text()
         (ROBOT.replace('angle_unit = "deg"', "angle_unit = { deg = 1 }"),
          "angle_unit: found {'deg': 1}, expected one of deg, rad"),
         (ROBOT.replace("d = 290.0", "d = 1e300", 1),
-         "joint 1 d: found 1e+300, expected a number within ±1e+06 mm"),
+         "joint 1 d: found 1e+300, expected a number within ±100000 mm"),
+        (ROBOT.replace("d = 290.0", "d = 500000.0", 1),
+         "joint 1 d: found 500000.0, expected a number within ±100000 mm"),
         ("a = " + "[" * 5000 + "]" * 5000 + "\n",
          f"found arrays or tables nested 5000 deep, expected a robot model TOML file nested at "
          f"most {MAX_NESTING} deep"),
     ],
-    ids=["unit as a list", "unit as a table", "link of 1e300 mm", "deep TOML"],
+    ids=["unit as a list", "unit as a table", "link of 1e300 mm", "link of 500 m", "deep TOML"],
 )
 def test_a_broken_robot_file(text: str, match: str, tmp_path: Path, csv_path: Path,
                              refusals: Refusals) -> None:
-    """A unit given as a list or a table, a link length of 1e300, arrays nested 5000 deep."""
+    """A unit given as a list or a table, a link length of 1e300 or of 500 m (a unit mistake),
+    arrays nested 5000 deep."""
     robot = tmp_path / "robot.toml"
     robot.write_text(text)
     refusals.cli(["calibrate", csv_path, "--port", PORT, "--robot", robot], [robot, csv_path],

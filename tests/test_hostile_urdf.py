@@ -130,8 +130,10 @@ def test_a_link_with_two_parents(tmp_path: Path, refusals: Refusals) -> None:
     ("change", "match"),
     [
         ({"xyz": "1e308 0 0"}, "joint 'j2' <origin>: found xyz='1e308 0 0', expected three "
-         "numbers within ±1000 m"),
+         "numbers within ±100 m"),
         ({"xyz": "5000 0 0"}, "joint 'j2' <origin>: found xyz='5000 0 0'"),
+        ({"xyz": "-500 0 0"}, "joint 'j2' <origin>: found xyz='-500 0 0', expected three "
+         "numbers within ±100 m"),
         ({"xyz": "0 1e20 0"}, "joint 'j2' <origin>: found xyz='0 1e20 0'"),
         ({"xyz": "nan 0 0"}, "joint 'j2' <origin>: found xyz='nan 0 0'"),
         ({"rpy": "1e10 0 0"}, "joint 'j2' <origin>: found rpy='1e10 0 0', expected three "
@@ -147,7 +149,7 @@ def test_a_link_with_two_parents(tmp_path: Path, refusals: Refusals) -> None:
         ({"extra": '<mimic joint="j1" multiplier="1"/>'}, "joint 'j2': found a <mimic> joint "
          "on the chain (it follows 'j1'), expected independent joints"),
     ],
-    ids=["1e308", "5 km", "1e20", "nan", "rpy", "±100 rad", "empty range", "zero axis",
+    ids=["1e308", "5 km", "500 m", "1e20", "nan", "rpy", "±100 rad", "empty range", "zero axis",
          "tiny axis", "two numbers", "infinite axis", "mimic"],
 )
 def test_numbers_no_arm_has(change: dict[str, str], match: str, tmp_path: Path,

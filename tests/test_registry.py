@@ -14,6 +14,8 @@ from twin.errors import UnknownChoiceError
 from twin.export import FORMATS
 from twin.hardware.encoders import ENCODERS
 from twin.hardware.encoders.base import Encoder
+from twin.hardware.robot_sources import SOURCES, get_source
+from twin.hardware.robot_sources.base import SourceKind
 from twin.io.robot_file import default_robot
 from twin.kinds import KINDS
 from twin.rig import Rig
@@ -64,7 +66,7 @@ def test_a_lazy_member_is_imported_when_first_asked_for() -> None:
 def test_every_family_registers_members_of_its_interface() -> None:
     """Each registry's members are what its family's interface says: solvers, kinds that
     name themselves, group factories that make groups of their own name, encoder drivers,
-    executors, export functions of one robot."""
+    robot sources that name themselves, executors, export functions of one robot."""
     assert all(isinstance(solver, Solver) and solver.name == name
                for name, solver in SOLVERS.items())
     assert get_solver("M2") is SOLVERS["lm"]
@@ -76,6 +78,10 @@ def test_every_family_registers_members_of_its_interface() -> None:
             group = make(robot, rig)
             assert isinstance(group, Group) and group.name == name
     assert all(issubclass(driver, Encoder) for driver in ENCODERS.values())
+    assert isinstance(SOURCES, Registry)
+    assert all(isinstance(kind, SourceKind) and kind.name == name
+               for name, kind in SOURCES.items())
+    assert get_source("rws2://10.0.0.5") is SOURCES["rws2"]
     for make in EXECUTORS.values():
         assert callable(getattr(make, "run", None)) and hasattr(make, "workers")
     assert all(list(inspect.signature(export).parameters) == ["robot"]

@@ -67,7 +67,7 @@ JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper
         (BASE + f"joints = [{', '.join([JOINT] * 3)}]", "3 joints"),
         (BASE + f"joints = [{', '.join([JOINT] * 8)}]", "8 joints"),
         (BASE + f"joints = [{', '.join([JOINT.replace('290.0', 'nan')] + [JOINT] * 5)}]",
-         "joint 1 d: found nan, expected a number within ±1e+06 mm"),
+         "joint 1 d: found nan, expected a number within ±100000 mm"),
         (BASE + f"joints = [{', '.join([JOINT.replace('a = 0.0', 'b = 0.0')] + [JOINT] * 5)}]",
          "unknown key 'b'"),
         (BASE + "colour = 1\n" + f"joints = [{', '.join([JOINT] * 6)}]", "unknown key 'colour'"),

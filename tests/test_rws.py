@@ -30,7 +30,7 @@ from twin.hardware.rws import protocol
 from twin.hardware.rws.client import RwsClient, RwsConnection
 from twin.hardware.rws.virtual_controller import ControllerSettings, Robot, start
 from twin.io.measurements import load_measurements, read_table
-from twin.io.rapid_handshake import axes_deg, module_text, read_module
+from twin.io.rapid_handshake import axes_deg, module_text, read_handshake_module
 from twin.scenario import load_scenario
 from twin.sim import Twin, simulate
 from twin.units import deg_to_rad, rad_to_deg
@@ -124,7 +124,7 @@ def test_the_handshake_module_reads_back_as_its_plan(tmp_path: Path) -> None:
                             "WaitRob \\ZeroSpeed;", "WaitUntil twin_ack = k;"):
             assert declaration in text
         (tmp_path / "m.mod").write_text(text)
-        back = read_module(tmp_path / "m.mod", n)
+        back = read_handshake_module(tmp_path / "m.mod", n)
         assert back.name == "TwinPlan"
         assert np.max(np.abs(rad_to_deg(back.q_rad) - rad_to_deg(q_rad))) < 1e-6
         assert text.count("9E+09") == 5 * (6 - max(0, n - 6))
@@ -302,7 +302,8 @@ def test_controller_faults_are_one_line_and_lose_nothing(
         fault: str, cell: dict[str, object], tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
     """A controller that is not there, refuses the credentials, never stops moving, or stops
-    the program before a pose: one line naming it, exit code 1, every pose before it kept."""
+    the program before a pose: one line naming it, exit code 1 (2 for the credentials, the
+    user's mistake), every pose before it kept."""
     out = tmp_path / "cap"
     faults = {"creep": {"creep_pose": 3}, "refuse": {"refuse_pose": 4}}.get(fault, {})
     running = controller(cell, out, password="secret" if fault == "auth" else PASSWORD,
@@ -317,7 +318,7 @@ def test_controller_faults_are_one_line_and_lose_nothing(
         if fault != "unreachable":
             running.stop()
     error = capsys.readouterr().err
-    assert code == 1 and error.count("\n") == 1, error
+    assert code == (2 if fault == "auth" else 1) and error.count("\n") == 1, error
     expected = {"unreachable": "cannot reach the controller at http://127.0.0.1:",
                 "auth": "refused (HTTP 401) for user 'Default User'",
                 "creep": "pose 3/40: the joints did not stand still within 3 s: joint 1 moved",
@@ -326,6 +327,23 @@ def test_controller_faults_are_one_line_and_lose_nothing(
     assert expected in error and PASSWORD not in error and "secret" not in error
     kept = {"unreachable": 0, "auth": 0, "creep": 2, "refuse": 3}[fault]
     assert rows(out)[:, 0].tolist() == list(range(1, kept + 1))
+
+
+def test_the_robot_program_is_named_once_it_is_written(
+        cell: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An encoder that cannot be opened stops the capture before anything is written (the
+    folder made for it removed): no line names a robot program that does not exist."""
+    out = tmp_path / "cap"
+    running = controller(cell, out)
+    try:
+        argv = capture_args(cell, running.url, out)
+        argv[argv.index("--encoder") + 1] = f"serial://{tmp_path / 'no-such-device'}"
+        code = main(argv)
+    finally:
+        running.stop()
+    captured = capsys.readouterr()
+    assert code == 1 and "cannot open encoder port" in captured.err
+    assert "robot program" not in captured.out and not out.exists()
 
 
 @pytest.mark.slow

@@ -8,6 +8,9 @@ module that acts on each value imports it from here (and is where its meaning is
 
 from __future__ import annotations
 
+DEFAULT_METHOD = "lm"
+"""The method `twin calibrate` and `twin identify` run unless told (:mod:`twin.solvers`): one
+method by default, so that both state the same fit and the same noise estimate."""
 PROTOCOLS = ("converge", "paper")
 """Names of the stopping protocols, the default first (:mod:`twin.stopping`)."""
 MAX_ITERATIONS = 100_000

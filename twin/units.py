@@ -91,6 +91,10 @@ RESULT_SIGNIFICANT = 6
 MAX_LENGTH_M = 1000.0
 """Largest length accepted from a file or flag (a link, a port, a cable, a target), m: every
 real one is far shorter, and a 1e300 would overflow the kinematics."""
+MAX_LINK_M = 100.0
+"""Largest length of a robot's description (a D-H length, a URDF joint's origin, a base or tool
+offset, a centre of mass), m: the longest linear tracks a serial arm rides on are tens of
+metres; a link of 500 m is a unit mistake that would otherwise calibrate to a MISFIT."""
 MAX_ANGLE_RAD = 4 * np.pi
 """Largest angle accepted from a file (a D-H angle, a joint limit, a URDF origin's rpy), rad:
 two turns."""

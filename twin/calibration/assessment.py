@@ -1,9 +1,12 @@
 """What a measurement set identifies, and how well (`twin identify`).
 
 At the nominal geometry: rank, condition and the unidentifiable combinations of the unknowns,
-observability indices and the Cramér–Rao bound on the flange position over the workspace. Then
-an ``lm-base`` calibration, and the same at the identified geometry, with per-parameter standard
-deviations and a map of the predicted flange error over joints 2 and 3.
+observability indices and the Cramér–Rao bound on the flange position over the workspace the
+data cover — or, when the data do not pin the flange (an estimated attachment lets it slide
+under the point they measure), on the measured point's. Then a calibration with the method
+`twin calibrate` runs by default (the same fit, so the same noise estimate, in both commands),
+and the same at the identified geometry, with per-parameter standard deviations and a map of
+the predicted flange error over joints 2 and 3.
 """
 
 from __future__ import annotations
@@ -13,18 +16,17 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
-from twin.analysis.uncertainty import flange_sigma
+from twin.analysis.uncertainty import cramer_rao_rms, flange_sigma
 from twin.analysis.workspace import MEASURED_RANGES, Workspace, data_workspace
 from twin.arrays import Array
 from twin.calibration.pipeline import solve_many
 from twin.calibration.result import CalibrationResult, SplitProblem
+from twin.choices import DEFAULT_METHOD
 from twin.dataset import Measurements
 from twin.design.optimal import DesignScore, score_poses
 from twin.model import Model
 from twin.robot import RobotModel
 
-METHOD = "lm-base"
-"""The calibration an assessment runs: LM on the base parameters, with their uncertainty."""
 MAP_GRID = 41
 """Grid points per axis of the accuracy map over joints 2 and 3."""
 
@@ -39,21 +41,30 @@ class Assessment(NamedTuple):
     score: DesignScore
     """Observability and the Cramér–Rao flange RMS over the workspace, nominal geometry."""
     result: CalibrationResult
-    """The lm-base calibration (its identifiability and uncertainty at the identified
-    geometry)."""
+    """The calibration (its identifiability and uncertainty at the identified geometry)."""
     workspace: Workspace
     """Where the accuracy is stated: within the joint ranges of the measured poses."""
+    point_bound_m: float | None
+    """When the data do not pin the flange (:attr:`pinned`), the Cramér–Rao bound on the RMS
+    error of the measured point over the workspace, m, nominal geometry; else None."""
+
+    @property
+    def pinned(self) -> bool:
+        """Whether the data pin the flange: not with an estimated attachment, which lets the
+        flange slide under the point the data measure (no flange figure is then stated)."""
+        return self.point_bound_m is None
 
 
-def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *, seed: int
-           ) -> Assessment:
-    """Identifiability at the nominal geometry, then an lm-base calibration.
+def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *, seed: int,
+           method: str = DEFAULT_METHOD) -> Assessment:
+    """Identifiability at the nominal geometry, then a calibration.
 
     Args:
         robot: The nominal robot.
         split: The calibration problem of the measurements, split into training and validation.
         measurements: Every pose measured.
         seed: Seed of the workspace poses and of the calibration.
+        method: The calibration method (:data:`twin.solvers.SOLVERS`).
     """
     model = split.problem.model
     data = model.kind.prepare(robot, model.rig, measurements, split.settings.noise)[1]
@@ -62,12 +73,15 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
     nominal = measurement_identifiability(model, x0, data)
     score = score_poses(model, x0, data.q_rad, nominal.base_mask, split.problem.sigma_m,
                         workspace.q_rad)
-    result = solve_many(robot, split, [METHOD], seed=seed)[METHOD]
-    return Assessment(data, nominal, score, result, workspace)
+    point = cramer_rao_rms(model, x0, data, split.problem.sigma_m, workspace.q_rad)[1] \
+        if model.has("attachment") else None
+    result = solve_many(robot, split, [method], seed=seed)[method]
+    return Assessment(data, nominal, score, result, workspace, point)
 
 
 def flange_error_map(model: Model, x: Array, covariance: Array, workspace: Workspace,
-                     n_per_axis: int = MAP_GRID) -> tuple[Array, Array, Array]:
+                     n_per_axis: int = MAP_GRID, *, measured: bool = False
+                     ) -> tuple[Array, Array, Array]:
     """The predicted flange error over a grid of joints 2 and 3 within the workspace's ranges,
     the other joints at the middle of theirs (:meth:`twin.analysis.workspace.Workspace.grid`).
 
@@ -77,11 +91,15 @@ def flange_error_map(model: Model, x: Array, covariance: Array, workspace: Works
         covariance: Their covariance, shape (p, p).
         workspace: The joint ranges the map spans.
         n_per_axis: Grid points per joint.
+        measured: The measured point's error instead of the flange's (for data that do not
+            pin the flange).
 
     Returns:
         ``(q2_rad, q3_rad, error_m)``: the grid's axes (a,) and (b,), rad, and the predicted
-        RMS flange position error, shape (a, b), m.
+        RMS position error, shape (a, b), m.
     """
     q2, q3, q = workspace.grid(n_per_axis)
-    jacobian = model.flange_jacobian(x, model.poses(q))
+    poses = model.poses(q)
+    jacobian = model.position_jacobian(x, poses) if measured \
+        else model.flange_jacobian(x, poses)
     return q2, q3, flange_sigma(jacobian, covariance).reshape(q2.size, q3.size)

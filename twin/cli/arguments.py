@@ -20,7 +20,7 @@ import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from twin.io.paths import InputPath, OutputFile, OutputFolder
+from twin.io.paths import InputPath, OutputFile, output_folder
 
 if TYPE_CHECKING:
     from twin.robot import RobotModel
@@ -235,10 +235,12 @@ def add_result(parser: argparse.ArgumentParser, *, positional: bool = False,
 
 
 def add_output(parser: argparse.ArgumentParser, metavar: str, help: str, *,
-               folder: bool = False, flag: str = "--out", required: bool = True) -> None:
-    """An output file (or folder) the CLI checks before any work."""
-    parser.add_argument(flag, type=OutputFolder if folder else OutputFile, required=required,
-                        metavar=metavar, help=help)
+               folder: tuple[str, ...] | None = None, flag: str = "--out",
+               required: bool = True) -> None:
+    """An output file, or a folder into which the command writes files named as ``folder``
+    (patterns, :func:`twin.io.paths.output_folder`), that the CLI checks before any work."""
+    parser.add_argument(flag, type=OutputFile if folder is None else output_folder(*folder),
+                        required=required, metavar=metavar, help=help)
 
 
 def add_seed(parser: argparse.ArgumentParser, help: str, default: int | None = None) -> None:

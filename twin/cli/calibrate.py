@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
+from twin.choices import DEFAULT_METHOD, DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.cli.arguments import (
     AUTO_ERRORS,
     add_input_flags,
@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         tension_help="the cable's pull towards the port in newtons (the encoder's spring "
         "force; loads the joints for the compliance group); default: the capture's, else 0")
     parser.add_argument(
-        "--method", default="lm", type=method_name,
+        "--method", default=DEFAULT_METHOD, type=method_name,
         help="method name or paper alias, or 'all': " + ", ".join(SOLVERS.choices()),
     )
     add_seed(parser, "seed of the split and of the method", default=0)

@@ -17,7 +17,7 @@ from twin.cli.arguments import (
     seconds,
 )
 from twin.hardware.rws.protocol import PASSWORD_VARIABLE, USER_VARIABLE
-from twin.io.paths import InputPath
+from twin.io.paths import CAPTURE_FOLDER, InputPath
 
 MAX_READINGS = 1000
 """Most readings --settle-k and --max-failures may ask for."""
@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "operator jogs and confirms; file: joint angles logged by the "
                         "controller; rws://HOST[:PORT]: an ABB IRC5 (RWS 1.0), "
                         "rws2://HOST[:PORT]: an ABB OmniCore (RWS 2.0)")
-    add_output(parser, "DIR", "output folder", folder=True)
+    add_output(parser, "DIR", "output folder", folder=CAPTURE_FOLDER)
     parser.add_argument("--robot", type=InputPath, help="robot model TOML or URDF, 4 to 7 "
                         "joints (default: the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "

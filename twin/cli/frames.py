@@ -13,7 +13,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-    from twin.io.rapid_filter import Frames
+    from twin.io.rapid_filter import TargetFrames
 
 
 RAPID_SUFFIXES = (".mod", ".modx", ".sys")
@@ -58,8 +58,8 @@ def _named(values: list[str] | None, flag: str) -> dict[str | None, NDArray[np.f
     return found
 
 
-def parse_frames(args: argparse.Namespace) -> Frames:
+def parse_frames(args: argparse.Namespace) -> TargetFrames:
     """The tools and work objects the flags give, by name (None for the unnamed one)."""
-    from twin.io.rapid_filter import Frames
+    from twin.io.rapid_filter import TargetFrames
 
-    return Frames(_named(args.tool, "--tool"), _named(args.wobj, "--wobj"))
+    return TargetFrames(_named(args.tool, "--tool"), _named(args.wobj, "--wobj"))

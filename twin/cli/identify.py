@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from twin.cli.arguments import add_input_flags, add_output, add_seed, sigma_mm
+from twin.choices import DEFAULT_METHOD
+from twin.cli.arguments import add_input_flags, add_output, add_seed, method_name, sigma_mm
 from twin.unknowns import ERRORS
 
 if TYPE_CHECKING:
@@ -13,7 +14,10 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from twin.analysis.identifiability import Identifiability
+    from twin.calibration.accuracy import TruthErrors
+    from twin.calibration.assessment import Assessment
     from twin.calibration.result import CalibrationResult
+    from twin.cli.inputs import Inputs
     from twin.model import Model
 
 NAME = "identify"
@@ -21,8 +25,10 @@ HELP = "report what a measurement set identifies, and how well"
 DESCRIPTION = (
     "Identifiability of a measurement set: rank, condition number and the "
     "unidentifiable combinations of the D-H errors at the nominal geometry, observability "
-    "indices and the Cramér–Rao bound on the flange position; then an lm-base calibration "
-    "and the same at the identified geometry, with per-parameter standard deviations."
+    "indices and the Cramér–Rao bound on the flange position (on the measured point when the "
+    "data do not pin the flange); then a calibration with --method (the default of twin "
+    "calibrate, so both state the same fit and noise estimate) and the same at the identified "
+    "geometry, with per-parameter standard deviations."
 )
 
 
@@ -34,6 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         + ", ".join(ERRORS) + " (default: the capture's, else dh)",
         tension_help="the cable's pull in N, for the compliance group (default: the capture's, "
         "else 0)")
+    parser.add_argument("--method", default=DEFAULT_METHOD, type=method_name,
+                        help=f"the calibration method (default: {DEFAULT_METHOD}, as twin "
+                        "calibrate's)")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
     parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
@@ -87,6 +96,49 @@ def _sigma_table(model: Model, sigma: NDArray[np.float64]) -> list[str]:
     return lines
 
 
+def _one_method(text: str) -> str:
+    """The method's registry name; ``all`` is refused (an assessment runs one calibration)."""
+    from twin.errors import InputError
+    from twin.solvers import SOLVERS, get_solver
+
+    if text.strip().lower() == "all":
+        raise InputError("'all'", "one method: " + ", ".join(SOLVERS.choices()),
+                         where="--method")
+    return get_solver(text).name
+
+
+def _truth(inputs: Inputs, result: CalibrationResult) -> tuple[TruthErrors | None, list[str]]:
+    """The errors against the capture's truth file, if it has one, and their report lines."""
+    from twin.cli.inputs import truth_of
+    from twin.report.display import mm
+    from twin.report.text import format_truth, has_point
+
+    _, truth = truth_of(inputs, result)
+    if truth is None or inputs.truth_path is None:
+        return truth, []
+    lines = [f"  true flange RMS error over the workspace {mm(truth.flange_m)} (against the "
+             f"D-H table of {inputs.truth_path.name})"]
+    point = format_truth(truth, has_point(result))[1:]
+    lines += point if not truth.motions else [
+        f"    modulo {', '.join(truth.motions)}: {mm(truth.flange_gauge_free_m)}", *point]
+    return truth, lines
+
+
+def _bound_line(assessment: Assessment, sigma_m: float) -> str:
+    """The Cramér–Rao bound over the workspace: of the flange, or of the measured point when
+    the data do not pin the flange."""
+    from twin.report.display import SIGNIFICANT, mm
+
+    where = f"at σ = {mm(sigma_m, significant=SIGNIFICANT)}: "
+    if assessment.pinned:
+        return (f"  Cramér–Rao bound {where}flange RMS error over the workspace "
+                f"{mm(assessment.score.flange_rms_m)}")
+    assert assessment.point_bound_m is not None
+    return (f"  Cramér–Rao bound {where}RMS error of the measured point over the workspace "
+            f"{mm(assessment.point_bound_m)} (the flange is not pinned by these data: no "
+            "flange figure)")
+
+
 def _held_out_rmse(result: CalibrationResult) -> str:
     """``validation RMSE 0.0125 mm``, or the training RMSE when every pose trained."""
     from twin.report.display import mm
@@ -98,19 +150,17 @@ def _held_out_rmse(result: CalibrationResult) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.calibration.assessment import assess, flange_error_map
-    from twin.cli.inputs import make_split, resolve_inputs, truth_of
+    from twin.cli.inputs import make_split, resolve_inputs
     from twin.io.measurements import load_measurements
     from twin.io.png import save_png
     from twin.io.results import assessment_to_dict, write_json
-    from twin.report.display import SIGNIFICANT, mm
+    from twin.report.display import mm
     from twin.report.plots import accuracy_map
     from twin.report.text import (
         describe_rig,
         format_fit,
         format_held,
         format_joint_groups,
-        format_truth,
-        has_point,
     )
     from twin.units import m_to_mm
 
@@ -118,8 +168,9 @@ def run(args: argparse.Namespace) -> int:
     robot, measurements_path = inputs.robot, inputs.measurements_path
     data = load_measurements(measurements_path, robot, stdin=True)
     split = make_split(inputs, data, args.seed)
-    assessment = assess(robot, split, data, seed=args.seed)
-    data, nominal, score, result, _ = assessment
+    method = _one_method(args.method)
+    assessment = assess(robot, split, data, seed=args.seed, method=method)
+    data, nominal, score, result = assessment[:4]
     model = split.problem.model
     indices = score.observability
     lines = [
@@ -132,42 +183,38 @@ def run(args: argparse.Namespace) -> int:
         f"  base parameters ({nominal.rank}): " + ", ".join(nominal.base_names),
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
-        f"  Cramér–Rao bound at σ = {mm(inputs.calibration.sigma_m, significant=SIGNIFICANT)}: "
-        f"flange RMS error over the workspace {mm(score.flange_rms_m)}",
+        _bound_line(assessment, inputs.calibration.sigma_m),
         f"  workspace: {assessment.workspace.describe()}",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
     lines += [
-        f"At the identified geometry (lm-base, seed {args.seed}, "
+        f"At the identified geometry ({method}, seed {args.seed}, "
         f"{result.train_rows.size} training poses):",
         f"  {_held_out_rmse(result)}, noise estimate {mm(uncertainty.noise_sigma_m)}",
         *_identifiability_lines(result.identified_identifiability),
-        f"  predicted flange RMS error over the workspace {mm(uncertainty.flange_rms_m)} "
-        "(from the noise estimate)",
+        "  predicted " + (f"flange RMS error over the workspace {mm(uncertainty.flange_rms_m)}"
+                          if assessment.pinned else
+                          "RMS error of the measured point over the workspace "
+                          f"{mm(uncertainty.point_rms_m)}") + " (from the noise estimate)",
         *format_held(result),
         *format_fit(result),
         *format_joint_groups(result),
     ]
-    _, truth = truth_of(inputs, result)
-    if truth is not None and inputs.truth_path is not None:
-        lines.append(f"  true flange RMS error over the workspace "
-                     f"{mm(truth.flange_m)} (against the D-H table of "
-                     f"{inputs.truth_path.name})")
-        point = format_truth(truth, has_point(result))[1:]
-        lines += point if not truth.motions else [
-            f"    modulo {', '.join(truth.motions)}: "
-            f"{mm(truth.flange_gauge_free_m)}", *point]
+    truth, truth_lines = _truth(inputs, result)
     lines += [
+        *truth_lines,
         "  standard deviations of the unknowns as returned, held at the nominal along what the "
         "data cannot see (held entirely: —)",
         *_sigma_table(model, uncertainty.sigma),
     ]
     print("\n".join(lines))
     if args.map:
+        what = "flange" if assessment.pinned else "measured point"
         save_png(accuracy_map(*flange_error_map(result.model, result.solver.x,
-                                                uncertainty.covariance, assessment.workspace),
-                              f"{robot.name}: predicted flange error after lm-base, "
+                                                uncertainty.covariance, assessment.workspace,
+                                                measured=not assessment.pinned),
+                              f"{robot.name}: predicted {what} error after {method}, "
                               f"{len(data)} poses (the other joints mid-range)"), args.map)
         print(f"map: {args.map}")
     if args.json:

@@ -133,8 +133,9 @@ def run(args: argparse.Namespace) -> int:
         _check_poses(args, model, len(rig.ports_m), " per station")
         stations = plan_for_stations(model, rig, args.poses, args.candidates, sigma_m,
                                      seed=args.seed, sampler=_sampler(args))
-        _write(args, robot, stations.q_rad, rig.port_names, stations.port)
+        order = _write(args, robot, stations.q_rad, rig.port_names, stations.port)
         print(_stations_report(args, robot, model, rig, stations))
+        print(order)
         return 0
     ports_m = np.stack([port for _, port in parsed])
 
@@ -145,8 +146,9 @@ def run(args: argparse.Namespace) -> int:
     _check_poses(args, model, 1, "")
     plan = plan_for_ports(model_at, ports_m, args.poses, args.candidates, sigma_m,
                           seed=args.seed, sampler=_sampler(args))
-    _write(args, robot, plan.q_rad)
+    order = _write(args, robot, plan.q_rad)
     print(_ports_report(args, robot, model, ports_m, plan))
+    print(order)
     return 0
 
 
@@ -185,17 +187,29 @@ def _check_module_flags(args: argparse.Namespace, robot: RobotModel) -> PlanOpti
 
 
 def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float64],
-           port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> None:
-    """The plan as a CSV, or (.mod) as a RAPID module."""
+           port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> str:
+    """The plan, in a short visiting order from home, as a CSV or (.mod) as a RAPID module;
+    the line that says the order's travel."""
+    from twin.compensation.ik import home_pose
+    from twin.design.order import visiting_order
     from twin.io.atomic import write_atomic
     from twin.io.pose_tables import write_plan
     from twin.io.rapid_plan import plan_module
 
     options = _check_module_flags(args, robot)
+    home = home_pose(robot) if options is None or options.home_rad is None \
+        else options.home_rad
+    visit = visiting_order(robot, q_rad, home, port)
+    q_rad = q_rad[visit.order]
+    port = None if port is None else port[visit.order]
     if options is None:
         write_plan(args.out, q_rad, port_names, port)
-        return
-    write_atomic(args.out, plan_module(robot, q_rad, options, port_names, port))
+    else:
+        write_atomic(args.out, plan_module(robot, q_rad, options, port_names, port))
+    unit = "s at the rated joint speeds" if robot.velocity_rad_s is not None \
+        else "rad of the joint that moves most"
+    return (f"visiting order: a round trip from home of {visit.travel_s:.1f} {unit} (the "
+            f"design's order: {visit.given_s:.1f})")
 
 
 def _sampler(args: argparse.Namespace) -> SamplerFactory:

@@ -11,6 +11,7 @@ from twin.cli.arguments import (
     add_seed,
 )
 from twin.errors import InputError
+from twin.io.paths import CAPTURE_FOLDER
 from twin.viz.options import add_rerun_flags
 
 NAME = "simulate"
@@ -26,7 +27,7 @@ DESCRIPTION = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The subcommand's arguments."""
     add_scenario(parser)
-    add_output(parser, "DIR", "output folder", folder=True)
+    add_output(parser, "DIR", "output folder", folder=CAPTURE_FOLDER)
     add_seed(parser, "seed of every random draw (default: the scenario's)")
     parser.add_argument("--force", action="store_true",
                         help="write into a folder that holds real measurements (a capture): "

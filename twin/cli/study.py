@@ -13,6 +13,7 @@ from twin.cli.arguments import (
     integer,
 )
 from twin.errors import InputError
+from twin.io.paths import STUDY_FOLDER
 from twin.solvers import SOLVERS
 from twin.study.executors import Executor, open_executor
 from twin.study.executors.cluster import reach_scheduler
@@ -34,7 +35,7 @@ def add_study_arguments(parser: argparse.ArgumentParser,
     run (also `twin check`)."""
     add_scenario(parser, scenario_help)
     add_output(parser, "DIR", "study folder (created; resumed if it holds this study)",
-               folder=True)
+               folder=STUDY_FOLDER)
     parser.add_argument("--trials", type=integer(1, MAX_TRIALS), metavar="N",
                         help="trials per case (default: [study] trials, else 10)")
     parser.add_argument("--methods", metavar="M1,M2,…|all",

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
+from twin.compensation.ik import Starts
 from twin.geometry.kinematics import joint_axes
 from twin.robot import RobotModel
 
@@ -42,8 +43,6 @@ TURNING = (0, 3, 5)
 """The joints whose quarter turn cf1, cf4 and cf6 give (axes 1, 4, 6)."""
 CONFIGURATION_FIELDS = ("cf1", "cf4", "cf6", "cfx")
 
-Starts = Callable[[np.random.Generator, int], Array]
-"""Draws k starting joint angles per target: shape (k, m, n), rad."""
 
 
 def _check(robot: RobotModel) -> None:

@@ -40,7 +40,7 @@ TOLERANCE_M = 1e-10
 """Position error below which a row has converged, m."""
 TOLERANCE_RAD = 1e-10
 """Rotation error below which a full-pose row has converged, rad."""
-MAX_ITERATIONS = 100
+IK_ITERATIONS = 100
 INITIAL_DAMPING = 1e-6
 """Initial λ of the damped step, in units of J Jᵀ (m²/rad²): small beside J Jᵀ for an arm whose
 links are tenths of a metre (J of that order, m/rad); it adapts per row from there."""
@@ -141,7 +141,7 @@ def solve_ik(
     *,
     tolerance_m: float = TOLERANCE_M,
     tolerance_rad: float = TOLERANCE_RAD,
-    max_iterations: int = MAX_ITERATIONS,
+    max_iterations: int = IK_ITERATIONS,
     joints: ActualAngles | None = None,
 ) -> IKResult:
     """Joint angles to command so that the robot's flange reaches the targets, all rows at once.

@@ -82,18 +82,26 @@ def compensate_program(
         Angles whose identified flange pose (position and orientation) equals the nominal
         flange pose of the program; for an arm of fewer than :data:`FULL_POSE_JOINTS` joints,
         whose flange position does, with the rotation left reported in
-        ``rotation_error_rad``.
+        ``rotation_error_rad``. A row whose only angles within the limits lie a turn or more
+        from the program's on a joint is not within limits (``joint_limit``).
     """
     q = np.asarray(q_program_rad, dtype=np.float64)
     base_T_target = nominal.flange_transforms(q)
     target = base_T_target[:, :3, 3]
     if identified.n_joints >= FULL_POSE_JOINTS:
-        return solve_ik(identified, target, q, base_T_target[:, :3, :3], joints=joints)
-    solved = solve_ik(identified, target, q, joints=joints)
-    actual = solved.q_rad if joints is None else joints(solved.q_rad, np.arange(len(q)))
-    reached = identified.flange_transforms(actual)[:, :3, :3]
-    left = Rotation.from_matrix(base_T_target[:, :3, :3] @ np.swapaxes(reached, -1, -2))
-    return solved._replace(rotation_error_rad=np.asarray(left.magnitude(), dtype=np.float64))
+        solved = solve_ik(identified, target, q, base_T_target[:, :3, :3], joints=joints)
+    else:
+        solved = solve_ik(identified, target, q, joints=joints)
+        actual = solved.q_rad if joints is None else joints(solved.q_rad, np.arange(len(q)))
+        reached = identified.flange_transforms(actual)[:, :3, :3]
+        left = Rotation.from_matrix(base_T_target[:, :3, :3] @ np.swapaxes(reached, -1, -2))
+        solved = solved._replace(rotation_error_rad=np.asarray(left.magnitude(),
+                                                               dtype=np.float64))
+    # A correction that fits the limits only a whole turn away from the programmed angle (a
+    # UR joint at 359.4° corrected past its 360° limit, wrapped to 0.2°) would spin the joint a
+    # turn on the way: the row is at its joint limit, not corrected.
+    same_turn = np.all(np.abs(solved.q_rad - q) <= np.pi, axis=-1)
+    return solved._replace(within_limits=solved.within_limits & same_turn)
 
 
 def compensate_targets(

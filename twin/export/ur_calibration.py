@@ -48,6 +48,7 @@ from twin.errors import InputError
 from twin.export.urdf import joint_origins
 from twin.geometry.kinematics import rigid_transform, xyz_rpy
 from twin.io.urdf_reader import find_chain
+from twin.report.display import AS_GIVEN, mm_values, plain
 from twin.robot import RobotModel
 
 UR_LINKS = {"shoulder_pan_joint": "shoulder", "shoulder_lift_joint": "upper_arm",
@@ -146,8 +147,9 @@ def _warn_remainder(remainder: Array) -> None:
         return
     warnings.warn("the calibration moves tool0 off the last axis, which UR's file cannot hold "
                   "(its flange is fixed to wrist_3_link): add it to the TCP, in tool0: "
-                  f"x,y,z = {', '.join(f'{v:.6g}' for v in shift * 1e3)} mm, rotation vector "
-                  f"{', '.join(f'{v:.6g}' for v in turn)} rad (or export --format urdf, which "
+                  f"x,y,z = {mm_values(shift, significant=AS_GIVEN)} mm, rotation vector "
+                  f"{', '.join(plain(v, significant=AS_GIVEN) for v in turn)} rad (or export "
+                  "--format urdf, which "
                   "holds it)", UrCalibrationWarning, stacklevel=3)
 
 

@@ -126,8 +126,6 @@ def capture_request(request: CaptureRequest,
                               f"a pose plan CSV (q1..q{robot.n_joints} in degrees)")
     source_request = replace(request.source, plan_q_rad=plan_q_rad)
     files = kind.files(source_request) if kind.files is not None else {}
-    for name in files:
-        report(f"the robot program for this plan: {request.out / name}")
     source = kind.open(source_request)
     try:
         measured = capture_folder(request.out, request.plan, plan_q_rad, robot, rig, config,

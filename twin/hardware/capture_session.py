@@ -58,7 +58,7 @@ from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.kinds.length import COLUMN as LENGTH_COLUMN
 from twin.kinds.length import length_measurements
-from twin.report.display import mm
+from twin.report.display import mm, seconds
 from twin.rig import Rig
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
 
@@ -349,18 +349,16 @@ def capture(
                 q_reached = robot.move_to(pose, n_poses, plan_q_rad[pose - 1])
                 settled = measure(encoder, rule, reconnect_s, report)
             except TwinError as exc:
-                raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
-                    from None
+                raise _stopped(exc, pose, done, n_poses) from None
             record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
             done.add(pose)
             try:
                 robot.recorded(pose, n_poses)
             except TwinError as exc:
-                raise CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}") \
-                    from None
+                raise _stopped(exc, pose, done, n_poses) from None
             report(f"pose {pose}/{n_poses}: {mm(settled.length_m)} "
                    f"({settled.readings} readings, spread {mm(settled.spread_m)}, "
-                   f"{time.monotonic() - started:.2f} s)")
+                   f"{seconds(time.monotonic() - started, 2)})")
     except KeyboardInterrupt:
         report(f"interrupted at pose {pose}/{n_poses}. {_saved(done, n_poses)}")
         raise
@@ -384,8 +382,9 @@ def capture_folder(
     report: Callable[[str], None] = print,
 ) -> int:
     """Measure a plan into a capture folder, resuming what is there: check the folder, lock it,
-    copy the plan and write the robot, the truth (when the virtual encoder serves a scenario)
-    and ``capture.toml``, open the encoder, then :func:`capture` every pose not yet measured.
+    open the encoder, copy the plan and write the robot, the robot source's files (named in a
+    report line), the truth (when the virtual encoder serves a scenario) and ``capture.toml``,
+    then :func:`capture` every pose not yet measured.
 
     Args:
         folder: The capture folder (created).
@@ -414,6 +413,10 @@ def capture_folder(
     check_folder(folder, plan_path, plan_q_rad, "".join(robot_files(robot).values()))
     with locked(folder), open_encoder(config) as encoder:
         prepare(folder, plan_path, plan_q_rad, robot, source_files)
+        # Named once written, the encoder open: the operator loads it into the controller
+        # while the capture waits for the first pose.
+        for name in source_files or {}:
+            report(f"the robot program for this plan: {folder / name}")
         if truth is not None:
             write_truth(folder / TRUTH_FILE, truth)
         write_capture(folder / CAPTURE_NAME, robot=ROBOT_NAME, rig=rig,
@@ -422,6 +425,17 @@ def capture_folder(
                       encoder={"url": config.to_url()})
         return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,
                        reconnect_s=reconnect_s, report=report)
+
+
+def _stopped(exc: TwinError, pose: int, done: set[int], n_poses: int) -> TwinError:
+    """The error that stops a capture at ``pose``, saying what is saved: a user's mistake met
+    on the way (credentials the controller refused) stays one (exit code 2), anything else is
+    a fault of the cell (:class:`CaptureError`, exit code 1)."""
+    if isinstance(exc, InputError):
+        return InputError(f"{exc.found} (at pose {pose}/{n_poses})",
+                          f"{exc.expected}. {_saved(done, n_poses)}", source=exc.source,
+                          where=exc.where)
+    return CaptureError(f"pose {pose}/{n_poses}: {exc}. {_saved(done, n_poses)}")
 
 
 def _saved(done: set[int], n_poses: int) -> str:

@@ -28,6 +28,7 @@ refuses to replace it.
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import json
 import os
 import re
@@ -64,7 +65,31 @@ class OutputFile(PosixPath):
 
 
 class OutputFolder(PosixPath):
-    """A command-line path of a folder the command writes files into (an argparse ``type``)."""
+    """A command-line path of a folder the command writes files into (an argparse ``type``;
+    :func:`output_folder` makes one that names the files)."""
+
+    writes: tuple[str, ...] = ()
+    """Patterns (``fnmatch``, of a name directly in the folder) of what the command writes
+    there; empty when not stated: then no other output of the command may lie inside it."""
+
+
+def output_folder(*writes: str) -> type[OutputFolder]:
+    """The argparse ``type`` of a folder into which the command writes files named as
+    ``writes`` (patterns such as ``results.csv``, ``*.png``, ``kept-*``), so that another output
+    of the command may go into the folder under any other name (``--rerun-save DIR/run.rrd``)
+    but never replace one of them (``--junit DIR/results.csv``)."""
+    return type("OutputFolder", (OutputFolder,), {"writes": tuple(writes)})
+
+
+STUDY_FOLDER = ("results.csv", "trials.jsonl", "study.json", "summary.json", "summary.md",
+                "*.png", ".lock*")
+"""What `twin study` and `twin check` write into their folder (:mod:`twin.study.store`,
+:mod:`twin.study.runner`, :mod:`twin.study.figures`, :mod:`twin.io.lock`)."""
+CAPTURE_FOLDER = ("measurements.csv", "plan.csv", "capture.toml", "robot.*", "truth.json",
+                  "*.mod", "kept-*", ".lock*")
+"""What `twin simulate` and `twin capture` write into their folder (the capture's files,
+:mod:`twin.hardware.capture_session`; the robot program of a plan; the folder a real capture
+is moved into; the lock)."""
 
 
 def _kind(mode: int) -> str:
@@ -320,10 +345,34 @@ def _same_place(first: Path, second: Path) -> bool:
     return (one.st_dev, one.st_ino) == (two.st_dev, two.st_ino)
 
 
+def _check_inside(inner_flag: str, inner: Path, outer_flag: str, outer: Path) -> None:
+    """Refuse the output ``inner`` under the output ``outer`` when it would replace one of
+    outer's files: under a file output always; in a folder output when its name is one the
+    folder's command writes (:attr:`OutputFolder.writes`; any name when it states none)."""
+    place = os.path.realpath(outer) + os.sep
+    if not os.path.realpath(inner).startswith(place):
+        return
+    if isinstance(outer, OutputFile):
+        raise InputError(f"{inner}, a path under the {outer_flag} file",
+                         "outputs apart from each other", source=inner_flag)
+    if not isinstance(outer, OutputFolder):
+        return
+    name = os.path.realpath(inner)[len(place):].split(os.sep)[0]
+    if not outer.writes:
+        raise InputError(f"{inner}, a path inside the {outer_flag} folder",
+                         "a path outside it (the command writes its own files there)",
+                         source=inner_flag)
+    if any(fnmatch.fnmatchcase(name, pattern) for pattern in outer.writes):
+        raise InputError(f"{inner}, a file the command writes into the {outer_flag} folder",
+                         "another name (the folder's own: " + ", ".join(outer.writes) + ")",
+                         source=inner_flag)
+
+
 def check_distinct_outputs(options: Mapping[str, object]) -> None:
     """Refuse two outputs of one command at the same place (``--junit DIR`` with ``--out
-    DIR``, ``--json`` and ``--rerun-save`` one file), or an output under a file output,
-    before any work.
+    DIR``, ``--json`` and ``--rerun-save`` one file), an output under a file output, or one
+    that would replace a file the command writes into its folder (``--junit
+    DIR/results.csv``), before any work.
 
     Args:
         options: The parsed arguments by destination (``vars(args)``); the
@@ -341,7 +390,4 @@ def check_distinct_outputs(options: Mapping[str, object]) -> None:
                                  "(one would replace the other)", source=flag)
             for inner_flag, inner, outer_flag, outer in ((flag, path, other, other_path),
                                                          (other, other_path, flag, path)):
-                if isinstance(outer, OutputFile) and os.path.realpath(inner).startswith(
-                        os.path.realpath(outer) + os.sep):
-                    raise InputError(f"{inner}, a path under the {outer_flag} file",
-                                     "outputs apart from each other", source=inner_flag)
+                _check_inside(inner_flag, inner, outer_flag, outer)

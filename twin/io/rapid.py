@@ -128,7 +128,7 @@ class Argument(NamedTuple):
     tokens: tuple[Token, ...]
 
 
-class Move(NamedTuple):
+class MoveInstruction(NamedTuple):
     """A motion instruction and what it names."""
 
     instruction: str
@@ -149,7 +149,7 @@ class Module(NamedTuple):
 
     text: str
     declarations: tuple[Declaration, ...]
-    moves: tuple[Move, ...]
+    moves: tuple[MoveInstruction, ...]
     tokens: tuple[Token, ...]
     source: str
 
@@ -263,7 +263,7 @@ def _split(tokens: Sequence[Token]) -> list[list[Token]]:
     return parts
 
 
-def _move(tokens: Sequence[Token], index: int, routine: str | None) -> tuple[Move, int]:
+def _move(tokens: Sequence[Token], index: int, routine: str | None) -> tuple[MoveInstruction, int]:
     """The motion instruction whose name is at ``index``."""
     end = _statement_end(tokens, index)
     roles = MOVES[tokens[index].text.lower()]
@@ -286,7 +286,7 @@ def _move(tokens: Sequence[Token], index: int, routine: str | None) -> tuple[Mov
                 wobj = "".join(t.text for t in value[:stop])
         if part[:cut] and len(positional) < len(roles):
             positional.append(Argument(roles[len(positional)], tuple(part[:cut])))
-    move = Move(tokens[index].text, tokens[index].line, routine, tuple(positional), wobj)
+    move = MoveInstruction(tokens[index].text, tokens[index].line, routine, tuple(positional), wobj)
     return move, end + 1
 
 
@@ -300,7 +300,7 @@ def parse_module(text: str, source: str | Path) -> Module:
     where = str(source)
     tokens = tokenize(text, where)
     declarations: list[Declaration] = []
-    moves: list[Move] = []
+    moves: list[MoveInstruction] = []
     routine: str | None = None
     index = 0
     while index < len(tokens):

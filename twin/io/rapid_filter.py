@@ -39,6 +39,7 @@ from twin.compensation.ik import STATUS_OK, STATUS_UNREACHABLE
 from twin.compensation.joints import compensate_pose_rows, compensate_program_rows
 from twin.compensation.poses import flange_targets, pose_matrices, pose_quaternions, tcp_targets
 from twin.errors import InputError
+from twin.io.pose_tables import INTEGER_TOLERANCE
 from twin.io.rapid import (
     Aggregate,
     Declaration,
@@ -69,8 +70,6 @@ STATUS_CORRECTED = "corrected"
 STATUS_SINGULAR = "singular"
 STATUS_UNKNOWN_FRAME = "unknown_frame"
 STATUS_UNSUPPORTED = "unsupported"
-INTEGER_TOLERANCE = 1e-9
-"""How far from a whole number a configuration value may be written."""
 
 Key = tuple[str | None, str]
 """A declaration's routine (lower case, None at module level) and name (lower case)."""
@@ -122,7 +121,7 @@ class Filtered(NamedTuple):
     rows: tuple[TargetRow, ...]
 
 
-class Frames(NamedTuple):
+class TargetFrames(NamedTuple):
     """Tools and work objects given beside the module: by name, ``tool0_T_tcp`` and
     ``base_T_wobj`` (4, 4), m; the ``None`` entries serve targets no motion instruction goes
     to. They win over the module's declarations."""
@@ -219,7 +218,7 @@ def _given(frames: Mapping[str | None, Array], name: str | None) -> Array | None
     return None
 
 
-def _tool(module: Module, frames: Frames, use: Use) -> tuple[Array | None, str]:
+def _tool(module: Module, frames: TargetFrames, use: Use) -> tuple[Array | None, str]:
     """tool0_T_tcp of a use's tool, or None and why not."""
     name = use.tool
     given = _given(frames.tools, name)
@@ -245,7 +244,7 @@ def _tool(module: Module, frames: Frames, use: Use) -> tuple[Array | None, str]:
                          table[key].line), ""
 
 
-def _wobj(module: Module, frames: Frames, use: Use) -> tuple[Array | None, str]:
+def _wobj(module: Module, frames: TargetFrames, use: Use) -> tuple[Array | None, str]:
     """base_T_wobj of a use's work object (wobj0 when it names none), or None and why not."""
     name = use.wobj
     given = _given(frames.wobjs, name)
@@ -272,7 +271,7 @@ def _wobj(module: Module, frames: Frames, use: Use) -> tuple[Array | None, str]:
             @ _frame_matrix(wobj.oframe.trans_mm, wobj.oframe.quaternion, module.source, line)), ""
 
 
-def _frames_of(module: Module, frames: Frames, target: Target
+def _frames_of(module: Module, frames: TargetFrames, target: Target
                ) -> tuple[Array | None, Array | None, str]:
     """A robtarget's tool and work object, or why it has none."""
     distinct = {((u.tool or "").lower(), (u.wobj or BUILTIN_WOBJ).lower()) for u in target.uses}
@@ -337,7 +336,7 @@ class _Prepared(NamedTuple):
     conf: Array
 
 
-def _prepare(module: Module, frames: Frames, targets: list[Target]
+def _prepare(module: Module, frames: TargetFrames, targets: list[Target]
              ) -> tuple[_Prepared, list[TargetRow]]:
     kept, rows = [], []
     poses, wobjs, tools, confs = [], [], [], []
@@ -367,7 +366,7 @@ def _prepare(module: Module, frames: Frames, targets: list[Target]
 
 
 def _robtarget_rows(module: Module, model: Model, x: ArrayLike, nominal: RobotModel,
-                    flange_T_tool0: Array, frames: Frames, targets: list[Target],
+                    flange_T_tool0: Array, frames: TargetFrames, targets: list[Target],
                     rng: np.random.Generator
                     ) -> tuple[list[TargetRow], list[tuple[Number, str]]]:
     """Robtargets: flange poses, the nominal joints on their configuration, compensated, and
@@ -422,7 +421,7 @@ def _pose_row(target: Target, literal: RobTarget, nominal_ok: bool, status: str,
 
 
 def filter_module(module: Module, model: Model, x: ArrayLike, nominal: RobotModel,
-                  flange_T_tool0: Array | None, frames: Frames, rng: np.random.Generator
+                  flange_T_tool0: Array | None, frames: TargetFrames, rng: np.random.Generator
                   ) -> Filtered:
     """Every target of a module compensated for the identified model (see the module
     docstring).

@@ -25,7 +25,8 @@ Joint values: degrees, robot axes ``rax_1..rax_6`` (an arm of fewer joints leave
 0), a 7th joint in the first external axis ``eax_a`` (as ABB's 7-axis arms report it); unused
 external axes are 9E+09, RAPID's "no axis".
 
-:func:`read_module` reads the plan back from such a module (what the virtual controller runs).
+:func:`read_handshake_module` reads the plan back from such a module (what the virtual
+controller runs).
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from numpy.typing import NDArray
 
 from twin.errors import InputError
 from twin.io.paths import read_text
+from twin.io.rapid import NO_AXIS
 from twin.units import deg_to_rad, rad_to_deg
 
 MODULE = "TwinPlan"
@@ -47,14 +49,12 @@ TASK = "T_ROB1"
 """The motion task the module is loaded into."""
 POSE_SYMBOL, READY_SYMBOL, ACK_SYMBOL = "twin_pose", "twin_ready", "twin_ack"
 PLAN_SYMBOL = "twin_plan"
-NO_AXIS = 9e9
-"""RAPID's value of an external axis that is not there."""
 NO_AXIS_ABOVE = 1e9
 """A value beyond this is "no axis" (9E+09 as the controller prints it, 8.999999e+09…)."""
 ROBOT_AXES, EXTERNAL_AXES = 6, 6
 DECIMALS = 6
 """Decimals of a joint angle in degrees (1e-6 deg: 0.01 µm at 1 m)."""
-MAX_POSES = 10000
+MAX_MODULE_POSES = 10000
 """Most poses a module holds (a RAPID array of this many jointtargets loads on an IRC5)."""
 
 
@@ -104,8 +104,9 @@ def module_text(q_rad: NDArray[np.float64], *, name: str = MODULE, speed: str = 
         source: Where the plan came from, for the module's header comment.
     """
     q = np.asarray(q_rad, dtype=np.float64)
-    if q.ndim != 2 or not 1 <= len(q) <= MAX_POSES:
-        raise ValueError(f"q_rad: shape {q.shape}, expected (N, n) with 1 <= N <= {MAX_POSES}")
+    if q.ndim != 2 or not 1 <= len(q) <= MAX_MODULE_POSES:
+        raise ValueError(f"q_rad: shape {q.shape}, expected (N, n) with "
+                         f"1 <= N <= {MAX_MODULE_POSES}")
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,31}", name):
         raise InputError(f"{name!r}", "a RAPID identifier (a letter, then letters, digits "
                          "or _, at most 32)", where="module name")
@@ -154,7 +155,7 @@ _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _TARGET = re.compile(r"\[\s*\[([^\[\]]*)\]\s*,\s*\[([^\[\]]*)\]\s*\]")
 
 
-def read_module(path: str | Path, n_joints: int) -> HandshakeModule:
+def read_handshake_module(path: str | Path, n_joints: int) -> HandshakeModule:
     """The plan of a handshake module file (:func:`module_text`'s, or one written to it).
 
     Raises:

@@ -19,8 +19,9 @@ new station, after ``TPWrite`` naming it: move the encoder, then press start.
 
 Safe approach: the robot goes to ``twin_home`` first and last (by default every joint at 0 but
 the wrist's fifth at 30°, :func:`twin.compensation.ik.home_pose`), joint moves at the speed
-asked for (``v100`` by default), poses in the plan's order (which a capture with backlash relies
-on). The poses and home are checked against the robot's joint limits before anything is
+asked for (``v100`` by default), poses in the plan's order (`twin plan` writes a short tour
+from home, :mod:`twin.design.order`; a capture records each joint's approach direction whatever
+the order). The poses and home are checked against the robot's joint limits before anything is
 written; the moves *between* poses are joint interpolations the planner did not check for
 collisions: run the module first in RobotStudio or at reduced speed.
 

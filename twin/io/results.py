@@ -389,8 +389,10 @@ def choice_to_dict(choice: ErrorChoice) -> dict[str, Any]:
 def assessment_to_dict(assessment: Assessment, sigma_mm: float,
                        truth: TruthErrors | None = None) -> dict[str, Any]:
     """The JSON document of `twin identify`: the nominal identifiability and observability, the
-    Cramér–Rao bound at the noise assumed (``sigma_mm``), and the lm-base calibration."""
+    Cramér–Rao bound at the noise assumed (``sigma_mm``) — of the flange, null when the data do
+    not pin it, and then of the measured point — and the calibration."""
     nominal, score = assessment.nominal, assessment.score
+    point = assessment.point_bound_m
     return {
         "poses": len(assessment.data),
         "nominal": {
@@ -398,7 +400,10 @@ def assessment_to_dict(assessment: Assessment, sigma_mm: float,
             "observability": score.observability._asdict(),
             "workspace": workspace_to_dict(assessment.workspace),
             "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
-                                             RESULT_MM_DECIMALS)[0],
+                                             RESULT_MM_DECIMALS)[0]
+            if assessment.pinned else None,
+            "cramer_rao_point_rms": None if point is None
+            else rounded(m_to_mm(point), RESULT_MM_DECIMALS)[0],
             "sigma_assumed": sigma_mm,
         },
         "calibration": result_to_dict(assessment.result, truth=truth),

@@ -84,7 +84,7 @@ from twin.units import (
     FILE_MM_DECIMALS,
     LENGTH_FACTORS,
     MAX_ANGLE_RAD,
-    MAX_LENGTH_M,
+    MAX_LINK_M,
     m_to_mm,
     rad_to_deg,
     rounded,
@@ -206,7 +206,7 @@ def _end_transform(doc: Table, key: str, to_m: float, to_rad: float,
     parts = [end.vector(part, 3, within=largest / factor, default=[0.0, 0.0, 0.0],
                         expected=f"[x, y, z]: three numbers in {unit}, each within "
                         f"±{largest / factor:g}") * factor
-             for part, factor, largest, unit in (("xyz", to_m, MAX_LENGTH_M, units[0]),
+             for part, factor, largest, unit in (("xyz", to_m, MAX_LINK_M, units[0]),
                                                  ("rpy", to_rad, MAX_ANGLE_RAD, units[1]))]
     return rigid_transform(parts[0], parts[1])
 
@@ -231,7 +231,7 @@ class _Units(NamedTuple):
         """Each per-joint key beside the table's: (factor to SI, largest magnitude in SI, unit
         as written, smallest value in SI or None for ±largest)."""
         return {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
-                "radius": (self.to_m, MAX_LENGTH_M, self.length, 0.0),
+                "radius": (self.to_m, MAX_LINK_M, self.length, 0.0),
                 "velocity": (self.to_rad, MAX_VELOCITY_RAD_S, f"{self.angle}/s", 0.0),
                 "effort": (1.0, MAX_EFFORT_NM, "N·m", 0.0),
                 "lower": (self.to_rad, MAX_ANGLE_RAD, self.angle, None),
@@ -306,12 +306,12 @@ def _joint(values: Any, index: int, kind: str, source: str | Path, units: _Units
                   kind=f"a {kind} joint")
     com_m = None
     if joint.has(_COM_KEY):
-        largest = MAX_LENGTH_M / units.to_m
+        largest = MAX_LINK_M / units.to_m
         com_m = joint.vector(_COM_KEY, 3, within=largest, expected=(
             f"[x, y, z]: three numbers in {units.length}, each within ±{largest:g}")) * units.to_m
     column = np.zeros(4)
     for slot, (key, is_length) in enumerate(zip(slots, SLOT_IS_LENGTH[kind], strict=True)):
-        factor, largest = (units.to_m, MAX_LENGTH_M) if is_length \
+        factor, largest = (units.to_m, MAX_LINK_M) if is_length \
             else (units.to_rad, MAX_ANGLE_RAD)
         unit = units.length if is_length else units.angle
         joint.required(key, _within(unit, largest / factor))

@@ -51,7 +51,7 @@ from twin.geometry.parametrisation import AUTO_PARAMETRISATION, convert, joint_f
 from twin.io.paths import read_text
 from twin.io.table import shown
 from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
-from twin.units import MAX_ANGLE_RAD, MAX_LENGTH_M
+from twin.units import MAX_ANGLE_RAD, MAX_LINK_M
 
 if TYPE_CHECKING:
     import pinocchio as pin
@@ -192,7 +192,7 @@ def origin_transform(joint: ET.Element, source: str | Path) -> Array:
     """
     where = f"joint {joint.get('name')!r} <origin>"
     origin = joint.find("origin")
-    xyz = _triple(origin, "xyz", "0 0 0", (MAX_LENGTH_M, "m"), source, where)
+    xyz = _triple(origin, "xyz", "0 0 0", (MAX_LINK_M, "m"), source, where)
     rpy = _triple(origin, "rpy", "0 0 0", (MAX_ANGLE_RAD, "rad (two turns)"), source, where)
     return rigid_transform(xyz, rpy)
 

@@ -34,6 +34,12 @@ SIGMA_DECIMALS = 5
 """A parameter's standard deviation, mm or degrees: three digits of a σ of some 0.002."""
 JOINT_DECIMALS = 2
 """A joint-level error in arc-seconds or µrad/(N·m)."""
+JOINT_ANGLE_DECIMALS = 3
+"""A joint angle a person jogs to or reads off a pendant, degrees: 1e-3 degree."""
+RATIO_DECIMALS = 2
+"""A ratio of two figures (an error against its bound)."""
+DURATION_DECIMALS = 3
+"""A duration, s: 1 ms."""
 SIGNIFICANT = 4
 """Significant digits of a figure whose size is not known beforehand."""
 AS_GIVEN = 6
@@ -44,10 +50,12 @@ def plain(value: float, decimals: int | None = None, *, significant: int | None 
           width: int = 0, sign: bool = False) -> str:
     """``value`` with ``decimals`` fixed decimals, or ``significant`` digits (``g``; the
     default when neither is given, :data:`AS_GIVEN`), right-aligned in ``width`` characters,
-    with its sign always shown if ``sign``."""
+    with its sign always shown if ``sign``. A value as wide as its column or wider keeps a
+    space before it, so that the columns of a table never run together."""
     kind = f".{decimals}f" if decimals is not None and significant is None \
         else f".{AS_GIVEN if significant is None else significant}g"
-    return format(float(value), f">{'+' if sign else ''}{width or ''}{kind}")
+    text = format(float(value), f"{'+' if sign else ''}{kind}")
+    return f"{text:>{width}}" if len(text) < width else (" " + text if width else text)
 
 
 def mm(value_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
@@ -86,6 +94,17 @@ def deg_values(values_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
                separator: str = ", ") -> str:
     """Angles given in rad, in degrees, joined by ``separator`` and without the unit."""
     return separator.join(plain(v, decimals) for v in np.ravel(rad_to_deg(values_rad)))
+
+
+def joint_angles(q_rad: ArrayLike, decimals: int = JOINT_ANGLE_DECIMALS) -> str:
+    """Joint angles given in rad, shape (n,), as a person jogs to them: ``[10.000 20.000
+    -30.000] deg``."""
+    return f"[{deg_values(q_rad, decimals, separator=' ')}] deg"
+
+
+def seconds(value_s: float, decimals: int = DURATION_DECIMALS) -> str:
+    """A duration in seconds: ``0.008 s``."""
+    return f"{plain(value_s, decimals)} s"
 
 
 def slot(value_si: float, is_length: bool, decimals: int | None = None, *,

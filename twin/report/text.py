@@ -30,6 +30,7 @@ from twin.report.display import (
     mm,
     percent,
     plain,
+    seconds,
     slot,
     xyz_mm,
 )
@@ -319,7 +320,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         "  residuals [mm]          RMSE      MAE*       std       MAX",
         *_metric_rows(result),
         f"  {result.solver.iterations} iterations, {result.solver.evaluations} evaluations, "
-        f"{result.solver.seconds:.3f} s ({result.budget.protocol} protocol)",
+        f"{seconds(result.solver.seconds)} ({result.budget.protocol} protocol)",
         *format_stop(result),
         "  " + MAE_NOTE,
         *format_identifiability(result),

@@ -27,7 +27,7 @@ from twin.stopping import Budget
 
 GAMMA_MAX = 0.95
 """Largest momentum coefficient γ_max (paper)."""
-ALPHA = 0.6
+MOMENTUM_DECAY = 0.6
 """Decay sensitivity α of γ to |ρ − 1| (paper)."""
 
 
@@ -45,7 +45,7 @@ class AdaptiveMomentum:
         """Current momentum coefficient γ_k."""
         if self.previous is None:
             return 0.0
-        return GAMMA_MAX * math.exp(-ALPHA * abs(self.rho - 1.0))
+        return GAMMA_MAX * math.exp(-MOMENTUM_DECAY * abs(self.rho - 1.0))
 
     def propose(self, tracker: Tracker, x: Array, step: Array) -> Array:
         """Δx'_k = γ_k Δx'_{k−1} + (1 − γ_k) Δx_k."""

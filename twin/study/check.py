@@ -36,7 +36,12 @@ from twin.study.baseline import (
 )
 from twin.study.definition import StudyPlan, load_study
 from twin.study.executors import Executor, open_executor
-from twin.study.expect import Expectation, measure, parse_expect_table, read_expect_file
+from twin.study.expect import (
+    Expectation,
+    measure_expectation,
+    parse_expect_table,
+    read_expect_file,
+)
 from twin.study.rows import TrialRow
 from twin.study.runner import run_trials, write_report
 from twin.study.statistics import SIGNIFICANCE
@@ -216,7 +221,7 @@ def evaluate(pairs: Sequence[tuple[str, Expectation]], rows: Sequence[TrialRow],
         for method, expectation in ordered:
             values = [r.number(expectation.column) for r in rows
                       if r.case == case and r.method == method]
-            value, trials, nonfinite, note = measure(expectation, values)
+            value, trials, nonfinite, note = measure_expectation(expectation, values)
             results.append(ExpectationResult(case, method, expectation, value, trials,
                                              nonfinite, note, expectation.holds(value)))
     return tuple(results)

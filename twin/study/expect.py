@@ -102,7 +102,7 @@ class Measured(NamedTuple):
     """Why ``value`` is NaN, or ""."""
 
 
-def measure(expectation: Expectation, values: Sequence[float]) -> Measured:
+def measure_expectation(expectation: Expectation, values: Sequence[float]) -> Measured:
     """The statistic of ``expectation`` over one method's values of its column.
 
     Args:

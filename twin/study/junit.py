@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from twin.io.atomic import write_atomic
-from twin.report.display import percent
+from twin.report.display import SIGNIFICANT, percent, plain
 from twin.study.check import CheckReport, measured_text
 
 
@@ -44,7 +44,8 @@ def junit_xml(report: CheckReport) -> str:
         case = ET.SubElement(
             suite, "testcase", classname=f"{report.scenario}.{comparison.method}.baseline",
             name=f"{comparison.column} not worse than the baseline" + _suffix(comparison.case))
-        summary = (f"median difference {comparison.median_difference:+.4g} "
+        summary = (f"median difference "
+                   f"{plain(comparison.median_difference, significant=SIGNIFICANT, sign=True)} "
                    f"({percent(comparison.relative, 1, sign=True)}) over {comparison.trials} "
                    "paired trials, "
                    f"{comparison.changed} changed, p = "

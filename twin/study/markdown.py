@@ -6,7 +6,13 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from twin.report.display import LENGTH_DECIMALS, percent, plain
+from twin.report.display import (
+    DURATION_DECIMALS,
+    LENGTH_DECIMALS,
+    RATIO_DECIMALS,
+    percent,
+    plain,
+)
 from twin.study.rows import TrialRow
 from twin.study.statistics import PAPER_TABLE6
 
@@ -85,8 +91,9 @@ def trial_markdown(case: str, trial: int, rows: Sequence[TrialRow]) -> str:
              "time [s] |", "|---|---|---|---|---|---|"]
     for row in rows:
         lines.append(f"| {row.method} | {plain(row.validation_rmse_mm, LENGTH_DECIMALS)} | "
-                     f"{plain(row.flange_error_mm, LENGTH_DECIMALS)} | {row.crlb_ratio:.2f} | "
-                     f"{row.iterations} | {row.seconds:.3f} |")
+                     f"{plain(row.flange_error_mm, LENGTH_DECIMALS)} | "
+                     f"{plain(row.crlb_ratio, RATIO_DECIMALS)} | {row.iterations} | "
+                     f"{plain(row.seconds, DURATION_DECIMALS)} |")
     return "\n".join(lines) + "\n"
 
 

@@ -180,21 +180,21 @@ class Group:
         return self.restricted(keep, lower, upper, weight)
 
 
-Value = TypeVar("Value")
+Cached = TypeVar("Cached")
 
 CACHED = 4
 """Measurement sets a :func:`cached` basis keeps: a fit alternates between its training and
 validation poses."""
 
 
-def cached(basis: Callable[[Measurements], Value]) -> Callable[[Measurements], Value]:
+def cached(basis: Callable[[Measurements], Cached]) -> Callable[[Measurements], Cached]:
     """A value that depends on the measurements alone (not on x) — a joints-stage basis, the
     poses' cosines and sines — computed once per measurement set: a fit evaluates it at every
     residual and Jacobian on the same poses, and measurements are immutable. Sets are
     recognised by identity and held weakly; arrays are kept read-only."""
-    kept: list[tuple[weakref.ref[Measurements], Value]] = []
+    kept: list[tuple[weakref.ref[Measurements], Cached]] = []
 
-    def lookup(data: Measurements) -> Value:
+    def lookup(data: Measurements) -> Cached:
         for reference, value in kept:
             if reference() is data:
                 return value

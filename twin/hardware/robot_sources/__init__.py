@@ -16,6 +16,7 @@ captured pose come from. Each lives in its own module and exports ``KIND``
 
 from __future__ import annotations
 
+from twin.distribution import Registry
 from twin.errors import UnknownChoiceError
 from twin.hardware.robot_sources import file, manual, rws, sim
 from twin.hardware.robot_sources.base import (
@@ -25,9 +26,10 @@ from twin.hardware.robot_sources.base import (
     SourceRequest,
 )
 
-SOURCES: dict[str, SourceKind] = {kind.name: kind for kind in (
-    sim.KIND, manual.KIND, file.KIND, rws.KIND, rws.KIND2)}
-"""Every robot source, by its ``--robot-source`` name or URL scheme."""
+SOURCES: Registry[SourceKind] = Registry("robot source", {kind.name: kind for kind in (
+    sim.KIND, manual.KIND, file.KIND, rws.KIND, rws.KIND2)})
+"""Every robot source, by its ``--robot-source`` name or URL scheme (the one plug-in mechanism
+of :mod:`twin.distribution`)."""
 
 
 def source_choices() -> list[str]:

@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 
 from twin.errors import TwinError
 from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
-from twin.units import deg_to_rad, rad_to_deg
+from twin.report.display import joint_angles
+from twin.units import deg_to_rad
 
 
 class ManualRobot(RobotSource):
@@ -34,7 +35,7 @@ class ManualRobot(RobotSource):
                 ) -> NDArray[np.float64]:
         """Show the target, wait for Enter or for the joint angles reached."""
         n = target_q_rad.shape[0]
-        target = " ".join(f"{v:.3f}" for v in rad_to_deg(target_q_rad))
+        target = joint_angles(target_q_rad)
         while True:
             self.prompt_out.write(
                 f"pose {pose}/{n_poses}: jog to q = [{target}] deg, then press Enter "

@@ -41,6 +41,7 @@ from twin.io.rapid_handshake import (
     joints_deg,
     module_text,
 )
+from twin.report.display import deg, joint_angles, seconds
 from twin.units import deg_to_rad, rad_to_deg
 
 WAITING_NOTE_S = 2.0
@@ -160,7 +161,8 @@ class RwsRobot(RobotSource):
                 joint = int(np.argmax(spread))
                 raise TwinError(f"pose {pose}/{n_poses}: the joints did not stand still within "
                                 f"{self.settings.wait_s:g} s: joint {joint + 1} moved "
-                                f"{spread[joint]:.4f} deg over {now - samples[0][0]:.2f} s "
+                                f"{deg(deg_to_rad(spread[joint]))} over "
+                                f"{seconds(now - samples[0][0], 2)} "
                                 f"(at most {self.settings.standstill_tol_deg:g} deg over "
                                 f"{window:g} s)")
             time.sleep(self.settings.poll_s)
@@ -171,9 +173,9 @@ class RwsRobot(RobotSource):
         target_deg = rad_to_deg(np.asarray(target_q_rad, dtype=np.float64))
         tolerance = self.settings.joint_tol_deg
         if self.settings.jog:
-            self.report(f"pose {pose}/{n_poses}: jog to q = ["
-                        + " ".join(f"{v:.3f}" for v in target_deg) + "] deg; twin reads the "
-                        f"joints once they stand still within {tolerance:g} deg of it")
+            self.report(f"pose {pose}/{n_poses}: jog to q = {joint_angles(target_q_rad)}; "
+                        f"twin reads the joints once they stand still within {tolerance:g} deg "
+                        "of it")
         else:
             self._handshake(pose, n_poses)
         deadline = self._deadline()
@@ -183,9 +185,9 @@ class RwsRobot(RobotSource):
             if np.all(off <= tolerance):
                 return deg_to_rad(reached)
             joint = int(np.argmax(off))
-            where = (f"pose {pose}/{n_poses}: the robot stands {off[joint]:.4f} deg from the "
-                     f"plan on joint {joint + 1} (q = [" + " ".join(f"{v:.3f}" for v in reached)
-                     + f"] deg; tolerance {tolerance:g} deg)")
+            where = (f"pose {pose}/{n_poses}: the robot stands {deg(deg_to_rad(off[joint]))} "
+                     f"from the plan on joint {joint + 1} (q = "
+                     f"{joint_angles(deg_to_rad(reached))}; tolerance {tolerance:g} deg)")
             if not self.settings.jog:
                 raise TwinError(f"{where}: is the plan module the one of this plan?")
             if time.monotonic() >= deadline:

@@ -51,7 +51,7 @@ from twin.io.rapid_handshake import (
     TASK,
     axes_deg,
     joints_deg,
-    read_module,
+    read_handshake_module,
 )
 from twin.units import deg_to_rad, rad_to_deg
 
@@ -133,7 +133,7 @@ class Robot:
         while not path.exists():
             if stop.wait(0.05):
                 return
-        plan = read_module(path, self.settings.n_joints)
+        plan = read_handshake_module(path, self.settings.n_joints)
         with self.lock:
             self.module = plan.name
             self.symbols = {POSE_SYMBOL: "0", READY_SYMBOL: "FALSE", ACK_SYMBOL: "0"}

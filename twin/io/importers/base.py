@@ -10,8 +10,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
+from twin.report.display import JOINT_ANGLE_DECIMALS, deg
 from twin.robot import RobotModel
-from twin.units import deg_to_rad, rad_to_deg
+from twin.units import deg_to_rad
 
 
 class Imported(NamedTuple):
@@ -48,6 +49,6 @@ def outside_limits(q_rad: NDArray[np.float64], robot: RobotModel) -> str:
     if not bad.size:
         return ""
     j = int(bad[0])
-    return (f"{robot.joint_names[j]} = {float(rad_to_deg(q_rad[j])):.3f} deg outside "
-            f"[{float(rad_to_deg(robot.lower_rad[j])):.3f}, "
-            f"{float(rad_to_deg(robot.upper_rad[j])):.3f}] deg")
+    return (f"{robot.joint_names[j]} = {deg(q_rad[j], JOINT_ANGLE_DECIMALS)} outside "
+            f"[{deg(robot.lower_rad[j], JOINT_ANGLE_DECIMALS, unit=False)}, "
+            f"{deg(robot.upper_rad[j], JOINT_ANGLE_DECIMALS, unit=False)}] deg")

@@ -29,10 +29,18 @@ MAX_FRUITLESS_RESTARTS = 3
 
 def _start_worker() -> None:
     """Ignore Ctrl-C (it reaches the whole process group; the parent alone handles it and stops
-    the pool) and run BLAS and OpenMP on one thread for the worker's life."""
+    the pool), die at once on SIGTERM, and run BLAS and OpenMP on one thread for the worker's
+    life.
+
+    A forked worker inherits the command's SIGTERM handler, which raises to stop the command
+    as Ctrl-C does; in a worker that printed a traceback per worker when a supervisor stopped
+    the whole process group, and a worker interrupted while reading its next batch could block
+    the parent's shutdown for ever. The default action ends it silently: the parent alone
+    handles SIGTERM, and stops (terminates) what is left of the pool."""
     from threadpoolctl import threadpool_limits
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threadpool_limits(limits=1)
 
 
