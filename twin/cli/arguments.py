@@ -437,7 +437,12 @@ def add_rig_flags(parser: argparse.ArgumentParser) -> None:
                         "the capture's [encoder] sigma_deg, else 0.01)")
     parser.add_argument("--distance", action="append", metavar="A,B=MM",
                         help="fixed points: a known distance between the points named A and B, "
-                        "mm (a ball fixture's socket spacing); repeat for several")
+                        "mm (a ball fixture's socket spacing); touches of planes: between two "
+                        "parallel planes (a gauge block's faces); repeat for several")
+    parser.add_argument("--angle", action="append", metavar="A,B=DEG",
+                        help="touches of planes: a known angle between the normals of the "
+                        "planes named A and B, degrees (a square's faces: 90); repeat for "
+                        "several")
 
 
 ALL_PORTS = ""

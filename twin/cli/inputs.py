@@ -58,7 +58,12 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     """The rig of the capture (or none) with the flags' ports, attachment and distances."""
     import numpy as np
 
-    from twin.io.capture_file import parse_distances, parse_named_port, parse_port_mm
+    from twin.io.capture_file import (
+        parse_angles,
+        parse_distances,
+        parse_named_port,
+        parse_port_mm,
+    )
 
     rig = base
     ports = getattr(args, "port", None)
@@ -76,6 +81,8 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
         rig = replace(rig, attachment_m=parse_port_mm(args.attachment, "--attachment", ""))
     if getattr(args, "distance", None):
         rig = replace(rig, distances=parse_distances(args.distance, "--distance"))
+    if getattr(args, "angle", None):
+        rig = replace(rig, angles=parse_angles(args.angle, "--angle"))
     estimated = [name for name in (getattr(args, "estimate_port", None) or [])
                  if name != ALL_PORTS]
     for name in estimated:
@@ -171,6 +178,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     flag_robot = robot_from_flags(args)  # the IRB 120 without --robot
     tension = getattr(args, "cable_tension", None)
     flags = frozenset(flag for flag, name in (("--port", "port"), ("--distance", "distance"),
+                                              ("--angle", "angle"),
                                               ("--attachment", "attachment"),
                                               ("--loss-scale", "loss_scale"),
                                               ("--bounds", "bounds"), ("--prior", "prior"),
@@ -239,6 +247,9 @@ def prepare_error(inputs: Inputs, exc: InputError) -> InputError:
         return exc
     if exc.where == "distances":
         return exc.at(inputs.distance_source, where="")
+    if exc.where == "angles":
+        return exc.at("--angle" if "--angle" in inputs.flags or not inputs.settings_source
+                      else inputs.settings_source, where="")
     if exc.where in MODEL_FLAGS:
         flag = MODEL_FLAGS[str(exc.where)]
         return exc.at(flag, where="") if flag in inputs.flags or not inputs.settings_source \

@@ -210,6 +210,9 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     if rig.distances:
         document["distances"] = [{"points": [d.first, d.second], "length": _mm(d.length_m)[0]}
                                  for d in rig.distances]
+    if rig.angles:
+        document["angles"] = [{"planes": [a.first, a.second],
+                               "angle_deg": float(np.degrees(a.angle_rad))} for a in rig.angles]
     if rig.part is not None:
         document[kind.name] = kind.part_document(rig.part)
     return document

@@ -8,7 +8,9 @@ calibration starts each plane at the plane fitted (least squares, SVD) to the no
 points of its rows (:class:`PlaneRig`), so the angles are small. For pose i on plane j, one row
 ``r_i = n_jᵀ p_i − d_j`` (m); then one row per known distance between two parallel planes a and
 b (``--distance A,B=MM``: a gauge block's faces), ``w (|d_a − (n_a·n_b) d_b| − D_ab)`` with the
-weight of a known distance between fixed points (:data:`twin.kinds.point.DISTANCE_WEIGHT`).
+weight of a known distance between fixed points (:data:`twin.kinds.point.DISTANCE_WEIGHT`); then
+one row per known angle between two planes (``--angle A,B=DEG``: a square's faces),
+``W (∠(n_a, n_b) − φ_ab)`` with the lever :data:`ANGLE_WEIGHT`.
 
 What planes cannot see: a plane is unchanged by any motion within itself, so each plane holds
 the measured point along its normal only — three planes whose normals span the space are the
@@ -16,6 +18,8 @@ least for a point; the placement of the planes as a whole about joint 1's axis a
 (a turn and a shift of everything, exact null directions of the Jacobian); and, without a known
 distance, a common scale of every length (robot, tool point and plane offsets), which
 :meth:`Plane.symmetries` gives the identifiability and the Cramér–Rao bound as the known gauge.
+A known angle fixes no length (the scale stays unseen without a distance): it ties two planes'
+tilts together, so the touches of each tell on the other's — one less free tilt per angle.
 The ball's radius is part of every offset (the ball's centre touches a plane offset by it).
 
 Readings: the labels ``plane`` naming each row's plane. In a file: a ``plane`` column.
@@ -53,7 +57,7 @@ from twin.kinds.bench import (
 )
 from twin.kinds.point import DISTANCE_WEIGHT
 from twin.report.display import mm
-from twin.rig import Distance, Part, Rig
+from twin.rig import Angle, Distance, Part, Rig
 from twin.robot import RobotModel
 from twin.units import m_to_mm, mm_to_m
 
@@ -69,7 +73,11 @@ PLANE_POINTS = 3
 COLLINEAR_RTOL = 1e-6
 """Touches whose second singular value is below this of the first lie on one line."""
 PARALLEL_COS = float(np.cos(np.deg2rad(1.0)))
-"""Planes whose normals are within 1° count as parallel (a scenario tells their distance)."""
+"""Planes whose normals are within 1° count as parallel (a scenario tells their distance, and
+not their angle)."""
+ANGLE_WEIGHT = 1.0
+"""A known angle's row (rad) weighs as a reading (m) at the end of this lever, m: its noise is
+σ / 1 m rad (5 µrad, about 1″, for a 5 µm probe: a granite square's order)."""
 
 
 def plane_measurements(q_rad: ArrayLike, plane: ArrayLike, *, plane_names: Sequence[str] = (),
@@ -151,17 +159,26 @@ def _planes(values: Mapping[str, Array], part: PlaneRig) -> tuple[Array, Array, 
     return raw / size[..., None], part.offsets_m + block[..., 2], size
 
 
-def _pairs(rig: Rig, part: PlaneRig) -> NDArray[np.intp]:
-    """The two planes of each known distance as indices into the part's names, (d, 2)."""
+def _pairs(told: Sequence[Distance | Angle], part: PlaneRig, what: str = "distance"
+           ) -> NDArray[np.intp]:
+    """The two planes of each known distance (or angle) as indices into the part's names,
+    (d, 2)."""
     pairs = []
-    for distance in rig.distances:
-        for name in (distance.first, distance.second):
+    for pair in told:
+        for name in (pair.first, pair.second):
             if name not in part.names:
-                raise InputError(f"a distance to the plane {name!r}", "distances between "
-                                 "planes the measurements name: " + ", ".join(part.names),
-                                 where="distances")
-        pairs.append((part.names.index(distance.first), part.names.index(distance.second)))
+                raise InputError(f"a{'n' if what[0] in 'aeiou' else ''} {what} to the plane "
+                                 f"{name!r}", f"{what}s between planes the measurements "
+                                 "name: " + ", ".join(part.names), where=f"{what}s")
+        pairs.append((part.names.index(pair.first), part.names.index(pair.second)))
     return np.array(pairs, dtype=np.intp).reshape(-1, 2)
+
+
+def _angles(normals: Array, pairs: NDArray[np.intp]) -> tuple[Array, Array]:
+    """The angle between the normals of each pair, rad, and its sine, each (..., d)."""
+    first, second = normals[..., pairs[:, 0], :], normals[..., pairs[:, 1], :]
+    sine = np.linalg.norm(np.cross(first, second), axis=-1)
+    return np.arctan2(sine, np.sum(first * second, axis=-1)), sine
 
 
 def _gaps(normals: Array, offsets: Array, pairs: NDArray[np.intp]) -> Array:
@@ -198,11 +215,12 @@ class Plane(PlaceKind):
     implied = (GROUP,)
     labels = (PLANE,)
     columns_text = "plane"
-    flags = (("--distance", "touches of planes (the distance between two parallel ones)"),)
+    flags = (("--distance", "touches of planes (the distance between two parallel ones)"),
+             ("--angle", "touches of planes (the angle between two of them)"))
     random_poses = False
     measurement_keys = ("sigma_mm", "attachment_mm", "told_attachment_mm")
     scenario_tables = (("planes", ("points_mm", "normals", "touches", "size_mm",
-                                   "distances")),)
+                                   "distances", "angles")),)
 
     def template(self, q_rad: Array, rig: Rig, labels: Mapping[str, NDArray[np.intp]]
                  ) -> Measurements:
@@ -212,17 +230,20 @@ class Plane(PlaceKind):
 
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
-        """r = n·p − d per pose, then w (|d_a − (n_a·n_b) d_b| − D) per known distance:
-        shape (..., m + d), m."""
+        """r = n·p − d per pose, then w (|d_a − (n_a·n_b) d_b| − D) per known distance, then
+        W (∠(n_a, n_b) − φ) per known angle: shape (..., m + d + a), m."""
         part = plane_part(rig)
         normals, offsets, _ = _planes(values, part)
         index = data.index(PLANE)
         rows = np.sum(normals[..., index, :] * at.position_m, axis=-1) - offsets[..., index]
-        pairs = _pairs(rig, part)
+        pairs = _pairs(rig.distances, part)
         known = DISTANCE_WEIGHT * (np.abs(_gaps(normals, offsets, pairs))
                                    - np.array([d.length_m for d in rig.distances]))
-        return np.concatenate([rows, np.broadcast_to(known, (*rows.shape[:-1], len(pairs)))],
-                              axis=-1)
+        turned = ANGLE_WEIGHT * (_angles(normals, _pairs(rig.angles, part, "angle"))[0]
+                                 - np.array([a.angle_rad for a in rig.angles]))
+        shape = rows.shape[:-1]
+        return np.concatenate([rows, np.broadcast_to(known, (*shape, len(pairs))),
+                               np.broadcast_to(turned, (*shape, len(rig.angles)))], axis=-1)
 
     def measure(self, at: Measured, values: Mapping[str, Array], template: Measurements,
                 rig: Rig) -> Measurements:
@@ -233,7 +254,7 @@ class Plane(PlaceKind):
     def jacobian(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                  rig: Rig) -> KindJacobian:
         """∂r/∂p = n; ∂r/∂(a, b) = pᵀ ∂n/∂(a, b), ∂n/∂a = (I − n nᵀ) e1 sec²a / ‖·‖;
-        ∂r/∂δd = −1; a known distance's row through its two planes."""
+        ∂r/∂δd = −1; a known distance's or angle's row through its two planes."""
         part = plane_part(rig)
         normals, offsets, size = _planes(values, part)
         index = data.index(PLANE)
@@ -247,7 +268,8 @@ class Plane(PlaceKind):
             pose_rows[np.arange(m), index, 2] = -1.0
             by_group[GROUP] = np.concatenate(
                 [pose_rows.reshape(m, 3 * k),
-                 self._distance_rows(normals, offsets, turns, _pairs(rig, part), k)])
+                 self._distance_rows(normals, offsets, turns, _pairs(rig.distances, part), k),
+                 self._angle_rows(normals, turns, _pairs(rig.angles, part, "angle"), k)])
         return KindJacobian(self.residuals(at, values, data, rig), normals[index][:, None, :],
                             by_group)
 
@@ -276,6 +298,18 @@ class Plane(PlaceKind):
             rows[row] *= DISTANCE_WEIGHT * sign[row]
         return rows.reshape(len(pairs), 3 * k)
 
+    @staticmethod
+    def _angle_rows(normals: Array, turns: Array, pairs: NDArray[np.intp], k: int) -> Array:
+        """∂ of each known angle's row w.r.t. the planes' (a, b, δd), shape (d, 3k):
+        ∂∠/∂(n_a·n_b) = −1 / sin ∠ (a known angle is 1° to 179°, its sine far from 0)."""
+        rows = np.zeros((len(pairs), k, 3))
+        _, sine = _angles(normals, pairs)
+        for row, (a, b) in enumerate(pairs):
+            factor = -ANGLE_WEIGHT / max(float(sine[row]), 1e-12)
+            rows[row, a, :2] += factor * normals[b] @ turns[a]
+            rows[row, b, :2] += factor * normals[a] @ turns[b]
+        return rows.reshape(len(pairs), 3 * k)
+
     def symmetries(self, model: Model, x: Array) -> Array:
         """Without a known distance, the scale (every length of the table, the estimated
         attachment and every plane's offset), as a direction of x, shape (p, g)."""
@@ -297,7 +331,7 @@ class Plane(PlaceKind):
 
         Raises:
             InputError: for a plane touched fewer than three times or along one line, or a
-                known distance to a plane the data do not name.
+                known distance or angle to a plane the data do not name.
         """
         index = data.index(PLANE)
         names = data.names(PLANE) or tuple(f"plane{j + 1}" for j in range(int(index.max()) + 1))
@@ -310,7 +344,8 @@ class Plane(PlaceKind):
                 raise InputError(f"plane {name!r}: {exc.found}", exc.expected) from None
         part = PlaneRig(names, np.array([normal for normal, _ in fits]).reshape(-1, 3),
                         np.array([offset for _, offset in fits]))
-        _pairs(rig, part)
+        _pairs(rig.distances, part)
+        _pairs(rig.angles, part, "angle")
         return replace(rig, part=part), data
 
     def part_document(self, part: Part) -> dict[str, Any]:
@@ -362,8 +397,8 @@ class Plane(PlaceKind):
     def read_setup(self, tables: Mapping[str, Fields]) -> PlaneSetup:
         """``[measurement]`` (the probe's ball, its trigger noise) and ``[planes]`` (points,
         normals, touches per plane, the size of the patch touched, whether the distances of
-        parallel planes are told); no ``[cable]`` or ``[port]``, no ``[poses]`` count or
-        plan."""
+        parallel planes and the angles of the others are told); no ``[cable]`` or ``[port]``,
+        no ``[poses]`` count or plan."""
         target = read_target(tables, self.name, frame=False)
         planes, poses = tables["planes"], tables["poses"]
         points = mm_to_m(planes.rows("points_mm", 3, expected="a list of [x, y, z] in mm"))
@@ -375,7 +410,7 @@ class Plane(PlaceKind):
                            points, normals / np.linalg.norm(normals, axis=1, keepdims=True),
                            planes.integer("touches", 12, minimum=PLANE_POINTS, maximum=1000),
                            float(mm_to_m(planes.number("size_mm", 100.0, minimum=1.0))),
-                           planes.boolean("distances", True))
+                           planes.boolean("distances", True), planes.boolean("angles", False))
         refuse_port(tables, self.name)
         for key in ("count", "plan"):
             if poses.has(key):
@@ -400,6 +435,7 @@ class PlaneSetup(TargetSetup):
         touches: Touches per plane.
         size_m: The side of the square patch of each plane that is touched, m.
         tell_distances: Whether the calibration is told the distances of parallel planes.
+        tell_angles: Whether it is told the angle between every two planes not parallel.
     """
 
     points_m: Array
@@ -407,6 +443,7 @@ class PlaneSetup(TargetSetup):
     touches: int
     size_m: float
     tell_distances: bool = True
+    tell_angles: bool = False
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -444,15 +481,30 @@ class PlaneSetup(TargetSetup):
         return tuple(found)
 
     @property
+    def angles(self) -> tuple[Angle, ...]:
+        """The angle between every two planes not parallel (if told)."""
+        if not self.tell_angles:
+            return ()
+        part = self.part
+        pairs = np.array([(a, b) for a in range(len(part.names))
+                          for b in range(a + 1, len(part.names))
+                          if abs(part.normals[a] @ part.normals[b]) < PARALLEL_COS],
+                         dtype=np.intp).reshape(-1, 2)
+        return tuple(Angle(part.names[a], part.names[b], float(angle))
+                     for (a, b), angle in zip(pairs, _angles(part.normals, pairs)[0],
+                                              strict=True))
+
+    @property
     def pose_count(self) -> int | None:
         """A pose per touch of every plane."""
         return len(self.points_m) * self.touches
 
     def rigs(self, rng: np.random.Generator) -> tuple[Rig, Rig]:
         """The true planes; the calibration is told the ball and (if told) the distances of
-        parallel planes."""
+        parallel planes and the angles of the others."""
         return (Rig(attachment_m=self.attachment_m, part=self.part),
-                Rig(attachment_m=self.attachment_told_m, distances=self.distances))
+                Rig(attachment_m=self.attachment_told_m, distances=self.distances,
+                    angles=self.angles))
 
     def capture(self, bench: Bench, rig: Rig, rng: np.random.Generator) -> Captured:
         """Configurations that bring the ball to ``touches`` points drawn on each plane's
