@@ -28,7 +28,6 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
 from twin.geometry.kinematics import (
-    JOINT_SLOT,
     PointJacobian,
     Turns,
     flange_turn_jacobian,
@@ -387,21 +386,20 @@ class Model:
         the table, the joints and the measured point (:meth:`_chain_rule` takes them to x)."""
         table, joints = self.table(x), self._joint_turns(x, data)
         trace = trace_point(self.robot.structure, table, joints, self.point(x))
-        flange = spins = None
+        flange = by_table = by_joint = None
         if self.kind.reads_rotation:
-            flange, spins = flange_turn_jacobian(self.robot.structure, table, joints.q_rad)
+            flange, by_table, by_joint = flange_turn_jacobian(self.robot.structure, table,
+                                                              joints.q_rad)
         kind = self.kind.jacobian(Measured(trace.position, flange),
                                   self._measurement_values(x), data, self.rig)
         # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
         # along those directions alone (one row per pose for a length, not three).
         moves = trace.jacobian(kind.by_position)
-        if kind.by_rotation is not None and spins is not None:
+        if kind.by_rotation is not None and by_table is not None and by_joint is not None:
             # Rows that read the flange's orientation turn with it: ∂r/∂ω times the flange's
-            # angular velocity per table entry, whose θ columns are the joints' rates.
-            spun = kind.by_rotation @ spins  # (m, rows, 4n)
-            n = self.robot.n_joints
-            moves = moves._replace(table=moves.table + spun, joints=moves.joints
-                                   + spun[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n])
+            # angular velocity per table entry and per joint rate.
+            moves = moves._replace(table=moves.table + kind.by_rotation @ by_table,
+                                   joints=moves.joints + kind.by_rotation @ by_joint)
         return kind, moves
 
     def symmetries(self, x: ArrayLike) -> Array:

@@ -1,6 +1,6 @@
 """The CSV files people have into measurements: radians or degrees, metres or millimetres as
-told, joint columns named as the robot's joints (a URDF's, or ``q1..qN``), headerless files,
-one file per fixed point.
+told (a prismatic joint's values in the length unit), joint columns named as the robot's joints
+(a URDF's, or ``q1..qN``), headerless files, one file per fixed point.
 
 - **With a header**: the joint columns are the robot's joint names (``panda_joint1``…) or
   ``q1..qN``; the reading is a measurement kind's columns (:attr:`twin.kinds.base.Kind.columns`:
@@ -35,7 +35,7 @@ from twin.io.measurements import joint_columns
 from twin.io.paths import read_text
 from twin.kinds import KINDS, Kind
 from twin.robot import RobotModel
-from twin.units import LENGTH_FACTORS, deg_to_rad
+from twin.units import LENGTH_FACTORS, deg_to_rad, mm_to_m
 
 WHAT = "a CSV of joint angles and readings"
 
@@ -156,7 +156,8 @@ def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
             dropped.append(f"{where}: a field that is not a finite number: dropped")
             continue
         if angle_unit == "deg":
-            q = deg_to_rad(q)
+            q = np.where(robot.prismatic, q, deg_to_rad(q))
+        q = np.where(robot.prismatic, mm_to_m(q * to_mm), q)
         reason = outside_limits(q, robot) or _refused(kind, q, values, line)
         if reason:
             dropped.append(f"{where}: {reason}: dropped")
