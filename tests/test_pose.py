@@ -29,6 +29,7 @@ from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.rigid import log_rotation, transform
 from twin.io.measurements import load_measurements, write_measurements
+from twin.io.robot_file import load_robot
 from twin.kinds.base import Noise
 from twin.kinds.pose import ROTATION, PoseRig, pose_measurements
 from twin.model import Model
@@ -40,6 +41,7 @@ from twin.study.trial import noise_sigma_m, true_unknowns
 from twin.viz import entities
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "pose_irb120.toml"
+TORSO = Path(__file__).resolve().parents[1] / "models" / "fr3_torso" / "fr3_torso.urdf"
 FRAME = transform([1.6, 0.3, -0.2], [0.05, -0.1, 2.8])
 TOOL = Rotation.from_rotvec([0.3, -0.2, 0.9]).as_matrix()
 
@@ -302,20 +304,26 @@ def test_another_tools_pose_csv_is_imported_in_its_units(tmp_path: Path, irb120:
     np.testing.assert_allclose(imported.value(ROTATION), data.value(ROTATION), atol=1e-12)
 
 
-def test_joint_jacobian_of_poses_matches_differences(irb120: RobotModel,
-                                                     q_rad: np.ndarray) -> None:
+@pytest.mark.parametrize("torso", [False, True], ids=["irb120", "fr3 on a torso lift"])
+def test_joint_jacobian_of_poses_matches_differences(irb120: RobotModel, q_rad: np.ndarray,
+                                                     torso: bool) -> None:
     """∂r/∂q (errors in the recorded angles) of position and orientation rows equals central
-    differences."""
-    model = _model(irb120, ("base", "tool"))
+    differences, and ∂r/∂x too: on a prismatic lift the slide turns no orientation row."""
+    robot = load_robot(TORSO) if torso else irb120
+    q_rad = random_poses(robot, 12, np.random.default_rng(3)) if torso else q_rad
+    model = _model(robot, ("base", "tool"))
     x = np.random.default_rng(9).normal(scale=2e-3, size=model.n_params)
     data = model.measure(x, q_rad + 1e-3)
 
     def shifted(step: np.ndarray) -> np.ndarray:
         return model.residuals(x, replace(data, q_rad=q_rad + step))
 
-    joints = model.joint_jacobian(x, replace(data, q_rad=q_rad))
-    for j in range(irb120.n_joints):
+    at = replace(data, q_rad=q_rad)
+    joints = model.joint_jacobian(x, at)
+    for j in range(robot.n_joints):
         step = np.zeros_like(q_rad)
         step[:, j] = 1e-6
         numeric = (shifted(step) - shifted(-step)) / 2e-6
         np.testing.assert_allclose(joints[:, j], numeric, atol=1e-7)
+    np.testing.assert_allclose(model.jacobian(x, at)[1], _numeric(
+        lambda xs: model.residuals(xs, at), x), atol=1e-7)

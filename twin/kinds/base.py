@@ -237,6 +237,13 @@ class Kind(ABC):
         """
         return no_symmetries(model, x)
 
+    def pivot(self, rig: Rig) -> Array | None:
+        """A fixed point of the instrument whose turns the data may not see (the port one
+        cable runs from: a turn about the vertical through it), shape (3,), base frame, m; None
+        when the instrument has none. The gauge (:mod:`twin.analysis.gauge`) names motions
+        about it."""
+        return None
+
     # --- the calibration ------------------------------------------------------------------
 
     def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise

@@ -182,6 +182,11 @@ class Length(Kind):
             by_group["offset"] = np.ones((len(data), 1))
         return KindJacobian(distance - data.value(LENGTH), u[:, None, :], by_group)
 
+    def pivot(self, rig: Rig) -> Array | None:
+        """The first port: one cable cannot see the arm turned about the vertical through it
+        on a chain that carries its arm sideways."""
+        return rig.ports_m[0] if len(rig.ports_m) else None
+
     def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
                 ) -> tuple[Rig, Measurements]:
         """The rows' ports matched to the rig's (:func:`match_ports`).
