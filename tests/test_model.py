@@ -11,7 +11,7 @@ from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, UnknownChoiceError
-from twin.kinds.length import cable_length
+from twin.kinds.length import cable_length, length_measurements
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -62,7 +62,7 @@ def test_several_ports_and_an_attachment(irb120: RobotModel, measurements: Measu
     data = model.measure(np.zeros(model.n_params), measurements.q_rad, port=which)
     flange = irb120.flange_transforms(measurements.q_rad)
     point = flange[:, :3, :3] @ attachment + flange[:, :3, 3]
-    np.testing.assert_allclose(data.lengths, np.linalg.norm(point - ports[which], axis=1),
+    np.testing.assert_allclose(data.value("length_m"), np.linalg.norm(point - ports[which], axis=1),
                                atol=1e-15)
     x = rng.normal(scale=1e-3, size=model.n_params)
     subset = data.subset(np.arange(20))
@@ -83,7 +83,8 @@ def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
     np.testing.assert_allclose(upper[12:24], np.deg2rad(8.0))
     np.testing.assert_array_equal(lower, -upper)
     assert list(GROUPS) == ["dh", "transmission", "backlash", "compliance", "link_compliance",
-                            "port", "offset", "attachment", "base", "points"]
+                            "port", "offset", "attachment", "base", "points", "tool",
+                            "planes"]
 
 
 def test_batched_residuals(
@@ -107,7 +108,7 @@ def test_offset_adds_to_every_length(
     x = np.zeros(25)
     x[-1] = 0.002
     plain = np.linalg.norm(irb120.flange_positions(measurements.q_rad) - port_m, axis=-1)
-    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.lengths,
+    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.value("length_m"),
                                plain + 0.002, atol=1e-15)
 
 
@@ -140,8 +141,22 @@ def test_groups_must_fit_the_kind(irb120: RobotModel, port_m: np.ndarray) -> Non
 JOINT_GROUPS = ["transmission", "backlash", "compliance"]
 
 
+def _assert_jacobians(model: Model, x: np.ndarray, data: Measurements) -> None:
+    """∂r/∂x and ∂(flange)/∂x at x equal central differences; r is the residuals'."""
+    r, jacobian = model.jacobian(x, data)
+    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
+    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
+    eps = 1e-6
+    steps = np.eye(model.n_params) * eps
+    numeric = (model.flange_positions(x + steps, data)
+               - model.flange_positions(x - steps, data)) / (2 * eps)
+    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
+                               atol=1e-8)
+
+
 def _with_approach(data: Measurements) -> Measurements:
-    return Measurements(data.q_rad, data.length_m, approach=approach_directions(data.q_rad))
+    return length_measurements(data.q_rad, data.value("length_m"),
+                               approach=approach_directions(data.q_rad))
 
 
 @pytest.mark.parametrize("group", [*JOINT_GROUPS, "link_compliance", "all"])
@@ -158,15 +173,7 @@ def test_joint_groups_jacobian_matches_finite_differences(
     x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     data = _with_approach(measurements.subset(np.arange(15)))
-    r, jacobian = model.jacobian(x, data)
-    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
-    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
-    eps = 1e-6
-    steps = np.eye(model.n_params) * eps
-    numeric = (model.flange_positions(x + steps, data)
-               - model.flange_positions(x - steps, data)) / (2 * eps)
-    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
-                               atol=1e-8)
+    _assert_jacobians(model, x, data)
 
 
 def test_joint_groups_move_the_joints_as_stated(
@@ -274,16 +281,8 @@ def test_every_group_on_prismatic_joints_matches_finite_differences(
     x = rng.normal(scale=1e-3, size=model.n_params)
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     q = rng.uniform(robot.lower_rad, robot.upper_rad, (15, 6))
-    data = Measurements(q, length_m=np.full(15, 0.8), approach=approach_directions(q))
-    r, jacobian = model.jacobian(x, data)
-    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
-    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
-    eps = 1e-6
-    steps = np.eye(model.n_params) * eps
-    numeric = (model.flange_positions(x + steps, data)
-               - model.flange_positions(x - steps, data)) / (2 * eps)
-    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
-                               atol=1e-8)
+    data = length_measurements(q, np.full(15, 0.8), approach=approach_directions(q))
+    _assert_jacobians(model, x, data)
 
 
 def test_joint_groups_move_a_prismatic_joint_as_stated(
@@ -305,7 +304,7 @@ def test_joint_groups_move_a_prismatic_joint_as_stated(
     assert model.group("compliance").units[:3] == ("m/N", "m/N", "rad/(N·m)")
     rng = np.random.default_rng(5)
     q = rng.uniform(robot.lower_rad, robot.upper_rad, (10, 6))
-    data = Measurements(q, length_m=np.full(10, 0.8), approach=approach_directions(q))
+    data = length_measurements(q, np.full(10, 0.8), approach=approach_directions(q))
     scale, harmonic = rng.normal(scale=1e-4, size=2), rng.normal(scale=1e-3, size=(4, 4))
     backlash, compliance = rng.normal(scale=1e-4, size=6), rng.uniform(1e-7, 1e-6, size=6)
     x = np.zeros(model.n_params)

@@ -21,7 +21,6 @@ from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.compensation.joints import compensate_program
 from twin.compensation.targets import reachable_targets
-from twin.dataset import Measurements
 from twin.export.pinocchio import urdf_flange
 from twin.geometry.kinematics import fixed_transforms, rigid_transform
 from twin.geometry.parametrisation import convert
@@ -29,6 +28,7 @@ from twin.io.capture_file import load_capture
 from twin.io.identified import load_result
 from twin.io.measurements import load_measurements
 from twin.io.robot_file import load_robot, robot_to_toml
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 from twin.scenario import load_scenario
@@ -180,9 +180,9 @@ def test_nine_joints_load_calibrate_and_compensate(tmp_path: Path) -> None:
     station = np.arange(len(q)) % 2
     sigma_m = 1e-5
     lengths = np.concatenate([synthesize(truth, q[station == k], ports[k], sigma_m, rng)
-                              .length_m for k in (0, 1)])
+                              .value("length_m") for k in (0, 1)])
     order = np.concatenate([np.flatnonzero(station == k) for k in (0, 1)])
-    data = Measurements(q[order], lengths, port=station[order], port_names=("a", "b"))
+    data = length_measurements(q[order], lengths, port=station[order], port_names=("a", "b"))
     result = calibrate(robot, data, rig=Rig(ports, ("a", "b")), method="lm", seed=0)
     model = result.model
     train = data.subset(result.train_rows)
@@ -200,3 +200,31 @@ def test_nine_joints_load_calibrate_and_compensate(tmp_path: Path) -> None:
     np.testing.assert_allclose(
         result.identified_geometry.flange_transforms(program.q_rad[program.ok]),
         robot.flange_transforms(q_program[program.ok]), rtol=0.0, atol=1e-9)
+
+
+def test_what_a_prismatic_joint_cannot_take_is_refused_in_one_line(tmp_path: Path) -> None:
+    """RAPID holds a robot's axes in degrees: a plan module for an arm with a prismatic joint
+    is refused, naming the joint; the twin's gearbox errors (angles) on a prismatic joint are
+    refused, naming the key and the joint; a bound in µm/m reaches the lift's scale."""
+    from dataclasses import replace
+
+    from twin.errors import InputError
+    from twin.io.rapid_plan import PlanOptions, plan_module
+    from twin.io.robot_file import default_robot
+    from twin.unknowns.limits import Bound
+
+    irb120 = default_robot()
+    sliding = replace(irb120, structure=replace(irb120.structure, joint_types=(
+        "prismatic",) + ("revolute",) * 5))
+    options = PlanOptions("v100", "tool0", "wobj0", 0.5, None)
+    with pytest.raises(InputError, match="found the prismatic joint 'joint_1', expected a "
+                       "robot of revolute joints for RAPID"):
+        plan_module(sliding, np.zeros((2, 6)), options)
+    text = SCENARIO.read_text().replace("../models", (ROOT / "models").as_posix())
+    path = tmp_path / "torso.toml"
+    path.write_text(text + "\n[joints]\nbacklash_arcsec = 30.0\n")
+    with pytest.raises(InputError, match=r"\[joints\] backlash_arcsec: found 30 arcsec on "
+                       r"joint 1, prismatic \(torso_lift_joint\), expected 0 for a prismatic"):
+        load_scenario(path)
+    bound = Bound.parse("scale_q=200um/m")
+    assert bound.unit == "m/m" and bound.upper == pytest.approx(2e-4)

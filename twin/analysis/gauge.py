@@ -226,8 +226,7 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     rotations = flange_transform(model.robot.structure, table, model.joints(x, data))[..., :3, :3]
     base = model.robot.structure.base
     origin, axes = base[:3, 3], base[:3, :3]
-    port = model.rig.ports_m[0] if model.kind.name == "length" and len(model.rig.ports_m) \
-        else None
+    port = model.kind.pivot(model.rig)
     gauge = Gauge((), np.zeros((points.size, 0)), points, rotations, origin, axes,
                   model.point(x), port)
     null = np.asarray(null_space, dtype=np.float64)

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
@@ -25,10 +25,12 @@ from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
 from twin.io.robot_file import robot_digest, robot_files
+from twin.kinds import Kind
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import (
     FILE_DEG_DECIMALS,
+    FILE_MM_DECIMALS,
     RESULT_MM_DECIMALS,
     dh_rows_rounded,
     m_to_mm,
@@ -85,6 +87,8 @@ def identifiability_to_dict(identifiability: Identifiability, at: str) -> dict[s
         "unidentifiable": list(identifiability.unidentifiable),
         "base": list(identifiability.base_names),
         "at": at,
+        **({"beyond_points": list(identifiability.beyond_points)}
+           if identifiability.beyond_points else {}),
     }
 
 
@@ -123,18 +127,27 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
         if result.workspace is not None:
-            fields["workspace"] = workspace_to_dict(result.workspace)
+            fields["workspace"] = workspace_to_dict(result.workspace, model.robot.prismatic)
         if model.has("attachment"):
             fields["predicted_point_rms"] = _mm(uncertainty.point_rms_m)[0]
     return fields
 
 
-def workspace_to_dict(workspace: Workspace) -> dict[str, Any]:
+def workspace_to_dict(workspace: Workspace, prismatic: NDArray[np.bool_] | None = None
+                      ) -> dict[str, Any]:
     """The ``workspace`` JSON object: where the predicted and true flange errors are stated —
-    how many poses, within which joint ranges (degrees), covering what."""
-    return {"poses": len(workspace.q_rad), "covers": workspace.covers,
-            "lower_deg": rounded(rad_to_deg(workspace.lower_rad), FILE_DEG_DECIMALS),
-            "upper_deg": rounded(rad_to_deg(workspace.upper_rad), FILE_DEG_DECIMALS)}
+    how many poses, within which joint ranges (degrees; a robot with prismatic joints has their
+    travels in ``lower_mm``, ``upper_mm`` and nulls for them in the degrees'), covering what."""
+    fields: dict[str, Any] = {"poses": len(workspace.q_rad), "covers": workspace.covers}
+    sliding = np.zeros(workspace.lower_rad.size, dtype=bool) if prismatic is None else prismatic
+    for key, values in (("lower", workspace.lower_rad), ("upper", workspace.upper_rad)):
+        fields[f"{key}_deg"] = [None if slides else value for value, slides in zip(
+            rounded(rad_to_deg(values), FILE_DEG_DECIMALS), sliding, strict=True)]
+    if sliding.any():
+        for key, values in (("lower", workspace.lower_rad), ("upper", workspace.upper_rad)):
+            fields[f"{key}_mm"] = [value if slides else None for value, slides in zip(
+                rounded(m_to_mm(values), FILE_MM_DECIMALS), sliding, strict=True)]
+    return fields
 
 
 def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
@@ -153,7 +166,7 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
-        "rig": rig_to_dict(model.rig, model.kind.name),
+        "rig": rig_to_dict(model.rig, model.kind),
         "fixed": [name for group in model.groups for name in group.full_names
                   if name not in group.names],
         "parameters": [
@@ -185,10 +198,11 @@ def pose_to_list(transform: Any) -> list[float]:
             *rounded(rad_to_deg(angles(transform[:3, :3])), FILE_DEG_DECIMALS)]
 
 
-def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
+def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     """The rig as the calibration was told it (mm, degrees) for measurements of ``kind``: what
-    rebuilds its model. The tracker frame of tracker positions is kept exactly (16 floats)
-    besides its readable pose: it is the rigid fit the calibration started from."""
+    rebuilds its model. The instrument's frame of readings in one (tracker positions:
+    :attr:`twin.kinds.base.Kind.in_instrument_frame`) is kept exactly (16 floats) besides its
+    readable pose: it is the rigid fit the calibration started from."""
     document: dict[str, Any] = {
         "ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
                                                          strict=True)},
@@ -197,7 +211,7 @@ def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
     }
     if rig.estimated_ports:
         document["estimated_ports"] = list(rig.estimated_ports)
-    if kind == "position":
+    if kind.in_instrument_frame:
         document["base_in_tracker"] = {"exact": rig.base_in_tracker.ravel().tolist(),
                                        "pose": pose_to_list(rig.base_in_tracker)}
     if rig.point_names:
@@ -206,6 +220,11 @@ def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
     if rig.distances:
         document["distances"] = [{"points": [d.first, d.second], "length": _mm(d.length_m)[0]}
                                  for d in rig.distances]
+    if rig.angles:
+        document["angles"] = [{"planes": [a.first, a.second],
+                               "angle_deg": float(np.degrees(a.angle_rad))} for a in rig.angles]
+    if rig.part is not None:
+        document[kind.name] = kind.part_document(rig.part)
     return document
 
 
@@ -392,7 +411,8 @@ def assessment_to_dict(assessment: Assessment, sigma_mm: float,
         "nominal": {
             **identifiability_to_dict(nominal, "nominal"),
             "observability": score.observability._asdict(),
-            "workspace": workspace_to_dict(assessment.workspace),
+            "workspace": workspace_to_dict(assessment.workspace,
+                                           assessment.result.model.robot.prismatic),
             "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
                                              RESULT_MM_DECIMALS)[0]
             if assessment.pinned else None,
