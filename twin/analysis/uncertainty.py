@@ -68,9 +68,11 @@ def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float,
                 row_weight: ArrayLike | None = None) -> Unseen:
     """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m; of a row scaled
     by ``row_weight`` when given), in the unknowns scaled by how far each may move
-    (:meth:`twin.model.Model.scale`): what a calibration of such data holds."""
+    (:meth:`twin.model.Model.scale`): what a calibration of such data holds, the values of x
+    from the nominal deciding what the data tell from zero."""
     nominal = measurement_identifiability(model, np.zeros(model.n_params), data)
-    return unseen_directions(model, x, data, sigma_m, model.scale(), nominal, row_weight)
+    return unseen_directions(model, x, data, sigma_m, model.scale(), nominal, row_weight,
+                             start=np.zeros(model.n_params))
 
 
 def rms_distance(a_m: ArrayLike, b_m: ArrayLike) -> float:
