@@ -9,7 +9,7 @@ under both stopping protocols (converge, and the paper's 0.001 mm² rule).
 from __future__ import annotations
 
 import numpy as np
-from _timing import median_time
+from _timing import median_time, tiny_run
 from scipy.optimize import least_squares
 
 from twin.calibration.setup import make_problem
@@ -24,6 +24,10 @@ REPEATS = 15
 
 
 def main() -> None:
+    global REPEATS
+    tiny = tiny_run(__doc__)
+    if tiny:
+        REPEATS = 1
     robot = default_robot()
     rng = np.random.default_rng(1)
     delta = dh_rows_from_display({
@@ -31,7 +35,8 @@ def main() -> None:
         "alpha": [0.1, -0.2, 0.15, -0.1, 0.2, 0.1], "theta": [0.2, 0.1, -0.15, 0.1, -0.2, 0.05],
     })
     port = mm_to_m([600.0, -400.0, 100.0])
-    data = synthesize(robot.perturbed(delta), random_poses(robot, 120, rng), port, 1e-5, rng)
+    q = random_poses(robot, 40 if tiny else 120, rng)
+    data = synthesize(robot.perturbed(delta), q, port, 1e-5, rng)
     problem = make_problem(robot, data, port, seed=0).problem
     model, train = problem.model, problem.train
 

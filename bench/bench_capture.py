@@ -1,7 +1,8 @@
 """Capture throughput: readings/s over a real pty (ASCII vs Modbus RTU), and the cost of
 making each pose durable (append + fsync vs a plain append).
 
-Run by hand: ``python bench/bench_capture.py``. The devices are :mod:`twin.hardware.virtual_encoder`
+Run by hand: ``python bench/bench_capture.py`` (``--tiny``: a few readings and rows). The
+devices are :mod:`twin.hardware.virtual_encoder`
 served in threads of this process on pseudo-terminals, with the core's closed-form lengths and
 exact readings, so the figures are the drivers' and the line's, not MuJoCo's. A pty ignores the
 baud rate, but minimalmodbus waits the Modbus 3.5-character silence of the configured rate.
@@ -18,6 +19,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _timing import tiny_run
 
 from twin.hardware.capture_session import HEADER, format_row, journal
 from twin.hardware.encoders import open_encoder, parse_url
@@ -73,7 +75,7 @@ def append_s(folder: Path, durable: bool) -> float:
     q = np.zeros(6)
     started = time.perf_counter()
     for pose in range(1, ROWS + 1):
-        line = format_row(pose, q, 0.5)
+        line = format_row(pose, q, 0.5, np.ones(6, dtype=np.int8))
         if durable:
             record.append(line)
         else:
@@ -83,6 +85,9 @@ def append_s(folder: Path, durable: bool) -> float:
 
 
 def main() -> None:
+    global READINGS, ROWS, POSES
+    if tiny_run(__doc__):
+        READINGS, ROWS, POSES = 5, 5, 2
     with tempfile.TemporaryDirectory(dir=Path.cwd()) as name:
         folder = Path(name)
         pose_file = folder / "pose.json"

@@ -17,7 +17,7 @@ from __future__ import annotations
 import statistics
 
 import numpy as np
-from _timing import median_time
+from _timing import median_time, tiny_run
 
 from twin.analysis.identifiability import measurement_identifiability
 from twin.analysis.uncertainty import rms_distance
@@ -47,11 +47,15 @@ DELTA = dh_rows_from_display({
 
 
 def main() -> None:
+    global N_POSES, DRAWS
+    tiny = tiny_run(__doc__)
+    if tiny:
+        N_POSES, DRAWS = 26, 2
     robot = default_robot()
     rng = np.random.default_rng(0)
 
     print("1. Identifiability at the nominal geometry, 200 random poses")
-    q = random_poses(robot, 200, rng)
+    q = random_poses(robot, 40 if tiny else 200, rng)
     data = Measurements(q, np.ones(len(q)))
     for port, offset in [(False, False), (True, False), (False, True), (True, True)]:
         model = make_model(robot, Rig.cable(PORT_M),
@@ -65,9 +69,9 @@ def main() -> None:
     print(f"\n2. {N_POSES} D-optimal vs {N_POSES} random poses (predicted, σ = 0.01 mm)")
     model = make_model(robot, Rig.cable(PORT_M))
     x0 = np.zeros(24)
-    candidates = random_poses(robot, 2000, rng)
-    workspace = random_poses(robot, 1000, rng)
-    plan_s, plan = median_time(lambda: plan_poses(model, x0, candidates, N_POSES), 5)
+    candidates = random_poses(robot, 60 if tiny else 2000, rng)
+    workspace = random_poses(robot, 20 if tiny else 1000, rng)
+    plan_s, plan = median_time(lambda: plan_poses(model, x0, candidates, N_POSES), 1 if tiny else 5)
     planned = score_poses(model, x0, plan.q_rad, plan.base_mask, SIGMA_M, workspace)
     random_sets = [random_poses(robot, N_POSES, rng) for _ in range(DRAWS)]
     drawn = [score_poses(model, x0, qr, plan.base_mask, SIGMA_M, workspace) for qr in random_sets]

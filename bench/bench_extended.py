@@ -41,7 +41,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from _timing import median_time
+from _timing import median_time, tiny_run
 from scipy.optimize import least_squares
 
 from twin.calibration.settings import CalibrationSettings
@@ -81,9 +81,13 @@ def timed_in_turns(runs: dict[str, Callable[[], np.ndarray]], repeats: int
 
 
 def main() -> None:
+    global REPEATS
+    tiny = tiny_run(__doc__)
+    if tiny:
+        REPEATS = 1
     path = ROOT / "scenarios" / "paper_irb120.toml"
     document = tomllib.loads(path.read_text(encoding="utf-8"))
-    document["poses"]["count"] = 400
+    document["poses"]["count"] = 100 if tiny else 400
     document["physics"]["mass_error"] = 0.2
     scenario = parse_scenario(document, path)
     sim = simulate(scenario)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
-from _timing import median_time
+from _timing import median_time, tiny_run
 
 from twin.calibration.setup import make_model
 from twin.compensation.joints import compensate_program
@@ -42,6 +42,9 @@ def report(label: str, ours_s: float, theirs_s: float, theirs: str) -> None:
 
 
 def main() -> None:
+    global REPEATS, N_TABLES, N_POSES, N_ROWS
+    if tiny_run(__doc__):
+        REPEATS, N_TABLES, N_POSES, N_ROWS = 1, 3, 8, 10
     robot = default_robot()
     rng = np.random.default_rng(0)
     scale = np.repeat([1.5e-3, 1.5e-3, np.deg2rad(0.2), np.deg2rad(0.2)], robot.n_joints)

@@ -2,18 +2,16 @@
 (`twin.io.rapid_filter.filter_module`, every target's IK in one batch) against the same filter
 called target by target (a module of one target at a time, as a plain loop would).
 
-Run by hand: ``python bench/bench_rapid.py [N]`` (default 40 targets; the test of the bench
-imports runs nothing). Prints the median wall time of repeated runs, targets per second and
-the ratio, and how many targets both ways write alike (random IK starts differ between a batch
-and a single target, so a target may land a few 1e-6 on the last digit apart).
+Run by hand: ``python bench/bench_rapid.py`` (40 targets; ``--tiny``: 3). Prints the median
+wall time of repeated runs, targets per second and the ratio, and how many targets both ways
+write alike (random IK starts differ between a batch and a single target, so a target may land
+a few 1e-6 on the last digit apart).
 """
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
-from _timing import median_time
+from _timing import median_time, tiny_run
 from scipy.spatial.transform import Rotation
 
 from twin.calibration.setup import make_model
@@ -48,7 +46,10 @@ def module_text(n: int) -> str:
 
 
 def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 40
+    global REPEATS
+    n = 40
+    if tiny_run(__doc__):
+        REPEATS, n = 1, 3
     robot = default_robot()
     model = make_model(robot, Rig.cable(np.array([0.6, -0.4, 0.1])))
     rng = np.random.default_rng(1)

@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _timing import median_time
+from _timing import median_time, tiny_run
 
 from twin.calibration.pipeline import calibrate_many
 from twin.io.robot_file import default_robot
@@ -50,11 +50,15 @@ def bench(n_poses: int, folder: Path, rng: np.random.Generator) -> str:
 
 
 def main() -> None:
+    global REPEATS
+    tiny = tiny_run(__doc__)
+    if tiny:
+        REPEATS = 1
     rng = np.random.default_rng(1)
     folder = Path(tempfile.mkdtemp(prefix="bench_rerun_"))
     print(f"{'poses':>6} {'calibrate [s]':>14} {'log [s]':>9} {'log/pose [µs]':>14} "
           f"{'log/calibrate':>14} {'file [KiB]':>11}")
-    for n_poses in (120, 1200):
+    for n_poses in (40,) if tiny else (120, 1200):
         print(bench(n_poses, folder, rng))
 
 

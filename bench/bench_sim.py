@@ -12,6 +12,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from _timing import tiny_run
 
 from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
@@ -35,6 +36,9 @@ def _best_seconds(run: Callable[[], object], repeat: int = 3) -> float:
 
 def main() -> None:
     """Print the timings and their ratios, measured side by side in one run."""
+    global N_POSES
+    if tiny_run(__doc__):
+        N_POSES = 5
     robot = default_robot()
     q = random_poses(robot, N_POSES, np.random.default_rng(0))
     paper = load_scenario(ROOT / "scenarios" / "paper_irb120.toml")

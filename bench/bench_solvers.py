@@ -30,7 +30,7 @@ from twin.calibration.setup import make_problem
 from twin.io.robot_file import default_robot
 from twin.problem import Problem
 from twin.robot import random_poses
-from twin.solvers import SOLVERS, get_solver
+from twin.solvers import SOLVERS, get_solver, swarm
 from twin.solvers.base import Tracker
 from twin.solvers.swarm import N_INTERPOLATED, N_PARTICLES
 from twin.stopping import Budget
@@ -73,7 +73,12 @@ def main() -> None:
                         help="stopping protocol of sections 2 and 4 (section 1 is the paper's)")
     parser.add_argument("--large-errors", type=int, default=0, metavar="K",
                         help="also run every method on K problems with errors near the bounds")
+    parser.add_argument("--tiny", action="store_true",
+                        help="smoke size: one run, small swarms; no figure means anything")
     args = parser.parse_args()
+    if args.tiny:
+        args.repeat = 1
+        swarm.N_PARTICLES = swarm.N_INTERPOLATED = 6
     problem = paper_problem()
     budget = Budget.named(args.stop)
     before = problem.model.residuals(problem.x0, problem.validation)

@@ -34,13 +34,14 @@ GEOMETRIC = ROOT / "scenarios" / "geometric_irb120.toml"
 TARGET_S = 30.0
 
 
-def replica(folder: Path) -> None:
-    """Time the paper replica end to end and break the time down."""
-    plan = load_study(PAPER)
+def replica(folder: Path, tiny: bool = False) -> None:
+    """Time the paper replica end to end and break the time down (``tiny``: one trial, LM)."""
+    plan = load_study(PAPER, trials=1, methods=["lm"]) if tiny else load_study(PAPER)
     start = time.perf_counter()
     document = run_study(plan, folder, LocalProcesses(), stream=io.StringIO())
     wall = time.perf_counter() - start
     scenario = plan.cases[0].scenario
+    simulate(scenario, trial_seed(scenario.seed, plan.trials))  # loads what a first one loads
     start = time.perf_counter()
     for trial in range(plan.trials):
         simulate(scenario, trial_seed(scenario.seed, trial))
@@ -98,11 +99,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--trials", type=int, default=200, help="trials of the scaling run")
     parser.add_argument("--skip-replica", action="store_true")
+    parser.add_argument("--tiny", action="store_true",
+                        help="smoke size: 1 replica trial with LM, 2 scaling trials; no figure "
+                        "means anything")
     args = parser.parse_args()
+    if args.tiny:
+        args.trials = 2
     with tempfile.TemporaryDirectory() as temporary:
         folder = Path(temporary)
         if not args.skip_replica:
-            replica(folder / "paper")
+            replica(folder / "paper", tiny=args.tiny)
         print(f"scaling: {args.trials} trials of {GEOMETRIC.name} with LM; load average "
               f"(1 min) before {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
         scaling(folder, args.trials)

@@ -816,6 +816,101 @@ def check_example(folder: Path) -> dict[str, str]:
                                f"{shown}\n{compared}{few}```\n\n{note}")}
 
 
+# --- measurements.md: what may move, noise from the inputs ---------------------------------------
+
+class Variant(NamedTuple):
+    """One way of calibrating a scenario's draws, for a table row."""
+
+    label: str
+    settings: Callable[[CalibrationSettings], CalibrationSettings]
+    """The scenario's calibration settings to this variant's."""
+
+
+def variant_runs(scenario: Scenario, variants: Sequence[Variant]) -> list[list[dict[str, float]]]:
+    """Per variant, per trial: the flange error against the twin's truth over the result's
+    workspace (the joint ranges of its training poses), the Cramér–Rao bound there at each
+    row's true variance (the scenario's noise, whatever the variant is told), the validation
+    RMSE, the unknowns left on a bound and decided by a prior, and whether the misfit test
+    fired (m, counts)."""
+    runs: list[list[dict[str, float]]] = [[] for _ in variants]
+    for trial in range(TRIALS):
+        sim = simulate(scenario, trial_seed(scenario.seed, trial))
+        for k, variant in enumerate(variants):
+            settings = variant.settings(scenario.calibration)
+            result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told_pulled,
+                               settings=settings, seed=trial)
+            assert result.workspace is not None
+            q = result.workspace.q_rad
+            model = result.model
+            error = rms_distance(model.flange_positions(result.x, model.poses(q)),
+                                 sim.true_robot.flange_positions(q))
+            problem = make_problem(sim.robot, sim.measurements, rig=sim.rig_told_pulled,
+                                   settings=scenario.calibration, seed=trial).problem
+            rows = problem.row_sigma(problem.train) if problem.in_variables else None
+            bound = cramer_rao_flange_rms(problem.model, true_unknowns(sim, problem.model),
+                                          problem.train, problem.sigma_m, q, rows)
+            runs[k].append({"error": error, "ratio": error / bound,
+                            "validation": result.metrics["validation"].rmse,
+                            "bounds": len(result.at_bounds),
+                            "prior": len(result.prior_decided),
+                            "misfit": float(result.misfit is not None and result.misfit.misfit)})
+    return runs
+
+
+def variants_table(scenario: Scenario, variants: Sequence[Variant], what: str) -> str:
+    """One row per variant: the flange error against the truth (median, RMS over trials), its
+    ratio to the bound, the validation RMSE, what a bound or a prior decided, misfits."""
+    rows = []
+    for variant, runs in zip(variants, variant_runs(scenario, variants), strict=True):
+        def column(key: str, runs: list[dict[str, float]] = runs) -> list[float]:
+            return [run[key] for run in runs]
+
+        errors = m_to_mm(column("error"))
+        rows.append([variant.label,
+                     f"{statistics.median(errors):.4f} / {np.sqrt(np.mean(errors**2)):.4f}",
+                     _ratio_cell(column("ratio")),
+                     f"{float(m_to_mm(np.mean(column('validation')))):.4f}",
+                     fmt(float(np.mean(column("bounds")))),
+                     fmt(float(np.mean(column("prior")))),
+                     f"{int(sum(column('misfit')))}/{TRIALS}"])
+    header = ("calibrated with", "flange error [mm], median / RMS", "ratio to the bound "
+              "(median, RMS (max))", "validation RMSE [mm]", "at a bound", "decided by a prior",
+              "MISFIT")
+    return markdown_table(header, rows) + "\n\n" + stamp(
+        f"`{scenario.name}`, {TRIALS} draws (the study's seeds), LM; errors against the twin's "
+        "truth over each result's workspace (the joint ranges of its training poses), the "
+        f"bound at each row's variance; {what}")
+
+
+def limits_table() -> str:
+    """A truth beyond the paper's box, calibrated in it and in a wider one; few poses with and
+    without priors."""
+    wide = load_scenario(scenario_path("wide"))
+    box = variants_table(wide, [
+        Variant("the paper's box (±5 mm, ±8°)", lambda s: replace(s, bounds=())),
+        Variant("--bounds dh=20mm,dh=15deg (the scenario's)", lambda s: s)],
+        "true errors uniform ±12 mm / ±12°.")
+    few = load_scenario(scenario_path("few_poses"))
+    priors = variants_table(few, [
+        Variant("the paper's box", lambda s: s),
+        Variant("--prior dh=2mm,dh=0.3deg", lambda s: replace(s, priors=("dh=2mm", "dh=0.3deg"))),
+        Variant("--prior dh=0.5mm,dh=0.1deg", lambda s: replace(
+            s, priors=("dh=0.5mm", "dh=0.1deg")))],
+        "30 poses, true errors uniform ±1.5 mm / ±0.2°.")
+    return box + "\n\n" + priors
+
+
+def noise_inputs_table() -> str:
+    """Joint angles recorded to 0.1°: the rows weighted by their variance, alike, and σ from
+    the data."""
+    scenario = load_scenario(scenario_path("joint_resolution"))
+    return variants_table(scenario, [
+        Variant("rows alike (--joint-sigma-deg 0)", lambda s: replace(s, joint_sigma_rad=())),
+        Variant("errors in variables (the scenario's 0.1°)", lambda s: s),
+        Variant("errors in variables, --sigma auto", lambda s: replace(s, sigma_auto=True))],
+        "joint angles recorded to 0.1°, encoder σ 0.004 mm.")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "docs",
@@ -858,7 +953,8 @@ def main() -> None:
                        "error-models": error_models_table},
         "robots.md": {"parametrisation": parametrisation_table},
         "measurements.md": {"rigs": lambda: rigs_table(fresh(args.out / "rigs")),
-                            "stations": stations_table},
+                            "stations": stations_table, "limits": limits_table,
+                            "noise-inputs": noise_inputs_table},
         "../README.md": {"readme-calibrate": lambda: transcript(
             ["calibrate examples/irb120_lm/measurements.csv --port 600,-400,100 --json "
              "out/result.json"], head=7)},
@@ -879,6 +975,7 @@ def main() -> None:
         blocks["methods.md"]["bench-calibration"] = lambda: bench_output("bench_calibration.py")
         blocks["methods.md"]["bench-extended"] = lambda: bench_output("bench_extended.py")
         blocks["studies.md"]["bench-study"] = lambda: bench_output("bench_study.py")
+        blocks["studies.md"]["bench-speed"] = lambda: bench_output("bench_speed.py")
         blocks["identifiability.md"]["bench-design"] = lambda: bench_output("bench_design.py")
     known = [block for generated in blocks.values() for block in generated]
     wanted = set(args.only or known)

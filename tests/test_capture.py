@@ -196,6 +196,7 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
         check_folder(tmp_path, plan, q_rad, robot_to_toml(other))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("protocol", ["ascii", "modbus"])
 def test_capture_end_to_end_then_rerun_measures_nothing(
         protocol: str, folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
@@ -219,6 +220,7 @@ def test_capture_end_to_end_then_rerun_measures_nothing(
     np.testing.assert_array_equal(measured.approach, approach_directions(measured.q_rad))
 
 
+@pytest.mark.slow
 def test_garbage_bytes_are_retried_and_the_capture_completes(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -231,6 +233,7 @@ def test_garbage_bytes_are_retried_and_the_capture_completes(
     check_complete(out, N_SHORT, true_lengths_mm)
 
 
+@pytest.mark.slow
 def test_device_closed_mid_capture_then_resumed(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -259,6 +262,7 @@ def test_device_closed_mid_capture_then_resumed(
     check_complete(out, N_SHORT, true_lengths_mm)
 
 
+@pytest.mark.slow
 def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         folder: Path, devices: dict[str, Device], true_lengths_mm: np.ndarray,
         tmp_path: Path) -> None:
@@ -365,6 +369,7 @@ def test_manual_robot_source_prompts_and_reads_reached_angles() -> None:
         robot.move_to(3, 3, target)
 
 
+@pytest.mark.slow
 def test_a_7_joint_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path) -> None:
     """The FR3 read from its URDF (7 joints), simulated: the capture writes pose, q1..q7,
     length, approach1..7 rows at the twin's lengths, the URDF beside the robot file, and the
@@ -424,6 +429,7 @@ resolution_mm = 0.001
 """
 
 
+@pytest.mark.slow
 def test_the_virtual_rig_hooks_the_cable_on_the_eyelet_and_the_capture_says_so(
         folder: Path, tmp_path: Path) -> None:
     """A scenario's eyelet and cable tension reach the virtual encoder (its lengths are the
@@ -459,6 +465,7 @@ def test_the_virtual_rig_hooks_the_cable_on_the_eyelet_and_the_capture_says_so(
     assert capture.rig.tension_n == pytest.approx(5.0)
 
 
+@pytest.mark.slow
 def test_capture_refuses_rig_flags_with_the_scenarios_rig(folder: Path, tmp_path: Path,
                                                            capsys: pytest.CaptureFixture[str]
                                                            ) -> None:

@@ -108,6 +108,7 @@ def test_statistics_match_the_standard_library() -> None:
     assert math.isnan(one.value) and "2 trials" in one.note
 
 
+@pytest.mark.slow
 def test_one_pass_one_fail_then_only_the_pass(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     """One passing and one failing expectation: exit 1, a line each with the measured value,
@@ -241,6 +242,7 @@ def test_compare_decides_with_significance_size_and_direction() -> None:
     assert dropped.verdict == "regression" and dropped.relative == pytest.approx(-5 / 6)
 
 
+@pytest.mark.slow
 def test_baseline_flags_a_capped_solver_and_passes_an_unchanged_one(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The same scenario (errors of 2 mm and 0.3°) with every method capped at 2 iterations,

@@ -26,6 +26,7 @@ def expected_methods(path: Path) -> list[str]:
     return [method for method in plan.methods if method in named]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sorted(SCENARIOS.glob("*.toml")), ids=lambda p: p.stem)
 def test_shipped_expectations_hold(path: Path, tmp_path: Path,
                                    capsys: pytest.CaptureFixture[str]) -> None:
@@ -43,6 +44,7 @@ def test_shipped_expectations_hold(path: Path, tmp_path: Path,
     assert verdicts and set(verdicts) == {"PASS"}
 
 
+@pytest.mark.slow
 def test_shipped_expectations_catch_a_capped_solver(tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     """The geometric scenario with every method capped at 1 iteration (a real setting, no

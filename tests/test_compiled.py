@@ -35,7 +35,7 @@ def _rigid(rng: np.random.Generator) -> np.ndarray:
 
 def _both(monkeypatch: pytest.MonkeyPatch, compute):  # type: ignore[no-untyped-def]
     """compute() on the compiled kernel, then on the numpy path."""
-    monkeypatch.delenv(KERNEL_VARIABLE, raising=False)
+    monkeypatch.setenv(KERNEL_VARIABLE, "numba")
     kinematics._compiled.cache_clear()
     assert kinematics._compiled() is not None
     fast = compute()
@@ -46,6 +46,18 @@ def _both(monkeypatch: pytest.MonkeyPatch, compute):  # type: ignore[no-untyped-
     monkeypatch.delenv(KERNEL_VARIABLE)
     kinematics._compiled.cache_clear()
     return fast, reference
+
+
+def test_a_single_command_takes_the_numpy_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Under TWIN_KERNEL=auto numba is not even imported until a process declares bulk work
+    (a study's worker): one calibration would pay more for the import than it saves."""
+    monkeypatch.delenv(KERNEL_VARIABLE, raising=False)
+    kinematics._compiled.cache_clear()
+    assert kinematics._compiled() is None
+    monkeypatch.setattr(kinematics, "_BULK", [True])
+    kinematics._compiled.cache_clear()
+    assert kinematics._compiled() is not None
+    kinematics._compiled.cache_clear()
 
 
 def _close(fast: np.ndarray, reference: np.ndarray) -> None:

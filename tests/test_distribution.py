@@ -7,6 +7,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -37,6 +39,7 @@ def run_without(blocked: tuple[str, ...], argv: list[str]) -> subprocess.Complet
                           check=False, cwd=ROOT)
 
 
+@pytest.mark.slow
 def test_the_core_install_calibrates(tmp_path: Path) -> None:
     """With every adapter library absent, `twin calibrate` runs and writes its result."""
     out = tmp_path / "result.json"
@@ -46,6 +49,7 @@ def test_the_core_install_calibrates(tmp_path: Path) -> None:
     assert out.is_file() and "validation" in done.stdout
 
 
+@pytest.mark.slow
 def test_a_command_without_its_extra_names_the_extra(tmp_path: Path) -> None:
     """A command whose adapter library is absent ends with one line naming the extra to
     install and exits with code 2, without a traceback; a study fails before its folder."""

@@ -13,9 +13,10 @@ BLOCK = re.compile(r"<!-- BEGIN GENERATED (?P<name>[\w-]+) -->\n(?P<body>.*?)"
 EXPECTED = {
     "methods.md": {"protocols", "m9-bipso-stage", "bench-solvers", "bench-calibration",
                    "error-models", "bench-extended"},
-    "studies.md": {"paper-replica", "regimes", "bench-study", "check-base", "check-baseline"},
+    "studies.md": {"paper-replica", "regimes", "bench-study", "bench-speed", "check-base",
+                   "check-baseline"},
     "robots.md": {"parametrisation"},
-    "measurements.md": {"rigs", "stations"},
+    "measurements.md": {"rigs", "stations", "limits", "noise-inputs"},
     "twin.md": {"paper-rig", "demo-transcript"},
     "identifiability.md": {"unknown-sets", "bench-design", "twin-check", "identify-transcript"},
     "../README.md": {"readme-calibrate"},

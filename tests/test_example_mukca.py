@@ -15,6 +15,7 @@ from twin.cli import main
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "panda_mukca"
 
 
+@pytest.mark.slow
 def test_the_readme_command_reproduces_the_documented_table(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """evaluate.py, run afresh on the shipped files (imported by `twin import`), gives the

@@ -34,6 +34,7 @@ TIMEOUT_S = 30.0
     ],
     ids=["measurements", "robot model", "scenario", "result", "capture plan"],
 )
+@pytest.mark.slow
 def test_a_fifo_without_a_writer(argv: list[str], csv_path: Path, tmp_path: Path,
                                  refusals: Refusals) -> None:
     """A FIFO given as an input file is refused at once, and stays a FIFO."""

@@ -168,6 +168,7 @@ def _calibrate_process(path: Path) -> subprocess.CompletedProcess[str]:
                           env={**os.environ, "PYTHONUNBUFFERED": "1"})
 
 
+@pytest.mark.slow
 def test_rank_deficient_data_are_warned_about_before_the_calibration(
     measurements: Measurements, tmp_path: Path
 ) -> None:

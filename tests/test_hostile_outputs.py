@@ -145,6 +145,7 @@ def test_two_outputs_hard_linked(tmp_path: Path, refusals: Refusals) -> None:
                  f"--rerun-save: found {tmp_path / 'b.rrd'}, the same path as --json")
 
 
+@pytest.mark.slow
 def test_simulate_over_a_real_capture_is_refused(capture_copy: Path,
                                                  refusals: Refusals) -> None:
     """It replaced the capture's measurements.csv with simulated data: now one line, exit 2,
@@ -154,6 +155,7 @@ def test_simulate_over_a_real_capture_is_refused(capture_copy: Path,
                  "expected a folder without real measurements: a new --out folder, or --force")
 
 
+@pytest.mark.slow
 def test_simulate_with_force_moves_the_capture_aside(
         capture_copy: Path, real_capture: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """With --force the simulation is written, and the capture's files are moved, byte for
@@ -235,6 +237,7 @@ def _rows(folder: Path) -> list[tuple[str, str]]:
     return [(line.split(",")[0], line.split(",")[3]) for line in lines]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("second", ["study", "check"])
 def test_a_second_writer_of_a_study_folder(second: str, tmp_path: Path) -> None:
     """Two `twin study --out same` at once both exited 0 with 48 duplicated rows. Now the
@@ -259,6 +262,7 @@ def test_a_second_writer_of_a_study_folder(second: str, tmp_path: Path) -> None:
     assert not (folder / LOCK_NAME).exists()
 
 
+@pytest.mark.slow
 def test_two_studies_started_together_never_duplicate_a_row(tmp_path: Path) -> None:
     """Started at the same moment: whichever gets the folder runs; the other is refused, or
     (if the first was already done) finds nothing left to run. Never a row twice."""
@@ -289,6 +293,7 @@ def test_an_early_failure_leaves_no_lock(tmp_path: Path, refusals: Refusals) -> 
                  [other], "found a study in")
 
 
+@pytest.mark.slow
 def test_a_killed_runs_temporary_files_are_removed(tmp_path: Path) -> None:
     """A process killed (SIGKILL) between creating a temporary file and renaming it leaves
     `.summary.md.<pid>-….tmp`; the next study of the folder removes it, and leaves alone the
@@ -313,6 +318,7 @@ def test_a_killed_runs_temporary_files_are_removed(tmp_path: Path) -> None:
     assert sorted(path.name for path in folder.glob(".*")) == [live.name]
 
 
+@pytest.mark.slow
 def test_sigterm_stops_a_study_as_ctrl_c(tmp_path: Path) -> None:
     """SIGTERM mid-study: exit 143 with one line, no lock and no temporary file left, every
     recorded trial whole; the same study then resumes, each trial once."""

@@ -53,6 +53,7 @@ def _sweep(count: int) -> str:
     ],
     ids=["trials", "workspace", "sweep", "trials in all", "--trials in all"],
 )
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["study", "check"])
 def test_a_study_too_big(command: str, study: str, flags: list[str], match: str,
                          tmp_path: Path, refusals: Refusals) -> None:

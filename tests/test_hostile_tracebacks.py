@@ -123,6 +123,7 @@ def test_a_read_only_folder(csv_path: Path, tmp_path: Path, refusals: Refusals) 
         locked.chmod(0o755)
 
 
+@pytest.mark.slow
 def test_a_full_disk(csv_path: Path, tmp_path: Path, refusals: Refusals) -> None:
     """A write that fails half-way (a file-size limit stands in for a full disk: the same
     OSError from write()) is one line naming the file and the operation; nothing is left."""
@@ -202,6 +203,7 @@ def test_a_broken_robot_file(text: str, match: str, tmp_path: Path, csv_path: Pa
     ],
     ids=["1e9 poses", "5000 dotted keys"],
 )
+@pytest.mark.slow
 def test_a_broken_scenario(change: str, match: str, tmp_path: Path, refusals: Refusals) -> None:
     """A scenario asking for 1e9 poses, or keys nested 5000 deep without a bracket."""
     scenario = tmp_path / "scenario.toml"

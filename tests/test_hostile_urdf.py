@@ -189,6 +189,7 @@ def test_an_attribute_is_quoted_short(tmp_path: Path, refusals: Refusals) -> Non
     assert len(error) < 300
 
 
+@pytest.mark.slow
 def test_a_urdf_too_big_for_pinocchio(tmp_path: Path, refusals: Refusals) -> None:
     """urdfdom's parse grows quadratically with the links (10 000: 3.6 s, 40 000: 53 s) and a
     chain 4000 deep overflows its stack: more than MAX_URDF_ELEMENTS links, or joints, or a

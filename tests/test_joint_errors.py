@@ -54,6 +54,7 @@ def core_case(irb120: RobotModel, port_m: np.ndarray, true_delta: np.ndarray
     return model, x_true, noisy
 
 
+@pytest.mark.slow
 def test_extended_fit_recovers_the_flange_and_scipy_agrees(
     irb120: RobotModel, core_case: tuple[object, np.ndarray, Measurements]
 ) -> None:
@@ -92,6 +93,7 @@ def test_extended_fit_recovers_the_flange_and_scipy_agrees(
     assert apart < 0.1 * bound_m
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["ekf", "amlm", "amlm-bipso"])
 def test_the_papers_methods_run_on_the_extended_problem(
     irb120: RobotModel, core_case: tuple[object, np.ndarray, Measurements], method: str
@@ -267,6 +269,7 @@ def test_user_mistakes(argv: list[str], message: str, csv_path: Path, capture: P
     assert not (tmp_path / "p.csv").exists()
 
 
+@pytest.mark.slow
 def test_errors_auto_chooses_and_reports(capture: Path, tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:
     """--errors auto fits the nested models on the same split, prints the table and writes the
@@ -426,6 +429,7 @@ def test_identify_names_what_the_extended_model_cannot_see(
     assert "Identified joint-level errors" in printed
 
 
+@pytest.mark.slow
 def test_link_compliance_holds_masses_off_link_by_link(tmp_path: Path) -> None:
     """Soft servos (the compliance regime) with the masses 20 % off link by link: compliance
     split by link predicts the twin's physical flange within 3× its predicted accuracy, closer

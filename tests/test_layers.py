@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from twin.distribution import EXTRAS
 
 PACKAGE = Path(__file__).resolve().parents[1] / "twin"
@@ -44,6 +46,7 @@ def modules() -> dict[str, Path]:
     return found
 
 
+@pytest.mark.slow
 def test_pure_modules_import_without_the_adapters_libraries() -> None:
     """In an interpreter where mujoco, pinocchio, rerun, serial, minimalmodbus, pymodbus and
     dask cannot be imported, every module but the adapters and the top imports."""

@@ -58,6 +58,7 @@ def test_repeat_readings_measure_the_noise(irb120: RobotModel, true_robot: Robot
     assert result.misfit.noise_m == pytest.approx(5e-5, rel=0.3)
 
 
+@pytest.mark.slow
 def test_the_robots_repeatability_is_noise() -> None:
     """The twin's joint jitter (0.01 mm RMS at the flange) on a 0.002 mm encoder: a D-H fit
     leaves about the r/√3 the stated noise of a reading adds (the twin's MuJoCo jitter is the
@@ -106,6 +107,7 @@ def _flags(scenario: Scenario, seeds: range, scale: float = 0.0) -> int:
     return flagged
 
 
+@pytest.mark.slow
 def test_the_test_flags_what_a_dh_model_misses_and_is_quiet_on_clean_data(
         tmp_path: Path) -> None:
     """On the twin: clean data (the model explains them) are flagged in at most 1 of 10 seeds

@@ -44,6 +44,7 @@ def test_lookup_takes_names_and_aliases_and_lists_the_choices() -> None:
         Registry("colour", {"red": 1}, aliases={"b": "blue"})
 
 
+@pytest.mark.slow
 def test_a_lazy_member_is_imported_when_first_asked_for() -> None:
     """Registering an adapter's member does not import its module; asking for it does."""
     code = ("import sys\n"

@@ -65,6 +65,7 @@ def test_a_result_that_cannot_be_right_is_refused(
         load_result(path, irb120)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["position", "point", "stations"])
 def test_results_of_every_rig_rebuild_their_model(tmp_path: Path, irb120: RobotModel,
                                                   kind: str) -> None:

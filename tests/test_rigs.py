@@ -140,6 +140,7 @@ def test_a_port_50_mm_off_is_reported_as_a_misfit() -> None:
     assert likely_causes(split, wrong)[0].name == "the port position"
 
 
+@pytest.mark.slow
 def test_tracker_positions_recover_the_target_and_the_frame() -> None:
     """Tracker data with an unknown tracker frame and target: the target's predicted position
     modulo the unobservable motions (named: the turn about and shift along joint 1's axis) is
@@ -161,6 +162,7 @@ def test_tracker_positions_recover_the_target_and_the_frame() -> None:
     assert _gauge_free_points(model, referee, null, q, _true_points(sim, q)) < 2 * bound
 
 
+@pytest.mark.slow
 def test_fixed_points_predict_the_tool_point_on_new_configurations() -> None:
     """A ball bar (sockets 50 mm apart) at three places: the ball's predicted position on
     held-out configurations, modulo the turn about and shift along joint 1's axis, is within 2×
@@ -195,6 +197,7 @@ def test_the_unknown_port_regime_is_within_the_bound_modulo_the_gauge() -> None:
     assert errors.flange_gauge_free_m < 2 * bound < errors.flange_m, (errors, bound)
 
 
+@pytest.mark.slow
 def test_stations_with_unknown_ports() -> None:
     """Three stations, every port estimated: gauge-free flange error within 2× the bound, the
     referee's likewise, and rows from each station."""
@@ -280,6 +283,7 @@ def test_the_few_poses_rule_counts_readings() -> None:
         warn_few_poses(48, 24, ("dh",))
 
 
+@pytest.mark.slow
 def test_predict_gives_what_the_tracker_reads(tmp_path: Path) -> None:
     """`twin predict` on a tracker result writes the target in the tracker frame
     (tracker_x,y,z) beside the base frame: against the twin's noise-free truth it is within the
@@ -304,6 +308,7 @@ def test_predict_gives_what_the_tracker_reads(tmp_path: Path) -> None:
     assert 0.5 * 0.01 < scatter < 1.5 * 0.01, scatter
 
 
+@pytest.mark.slow
 def test_export_and_compensate_say_what_the_data_could_not_pin(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """With the eyelet estimated the flange is seen only up to a shift along its own axes, and

@@ -169,6 +169,7 @@ def test_the_parsers_read_the_documented_answers() -> None:
         {"value": "3"}
 
 
+@pytest.mark.slow
 def test_the_virtual_controller_answers_as_the_documentation_says(
         cell: dict[str, object], tmp_path: Path) -> None:
     """Read with requests and a reader written here: a digest challenge, then the documented
@@ -218,6 +219,7 @@ def documented(request: dict[str, object], version: int) -> bool:
             and request["content_type"] == protocol.form_type(version))
 
 
+@pytest.mark.slow
 def test_a_40_pose_plan_unattended_killed_and_resumed(cell: dict[str, object],
                                                       tmp_path: Path) -> None:
     """`twin capture --robot-source rws://…` against the virtual controller: SIGKILLed after
@@ -294,6 +296,7 @@ def short_plan(cell: dict[str, object], tmp_path: Path, n: int = 3) -> Path:
     return plan
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fault", ["unreachable", "auth", "creep", "refuse"])
 def test_controller_faults_are_one_line_and_lose_nothing(
         fault: str, cell: dict[str, object], tmp_path: Path,
@@ -343,6 +346,7 @@ def test_the_robot_program_is_named_once_it_is_written(
     assert "robot program" not in captured.out and not out.exists()
 
 
+@pytest.mark.slow
 def test_rws2_over_https_with_the_controllers_ca(cell: dict[str, object], tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     """RWS 2.0: HTTPS with a certificate from a CA made here, basic authentication, HAL JSON
@@ -377,6 +381,7 @@ def test_rws2_over_https_with_the_controllers_ca(cell: dict[str, object], tmp_pa
     assert made and all(documented(r, 2) for r in made)
 
 
+@pytest.mark.slow
 def test_jogging_without_a_program_reads_the_joints_once_they_stand_at_the_pose(
         cell: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """--jog: nobody types; a pose jogged 1° off is not taken ("keep jogging"), the pose jogged
@@ -412,6 +417,7 @@ def test_jogging_without_a_program_reads_the_joints_once_they_stand_at_the_pose(
     assert np.max(np.abs(rows(out)[:, 1:7] - jogged)) < 1e-9
 
 
+@pytest.mark.slow
 def test_twin_virtual_controller_serves_as_a_process(cell: dict[str, object],
                                                      tmp_path: Path) -> None:
     """The command prints its URL; the jointtarget it serves is home; SIGTERM stops it."""

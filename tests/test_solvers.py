@@ -47,6 +47,7 @@ def test_registry_has_the_paper_methods_in_order_with_aliases() -> None:
     assert list(SOLVERS)[:9] == list(PAPER_METHODS)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", PAPER_METHODS)
 def test_every_method_lowers_the_validation_rmse(
     results: dict[str, CalibrationResult], method: str

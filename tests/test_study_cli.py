@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from test_study import recorded, with_study, write_scenario
 
 TRIALS = 16
@@ -37,6 +38,7 @@ def wait_for_more_than(out: Path, count: int, process: subprocess.Popen[bytes]) 
     raise AssertionError(f"no trial beyond {count} within {WAIT_S} s")
 
 
+@pytest.mark.slow
 def test_interrupted_and_killed_runs_resume_to_every_trial_once(tmp_path: Path) -> None:
     """Ctrl-C (SIGINT) stops a run with exit code 130; SIGKILL of the whole process group stops
     another mid-write if it must; the third run finishes the rest. Each trial then has one row
@@ -74,6 +76,7 @@ def test_interrupted_and_killed_runs_resume_to_every_trial_once(tmp_path: Path) 
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_rerun_recording_holds_each_trial_and_the_summary(tmp_path: Path) -> None:
     """With --rerun-save, each trial's table is logged on the `trial` timeline as it lands and
     the summary as the report; the .rrd is read back with Rerun's own reader."""

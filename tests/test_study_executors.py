@@ -46,6 +46,7 @@ def calm(tmp_path_factory: pytest.TempPathFactory) -> tuple[StudyPlan, Path]:
     return plan, folder / "out"
 
 
+@pytest.mark.slow
 def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Path]) -> None:
     """SIGKILL of a busy worker process breaks the pool; its batches run again on a fresh pool
     and every trial is recorded exactly once, with the same numbers as an undisturbed run."""
@@ -68,6 +69,7 @@ def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Pat
     assert "12/12 trials" in stream.getvalue()
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_survives_a_killed_worker(
     tmp_path: Path, calm: tuple[StudyPlan, Path]
 ) -> None:

@@ -96,6 +96,7 @@ def test_initial_swarm_is_within_1mm_1deg_of_the_centre() -> None:
     assert np.all(np.max(np.abs(x - center), axis=0) > 0.9 * radius)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("iterations", [2, 10, None])
 def test_a_swarm_never_returns_worse_than_its_start(iterations: int | None) -> None:
     """PSO stopped after 2 or 10 iterations, or run to its own test, on three seeds of the

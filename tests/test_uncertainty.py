@@ -14,7 +14,6 @@ from twin.analysis.uncertainty import (
     predicted_flange_rms,
     residual_sigma,
     rms_distance,
-    workspace_grid,
 )
 from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
@@ -77,16 +76,6 @@ def test_residual_sigma_divides_by_the_degrees_of_freedom() -> None:
     assert residual_sigma(np.array([3.0, 4.0, 0.0]), 2) == pytest.approx(5.0)
     with pytest.raises(ValueError):
         residual_sigma(np.ones(3), 3)
-
-
-def test_workspace_grid_spans_joints_2_and_3(irb120: RobotModel) -> None:
-    """A 5×5 grid from limit to limit on q2 and q3, the other joints at zero."""
-    q2, q3, q = workspace_grid(irb120, 5)
-    assert q.shape == (25, 6)
-    assert q[:, 1].min() == irb120.lower_rad[1] and q[:, 2].max() == irb120.upper_rad[2]
-    assert np.all(q[:, [0, 3, 4, 5]] == 0)
-    np.testing.assert_array_equal(q[:5, 1], q2[0])
-    np.testing.assert_array_equal(q[:5, 2], q3)
 
 
 def test_calibration_carries_covariance_and_an_honest_accuracy(

@@ -235,6 +235,7 @@ def test_bad_port_is_a_usage_error(capture: Path, capsys: pytest.CaptureFixture[
                                        "a TCP port in 1..65535\n")
 
 
+@pytest.mark.slow
 def test_cli_does_not_import_rerun_without_a_flag(capture: Path) -> None:
     """Building the CLI and calibrating without --rerun-* never loads rerun."""
     code = (
@@ -247,6 +248,7 @@ def test_cli_does_not_import_rerun_without_a_flag(capture: Path) -> None:
     assert done.returncode == 0, done.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(rerun_executable() is None, reason="needs the rerun executable")
 def test_serve_prints_the_url_and_serves_until_interrupted(capture: Path, tmp_path: Path) -> None:
     """--rerun-serve: URL on stderr, web viewer and data on 127.0.0.1, clean exit on Ctrl-C."""

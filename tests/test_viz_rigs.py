@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tests.test_viz_rerun import column, read_rrd, scalars
 from twin.cli import main
@@ -36,6 +37,7 @@ def test_rejected_rows_are_shown(tmp_path: Path) -> None:
     assert np.all(np.abs(scalars(batches, path)) > 0.09)  # beyond 3 scales of 0.03 mm
 
 
+@pytest.mark.slow
 def test_tracker_and_fixed_points_draw_the_measured_points(tmp_path: Path) -> None:
     """Tracker targets and ball positions are drawn per pose under world/measured, one residual
     per pose (the length of its three rows), and the fixed points under world/fixed_points."""

@@ -29,10 +29,6 @@ from twin.analysis.unseen import Unseen, unseen_directions
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import Model
-from twin.robot import RobotModel
-
-WORKSPACE_POSES = 1000
-"""Random poses within the joint limits over which the flange accuracy is predicted."""
 
 
 def parameter_covariance(jacobian: ArrayLike, sigma_m: float, rtol: float = RANK_RTOL) -> Array:
@@ -149,23 +145,6 @@ def parameter_sigma(covariance: ArrayLike, base: ArrayLike) -> Array:
     index = np.asarray(base, dtype=np.intp)
     sigma[index] = np.sqrt(variance[index])
     return sigma
-
-
-def workspace_grid(robot: RobotModel, n_per_axis: int) -> tuple[Array, Array, Array]:
-    """A grid over joints 2 and 3 within their limits, the other joints at 0.
-
-    These two joints set the reach and height of the wrist; the map over them shows where
-    in the workspace a calibration is accurate.
-
-    Returns:
-        ``(q2_rad, q3_rad, q_rad)``: axes (n_per_axis,) each, and poses
-        (n_per_axis², n) with q2 varying slowest.
-    """
-    q2 = np.linspace(robot.lower_rad[1], robot.upper_rad[1], n_per_axis)
-    q3 = np.linspace(robot.lower_rad[2], robot.upper_rad[2], n_per_axis)
-    q = np.zeros((n_per_axis * n_per_axis, robot.n_joints))
-    q[:, 1], q[:, 2] = (axis.ravel() for axis in np.meshgrid(q2, q3, indexing="ij"))
-    return q2, q3, q
 
 
 def cramer_rao_covariance(model: Model, x_true: ArrayLike, data: Measurements, sigma_m: float,

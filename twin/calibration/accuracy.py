@@ -17,10 +17,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
-from twin.analysis.uncertainty import WORKSPACE_POSES, rms_distance
+from twin.analysis.uncertainty import rms_distance
+from twin.analysis.workspace import WORKSPACE_POSES, within
 from twin.arrays import Array
 from twin.calibration.result import CalibrationResult
-from twin.robot import RobotModel, random_poses
+from twin.robot import RobotModel
 
 
 class TruthErrors(NamedTuple):
@@ -90,8 +91,12 @@ def truth_errors(result: CalibrationResult, true_flange_m: ArrayLike, true_point
 
 def workspace_truth_errors(result: CalibrationResult, true_robot: RobotModel,
                            true_attachment_m: ArrayLike) -> TruthErrors:
-    """:func:`truth_errors` over :data:`twin.calibration.pipeline.WORKSPACE_POSES` random poses
-    drawn with the calibration's seed."""
-    q_workspace = random_poses(result.robot, WORKSPACE_POSES, np.random.default_rng(result.seed))
+    """:func:`truth_errors` over the calibration's workspace (the joint ranges of its training
+    poses, :mod:`twin.analysis.workspace`); for a result made without one, poses within the
+    joint limits drawn with the calibration's seed."""
+    workspace = result.workspace or within(result.robot.lower_rad, result.robot.upper_rad,
+                                           WORKSPACE_POSES, np.random.default_rng(result.seed),
+                                           "the joint limits")
+    q_workspace = workspace.q_rad
     return truth_errors(result, *rigid_truth(true_robot, true_attachment_m, q_workspace),
                         q_workspace)

@@ -1,12 +1,12 @@
 """What a measurement set identifies, and how well (`twin identify`).
 
 At the nominal geometry: rank, condition and the unidentifiable combinations of the unknowns,
-observability indices and the Cramér–Rao bound on the flange position over the workspace — or,
-when the data do not pin the flange (an estimated attachment lets it slide under the point they
-measure), on the measured point's. Then a calibration with the method `twin calibrate` runs by
-default (the same fit, so the same noise estimate, in both commands), and the same at the
-identified geometry, with per-parameter standard deviations and a map of the predicted flange
-error over joints 2 and 3.
+observability indices and the Cramér–Rao bound on the flange position over the workspace the
+data cover — or, when the data do not pin the flange (an estimated attachment lets it slide
+under the point they measure), on the measured point's. Then a calibration with the method
+`twin calibrate` runs by default (the same fit, so the same noise estimate, in both commands),
+and the same at the identified geometry, with per-parameter standard deviations and a map of
+the predicted flange error over joints 2 and 3.
 """
 
 from __future__ import annotations
@@ -16,12 +16,8 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
-from twin.analysis.uncertainty import (
-    WORKSPACE_POSES,
-    cramer_rao_rms,
-    flange_sigma,
-    workspace_grid,
-)
+from twin.analysis.uncertainty import cramer_rao_rms, flange_sigma
+from twin.analysis.workspace import MEASURED_RANGES, Workspace, data_workspace
 from twin.arrays import Array
 from twin.calibration.pipeline import solve_many
 from twin.calibration.result import CalibrationResult, SplitProblem
@@ -30,7 +26,7 @@ from twin.choices import DEFAULT_METHOD
 from twin.dataset import Measurements
 from twin.design.optimal import DesignScore, score_poses
 from twin.model import Model
-from twin.robot import RobotModel, random_poses
+from twin.robot import RobotModel
 
 MAP_GRID = 41
 """Grid points per axis of the accuracy map over joints 2 and 3."""
@@ -47,6 +43,8 @@ class Assessment(NamedTuple):
     """Observability and the Cramér–Rao flange RMS over the workspace, nominal geometry."""
     result: CalibrationResult
     """The calibration (its identifiability and uncertainty at the identified geometry)."""
+    workspace: Workspace
+    """Where the accuracy is stated: within the joint ranges of the measured poses."""
     point_bound_m: float | None
     """When the data do not pin the flange (:attr:`pinned`), the Cramér–Rao bound on the RMS
     error of the measured point over the workspace, m, nominal geometry; else None."""
@@ -72,24 +70,27 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
     model = split.problem.model
     data = match_ports(measurements, model.rig)
     x0 = np.zeros(model.n_params)
-    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
+    workspace = data_workspace(data.q_rad, np.random.default_rng(seed), covers=MEASURED_RANGES)
     nominal = measurement_identifiability(model, x0, data)
     score = score_poses(model, x0, data.q_rad, nominal.base_mask, split.problem.sigma_m,
-                        q_workspace)
-    point = cramer_rao_rms(model, x0, data, split.problem.sigma_m, q_workspace)[1] \
+                        workspace.q_rad)
+    point = cramer_rao_rms(model, x0, data, split.problem.sigma_m, workspace.q_rad)[1] \
         if model.has("attachment") else None
     result = solve_many(robot, split, [method], seed=seed)[method]
-    return Assessment(data, nominal, score, result, point)
+    return Assessment(data, nominal, score, result, workspace, point)
 
 
-def flange_error_map(model: Model, x: Array, covariance: Array, n_per_axis: int = MAP_GRID,
-                     *, measured: bool = False) -> tuple[Array, Array, Array]:
-    """The predicted flange error over a grid of joints 2 and 3, the other joints at 0.
+def flange_error_map(model: Model, x: Array, covariance: Array, workspace: Workspace,
+                     n_per_axis: int = MAP_GRID, *, measured: bool = False
+                     ) -> tuple[Array, Array, Array]:
+    """The predicted flange error over a grid of joints 2 and 3 within the workspace's ranges,
+    the other joints at the middle of theirs (:meth:`twin.analysis.workspace.Workspace.grid`).
 
     Args:
         model: The calibrated model.
         x: Its unknowns, shape (p,).
         covariance: Their covariance, shape (p, p).
+        workspace: The joint ranges the map spans.
         n_per_axis: Grid points per joint.
         measured: The measured point's error instead of the flange's (for data that do not
             pin the flange).
@@ -98,7 +99,7 @@ def flange_error_map(model: Model, x: Array, covariance: Array, n_per_axis: int 
         ``(q2_rad, q3_rad, error_m)``: the grid's axes (a,) and (b,), rad, and the predicted
         RMS position error, shape (a, b), m.
     """
-    q2, q3, q = workspace_grid(model.robot, n_per_axis)
+    q2, q3, q = workspace.grid(n_per_axis)
     poses = model.poses(q)
     jacobian = model.position_jacobian(x, poses) if measured \
         else model.flange_jacobian(x, poses)

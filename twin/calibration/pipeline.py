@@ -26,7 +26,8 @@ from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
 from twin.analysis.metrics import Metrics, metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
-from twin.analysis.uncertainty import WORKSPACE_POSES, calibration_uncertainty
+from twin.analysis.uncertainty import calibration_uncertainty
+from twin.analysis.workspace import data_workspace
 from twin.arrays import Array
 from twin.calibration.held_out import held_out_residuals
 from twin.calibration.hold import Held, hold_unseen
@@ -36,7 +37,7 @@ from twin.calibration.setup import DEFAULT_SETTINGS, make_problem
 from twin.dataset import Measurements
 from twin.problem import Problem
 from twin.rig import Rig
-from twin.robot import RobotModel, random_poses
+from twin.robot import RobotModel
 from twin.solvers import Solver, SolverResult, get_solver
 from twin.stopping import Budget
 
@@ -144,7 +145,8 @@ def solve_many(
     solvers = [get_solver(name) for name in methods]
     nominal = measurement_identifiability(split.problem.model, split.problem.x0,
                                           split.problem.train)
-    q_workspace = random_poses(robot, WORKSPACE_POSES, np.random.default_rng(seed))
+    workspace = data_workspace(split.problem.train.q_rad, np.random.default_rng(seed))
+    q_workspace = workspace.q_rad
     results = {}
     for solver in solvers:
         problem, solved, held = _solve(solver, split.problem, split.settings.budget, seed,
@@ -170,6 +172,7 @@ def solve_many(
             held=held,
             held_out=split.held_out,
             noise=split.noise,
+            workspace=workspace,
             row_sigma=problem.row_sigma(problem.train) if problem.in_variables else None,
         )
         if on_result is not None:

@@ -15,6 +15,7 @@ from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import Misfit
 from twin.analysis.uncertainty import CalibrationUncertainty
 from twin.analysis.unseen import Unseen
+from twin.analysis.workspace import Workspace
 from twin.arrays import Array
 from twin.calibration.hold import Held
 from twin.calibration.noise import NoiseEstimate
@@ -61,6 +62,8 @@ class CalibrationResult:
         noise: How σ was estimated from the data (``settings.sigma_auto``), or None.
         row_sigma: The noise 1σ of each training row the fit weighted it by, shape (M,), m,
             when the joints' noise entered them (errors in variables); None otherwise.
+        workspace: Where the accuracy is stated: poses within the joint ranges of the
+            training poses (:mod:`twin.analysis.workspace`).
     """
 
     robot: RobotModel
@@ -82,6 +85,7 @@ class CalibrationResult:
     held_out: str = ""
     noise: NoiseEstimate | None = None
     row_sigma: Array | None = None
+    workspace: Workspace | None = None
 
     @property
     def validated(self) -> bool:

@@ -127,17 +127,16 @@ def _truth(inputs: Inputs, result: CalibrationResult) -> tuple[TruthErrors | Non
 def _bound_line(assessment: Assessment, sigma_m: float) -> str:
     """The Cramér–Rao bound over the workspace: of the flange, or of the measured point when
     the data do not pin the flange."""
-    from twin.analysis.uncertainty import WORKSPACE_POSES
     from twin.report.display import SIGNIFICANT, mm
 
     where = f"at σ = {mm(sigma_m, significant=SIGNIFICANT)}: "
     if assessment.pinned:
-        return (f"  Cramér–Rao bound {where}flange RMS error over {WORKSPACE_POSES} workspace "
-                f"poses {mm(assessment.score.flange_rms_m)}")
+        return (f"  Cramér–Rao bound {where}flange RMS error over the workspace "
+                f"{mm(assessment.score.flange_rms_m)}")
     assert assessment.point_bound_m is not None
-    return (f"  Cramér–Rao bound {where}RMS error of the measured point over {WORKSPACE_POSES} "
-            f"workspace poses {mm(assessment.point_bound_m)} (the flange is not pinned by "
-            "these data: no flange figure)")
+    return (f"  Cramér–Rao bound {where}RMS error of the measured point over the workspace "
+            f"{mm(assessment.point_bound_m)} (the flange is not pinned by these data: no "
+            "flange figure)")
 
 
 def _held_out_rmse(result: CalibrationResult) -> str:
@@ -171,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
     split = make_split(inputs, data, args.seed)
     method = _one_method(args.method)
     assessment = assess(robot, split, data, seed=args.seed, method=method)
-    data, nominal, score, result, _ = assessment
+    data, nominal, score, result = assessment[:4]
     model = split.problem.model
     indices = score.observability
     lines = [
@@ -185,6 +184,7 @@ def run(args: argparse.Namespace) -> int:
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
         _bound_line(assessment, inputs.calibration.sigma_m),
+        f"  workspace: {assessment.workspace.describe()}",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty
@@ -212,10 +212,10 @@ def run(args: argparse.Namespace) -> int:
     if args.map:
         what = "flange" if assessment.pinned else "measured point"
         save_png(accuracy_map(*flange_error_map(result.model, result.solver.x,
-                                                uncertainty.covariance,
+                                                uncertainty.covariance, assessment.workspace,
                                                 measured=not assessment.pinned),
                               f"{robot.name}: predicted {what} error after {method}, "
-                              f"{len(data)} poses (q1 = q4 = q5 = q6 = 0)"), args.map)
+                              f"{len(data)} poses (the other joints mid-range)"), args.map)
         print(f"map: {args.map}")
     if args.json:
         write_json(args.json, assessment_to_dict(

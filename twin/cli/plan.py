@@ -255,7 +255,7 @@ def _sigma(args: argparse.Namespace) -> str:
 
 def _ports_report(args: argparse.Namespace, robot: RobotModel, model: Model,
                   ports_m: NDArray[np.float64], plan: PortPlan) -> str:
-    from twin.analysis.uncertainty import WORKSPACE_POSES
+    from twin.analysis.workspace import WORKSPACE_POSES
     from twin.report.display import AS_GIVEN, mm, mm_values
 
     choice, chosen = plan.choice, plan.choice.plans[plan.choice.best]
@@ -285,7 +285,7 @@ def _stations_report(args: argparse.Namespace, robot: RobotModel, model: Model, 
                      plan: StationsPlan) -> str:
     import numpy as np
 
-    from twin.analysis.uncertainty import WORKSPACE_POSES
+    from twin.analysis.workspace import WORKSPACE_POSES
 
     used = np.bincount(plan.port, minlength=len(rig.ports_m))
     return "\n".join([

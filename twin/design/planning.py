@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.analysis.uncertainty import WORKSPACE_POSES
+from twin.analysis.workspace import WORKSPACE_POSES
 from twin.arrays import Array
 from twin.design.optimal import DesignScore, PortChoice, choose_port, plan_stations, score_poses
 from twin.model import Model

@@ -47,6 +47,43 @@ def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _carry(table: Array, plan: Array, cos: Array, sin: Array, k: int, start: Array, kp: int,
+           p: Array, before: Array, keep: bool) -> None:
+    """Carry the point from the flange to the base for table k into ``p`` (3, m); with
+    ``keep``, the point in the frame before each rotation into ``before`` (motions, 3, m)."""
+    m = p.shape[1]
+    for axis in range(3):
+        for i in range(m):
+            p[axis, i] = start[kp, axis]
+    for index in range(plan.shape[0] - 1, -1, -1):
+        kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
+        if kind == 1:
+            value = table[k, slot, joint]
+            for i in range(m):
+                p[axis, i] += value
+            continue
+        ja, jb = (axis + 1) % 3, (axis + 2) % 3
+        for i in range(m):
+            c, s = cos[index, i], sin[index, i]
+            pa, pb = p[ja, i], p[jb, i]
+            p[ja, i] = c * pa - s * pb
+            p[jb, i] = s * pa + c * pb
+        if keep:
+            for row in range(3):
+                for i in range(m):
+                    before[index, row, i] = p[row, i]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _to_base(base: Array, p: Array, out: Array, k: int) -> None:
+    """out[k] = the points p (3, m) in the base frame, (m, 3)."""
+    for i in range(p.shape[1]):
+        for row in range(3):
+            out[k, i, row] = (base[row, 0] * p[0, i] + base[row, 1] * p[1, i]
+                              + base[row, 2] * p[2, i] + base[row, 3])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def positions(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base: Array
               ) -> Array:
     """The point in the base frame for K tables at m poses.
@@ -64,29 +101,12 @@ def positions(table: Array, plan: Array, cq: Array, sq: Array, start: Array, bas
     tables, m = table.shape[0], cq.shape[2]
     out = np.empty((tables, m, 3))
     p = np.empty((3, m))
+    unused = np.empty((0, 3, m))
     for k in range(tables):
         kq, kp = min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1)
         cos, sin = _angles(table, plan, cq, sq, k, kq, m)
-        for axis in range(3):
-            for i in range(m):
-                p[axis, i] = start[kp, axis]
-        for index in range(plan.shape[0] - 1, -1, -1):
-            kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
-            if kind == 1:
-                value = table[k, slot, joint]
-                for i in range(m):
-                    p[axis, i] += value
-                continue
-            ja, jb = (axis + 1) % 3, (axis + 2) % 3
-            for i in range(m):
-                c, s = cos[index, i], sin[index, i]
-                pa, pb = p[ja, i], p[jb, i]
-                p[ja, i] = c * pa - s * pb
-                p[jb, i] = s * pa + c * pb
-        for i in range(m):
-            for row in range(3):
-                out[k, i, row] = (base[row, 0] * p[0, i] + base[row, 1] * p[1, i]
-                                  + base[row, 2] * p[2, i] + base[row, 3])
+        _carry(table, plan, cos, sin, k, start, kp, p, unused, False)
+        _to_base(base, p, out, k)
     return out
 
 
@@ -117,29 +137,8 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base
         kq, kp, kw = (min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1),
                       min(k, directions.shape[0] - 1))
         cos, sin = _angles(table, plan, cq, sq, k, kq, m)
-        for axis in range(3):
-            for i in range(m):
-                p[axis, i] = start[kp, axis]
-        for index in range(motions - 1, -1, -1):
-            kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
-            if kind == 1:
-                value = table[k, slot, joint]
-                for i in range(m):
-                    p[axis, i] += value
-                continue
-            ja, jb = (axis + 1) % 3, (axis + 2) % 3
-            for i in range(m):
-                c, s = cos[index, i], sin[index, i]
-                pa, pb = p[ja, i], p[jb, i]
-                p[ja, i] = c * pa - s * pb
-                p[jb, i] = s * pa + c * pb
-            for row in range(3):
-                for i in range(m):
-                    before[index, row, i] = p[row, i]
-        for i in range(m):
-            for row in range(3):
-                position[k, i, row] = (base[row, 0] * p[0, i] + base[row, 1] * p[1, i]
-                                       + base[row, 2] * p[2, i] + base[row, 3])
+        _carry(table, plan, cos, sin, k, start, kp, p, before, True)
+        _to_base(base, p, position, k)
         for direction in range(r):
             for i in range(m):
                 iw = min(i, directions.shape[1] - 1)

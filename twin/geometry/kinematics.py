@@ -238,14 +238,27 @@ def _cos_sin(structure: Structure, dh: Array, angles: Turns
 
 
 KERNEL_VARIABLE = "TWIN_KERNEL"
-"""Environment variable choosing the kernel: ``numpy`` forces the numpy path; unset or
-``auto`` takes the compiled one (:mod:`twin.geometry.compiled`) when numba is installed."""
+"""Environment variable choosing the kernel: ``numpy``, ``numba`` (the compiled one,
+:mod:`twin.geometry.compiled`, when numba is installed), or ``auto`` (the default): the
+compiled one in a process that declared bulk work (:func:`for_bulk_work`), numpy elsewhere."""
+_BULK = [False]
+
+
+def for_bulk_work() -> None:
+    """Take the compiled kernel from now on in this process under ``TWIN_KERNEL=auto``: a
+    process that evaluates many calibrations (a study's worker) pays numba's import (about half
+    a second of CPU) once and gains on every one, while a single command would pay more to
+    import it than the kernel saves (an LM fit takes milliseconds)."""
+    _BULK[0] = True
+    _compiled.cache_clear()
 
 
 @cache
 def _compiled() -> Any:
-    """The compiled kernel's module, or None (numba not installed, or ``TWIN_KERNEL=numpy``)."""
-    if os.environ.get(KERNEL_VARIABLE, "auto") == "numpy":
+    """The compiled kernel's module, or None (numba not installed, ``TWIN_KERNEL=numpy``, or
+    ``auto`` outside bulk work)."""
+    mode = os.environ.get(KERNEL_VARIABLE, "auto")
+    if mode == "numpy" or (mode != "numba" and not _BULK[0]):
         return None
     try:
         from twin.geometry import compiled

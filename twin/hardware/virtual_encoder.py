@@ -265,6 +265,11 @@ def serve(instrument: MeasuringHead, protocol: str, *, slave_id: int = 1, garbag
     """
     if protocol not in ENCODERS:
         raise UnknownChoiceError("protocol", protocol, ENCODERS)
+    # One length before the device answers: the first loads the kinematics kernel (the
+    # compiled one's cached code takes up to a second), which a driver's first read must not
+    # wait for.
+    home = np.zeros(instrument.n_joints)
+    instrument.lengths_m(home[None, :], home)
 
     def default_announce(path: str) -> None:
         print(path, flush=True)

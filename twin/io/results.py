@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
+from twin.analysis.workspace import Workspace
 from twin.calibration.crossval import CrossValidation
 from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import ErrorChoice
@@ -121,9 +122,19 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
                 _mm(model.block(uncertainty.sigma, "offset")))[0]
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
+        if result.workspace is not None:
+            fields["workspace"] = workspace_to_dict(result.workspace)
         if model.has("attachment"):
             fields["predicted_point_rms"] = _mm(uncertainty.point_rms_m)[0]
     return fields
+
+
+def workspace_to_dict(workspace: Workspace) -> dict[str, Any]:
+    """The ``workspace`` JSON object: where the predicted and true flange errors are stated —
+    how many poses, within which joint ranges (degrees), covering what."""
+    return {"poses": len(workspace.q_rad), "covers": workspace.covers,
+            "lower_deg": rounded(rad_to_deg(workspace.lower_rad), FILE_DEG_DECIMALS),
+            "upper_deg": rounded(rad_to_deg(workspace.upper_rad), FILE_DEG_DECIMALS)}
 
 
 def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
@@ -381,6 +392,7 @@ def assessment_to_dict(assessment: Assessment, sigma_mm: float,
         "nominal": {
             **identifiability_to_dict(nominal, "nominal"),
             "observability": score.observability._asdict(),
+            "workspace": workspace_to_dict(assessment.workspace),
             "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
                                              RESULT_MM_DECIMALS)[0]
             if assessment.pinned else None,

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from twin.analysis.identifiability import WEAK_RTOL, Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
-from twin.analysis.uncertainty import WORKSPACE_POSES
+from twin.analysis.workspace import Workspace
 from twin.calibration.crossval import CrossValidation
 from twin.calibration.result import PRIOR_DECIDED, CalibrationResult
 from twin.calibration.selection import ErrorChoice
@@ -138,6 +138,8 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
         )
     if result.uncertainty is not None:
         lines.append(_accuracy_line(result))
+    if result.workspace is not None:
+        lines.append(f"  workspace: {result.workspace.describe()}")
     return lines
 
 
@@ -275,11 +277,12 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
     return lines
 
 
-def format_truth(truth: TruthErrors, point: bool = True) -> list[str]:
+def format_truth(truth: TruthErrors, point: bool = True,
+                 workspace: Workspace | None = None) -> list[str]:
     """The errors against the truth over the workspace, raw and modulo the unseen motions; the
     measured point's line only if ``point`` (an attachment off the flange or estimated)."""
-    lines = [f"  against the truth over {WORKSPACE_POSES} workspace poses: flange RMS "
-             f"{mm(truth.flange_m)}"]
+    lines = [f"  against the truth over the workspace{'' if workspace else ' poses'}: "
+             f"flange RMS {mm(truth.flange_m)}"]
     if truth.motions:
         lines[-1] += f", {mm(truth.flange_gauge_free_m)} modulo " + ", ".join(truth.motions)
     if point:
@@ -325,7 +328,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
     lines += format_noise(result)
     lines += format_fit(result, causes)
     if truth is not None:
-        lines += format_truth(truth, has_point(result))
+        lines += format_truth(truth, has_point(result), result.workspace)
     is_length = result.robot.is_length
     header = "  joint"
     for key, lengths in zip(DH_KEYS, is_length, strict=True):
@@ -499,6 +502,8 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         what = "measured point (the flange is not pinned)" if point else "flange"
         lines.append(f"  predicted {what} RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
+        if first.workspace is not None:
+            lines.append(f"  workspace: {first.workspace.describe()}")
     misfits = [name for name, result in results.items()
                if result.misfit is not None and result.misfit.misfit]
     if misfits:

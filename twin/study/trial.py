@@ -47,6 +47,7 @@ from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
 from twin.calibration.result import CalibrationResult
 from twin.dataset import approach_directions
+from twin.geometry.kinematics import for_bulk_work
 from twin.geometry.rigid import angles
 from twin.model import Model
 from twin.robot import random_poses
@@ -253,7 +254,10 @@ def _truth_columns(result: CalibrationResult, truth: tuple[Array, Array], q_work
 
 def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]
               ) -> list[TrialOutcome]:
-    """Run a batch of (case, trial) pairs; the unit of work an executor ships to a worker."""
+    """Run a batch of (case, trial) pairs; the unit of work an executor ships to a worker (whose
+    many trials pay the compiled kernel's import once: :func:`~twin.geometry.kinematics.
+    for_bulk_work`)."""
+    for_bulk_work()
     spaces: dict[str, Array] = {}
     outcomes = []
     for case, trial in batch:
