@@ -185,7 +185,7 @@ def _parse_pair(value: object, valid: Callable[[float], bool], expected: str,
 def parse_distance(value: object, source: str | Path, where: str) -> Distance:
     """``"A,B=MM"``: a known distance between the fixed points A and B, mm, to SI."""
     first, second, length_mm = _parse_pair(
-        value, lambda size: 0 < size <= m_to_mm(MAX_LENGTH_M),
+        value, lambda size: 0 < size <= float(m_to_mm(MAX_LENGTH_M)),
         "A,B=MM: two different point names and a distance in mm > 0", source, where)
     return Distance(first, second, float(mm_to_m(length_mm)))
 
