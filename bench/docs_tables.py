@@ -814,7 +814,6 @@ def plane_table() -> str:
     from twin.analysis.uncertainty import cramer_rao_rms
     from twin.calibration.accuracy import rigid_truth, truth_errors
     from twin.robot import random_poses
-    from twin.robot import random_poses
 
     scenario = load_scenario(scenario_path("plane"))
     rows = []
