@@ -27,7 +27,8 @@ from twin.arrays import Array
 def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m: int
             ) -> tuple[Array, Array]:
     """cos and sin of every motion's angle for table k at every pose, shape (motions, m) each;
-    the joint slot's is q + θ, the others the table's (the same at every pose)."""
+    the joint slot's is q + θ, the others the table's (the same at every pose): what the
+    Jacobian's directions turn by on their way out."""
     motions = plan.shape[0]
     cos = np.empty((motions, m))
     sin = np.empty((motions, m))
@@ -47,10 +48,15 @@ def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _carry(table: Array, plan: Array, cos: Array, sin: Array, k: int, start: Array, kp: int,
-           p: Array, before: Array, keep: bool) -> None:
+def _carry(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, start: Array,
+           kp: int, p: Array, before: Array, keep: bool) -> None:
     """Carry the point from the flange to the base for table k into ``p`` (3, m); with
-    ``keep``, the point in the frame before each rotation into ``before`` (motions, 3, m)."""
+    ``keep``, the point in the frame before each rotation into ``before`` (motions, 3, m).
+
+    Each rotation's cosine and sine are made where they are used: a rotation the poses do not
+    drive turns every pose by the same two numbers, the joint's turn by q + θ from the poses'
+    cos q, sin q (the angle sum, as :func:`_angles`). Written to arrays of m copies first (as
+    the Jacobian's way out needs them), they took two thirds of a swarm's positions."""
     m = p.shape[1]
     for axis in range(3):
         for i in range(m):
@@ -63,18 +69,28 @@ def _carry(table: Array, plan: Array, cos: Array, sin: Array, k: int, start: Arr
                 p[axis, i] += value
             continue
         ja, jb = (axis + 1) % 3, (axis + 2) % 3
-        for i in range(m):
-            c, s = cos[index, i], sin[index, i]
-            pa, pb = p[ja, i], p[jb, i]
-            p[ja, i] = c * pa - s * pb
-            p[jb, i] = s * pa + c * pb
+        c, s = math.cos(table[k, slot, joint]), math.sin(table[k, slot, joint])
+        if plan[index, 4]:
+            for i in range(m):
+                ci = cq[joint, kq, i] * c - sq[joint, kq, i] * s
+                si = sq[joint, kq, i] * c + cq[joint, kq, i] * s
+                pa, pb = p[ja, i], p[jb, i]
+                p[ja, i] = ci * pa - si * pb
+                p[jb, i] = si * pa + ci * pb
+        else:
+            for i in range(m):
+                pa, pb = p[ja, i], p[jb, i]
+                p[ja, i] = c * pa - s * pb
+                p[jb, i] = s * pa + c * pb
         if keep:
             for row in range(3):
                 for i in range(m):
                     before[index, row, i] = p[row, i]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+# Inlined where it is called (numba's IR): as a call it took a third of the positions' time,
+# its output possibly sharing memory with p for all the compiler could tell.
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _to_base(base: Array, p: Array, out: Array, k: int) -> None:
     """out[k] = the points p (3, m) in the base frame, (m, 3)."""
     for i in range(p.shape[1]):
@@ -104,8 +120,7 @@ def positions(table: Array, plan: Array, cq: Array, sq: Array, start: Array, bas
     unused = np.empty((0, 3, m))
     for k in range(tables):
         kq, kp = min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1)
-        cos, sin = _angles(table, plan, cq, sq, k, kq, m)
-        _carry(table, plan, cos, sin, k, start, kp, p, unused, False)
+        _carry(table, plan, cq, sq, k, kq, start, kp, p, unused, False)
         _to_base(base, p, out, k)
     return out
 
@@ -136,8 +151,8 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base
     for k in range(tables):
         kq, kp, kw = (min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1),
                       min(k, directions.shape[0] - 1))
+        _carry(table, plan, cq, sq, k, kq, start, kp, p, before, True)
         cos, sin = _angles(table, plan, cq, sq, k, kq, m)
-        _carry(table, plan, cos, sin, k, start, kp, p, before, True)
         _to_base(base, p, position, k)
         for direction in range(r):
             for i in range(m):
