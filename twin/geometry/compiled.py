@@ -183,3 +183,29 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base
                                                       + tool[1, row] * w[1, i]
                                                       + tool[2, row] * w[2, i])
     return position, columns, rotation
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def distances(points: Array, anchors: Array) -> Array:
+    """‖point − anchor‖ of every row in one pass, written as :func:`twin.arrays.lengths` is
+    (the same numbers bit for bit).
+
+    Args:
+        points: Points, shape (K, m, 3), m.
+        anchors: The anchor of each row, shape (1 or K, m, 3), m.
+
+    Returns:
+        Shape (K, m), m.
+    """
+    tables, m = points.shape[0], points.shape[1]
+    out = np.empty((tables, m))
+    for k in range(tables):
+        ka = min(k, anchors.shape[0] - 1)
+        for i in range(m):
+            x = points[k, i, 0] - anchors[ka, i, 0]
+            y = points[k, i, 1] - anchors[ka, i, 1]
+            z = points[k, i, 2] - anchors[ka, i, 2]
+            out[k, i] = x * x + y * y + z * z
+        for i in range(m):  # apart, where the compiler vectorises it: half the time
+            out[k, i] = math.sqrt(out[k, i])
+    return out

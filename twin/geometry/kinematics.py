@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array, frozen_array
+from twin.arrays import Array, frozen_array, lengths
 
 PARAMETRISATIONS = ("dh", "mdh", "hayati")
 """Per-joint parametrisations, see the module docstring."""
@@ -348,6 +348,30 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns
     position = np.stack(np.broadcast_arrays(*p), axis=-1)
     rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
     return np.asarray(position @ rotation.T + translation, dtype=np.float64)
+
+
+def distances(points_m: ArrayLike, anchors_m: ArrayLike) -> Array:
+    """The distance of each point from its anchor, ‖p − a‖ over the last axis.
+
+    Args:
+        points_m: Points, shape (..., m, 3), m.
+        anchors_m: The anchor of each row, shape (m, 3) or the points' (..., m, 3), m.
+
+    Returns:
+        Shape (..., m), m: :func:`twin.arrays.lengths` of the differences, bit for bit; in one
+        pass of the compiled kernel where it is taken (a swarm's batch of candidates: no
+        (..., m, 3) temporaries).
+    """
+    points = np.asarray(points_m, dtype=np.float64)
+    anchors = np.asarray(anchors_m, dtype=np.float64)
+    batch = points.shape[:-2]
+    compiled = _compiled()
+    if compiled is None or points.ndim < 2 or points.shape[-1] != 3 \
+            or anchors.shape not in (points.shape[-2:], points.shape):
+        return lengths(points - anchors)
+    out = compiled.distances(np.ascontiguousarray(points.reshape(-1, *points.shape[-2:])),
+                             np.ascontiguousarray(anchors.reshape(-1, *points.shape[-2:])))
+    return np.asarray(out.reshape(*batch, -1))
 
 
 def _walk(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, record: bool

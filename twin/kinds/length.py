@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, lengths
 from twin.dataset import Measurements
-from twin.geometry.kinematics import Structure, point_position
+from twin.geometry.kinematics import Structure, distances, point_position
 from twin.kinds.base import KindJacobian, no_symmetries
 from twin.rig import Rig
 
@@ -61,7 +61,7 @@ class Length:
     def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = ‖p − port‖ + offset − L, shape (..., m), m."""
-        length = lengths(positions - self._ports(values, data, rig))
+        length = distances(positions, self._ports(values, data, rig))
         if "offset" in values:
             length = length + values["offset"][..., :1]
         assert data.length_m is not None
