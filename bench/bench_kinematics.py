@@ -8,12 +8,16 @@ of each pair, side by side in one run, and their ratio:
    on all at once vs a Pinocchio model per table and ``framesForwardKinematics`` per pose;
 2. the cable residuals and their analytic Jacobian (24 D-H columns) on 96 poses, one call, vs
    Pinocchio's flange joint Jacobian (6 columns only) in a loop over the poses;
-3. compensation IK of 1000 program rows: the batched Newton vs the same solver row by row.
+3. compensation IK of 1000 program rows: the batched Newton vs the same solver row by row;
+4. the residuals and Jacobian of item 2 with joint 1 made prismatic (its q adding to d1) beside
+   the revolute chain's: what the prismatic path costs, on whichever kernel is installed.
 
 Every result pair is checked to agree before its times are printed.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -111,6 +115,22 @@ def main() -> None:
     theirs_s, looped = median_time(row_by_row, 3)
     assert np.max(np.abs(batched - looped)) < 1e-8
     report(f"compensation IK (full pose), {N_ROWS} rows", ours_s, theirs_s, "row by row")
+
+    # 4. The same chain with a prismatic joint 1, side by side with the revolute one.
+    types = ("prismatic",) + ("revolute",) * (robot.n_joints - 1)
+    sliding = replace(robot, structure=replace(robot.structure, joint_types=types))
+    q_slide = q.copy()
+    q_slide[:, 0] = rng.uniform(0.0, 0.3, len(q))
+    data_slide = synthesize(sliding.perturbed(scale * 0.5), q_slide, port_m, 1e-5, rng)
+    cable_slide = make_model(sliding, Rig.cable(port_m))
+
+    def prismatic() -> tuple[np.ndarray, np.ndarray]:
+        return cable_slide.residuals(x, data_slide), cable_slide.jacobian(x, data_slide)[1]
+
+    slide_s, _ = median_time(prismatic, 50)
+    revolute_s, _ = median_time(residuals_and_jacobian, 50)
+    report(f"cable residuals + Jacobian, {N_POSES} poses, joint 1 prismatic vs revolute",
+           revolute_s, slide_s, "prismatic")
 
 
 if __name__ == "__main__":

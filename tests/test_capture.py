@@ -190,10 +190,10 @@ def test_resume_compares_robot_models_not_their_digits(tmp_path: Path) -> None:
     rows = robot_to_toml(robot).splitlines()
     rows[5] = "  { " + columns + " },"
     (tmp_path / "robot.toml").write_text("\n".join(rows) + "\n")
-    check_folder(tmp_path, plan, q_rad, robot_to_toml(robot))
+    check_folder(tmp_path, plan, q_rad, robot)
     other = robot.perturbed(np.r_[0.0, 1e-5, np.zeros(22)])
     with pytest.raises(InputError, match="a capture of another robot model"):
-        check_folder(tmp_path, plan, q_rad, robot_to_toml(other))
+        check_folder(tmp_path, plan, q_rad, other)
 
 
 @pytest.mark.slow
@@ -369,21 +369,38 @@ def test_manual_robot_source_prompts_and_reads_reached_angles() -> None:
         robot.move_to(3, 3, target)
 
 
+def _one_port_torso(tmp_path: Path) -> Path:
+    """scenarios/geometric_torso.toml with one station (the virtual encoder serves one cable)."""
+    source = Path(__file__).parents[1] / "scenarios" / "geometric_torso.toml"
+    text = source.read_text().replace("../models", (source.parents[1] / "models").as_posix())
+    start, end = text.index("[port.stations_mm]"), text.index("[perturbation]")
+    path = tmp_path / "torso.toml"
+    path.write_text(text[:start] + "[port]\nposition_mm = [900.0, -500.0, 100.0]\n\n"
+                    + text[end:])
+    return path
+
+
 @pytest.mark.slow
-def test_a_7_joint_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path) -> None:
-    """The FR3 read from its URDF (7 joints), simulated: the capture writes pose, q1..q7,
-    length, approach1..7 rows at the twin's lengths, the URDF beside the robot file, and the
-    capture file reads back as the same robot."""
+@pytest.mark.parametrize("name", ["fr3", "torso"])
+def test_a_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path, name: str) -> None:
+    """The FR3 read from its URDF (7 joints), and the FR3 on its torso lift (8, the lift
+    prismatic: its column in mm in the plan, the pose file and the journal), simulated: the
+    capture writes pose, q1..qN, length, approach1..N rows at the twin's lengths, the URDF
+    beside the robot file, and the capture file reads back as the same robot."""
     from twin.io.robot_file import load_robot
     from twin.scenario import load_scenario
     from twin.sim import Twin, simulate
+    from twin.units import joints_to_file
 
-    scenario_path = Path(__file__).parents[1] / "scenarios" / "geometric_fr3.toml"
+    scenario_path = Path(__file__).parents[1] / "scenarios" / "geometric_fr3.toml" \
+        if name == "fr3" else _one_port_torso(tmp_path)
     sim = simulate(load_scenario(scenario_path))
+    robot, n = sim.robot, sim.robot.n_joints
     q_rad = sim.measurements.q_rad[:5]
     plan = tmp_path / "plan.csv"
-    plan.write_text("q1,q2,q3,q4,q5,q6,q7\n" + "".join(
-        ",".join(repr(float(v)) for v in row) + "\n" for row in np.rad2deg(q_rad)))
+    plan.write_text(",".join(f"q{i}" for i in range(1, n + 1)) + "\n" + "".join(
+        ",".join(repr(float(v)) for v in row) + "\n"
+        for row in joints_to_file(q_rad, robot.prismatic)))
     device = Device(scenario_path, tmp_path / "pose.json")
     out = tmp_path / "cap"
     try:
@@ -393,18 +410,21 @@ def test_a_7_joint_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path) ->
                      "--settle-tol", "0.08", "--settle-k", "4"]) == 0
     finally:
         device.stop()
-    columns = ("pose", *(f"q{i}" for i in range(1, 8)), "length",
-               *(f"approach{i}" for i in range(1, 8)))
+    columns = ("pose", *(f"q{i}" for i in range(1, n + 1)), "length",
+               *(f"approach{i}" for i in range(1, n + 1)))
     assert (out / "measurements.csv").read_text().splitlines()[0] == ",".join(columns)
     table = read_table(out / "measurements.csv", columns, "")[0]
+    np.testing.assert_allclose(table[:, 1:n + 1], joints_to_file(q_rad, robot.prismatic),
+                               rtol=0, atol=1e-9)
     twin = Twin.build(sim.true_robot, sim.port_m)
     true_mm = m_to_mm(twin.lengths(q_rad, approach_directions(q_rad)))
     assert table[:, 0].tolist() == [1, 2, 3, 4, 5]
     # The settled mean of 4 readings of σ = 0.01 mm noise and a dying 0.05 mm swing.
-    assert np.max(np.abs(table[:, 8] - true_mm)) < 0.05
+    assert np.max(np.abs(table[:, n + 1] - true_mm)) < 0.05
+    urdf = {"fr3": "fr3/fr3.urdf", "torso": "fr3_torso/fr3_torso.urdf"}[name]
     assert (out / "robot.urdf").read_text() == (
-        Path(__file__).parents[1] / "models" / "fr3" / "fr3.urdf").read_text()
-    assert load_robot(out / "robot.toml").n_joints == 7
+        Path(__file__).parents[1] / "models" / urdf).read_text()
+    assert load_robot(out / "robot.toml").n_joints == n
     assert load_capture(out / "capture.toml").robot.urdf is not None
 
 

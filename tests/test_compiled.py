@@ -11,8 +11,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from twin.arrays import lengths
+from twin.choices import MAX_JOINTS
 from twin.geometry import kinematics
 from twin.geometry.kinematics import (
+    JOINT_TYPES,
     KERNEL_VARIABLE,
     PARAMETRISATIONS,
     Structure,
@@ -66,15 +68,16 @@ def _close(fast: np.ndarray, reference: np.ndarray) -> None:
     np.testing.assert_allclose(fast, reference, rtol=0, atol=RTOL * np.max(np.abs(reference)))
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(8))
 def test_positions_and_jacobians_equal_the_numpy_path(seed: int,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
-    """Mixed parametrisations, base and tool, one table and a batch of tables, a point per
-    table, joints shifted per table, directions per pose or the base axes."""
+    """Mixed parametrisations and joint types (revolute, prismatic), base and tool, one table
+    and a batch of tables, a point per table, joints shifted per table, directions per pose or
+    the base axes."""
     rng = np.random.default_rng(seed)
-    n = int(rng.integers(4, 8))
+    n = int(rng.integers(4, MAX_JOINTS + 1))
     structure = Structure(tuple(rng.choice(PARAMETRISATIONS, n)), base=_rigid(rng),
-                          tool=_rigid(rng))
+                          tool=_rigid(rng), joint_types=tuple(rng.choice(JOINT_TYPES, n)))
     m, k = 40, 5
     q = rng.uniform(-3, 3, (m, n))
     table = rng.normal(scale=0.3, size=(4, n))

@@ -1,4 +1,5 @@
-"""Forward kinematics of any revolute chain and its analytic Jacobians."""
+"""Forward kinematics of any chain of revolute and prismatic joints and its analytic
+Jacobians."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from twin.geometry.kinematics import (
+    JOINT_TYPES,
     PARAMETRISATIONS,
     Structure,
     fixed_transforms,
@@ -21,6 +23,7 @@ from twin.geometry.kinematics import (
     trace_point,
     xyz_rpy,
 )
+from twin.geometry.statics import GRAVITY_M_S2, joint_torques, link_torques
 from twin.io.robot_file import default_robot
 from twin.robot import RobotModel, random_poses
 
@@ -39,10 +42,21 @@ def _random_rigid(rng: np.random.Generator) -> np.ndarray:
     return transform
 
 
-def _mixed(rng: np.random.Generator) -> Structure:
-    """A structure with every parametrisation, a base and a tool transform."""
-    kinds = tuple(rng.choice(PARAMETRISATIONS, 6))
-    return Structure(kinds, base=_random_rigid(rng), tool=_random_rigid(rng))
+def _mixed(rng: np.random.Generator, n: int = 6) -> Structure:
+    """A structure with every parametrisation, revolute and prismatic joints (one in three
+    slides), a base and a tool transform."""
+    kinds = tuple(rng.choice(PARAMETRISATIONS, n))
+    types = tuple(rng.choice(JOINT_TYPES, n, p=[2 / 3, 1 / 3]))
+    return Structure(kinds, base=_random_rigid(rng), tool=_random_rigid(rng), joint_types=types)
+
+
+def _move(joint_type: str, q: float) -> np.ndarray:
+    """A joint's own motion: Rz(q) turning, Tz(q) sliding."""
+    if joint_type == "revolute":
+        return _rz(q)
+    transform = np.eye(4)
+    transform[2, 3] = q
+    return transform
 
 
 def test_irb120_flange_at_home(irb120: RobotModel) -> None:
@@ -65,8 +79,10 @@ def test_transform_matches_dh_matrix_product(irb120: RobotModel) -> None:
     np.testing.assert_allclose(flange_transform(STANDARD, irb120.dh, q), expected, atol=1e-14)
 
 
-def _elementary(kind: str, slots: np.ndarray, q: float) -> np.ndarray:
-    """Each parametrisation's link transform written out as 4×4 products (module docstring)."""
+def _elementary(kind: str, joint_type: str, slots: np.ndarray, q: float) -> np.ndarray:
+    """Each parametrisation's link transform written out as 4×4 products (module docstring):
+    a revolute joint's q turns with θ, a prismatic joint's slides along z with d (a Hayati
+    joint's alone)."""
     a, s1, alpha, theta = slots
 
     def rot(axis: str, angle: float) -> np.ndarray:
@@ -79,17 +95,20 @@ def _elementary(kind: str, slots: np.ndarray, q: float) -> np.ndarray:
         transform[axis, 3] = value
         return transform
 
+    turn, slide = (q, 0.0) if joint_type == "revolute" else (0.0, q)
     if kind == "dh":
-        return rot("z", q + theta) @ trans(2, s1) @ trans(0, a) @ rot("x", alpha)
+        return rot("z", turn + theta) @ trans(2, s1 + slide) @ trans(0, a) @ rot("x", alpha)
     if kind == "mdh":
-        return rot("x", alpha) @ trans(0, a) @ rot("z", q + theta) @ trans(2, s1)
-    return rot("z", q + theta) @ trans(0, a) @ rot("x", alpha) @ rot("y", s1)
+        return rot("x", alpha) @ trans(0, a) @ rot("z", turn + theta) @ trans(2, s1 + slide)
+    return (rot("z", turn + theta) @ trans(2, slide) @ trans(0, a) @ rot("x", alpha)
+            @ rot("y", s1))
 
 
-@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("seed", range(6))
 def test_every_parametrisation_matches_its_matrix_product(seed: int) -> None:
-    """Mixed D-H, modified D-H and Hayati joints with base and tool transforms: the flange pose,
-    a flange point and the fixed-transform form all equal the written-out matrix product."""
+    """Mixed D-H, modified D-H and Hayati joints, revolute and prismatic, with base and tool
+    transforms: the flange pose, a flange point and the fixed-transform form all equal the
+    written-out matrix product."""
     rng = np.random.default_rng(seed)
     structure = _mixed(rng)
     robot = default_robot()
@@ -102,9 +121,10 @@ def test_every_parametrisation_matches_its_matrix_product(seed: int) -> None:
     for k, qk in enumerate(q):
         expected = structure.base.copy()
         via_fixed = fixed[0].copy()
-        for i, kind in enumerate(structure.parametrisation):
-            expected = expected @ _elementary(kind, table[:, i], qk[i])
-            via_fixed = via_fixed @ _rz(qk[i]) @ fixed[i + 1]
+        for i, (kind, joint_type) in enumerate(zip(structure.parametrisation,
+                                                   structure.joint_types, strict=True)):
+            expected = expected @ _elementary(kind, joint_type, table[:, i], qk[i])
+            via_fixed = via_fixed @ _move(joint_type, qk[i]) @ fixed[i + 1]
         expected = expected @ structure.tool
         np.testing.assert_allclose(poses[k], expected, atol=1e-13)
         np.testing.assert_allclose(via_fixed, expected, atol=1e-13)
@@ -138,7 +158,8 @@ def test_frames_end_at_the_flange(irb120: RobotModel) -> None:
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_point_jacobian_matches_finite_differences(seed: int) -> None:
-    """∂p/∂table, ∂p/∂q and ∂p/∂point equal central differences, every parametrisation."""
+    """∂p/∂table, ∂p/∂q and ∂p/∂point equal central differences, every parametrisation,
+    revolute and prismatic joints (q of a sliding joint in m)."""
     rng = np.random.default_rng(seed)
     structure = _mixed(rng)
     robot = default_robot()
@@ -187,7 +208,8 @@ def test_jacobian_along_directions_is_the_projected_jacobian(
 
 
 def test_flange_jacobian_is_the_twist_per_joint(irb120: RobotModel) -> None:
-    """Linear rows are ∂p/∂q; angular rows turn the flange frame as finite differences say."""
+    """Linear rows are ∂p/∂q; angular rows turn the flange frame as finite differences say
+    (not at all for a prismatic joint)."""
     rng = np.random.default_rng(6)
     structure = _mixed(rng)
     q = random_poses(irb120, 3, rng)
@@ -199,6 +221,8 @@ def test_flange_jacobian_is_the_twist_per_joint(irb120: RobotModel) -> None:
         moved = flange_transform(structure, irb120.dh, q + np.eye(6)[i] * eps)
         delta = Rotation.from_matrix(moved[:, :3, :3] @ np.swapaxes(pose[:, :3, :3], 1, 2))
         np.testing.assert_allclose(delta.as_rotvec() / eps, jacobian[:, 3:, i], atol=1e-6)
+    assert structure.prismatic.any()
+    np.testing.assert_array_equal(jacobian[:, 3:, structure.prismatic], 0.0)
 
 
 def test_batched_poses_with_one_table(irb120: RobotModel) -> None:
@@ -225,6 +249,10 @@ def test_structure_names_and_units() -> None:
     assert not structure.is_length[1, 1] and structure.is_length[1, 0]
     with pytest.raises(ValueError, match="dh, mdh, hayati"):
         Structure(("dh", "screw"))
+    with pytest.raises(ValueError, match="revolute, prismatic for each of 2 joints"):
+        Structure(("dh", "dh"), joint_types=("revolute", "helical"))
+    with pytest.raises(ValueError, match="revolute, prismatic for each of 2 joints"):
+        Structure(("dh", "dh"), joint_types=("prismatic",))
     bent = np.eye(4)
     bent[0, 0] = 2.0
     with pytest.raises(ValueError, match="not a rigid transform"):
@@ -245,3 +273,44 @@ def test_rpy_round_trip_matches_scipy(rpy: list[float], pitch: float | None) -> 
     xyz, back = xyz_rpy(transform)
     assert abs(back[1]) <= np.pi / 2
     np.testing.assert_allclose(rigid_transform(xyz, back), transform, rtol=0.0, atol=1e-11)
+
+
+def test_prismatic_joints_columns_and_units() -> None:
+    """A prismatic joint's variable is its d (column n + i), a prismatic Hayati joint's a
+    column of its own after the table's; the units say m beside rad."""
+    structure = Structure(("dh", "hayati", "mdh", "dh"),
+                          joint_types=("prismatic", "prismatic", "revolute", "revolute"))
+    assert structure.joint_columns.tolist() == [4, 16, 14, 15]
+    assert structure.n_columns == 17
+    assert structure.joint_units == ("m", "m", "rad", "rad")
+    assert structure.prismatic.tolist() == [True, True, False, False]
+    assert not structure.all_revolute and Structure.standard(4).all_revolute
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_joint_loads_are_the_potentials_slope(seed: int) -> None:
+    """Gravity's load on every joint — a torque about a revolute axis, a force along a
+    prismatic one — is minus the slope of the links' potential energy along q (virtual work, by
+    central differences), and link by link it sums to the whole."""
+    rng = np.random.default_rng(seed)
+    structure = _mixed(rng)
+    assert structure.prismatic.any() and not structure.prismatic.all()
+    robot = default_robot()
+    table = robot.dh + rng.normal(scale=0.05, size=(4, 6))
+    q = random_poses(robot, 5, rng)
+    mass = rng.uniform(1.0, 5.0, 6)
+    com = rng.normal(scale=0.05, size=(6, 3))
+
+    def potential(values: np.ndarray) -> np.ndarray:
+        chain = frames(structure, table, values)
+        rotation = np.stack([chain.x_axes, chain.y_axes, chain.z_axes], axis=-1)[..., 1:, :, :]
+        height = chain.origins[..., 1:, 2] + np.einsum("...nj,nj->...n", rotation[..., 2, :], com)
+        return np.asarray(GRAVITY_M_S2 * height @ mass)
+
+    eps = 1e-6
+    steps = np.eye(6)[:, None, :] * eps
+    slope = (potential(q + steps) - potential(q - steps)).T / (2 * eps)
+    loads = joint_torques(structure, table, q, mass, com)
+    np.testing.assert_allclose(loads, -slope, atol=1e-7)
+    np.testing.assert_allclose(link_torques(structure, table, q, mass, com).sum(axis=2), loads,
+                               atol=1e-12)

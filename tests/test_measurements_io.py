@@ -134,3 +134,31 @@ def test_kind_and_option_columns_are_checked(tmp_path: Path, text: str, message:
     path.write_text(text)
     with pytest.raises(InputError, match=re.escape(message)):
         load_measurements(path)
+
+
+def test_a_prismatic_joint_is_in_mm(tmp_path: Path) -> None:
+    """For a robot with a prismatic joint, its column is in mm in every file (measurements,
+    plans, poses), the others in degrees: a written file says 250 for 0.25 m and reads back
+    exactly; its limits are checked and reported in mm; the ±2π unit warning looks at the
+    angles alone."""
+    from twin.io.measurements import load_plan, load_poses
+    from twin.io.robot_file import load_robot
+
+    robot = load_robot(Path(__file__).resolve().parents[1] / "models" / "fr3_torso"
+                       / "fr3_torso.urdf")
+    q = np.random.default_rng(0).uniform(robot.lower_rad, robot.upper_rad, (5, 8))
+    q[0, 0] = 0.25
+    data = Measurements(q, length_m=np.full(5, 1.2))
+    path = tmp_path / "m.csv"
+    write_measurements(path, data, robot)
+    first = path.read_text().splitlines()[1].split(",")
+    assert first[0] == "250.0" and float(first[1]) == pytest.approx(np.rad2deg(q[0, 1]))
+    back = load_measurements(path, robot)
+    np.testing.assert_allclose(back.q_rad, q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(load_plan(path, robot)[0], q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(load_poses(path, robot, "poses").q_rad, q, rtol=0, atol=1e-15)
+    text = path.read_text().splitlines()
+    path.write_text("\n".join([text[0], "450," + text[1].split(",", 1)[1], *text[2:]]) + "\n")
+    with pytest.raises(InputError, match=r"line 2, column q1: found 450 mm, expected within "
+                       r"\[0, 400\] mm \(joint 1 of fr3_torso\)"):
+        load_measurements(path, robot)

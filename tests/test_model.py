@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -241,3 +243,78 @@ def test_link_compliance_holds_compliance(
     data = measurements.subset(np.arange(20))
     np.testing.assert_allclose(split.joints(x_split, data), plain.joints(x_plain, data),
                                atol=1e-15)
+
+
+def _sliding(irb120: RobotModel) -> RobotModel:
+    """The IRB 120 with joint 1 a prismatic standard D-H joint and joint 2 a prismatic Hayati
+    joint (the slide that holds no table entry), masses and centres of mass kept."""
+    auto = irb120.reparametrised("auto")
+    types = ("prismatic", "prismatic", "revolute", "revolute", "revolute", "revolute")
+    return replace(auto, structure=replace(auto.structure, joint_types=types),
+                   lower_rad=np.r_[-0.2, -0.2, auto.lower_rad[2:]],
+                   upper_rad=np.r_[0.3, 0.3, auto.upper_rad[2:]])
+
+
+@pytest.mark.parametrize("group", ["dh", *JOINT_GROUPS, "link_compliance", "all"])
+def test_every_group_on_prismatic_joints_matches_finite_differences(
+    irb120: RobotModel, port_m: np.ndarray, group: str
+) -> None:
+    """A chain with a prismatic D-H joint and a prismatic Hayati joint: every group — D-H,
+    transmission (a scale on the slides), backlash (m), compliance (m/N on the force along the
+    slide), link compliance, and all with the rig's unknowns — has ∂r/∂x and ∂(flange)/∂x equal
+    to central differences."""
+    robot = _sliding(irb120)
+    assert robot.structure.parametrisation[:2] == ("dh", "hayati")
+    errors = ["dh", *(JOINT_GROUPS if group == "all" else [group] if group != "dh" else [])]
+    rig = Rig.cable(port_m, [0.01, -0.02, 0.03], tension_n=5.0)
+    estimate = ("port", "offset") if group == "all" else ()
+    model = make_model(robot, rig, settings=CalibrationSettings(errors=errors,
+                                                                estimate=estimate))
+    rng = np.random.default_rng(3)
+    x = rng.normal(scale=1e-3, size=model.n_params)
+    x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
+    q = rng.uniform(robot.lower_rad, robot.upper_rad, (15, 6))
+    data = Measurements(q, length_m=np.full(15, 0.8), approach=approach_directions(q))
+    r, jacobian = model.jacobian(x, data)
+    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
+    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
+    eps = 1e-6
+    steps = np.eye(model.n_params) * eps
+    numeric = (model.flange_positions(x + steps, data)
+               - model.flange_positions(x - steps, data)) / (2 * eps)
+    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
+                               atol=1e-8)
+
+
+def test_joint_groups_move_a_prismatic_joint_as_stated(
+    irb120: RobotModel, port_m: np.ndarray
+) -> None:
+    """On a prismatic joint transmission is a scale of the travel (s·q, m/m), backlash a lost
+    motion b·s (m) and compliance c·F with F the force along the slide (m/N); the revolute
+    joints keep their harmonics; names and units say so."""
+    from twin.unknowns.compliance import torques
+
+    robot = _sliding(irb120)
+    rig = Rig.cable(port_m, tension_n=4.0)
+    model = make_model(robot, rig, settings=CalibrationSettings(errors=["dh", *JOINT_GROUPS]))
+    transmission = model.group("transmission")
+    assert transmission.names[:6] == ("scale_q1", "scale_q2", "sin_q3", "cos_q3", "sin2_q3",
+                                      "cos2_q3")
+    assert transmission.units[:3] == ("m/m", "m/m", "rad")
+    assert model.group("backlash").units[:3] == ("m", "m", "rad")
+    assert model.group("compliance").units[:3] == ("m/N", "m/N", "rad/(N·m)")
+    rng = np.random.default_rng(5)
+    q = rng.uniform(robot.lower_rad, robot.upper_rad, (10, 6))
+    data = Measurements(q, length_m=np.full(10, 0.8), approach=approach_directions(q))
+    scale, harmonic = rng.normal(scale=1e-4, size=2), rng.normal(scale=1e-3, size=(4, 4))
+    backlash, compliance = rng.normal(scale=1e-4, size=6), rng.uniform(1e-7, 1e-6, size=6)
+    x = np.zeros(model.n_params)
+    x[model.slice("transmission")] = np.r_[scale, harmonic.ravel()]
+    x[model.slice("backlash")] = backlash
+    x[model.slice("compliance")] = compliance
+    turned = q[:, 2:]
+    expected = q + backlash * data.approach + compliance * torques(robot, rig, data)
+    expected[:, :2] += scale * q[:, :2]
+    expected[:, 2:] += (harmonic[:, 0] * np.sin(turned) + harmonic[:, 1] * np.cos(turned)
+                        + harmonic[:, 2] * np.sin(2 * turned) + harmonic[:, 3] * np.cos(2 * turned))
+    np.testing.assert_allclose(model.joints(x, data), expected, atol=1e-15)

@@ -9,9 +9,10 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.geometry.kinematics import frames
 from twin.io.robot_file import load_robot
-from twin.robot import MAX_JOINTS, MIN_JOINTS, random_poses
+from twin.robot import random_poses
 from twin.scenario import load_scenario
 from twin.sim.builder import build_spec
 
@@ -20,19 +21,21 @@ SCENARIOS = Path(__file__).parents[1] / "scenarios"
 ROBOT_FILES = sorted([*MODELS.rglob("*.toml"), *MODELS.rglob("*.urdf")])
 MJCF_FILES = sorted(MODELS.rglob("*.xml"))
 BUILT = {"irb120": "paper_irb120", "ur5e": "geometric_ur5e", "fr3": "geometric_fr3",
-         "scara4": "geometric_scara4"}
+         "scara4": "geometric_scara4", "fr3_torso": "geometric_torso"}
 """Each models/<robot>/<robot>.xml and the scenario whose port (and servos) it was made with."""
 
 
 def test_every_file_in_models_is_checked() -> None:
     """models/ holds only robot TOML, URDF, MJCF and READMEs; the IRB 120, a UR5e, a 7-axis
-    arm and a 4-axis chain are among them, each in its folder with a README."""
+    arm, a 7-axis arm on a prismatic torso lift and a 4-axis chain are among them, each in its
+    folder with a README."""
     others = [p for p in MODELS.rglob("*") if p.is_file()
               and p.suffix not in (".toml", ".urdf", ".xml") and p.name != "README.md"]
     assert others == []
     assert MODELS / "irb120.toml" in ROBOT_FILES
     assert {MODELS / "irb120" / "irb120.xml", MODELS / "irb120" / "scene.xml"} <= set(MJCF_FILES)
-    assert {len(load_robot(path).joint_names) for path in ROBOT_FILES} >= {4, 6, 7}
+    assert {len(load_robot(path).joint_names) for path in ROBOT_FILES} >= {4, 6, 7, 8}
+    assert any(load_robot(path).prismatic.any() for path in ROBOT_FILES)
     for name in BUILT:
         assert (MODELS / name / "README.md").is_file()
         assert (MODELS / name / "scene.xml") in MJCF_FILES
@@ -47,7 +50,7 @@ def _assert_no_warnings(data: mujoco.MjData) -> None:
 
 @pytest.mark.parametrize("path", ROBOT_FILES, ids=lambda p: p.relative_to(MODELS).as_posix())
 def test_robot_files_load_and_step(path: Path) -> None:
-    """Each robot file (model TOML or URDF) validates with 4 to 7 joints, and the twin built
+    """Each robot file (model TOML or URDF) validates with 4 to 9 joints, and the twin built
     from it (floor, port, cable) compiles and steps 1 s from its home pose without a MuJoCo
     warning."""
     robot = load_robot(path)

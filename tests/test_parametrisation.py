@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.geometry.kinematics import Structure, fixed_transforms, flange_transform, rigid_transform
+from twin.choices import MAX_JOINTS
+from twin.geometry.kinematics import (
+    JOINT_TYPES,
+    Structure,
+    fixed_transforms,
+    flange_transform,
+    rigid_transform,
+)
 from twin.geometry.parametrisation import (
     PARALLEL_THRESHOLD_DEG,
     axis_angles_deg,
@@ -37,21 +44,24 @@ def _random_chain(rng: np.random.Generator, n: int, parallel_pairs: int = 0) -> 
 def _assert_same_chain(fixed: np.ndarray, structure: Structure, table: np.ndarray,
                        atol: float = 1e-12) -> None:
     q = np.random.default_rng(7).uniform(-np.pi, np.pi, (500, structure.n_joints))
-    np.testing.assert_allclose(flange_transform(structure, table, q), chain_flange(fixed, q),
-                               rtol=0.0, atol=atol)
+    np.testing.assert_allclose(flange_transform(structure, table, q),
+                               chain_flange(fixed, q, structure.joint_types), rtol=0.0, atol=atol)
 
 
 @pytest.mark.parametrize("request_", ["dh", "mdh", "auto", "hayati-where-parallel"])
 @pytest.mark.parametrize("seed", range(8))
 def test_conversion_keeps_the_forward_kinematics(request_: str, seed: int) -> None:
-    """Random 4- to 7-joint chains, some with parallel consecutive axes, converted to each
-    parametrisation have the source's flange pose to 1e-12 over 500 random poses."""
+    """Random 4- to 9-joint chains, some with parallel consecutive axes and (odd seeds)
+    prismatic joints, converted to each parametrisation have the source's flange pose to 1e-12
+    over 500 random poses (a prismatic joint's q in m)."""
     rng = np.random.default_rng(seed)
-    n = int(rng.integers(4, 8))
+    n = int(rng.integers(4, MAX_JOINTS + 1))
     fixed = _random_chain(rng, n, parallel_pairs=seed % 3)
+    types = tuple(rng.choice(JOINT_TYPES, n)) if seed % 2 else ()
     wanted = choose(fixed) if request_ == "hayati-where-parallel" else request_
-    structure, table = convert(fixed, wanted)
+    structure, table = convert(fixed, wanted, types)
     assert structure.n_joints == n
+    assert structure.joint_types == (types or ("revolute",) * n)
     _assert_same_chain(fixed, structure, table)
 
 

@@ -50,13 +50,18 @@ ROBOTS = {
     "irb120 mdh perturbed": lambda: _perturbed(default_robot().reparametrised("mdh"), 2),
     "ur5e auto perturbed": lambda: _perturbed(load_robot(MODELS / "ur5e" / "ur5e.urdf"), 3),
     "fr3 auto perturbed": lambda: _perturbed(load_robot(MODELS / "fr3" / "fr3.urdf"), 4),
+    "fr3 on a torso lift, perturbed": lambda: _perturbed(
+        load_robot(MODELS / "fr3_torso" / "fr3_torso.urdf"), 5),
+    "fr3 on a torso lift, dh, perturbed": lambda: _perturbed(
+        load_robot(MODELS / "fr3_torso" / "fr3_torso.urdf").reparametrised("dh"), 6),
 }
 
 
 @pytest.mark.parametrize("name", list(ROBOTS))
 def test_build_model_flange_matches_core(name: str) -> None:
     """Pinocchio's flange frame equals flange_transform to 1e-9 m and 1e-9 on 1000 poses, for
-    standard and modified D-H, Hayati joints and base and tool transforms."""
+    standard and modified D-H, Hayati joints, base and tool transforms, and a prismatic joint
+    (Pinocchio's PZ joint, q in m) in Hayati and standard D-H form."""
     robot = ROBOTS[name]()
     q = _random_poses(robot, 0)
     _assert_same_poses(robot.flange_transforms(q), _pinocchio_flange(build_model(robot), q))

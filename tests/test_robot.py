@@ -56,6 +56,8 @@ def test_metres_and_radians_are_accepted() -> None:
 
 BASE = 'name = "x"\nconvention = "dh"\nlength_unit = "mm"\nangle_unit = "deg"\n'
 JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper = 165.0 }"
+HELICAL = JOINT.replace("{ ", '{ type = "helical", ')
+SLIDE = JOINT.replace("{ ", '{ type = "prismatic", ')
 
 
 @pytest.mark.parametrize(
@@ -65,7 +67,7 @@ JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper
         (BASE.replace('length_unit = "mm"\n', "") + f"joints = [{', '.join([JOINT] * 6)}]",
          "length_unit: found nothing, expected one of mm, m"),
         (BASE + f"joints = [{', '.join([JOINT] * 3)}]", "3 joints"),
-        (BASE + f"joints = [{', '.join([JOINT] * 8)}]", "8 joints"),
+        (BASE + f"joints = [{', '.join([JOINT] * 10)}]", "10 joints"),
         (BASE + f"joints = [{', '.join([JOINT.replace('290.0', 'nan')] + [JOINT] * 5)}]",
          "joint 1 d: found nan, expected a number within ±100000 mm"),
         (BASE + f"joints = [{', '.join([JOINT.replace('a = 0.0', 'b = 0.0')] + [JOINT] * 5)}]",
@@ -80,7 +82,13 @@ JOINT = "{ a = 0.0, d = 290.0, alpha = -90.0, theta = 0.0, lower = -165.0, upper
          + f"joints = [{', '.join([JOINT] * 6)}]", "parametrisation = 'craig'"),
         (BASE.replace('convention = "dh"', 'parametrisation = ["hayati", "dh", "dh", "dh", '
                       '"dh", "dh"]') + f"joints = [{', '.join([JOINT] * 6)}]",
-         "joint 1: found unknown key 'd', expected only a, beta"),
+         "joint 1: found unknown key 'd', expected only type, a, beta"),
+        (BASE + f"joints = [{', '.join([HELICAL] + [JOINT] * 5)}]",
+         "joint 1 type: found 'helical', expected one of revolute, prismatic"),
+        (BASE + f"joints = [{', '.join([SLIDE.replace('165.0 }', '2e6 }')] + [JOINT] * 5)}]",
+         "joint 1 upper: found 2000000.0, expected a number within ±100000 mm"),
+        (BASE + f"joints = [{', '.join([SLIDE.replace(' }', ', effort = -1.0 }')] + [JOINT] * 5)}]",
+         "joint 1 effort: found -1.0, expected a number from 0 to 1e+06 N"),
         (BASE + f"joints = [{', '.join([JOINT] * 6)}]\nbase = {{ xyz = [1.0, 2.0] }}",
          "[base] xyz: found [1.0, 2.0], expected [x, y, z]"),
         (BASE + f"joints = [{', '.join([JOINT.replace(' }', ', velocity = -1.0 }')] * 6)}]",
@@ -157,10 +165,11 @@ def test_rows_in_their_own_parametrisation_with_ends_round_trip(tmp_path: Path) 
     np.testing.assert_allclose(back.flange_transforms(q), robot.flange_transforms(q), atol=1e-9)
 
 
-@pytest.mark.parametrize("n", [4, 7])
-def test_four_to_seven_joints(tmp_path: Path, n: int) -> None:
-    """Chains of 4 and 7 joints are robots like any other."""
-    rows = "\n".join(SIX.splitlines()[:n] if n <= 6 else SIX.splitlines() + SIX.splitlines()[-1:])
+@pytest.mark.parametrize("n", [4, 7, 9])
+def test_four_to_nine_joints(tmp_path: Path, n: int) -> None:
+    """Chains of 4, 7 and 9 joints are robots like any other."""
+    lines = SIX.splitlines()
+    rows = "\n".join(lines[:n] if n <= 6 else lines + lines[-1:] * (n - 6))
     robot = _model(tmp_path, 'parametrisation = "mdh"', rows)
     assert robot.n_joints == n and robot.structure.parametrisation == ("mdh",) * n
     assert robot.joint_names == tuple(f"joint_{i}" for i in range(1, n + 1))
@@ -188,3 +197,33 @@ def test_a_model_file_may_name_a_urdf(tmp_path: Path) -> None:
         robot.urdf.text, robot.urdf.tip_link, robot.urdf.joint_names)
     with pytest.raises(ValueError, match="reference"):
         robot_to_toml(robot)
+
+
+def test_prismatic_joints_in_a_model_file(tmp_path: Path) -> None:
+    """``type = "prismatic"`` makes a sliding joint: its limits and speed in the length unit,
+    its effort in N; auto converts the chain keeping the types; the file written back says the
+    type, in mm, and reads back to the same robot (same FK, q of the slide in m)."""
+    lines = [line.replace(" },", ", velocity = 90.0, effort = 50.0 },")
+             for line in SIX.splitlines()]
+    rows = "\n".join([
+        '  { type = "prismatic", a = 100.0, d = 400.0, alpha = 0.0, theta = 0.0, lower = 0.0, '
+        "upper = 350.0, velocity = 150.0, effort = 900.0 },", *lines[:5],
+        '  { type = "prismatic", a = 0.0, d = 72.0, alpha = 0.0, theta = 0.0, lower = -20.0, '
+        "upper = 30.0, velocity = 50.0, effort = 20.0 },"])
+    robot = _model(tmp_path, 'parametrisation = "auto"', rows)
+    assert robot.structure.joint_types == ("prismatic",) + ("revolute",) * 5 + ("prismatic",)
+    assert robot.structure.parametrisation[0] == "hayati"  # the shoulder's axis is parallel
+    np.testing.assert_allclose([robot.lower_rad[0], robot.upper_rad[0]], [0.0, 0.35])
+    assert robot.velocity_rad_s is not None and robot.effort_nm is not None
+    np.testing.assert_allclose([robot.velocity_rad_s[0], robot.effort_nm[0]], [0.15, 900.0])
+    np.testing.assert_allclose(robot.upper_rad[1], np.deg2rad(165.0))
+    text = robot_to_toml(robot)
+    assert text.count('type = "prismatic"') == 2 and "upper = 350.0" in text
+    path = tmp_path / "again.toml"
+    path.write_text(text)
+    back = load_robot(path)
+    assert robot_to_toml(back) == text and back.structure.joint_types == robot.structure.joint_types
+    q = np.random.default_rng(2).uniform(robot.lower_rad, robot.upper_rad, (50, 7))
+    np.testing.assert_allclose(back.flange_transforms(q), robot.flange_transforms(q), atol=1e-9)
+    assert robot.flange_positions(q[:1] + 0.1 * np.eye(7)[:1])[0, 2] \
+        - robot.flange_positions(q[:1])[0, 2] == pytest.approx(0.1, abs=1e-12)

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.geometry.kinematics import Structure
 from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length
 from twin.robot import RobotModel, random_poses
@@ -64,17 +65,33 @@ def _other_arm(path: str, request: str | None = None) -> Callable[[np.random.Gen
     return make
 
 
+def _sliding_arm(rng: np.random.Generator) -> RobotModel:
+    """A 9-joint chain of standard D-H and Hayati joints, two prismatic joints (a gantry's
+    x and y) then seven revolute ones, base and tool transforms, every entry nonzero."""
+    kinds = ("dh", "hayati", "dh", "dh", "hayati", "dh", "dh", "dh", "dh")
+    types = ("prismatic", "prismatic") + ("revolute",) * 7
+    dh = np.vstack([rng.uniform(0.05, 0.3, 9), rng.uniform(-0.2, 0.2, 9),
+                    rng.uniform(-np.pi, np.pi, 9), rng.uniform(-np.pi, np.pi, 9)])
+    base, tool = np.eye(4), np.eye(4)
+    base[:3, 3], tool[:3, 3] = rng.normal(scale=0.1, size=3), rng.normal(scale=0.1, size=3)
+    structure = Structure(kinds, base=base, tool=tool, joint_types=types)
+    lower = np.r_[-0.5, -0.5, np.full(7, -3.0)]
+    return RobotModel("gantry", dh, lower, -lower, structure=structure)
+
+
 @pytest.mark.parametrize("make", [
     lambda rng: default_robot(), _perturbed_irb120, _general_arm,
     _other_arm("irb120.toml", "mdh"), _other_arm("ur5e/ur5e.urdf"), _other_arm("fr3/fr3.urdf"),
-    _other_arm("scara4/scara4.toml"),
+    _other_arm("scara4/scara4.toml"), _other_arm("fr3_torso/fr3_torso.urdf"),
+    _other_arm("fr3_torso/fr3_torso.urdf", "dh"), _sliding_arm,
 ], ids=["irb120", "irb120 perturbed", "general", "irb120 mdh", "ur5e auto", "fr3 7 axes",
-        "scara 4 axes"])
+        "scara 4 axes", "fr3 on a torso lift", "fr3 on a torso lift dh", "gantry 9 joints"])
 def test_flange_site_and_cable_equal_core_model(make) -> None:
     """Over 1000 random poses the flange site's position (1e-9 m) and orientation, and the
     tendon length (1e-9 m), equal the core's FK and cable model, for the nominal IRB 120, an
-    IRB 120 perturbed up to the search bounds, a general arm, and perturbed arms of 4 to 7
-    joints in modified D-H, Hayati and standard D-H with base and tool transforms."""
+    IRB 120 perturbed up to the search bounds, a general arm, and perturbed arms of 4 to 9
+    joints in modified D-H, Hayati and standard D-H with base and tool transforms, prismatic
+    joints among them (MuJoCo slides, q in m)."""
     rng = np.random.default_rng(11)
     robot = make(rng)
     q = random_poses(robot, 1000, rng)

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
 
-from twin.io.robot_file import default_robot
+from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length
-from twin.robot import random_poses
+from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics
 from twin.sim import Twin, static_equilibrium
 
@@ -97,27 +101,40 @@ def test_physics_rejects_loads_without_stiffness() -> None:
         Physics(np.array([1e5, 0, 1e5, 1e5, 1e5, 1e5]))
 
 
-def test_core_torques_equal_mujoco_generalised_forces() -> None:
+def _torso() -> RobotModel:
+    """The FR3 on its torso lift with centres of mass (its URDF gives masses alone)."""
+    robot = load_robot(Path(__file__).resolve().parents[1] / "models" / "fr3_torso"
+                       / "fr3_torso.urdf")
+    return replace(robot, com_m=np.random.default_rng(4).normal(scale=0.05, size=(8, 3)))
+
+
+@pytest.mark.parametrize("make", [default_robot, _torso], ids=["irb120", "fr3 on a torso lift"])
+def test_core_torques_equal_mujoco_generalised_forces(make: Callable[[], RobotModel]) -> None:
     """The calibration's static torques (twin.geometry.statics: gravity at the robot file's centres
     of mass, the cable's pull towards the port) equal MuJoCo's generalised forces on the twin built
-    from the same file, qfrc_actuator − qfrc_bias with the servos at the pose, to 1e-9 N·m."""
+    from the same file, qfrc_actuator − qfrc_bias with the servos at the pose, to 1e-9 N·m — and
+    on a prismatic lift the force along it (N, a slide's generalised force)."""
+    from twin.dataset import Measurements
     from twin.rig import Rig
     from twin.unknowns.compliance import torques
 
-    robot = default_robot()
-    twin = Twin.build(robot, PORT_M, PAPER)
-    q = _poses(25, seed=11)
+    robot = make()
+    n = robot.n_joints
+    physics = Physics(np.full(n, 2e5), gravity=True, tension_n=5.0)
+    twin = Twin.build(robot, PORT_M, physics)
+    q = random_poses(robot, 25, np.random.default_rng(11))
+    q = np.clip(q, robot.lower_rad + 0.01, robot.upper_rad - 0.01)
     data = twin.statics_data
     expected = np.empty_like(q)
     for row, pose in enumerate(q):
-        data.ctrl[:6] = pose
+        data.ctrl[:n] = pose
         data.qpos[:] = pose
         data.qvel[:] = 0.0
         mujoco.mj_forward(twin.statics_model, data)
         expected[row] = data.qfrc_actuator - data.qfrc_bias
-    rig = Rig.cable(PORT_M, tension_n=PAPER.tension_n)
-    from twin.dataset import Measurements
-
+    rig = Rig.cable(PORT_M, tension_n=physics.tension_n)
     tau = torques(robot, rig, Measurements(q, length_m=np.zeros(len(q))))
     assert np.max(np.abs(expected)) > 10.0  # the shoulder carries tens of N·m
     np.testing.assert_allclose(tau, expected, atol=1e-9)
+    if robot.prismatic.any():  # the lift carries the whole arm's weight, some 200 N
+        assert np.all(-tau[:, 0] > 150.0)

@@ -17,7 +17,8 @@ from twin.robot import RobotModel
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 URDFS = {"ur5e": MODELS / "ur5e" / "ur5e.urdf", "fr3": MODELS / "fr3" / "fr3.urdf",
-         "irb120": MODELS / "irb120" / "irb120_3_58.urdf"}
+         "irb120": MODELS / "irb120" / "irb120_3_58.urdf",
+         "fr3_torso": MODELS / "fr3_torso" / "fr3_torso.urdf"}
 
 
 def _pinocchio(robot: RobotModel, q: np.ndarray) -> np.ndarray:
@@ -29,8 +30,9 @@ def _pinocchio(robot: RobotModel, q: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("request_", ["auto", "dh", "mdh"])
 @pytest.mark.parametrize("name", list(URDFS))
 def test_fk_equals_pinocchio(name: str, request_: str) -> None:
-    """Each shipped URDF in each parametrisation: the flange pose equals Pinocchio's pose of
-    the tip link in the base link to 1e-9 m (and 1e-9 in rotation) over 1000 random poses."""
+    """Each shipped URDF in each parametrisation (the torso's prismatic lift among them, q in m):
+    the flange pose equals Pinocchio's pose of the tip link in the base link to 1e-9 m (and 1e-9
+    in rotation) over 1000 random poses."""
     robot = load_urdf(URDFS[name], parametrisation=request_)
     q = np.random.default_rng(0).uniform(robot.lower_rad, robot.upper_rad,
                                          (1000, robot.n_joints))
@@ -92,9 +94,9 @@ def _joint(name: str, parent: str, child: str, kind: str = "revolute",
             f"{limit}</joint>")
 
 
-def _serial(links: str, prismatic: int | None = None) -> str:
-    """Revolute joints j0, j1… linking each link to the next (joint ``prismatic`` prismatic)."""
-    return "".join(_joint(f"j{i}", parent, child, "prismatic" if i == prismatic else "revolute")
+def _serial(links: str, other: int | None = None, kind: str = "prismatic") -> str:
+    """Revolute joints j0, j1… linking each link to the next (joint ``other`` of ``kind``)."""
+    return "".join(_joint(f"j{i}", parent, child, kind if i == other else "revolute")
                    for i, (parent, child) in enumerate(pairwise(links)))
 
 
@@ -116,22 +118,50 @@ def test_continuous_joints_and_any_axis(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("joints", "links", "flags", "message"),
     [
-        (_joint("j1", "a", "b") + _joint("j2", "b", "c"), "abc", {}, "2 revolute joints"),
+        (_joint("j1", "a", "b") + _joint("j2", "b", "c"), "abc", {}, "2 moving joints"),
+        (_serial("abcdefghijkl"), "abcdefghijkl", {}, "11 moving joints from 'a' to 'l', "
+         "expected 4 to 9"),
         (_serial("abcde"), "abcde", {"tip_link": "zz"}, "--tip-link 'zz'"),
         (_serial("abcde"), "abcde", {"base_link": "c", "tip_link": "b"}, "not below base link"),
-        (_serial("abcdef", prismatic=2), "abcdef", {}, "of type 'prismatic'"),
+        (_serial("abcdef", 2, "planar"), "abcdef", {}, "of type 'planar' on the chain, "
+         "expected revolute, continuous, prismatic or fixed joints only"),
         ("".join(_joint(f"j{i}", "a", y) for i, y in enumerate("bcdef")), "abcdef", {},
          "several leaf links"),
     ],
 )
 def test_bad_chains_are_named(tmp_path: Path, joints: str, links: str, flags: dict[str, str],
                               message: str) -> None:
-    """Too few joints, an unknown link, a tip not below the base, a prismatic joint on the
-    chain, several leaves and no tool0: one InputError naming the file and the problem."""
+    """Too few or too many joints, an unknown link, a tip not below the base, a planar joint
+    on the chain, several leaves and no tool0: one InputError naming the file and the
+    problem."""
     path = _write(tmp_path, joints, links)
     with pytest.raises(InputError) as info:
         load_urdf(path, **flags)
     assert str(path) in str(info.value) and message in str(info.value)
+
+
+def test_prismatic_joints_slide_in_metres(tmp_path: Path) -> None:
+    """Prismatic joints along any axis (z, −y, askew) read as sliding joints: their limits in
+    m (a limit beyond 100 m refused), FK equal to Pinocchio's, the torso's lift a prismatic
+    Hayati joint (the arm's first axis parallel to it) with the rated speed and force."""
+    joints = (_joint("j1", "a", "b", "prismatic") + _joint("j2", "b", "c")
+              + _joint("j3", "c", "d", "prismatic", axis="0 -1 0")
+              + _joint("j4", "d", "e") + _joint("j5", "e", "f", "prismatic", axis="0.6 0 0.8"))
+    robot = load_urdf(_write(tmp_path, joints))
+    assert robot.structure.joint_types == ("prismatic", "revolute", "prismatic", "revolute",
+                                           "prismatic")
+    np.testing.assert_array_equal(robot.prismatic, [True, False, True, False, True])
+    q = np.random.default_rng(4).uniform(robot.lower_rad, robot.upper_rad, (200, 5))
+    np.testing.assert_allclose(robot.flange_transforms(q), _pinocchio(robot, q), atol=1e-9)
+    torso = load_urdf(URDFS["fr3_torso"])
+    assert torso.structure.parametrisation[0] == "hayati"
+    assert torso.structure.joint_types == ("prismatic",) + ("revolute",) * 7
+    assert (torso.lower_rad[0], torso.upper_rad[0]) == (0.0, 0.4)
+    assert torso.velocity_rad_s is not None and torso.effort_nm is not None
+    assert (torso.velocity_rad_s[0], torso.effort_nm[0]) == (0.1, 1000.0)
+    far = _write(tmp_path, joints.replace('upper="1"', 'upper="101"', 1))
+    with pytest.raises(InputError, match=r"upper=.101.*within ±100 m"):
+        load_urdf(far)
 
 
 def test_urdf_pinocchio_refuses_is_one_line(tmp_path: Path,

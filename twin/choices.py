@@ -8,6 +8,12 @@ module that acts on each value imports it from here (and is where its meaning is
 
 from __future__ import annotations
 
+MIN_JOINTS, MAX_JOINTS = 4, 9
+"""Joints a robot may have (:class:`twin.robot.RobotModel`, every robot file, plan and journal):
+the serial chains twin calibrates, from a SCARA-like 4-axis arm to a 7-axis arm on a torso lift
+or a two-axis track — the one place this limit is set."""
+JOINT_RANGE = f"{MIN_JOINTS} to {MAX_JOINTS}"
+"""The limit as help texts and messages say it."""
 DEFAULT_METHOD = "lm"
 """The method `twin calibrate` and `twin identify` run unless told (:mod:`twin.solvers`): one
 method by default, so that both state the same fit and the same noise estimate."""
@@ -41,7 +47,8 @@ DEFAULT_SETTLE_S = 0.5
 MAX_TENSION_N = 1000.0
 """Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
 bend an IRB 120 rather than load it."""
-QUANTITY_UNITS = ("mm", "m", "deg", "rad", "arcsec", "urad/Nm", "µrad/(N·m)")
+QUANTITY_UNITS = ("mm", "m", "deg", "rad", "arcsec", "urad/Nm", "µrad/(N·m)", "um/N", "µm/N",
+                  "um/m", "µm/m")
 """The units a value typed with its number may carry (``--bounds a2=20mm``;
 :data:`twin.units.QUANTITY_UNITS` converts them)."""
 MIN_FOLDS = 2

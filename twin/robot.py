@@ -1,6 +1,6 @@
-"""Robot description: a kinematic table with its parametrisation, joint limits and fixed ends,
-SI inside. The files it is read from and written to (a model TOML, a URDF) are
-:mod:`twin.io.robot_file`'s.
+"""Robot description: a kinematic table with its parametrisation, joint types, joint limits and
+fixed ends, SI inside (a revolute joint's values in rad, a prismatic joint's in m). The files it
+is read from and written to (a model TOML, a URDF) are :mod:`twin.io.robot_file`'s.
 """
 
 from __future__ import annotations
@@ -15,9 +15,7 @@ from twin.arrays import frozen_array
 from twin.geometry.kinematics import Structure, fixed_transforms, flange_transform, point_position
 from twin.geometry.parametrisation import convert, joint_frames
 
-MIN_JOINTS, MAX_JOINTS = 4, 7
-"""Joints a model may have: the serial arms twin calibrates (a SCARA-like 4-axis arm to a
-7-axis arm)."""
+
 @dataclass(frozen=True)
 class UrdfSource:
     """The URDF a robot was read from, kept whole so that a calibration can be written back
@@ -27,10 +25,11 @@ class UrdfSource:
         text: The URDF document.
         base_link: The link the chain starts from (the robot's base frame).
         tip_link: The link whose frame is the flange.
-        joint_names: The revolute joints of the chain, base to tip, length n.
+        joint_names: The moving (revolute, continuous, prismatic) joints of the chain, base
+            to tip, length n.
         frame_offsets: Where each URDF joint's frame (turned so that its axis is z) sits in the
-            table's frame of that joint, whose z is the same axis: a shift along it (m) and a
-            turn about it (rad), shape (n, 2). Kept so that writing a calibration back moves
+            table's frame of that joint, whose z is the same axis (line): a shift along it (m)
+            and a turn about it (rad), shape (n, 2). Kept so that writing a calibration back moves
             the URDF's link frames (and their meshes and inertials) by the calibration only.
     """
 
@@ -48,20 +47,23 @@ class UrdfSource:
 @dataclass(frozen=True)
 class RobotModel:
     """A serial arm: a kinematic table with its structure, joint limits, and what the twin
-    and the exports need, SI inside.
+    and the exports need, SI inside. The readers hold a robot to
+    :data:`twin.choices.MIN_JOINTS` to :data:`twin.choices.MAX_JOINTS` joints.
 
     Attributes:
         name: Human-readable name.
         dh: Kinematic table, shape (4, n): slots a [m], d [m] (β [rad] on a Hayati joint),
             alpha [rad], theta offset [rad] (:mod:`twin.geometry.kinematics`).
-        lower_rad: Lower joint limits, shape (n,), rad.
-        upper_rad: Upper joint limits, shape (n,), rad.
+        lower_rad: Lower joint limits, shape (n,), rad (m for a prismatic joint).
+        upper_rad: Upper joint limits, shape (n,), rad (m for a prismatic joint).
         mass_kg: Link masses, shape (n,), kg, or None when the file gives none.
         radius_m: Link capsule radii, shape (n,), m, or None when the file gives none.
-        structure: What the table means (parametrisation per joint, base and tool
-            transforms); standard D-H with bare ends by default.
-        velocity_rad_s: Rated joint speeds, shape (n,), rad/s, or None when unknown.
-        effort_nm: Rated joint torques, shape (n,), N·m, or None when unknown.
+        structure: What the table means (parametrisation and type per joint, base and tool
+            transforms); standard D-H revolute joints with bare ends by default.
+        velocity_rad_s: Rated joint speeds, shape (n,), rad/s (m/s for a prismatic joint), or
+            None when unknown.
+        effort_nm: Rated joint torques, shape (n,), N·m (N, a force, for a prismatic joint),
+            or None when unknown.
         urdf: The URDF the robot was read from, or None.
         com_m: Link centres of mass, row i in link i's frame (frame i of the chain, which
             turns with joint i), shape (n, 3), m, or None when the file gives none; needs
@@ -114,6 +116,11 @@ class RobotModel:
         return int(self.dh.shape[1])
 
     @property
+    def prismatic(self) -> NDArray[np.bool_]:
+        """Whether each joint slides (values in m) rather than turns (rad), shape (n,)."""
+        return self.structure.prismatic
+
+    @property
     def is_length(self) -> NDArray[np.bool_]:
         """Whether each table entry is a length (m) rather than an angle (rad), shape (4, n)."""
         return self.structure.is_length
@@ -136,18 +143,21 @@ class RobotModel:
         return replace(self, dh=self.dh + delta_rows)
 
     def flange_positions(self, q_rad: ArrayLike) -> NDArray[np.float64]:
-        """The flange centre at joint angles q (m, n) rad: shape (m, 3), m, base frame."""
+        """The flange centre at joint values q (m, n), rad (m for a prismatic joint): shape
+        (m, 3), m, base frame."""
         return point_position(self.structure, self.dh, q_rad)
 
     def flange_transforms(self, q_rad: ArrayLike) -> NDArray[np.float64]:
-        """base_T_flange at joint angles q (m, n) rad: shape (m, 4, 4), m."""
+        """base_T_flange at joint values q (m, n), rad (m for a prismatic joint): shape
+        (m, 4, 4), m."""
         return flange_transform(self.structure, self.dh, q_rad)
 
     def reparametrised(self, request: str | Sequence[str]) -> RobotModel:
         """The same arm (same forward kinematics, to 1e-9 m) in another parametrisation:
         ``auto``, one of :data:`twin.geometry.kinematics.PARAMETRISATIONS`, or one per joint; a
         URDF's joint frames keep their place (:attr:`UrdfSource.frame_offsets` follow the table)."""
-        structure, table = convert(fixed_transforms(self.structure, self.dh), request)
+        structure, table = convert(fixed_transforms(self.structure, self.dh), request,
+                                   self.structure.joint_types)
         urdf = self.urdf
         if urdf is not None:
             old = joint_frames(fixed_transforms(self.structure, self.dh))[0]
@@ -165,5 +175,6 @@ class RobotModel:
 
 
 def random_poses(robot: RobotModel, n_poses: int, rng: np.random.Generator) -> NDArray[np.float64]:
-    """Joint angles drawn uniformly within the joint limits, shape (n_poses, n), rad."""
+    """Joint values drawn uniformly within the joint limits, shape (n_poses, n), rad (m for a
+    prismatic joint)."""
     return rng.uniform(robot.lower_rad, robot.upper_rad, size=(n_poses, robot.n_joints))

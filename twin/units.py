@@ -39,6 +39,36 @@ def rad_to_deg(value_rad: ArrayLike) -> NDArray[np.float64]:
     return np.rad2deg(np.asarray(value_rad, dtype=np.float64))
 
 
+def joints_from_file(values: ArrayLike, prismatic: ArrayLike | None = None
+                     ) -> NDArray[np.float64]:
+    """Joint values as files, flags and people give them — degrees, and mm for a prismatic
+    joint — to SI (rad, m).
+
+    Args:
+        values: Joint values, shape (..., n).
+        prismatic: Which joints slide, shape (n,); none if None.
+    """
+    turned = deg_to_rad(values)
+    if prismatic is None or not np.any(prismatic):
+        return turned
+    return np.asarray(np.where(prismatic, mm_to_m(values), turned), dtype=np.float64)
+
+
+def joints_to_file(values_si: ArrayLike, prismatic: ArrayLike | None = None
+                   ) -> NDArray[np.float64]:
+    """Inverse of :func:`joints_from_file`: joint values in SI (rad, m), shape (..., n), to
+    degrees and mm."""
+    turned = rad_to_deg(values_si)
+    if prismatic is None or not np.any(prismatic):
+        return turned
+    return np.asarray(np.where(prismatic, m_to_mm(values_si), turned), dtype=np.float64)
+
+
+def joint_file_units(prismatic: ArrayLike) -> tuple[str, ...]:
+    """The unit each joint's values have in files: ``deg``, or ``mm`` for a prismatic joint."""
+    return tuple("mm" if sliding else "deg" for sliding in np.ravel(prismatic))
+
+
 ARCSEC_PER_DEG = 3600.0
 
 
@@ -84,6 +114,9 @@ FILE_MM_DECIMALS = 3
 """Robot files and plans: lengths to 1 µm."""
 FILE_DEG_DECIMALS = 6
 """Robot files, plans and results: angles to 1e-6 degree (about 1e-8 rad)."""
+FILE_JOINT_DECIMALS = 6
+"""Plans, corrected programs and predictions: joint values to 1e-6 of their unit (degree, or mm
+for a prismatic joint)."""
 RESULT_MM_DECIMALS = 6
 """Results: lengths and metrics to 1e-6 mm."""
 RESULT_SIGNIFICANT = 6
@@ -130,6 +163,10 @@ def significant(value: float, digits: int = RESULT_SIGNIFICANT) -> float:
 
 COMPLIANCE_UNIT = "rad/(N·m)"
 """SI unit of a joint compliance (deflection per torque, the inverse of a stiffness)."""
+LINEAR_COMPLIANCE_UNIT = "m/N"
+"""SI unit of a prismatic joint's compliance (travel per axial force)."""
+SCALE_UNIT = "m/m"
+"""SI unit of a prismatic joint's scale (lead) error: travel error per travel."""
 MICRO = 1e6
 RESULT_COMPLIANCE_DECIMALS = 4
 """Results: compliances to 1e-4 µrad/(N·m), far below what a calibration resolves (~0.1)."""
@@ -141,6 +178,10 @@ DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
     "rad": ("deg", 180.0 / np.pi, FILE_DEG_DECIMALS),
     # An IRB 120 joint is some 1e4–1e6 N·m/rad stiff: 1–100 µrad/(N·m).
     COMPLIANCE_UNIT: ("µrad/(N·m)", MICRO, RESULT_COMPLIANCE_DECIMALS),
+    # A lift or a track is some 1e6–1e8 N/m stiff along its axis: 0.01–1 µm/N.
+    LINEAR_COMPLIANCE_UNIT: ("µm/N", MICRO, RESULT_COMPLIANCE_DECIMALS),
+    # Ball screws and racks are some 10–100 µm per metre of travel off their lead.
+    SCALE_UNIT: ("µm/m", MICRO, RESULT_COMPLIANCE_DECIMALS),
 }
 """For each SI unit an unknown may have: the unit people read, the factor to it, and the
 decimals a result keeps. An unknown group with a unit of its own adds it here."""
@@ -151,6 +192,8 @@ QUANTITY_UNITS: dict[str, tuple[str, float]] = {  # keyed as twin.choices.QUANTI
     "deg": ("rad", np.pi / 180.0), "rad": ("rad", 1.0),
     "arcsec": ("rad", np.pi / (180.0 * ARCSEC_PER_DEG)),
     "urad/Nm": (COMPLIANCE_UNIT, 1.0 / MICRO), "µrad/(N·m)": (COMPLIANCE_UNIT, 1.0 / MICRO),
+    "um/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO), "µm/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO),
+    "um/m": (SCALE_UNIT, 1.0 / MICRO), "µm/m": (SCALE_UNIT, 1.0 / MICRO),
 }
 """The units a value typed with its number may carry (``--bounds a2=20mm``, ``dh=0.5deg``):
 for each, the SI unit of the unknowns it applies to and the factor to it."""

@@ -6,7 +6,10 @@ axis or a shift along it (they trade with δθ1 and δd1); a tracker frame estim
 the same; fixed points without a known distance cannot see the scale; an estimated attachment
 leaves the flange free to slide in its own frame under the measured point; and one measured
 point off the flange, even a known one, cannot see the flange turn about it (a turn about an
-axis parallel to joint 6's through the point trades with θ6, a6, d6, α6). Each is a direction
+axis parallel to joint 6's through the point trades with θ6, a6, d6, α6); and distances from
+one known port cannot see the arm turn about an axis through that port, which a chain that can
+carry its arm sideways represents (a torso lift before a parallel shoulder: its a1 and θ1 with
+the shoulder's θ2 turn the arm about the vertical through the port). Each is a direction
 of the null space of the measurement Jacobian that moves the predicted point: such data define
 the robot's positions only up to that motion, and a comparison with the truth in the base frame
 measures partly the frame, not the calibration.
@@ -19,7 +22,8 @@ How the motions are found and named:
    M = ∂p/∂x · N (3k, r). Columns that move nothing (θ6 of a flange centre, d2 − d3) drop out:
    singular values of M below :data:`MOVES_RTOL` of the largest column norm of ∂p/∂x do not count.
 2. Each candidate motion (:data:`MOTIONS`: rotations about and shifts along joint 1's axis and
-   the other base axes, a scale about the base origin, shifts of the flange along its own axes)
+   the other base axes, a scale about the base origin, shifts of the flange along its own axes;
+   rotations about the base axes through the first port, for cable lengths)
    is a vector field over the same points; it is *unobservable* when it lies in the span of M
    (relative distance below :data:`MATCH_RTOL`). Then the other directions of the flange's own
    frame along which a shift lies in the span: one measured point off the flange leaves the
@@ -61,6 +65,10 @@ PIN_FLANGE = ("a measured attachment (--attachment X,Y,Z without --estimate-atta
               "measured point itself is identified")
 PIN_TURN = ("a second measured point on the tool (the flange turns about the measured point "
             "unseen); the measured point itself is identified")
+PIN_PORT = ("a second port (--port NAME=X,Y,Z and a port column: distances from one point "
+            "cannot see a turn about it) or a laser tracker")
+ORIGIN, PORT = "origin", "port"
+"""What a rotation turns about: frame 0's origin, or the first port."""
 
 
 class Motion(NamedTuple):
@@ -76,6 +84,8 @@ class Motion(NamedTuple):
     """How to pin it."""
     direction: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """A flange shift's direction in the flange frame, unit."""
+    through: str = ORIGIN
+    """A rotation's centre: :data:`ORIGIN` (frame 0's) or :data:`PORT` (the first port's)."""
 
 
 MOTIONS = (
@@ -92,6 +102,12 @@ MOTIONS = (
            (0.0, 1.0, 0.0)),
     Motion("shift of the flange along its own z axis", FLANGE_SHIFT, -1, PIN_FLANGE,
            (0.0, 0.0, 1.0)),
+    Motion("rotation about the vertical through the port", ROTATION, 2, PIN_PORT,
+           through=PORT),
+    Motion("rotation about the base x axis through the port", ROTATION, 0, PIN_PORT,
+           through=PORT),
+    Motion("rotation about the base y axis through the port", ROTATION, 1, PIN_PORT,
+           through=PORT),
 )
 """Candidate motions, in the order they are named. Base axes are those of the chain's frame 0
 (joint 1 turns about its z axis). Shifts of the flange along other directions of its own frame
@@ -115,6 +131,15 @@ class Gauge(NamedTuple):
     """Frame 0's axes as columns, shape (3, 3)."""
     point_in_flange_m: Array
     """The measured point in the flange frame, shape (3,), m."""
+    port_m: Array | None = None
+    """The first port, base frame, shape (3,), m; None without one."""
+
+    def centre(self, motion: Motion) -> Array:
+        """The point a rotation turns about, base frame, shape (3,), m."""
+        if motion.through == PORT:
+            assert self.port_m is not None
+            return self.port_m
+        return self.origin_m
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -135,7 +160,7 @@ class Gauge(NamedTuple):
 
 
 def _field(motion: Motion, points: Array, rotations: Array, origin: Array, axes: Array) -> Array:
-    """The motion's velocity at every point, shape (k, 3)."""
+    """The motion's velocity at every point, shape (k, 3); a rotation turns about ``origin``."""
     if motion.kind == ROTATION:
         return np.cross(axes[:, motion.axis], points - origin)
     if motion.kind == SHIFT:
@@ -201,8 +226,10 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     rotations = flange_transform(model.robot.structure, table, model.joints(x, data))[..., :3, :3]
     base = model.robot.structure.base
     origin, axes = base[:3, 3], base[:3, :3]
+    port = model.rig.ports_m[0] if model.kind.name == "length" and len(model.rig.ports_m) \
+        else None
     gauge = Gauge((), np.zeros((points.size, 0)), points, rotations, origin, axes,
-                  model.point(x))
+                  model.point(x), port)
     null = np.asarray(null_space, dtype=np.float64)
     if not null.shape[1]:
         return gauge
@@ -215,7 +242,9 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     named: list[Motion] = []
     fields: list[Array] = []
     for motion in MOTIONS:
-        vector = _field(motion, points, rotations, origin, axes).ravel()
+        if motion.through == PORT and port is None:
+            continue
+        vector = _field(motion, points, rotations, gauge.centre(motion), axes).ravel()
         norm = float(np.linalg.norm(vector))
         outside = vector - span @ (span.T @ vector)
         if np.linalg.norm(outside) < MATCH_RTOL * norm and not _within(vector, fields, norm):
@@ -238,9 +267,11 @@ def _moved(gauge: Gauge, parameters: Array) -> Array:
     linearly."""
     points, origin, axes = gauge.points_m, gauge.origin_m, gauge.axes
     rotation_vector, shift, scale = np.zeros(3), np.zeros(3), 0.0
-    flange_shift = np.zeros(3)
+    flange_shift, about_port = np.zeros(3), np.zeros(3)
     for motion, value in zip(gauge.motions, parameters, strict=False):
-        if motion.kind == ROTATION:
+        if motion.kind == ROTATION and motion.through == PORT:
+            about_port += value * axes[:, motion.axis]
+        elif motion.kind == ROTATION:
             rotation_vector += value * axes[:, motion.axis]
         elif motion.kind == SHIFT:
             shift += value * axes[:, motion.axis]
@@ -250,6 +281,9 @@ def _moved(gauge: Gauge, parameters: Array) -> Array:
             flange_shift += value * np.asarray(motion.direction)
     turned = (points - origin) @ Rotation.from_rotvec(rotation_vector).as_matrix().T
     moved = origin + (1.0 + scale) * turned + shift + gauge.flange_rotations @ flange_shift
+    if gauge.port_m is not None and np.any(about_port):
+        port = gauge.port_m
+        moved = port + (moved - port) @ Rotation.from_rotvec(about_port).as_matrix().T
     linear = gauge.unnamed @ parameters[len(gauge.motions):]
     return moved + linear.reshape(points.shape)
 

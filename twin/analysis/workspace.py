@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 
 from twin.arrays import Array
 from twin.report.display import plain
-from twin.units import rad_to_deg
+from twin.units import joints_to_file
 
 WORKSPACE_POSES = 1000
 """Random poses over which a flange accuracy is stated."""
@@ -40,11 +40,16 @@ class Workspace(NamedTuple):
     covers: str
     """What the ranges are: :data:`DATA_RANGES` or ``the joint limits``."""
 
-    def describe(self) -> str:
-        """``1000 poses within the joint ranges of the training poses (q1 -30…45, … deg)``."""
+    def describe(self, prismatic: ArrayLike | None = None) -> str:
+        """``1000 poses within the joint ranges of the training poses (q1 -30…45, … deg)``; a
+        prismatic joint's (``prismatic``, shape (n,)) in mm: ``(q1 0…400 mm, q2 -30…45, …
+        deg)``."""
+        sliding = np.zeros(self.lower_rad.size, dtype=bool) if prismatic is None \
+            else np.asarray(prismatic, dtype=bool)
+        lower, upper = (joints_to_file(v, sliding) for v in (self.lower_rad, self.upper_rad))
         ranges = ", ".join(
-            f"q{j + 1} {plain(low, 0)}…{plain(high, 0)}" for j, (low, high) in enumerate(zip(
-                rad_to_deg(self.lower_rad), rad_to_deg(self.upper_rad), strict=True)))
+            f"q{j + 1} {plain(low, 0)}…{plain(high, 0)}{' mm' if slides else ''}"
+            for j, (low, high, slides) in enumerate(zip(lower, upper, sliding, strict=True)))
         return f"{len(self.q_rad)} poses within {self.covers} ({ranges} deg)"
 
     def grid(self, n_per_axis: int) -> tuple[Array, Array, Array]:

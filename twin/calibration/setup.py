@@ -181,7 +181,9 @@ def make_problem(
     train = measurements.subset(train_rows)
     if settings.estimates("base"):
         model = tracker_start(model, train)
-    joints = settings.joint_sigma(robot.n_joints)
+    # An angle's noise: a prismatic joint's recorded travel counts as exact (a linear axis's
+    # encoder resolves micrometres).
+    joints = np.where(robot.prismatic, 0.0, settings.joint_sigma(robot.n_joints))
     problem = Problem(model, train, measurements.subset(validation_rows) if held_out is None
                       else held_out, sigma_m=settings.sigma_m, loss=settings.loss_function,
                       joint_sigma_rad=joints)

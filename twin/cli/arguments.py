@@ -20,6 +20,7 @@ import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NoReturn
 
+from twin.choices import JOINT_RANGE
 from twin.io.paths import InputPath, OutputFile, output_folder
 
 if TYPE_CHECKING:
@@ -271,7 +272,7 @@ def add_robot_flags(parser: argparse.ArgumentParser, what: str = "robot model") 
     """``--robot`` (a model TOML or a URDF) and, for a URDF, ``--base-link`` / ``--tip-link``."""
     default = "the result's" if what == RESULT_ROBOT else "the ABB IRB 120"
     parser.add_argument("--robot", type=InputPath, help=f"{what}: a model TOML file, a .urdf "
-                        f"or a .xacro, 4 to 7 revolute joints (default: {default})")
+                        f"or a .xacro, {JOINT_RANGE} joints (default: {default})")
     parser.add_argument("--xacro-arg", action="append", metavar="NAME:=VALUE",
                         help="with a .xacro --robot: an argument of the description, repeated")
     parser.add_argument("--base-link", metavar="LINK", help="with a URDF --robot: the link "

@@ -7,6 +7,7 @@ import math
 import sys
 from typing import Any
 
+from twin.choices import JOINT_RANGE
 from twin.cli.arguments import (
     add_cable_tension,
     add_output,
@@ -46,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "controller; rws://HOST[:PORT]: an ABB IRC5 (RWS 1.0), "
                         "rws2://HOST[:PORT]: an ABB OmniCore (RWS 2.0)")
     add_output(parser, "DIR", "output folder", folder=CAPTURE_FOLDER)
-    parser.add_argument("--robot", type=InputPath, help="robot model TOML or URDF, 4 to 7 "
+    parser.add_argument("--robot", type=InputPath, help=f"robot model TOML or URDF, {JOINT_RANGE} "
                         "joints (default: the ABB IRB 120; with sim: the scenario's)")
     parser.add_argument("--port", help="encoder port X,Y,Z in mm, robot base frame (with sim: "
                         "the scenario's told port)")

@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
 
     from twin.compensation.joints import compensate_program_rows
     from twin.io.identified import load_result, warn_result_cautions
-    from twin.io.measurements import load_poses
+    from twin.io.measurements import joint_units_said, load_poses
     from twin.io.pose_tables import write_corrected
 
     if args.verify is not None:
@@ -136,13 +136,14 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--tool or --wobj with --joints", "them with --targets or --rapid",
                              source="--tool" if args.tool else "--wobj")
         program = load_poses(args.joints, robot,
-                             f"a program CSV (q1..q{robot.n_joints} in degrees)", stdin=True)
+                             f"a program CSV ({joint_units_said(robot.n_joints, robot)})",
+                             stdin=True)
         q_nominal = program.q_rad
         ordered = compensate_program_rows(model, x, robot, q_nominal, program.approach)
     else:
         ordered, q_nominal = _targets(args, robot, model, x, rng)
-    write_corrected(args.out, ordered)
-    print(_summary(ordered, q_nominal))
+    write_corrected(args.out, ordered, robot)
+    print(_summary(ordered, q_nominal, robot))
     print(f"wrote {args.out}")
     return 0
 
@@ -215,11 +216,11 @@ def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray
     return 0
 
 
-def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
+def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64], robot: RobotModel) -> str:
     import numpy as np
 
     from twin.compensation.ik import STATUS_OK
-    from twin.report.display import deg, deg_values
+    from twin.report.display import deg, joint_values, mm
 
     solved = ordered.solved
     statuses, counts = np.unique(solved.status, return_counts=True)
@@ -227,15 +228,19 @@ def _summary(ordered: InOrder, q_nominal_rad: NDArray[np.float64]) -> str:
         f"{count} {status}" for status, count in zip(statuses, counts, strict=True))
     ok = solved.status == STATUS_OK
     if np.any(ok):
-        change_rad = np.abs(solved.q_rad[ok] - q_nominal_rad[ok])
-        text += ("\ncorrection per joint, mean |Δq| [deg]: "
-                 + deg_values(change_rad.mean(axis=0), separator=" ")
-                 + f"; largest {deg(change_rad.max(), unit=False)}")
+        change = np.abs(solved.q_rad[ok] - q_nominal_rad[ok])
+        mean, units = joint_values(change.mean(axis=0), robot.prismatic, separator=" ")
+        sliding = robot.prismatic
+        largest = ([deg(change[:, ~sliding].max(), unit=bool(sliding.any()))]
+                   if not sliding.all() else []) \
+            + ([mm(change[:, sliding].max())] if sliding.any() else [])
+        text += (f"\ncorrection per joint, mean |Δq| [{units}]: {mean}; largest "
+                 + ", ".join(largest))
     if np.any(ordered.approach_moves):
         rows = np.flatnonzero(ordered.approach_moves) + 1
         text += (f"\n{rows.size} rows need an approach move (a joint moves less than its "
                  "backlash from the row before: overshoot and come back from the side in "
-                 f"approach1..6): rows {', '.join(map(str, rows[:10]))}"
+                 f"approach1..{robot.n_joints}): rows {', '.join(map(str, rows[:10]))}"
                  + ("…" if rows.size > 10 else ""))
     return text
 

@@ -184,7 +184,7 @@ def run(args: argparse.Namespace) -> int:
         f"  observability (base columns, SI): O1 {indices.o1:.4g}  O3 {indices.o3:.4g}  "
         f"O4 {indices.o4:.4g}  condition {indices.condition:.4g}",
         _bound_line(assessment, inputs.calibration.sigma_m),
-        f"  workspace: {assessment.workspace.describe()}",
+        f"  workspace: {assessment.workspace.describe(robot.prismatic)}",
     ]
     assert result.identified_identifiability is not None and result.uncertainty is not None
     uncertainty = result.uncertainty

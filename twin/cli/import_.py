@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
                             joints_topic=args.joints_topic, reading_topic=args.reading_topic)
     for line in imported.dropped:
         print(line)
-    write_measurements(args.out, imported.measurements)
+    write_measurements(args.out, imported.measurements, robot)
     measured = imported.measurements
     print(f"imported {len(measured.q_rad)} poses ({measured.kind}) of {robot.name} into "
           f"{args.out}; {len(imported.dropped)} left out")

@@ -203,7 +203,7 @@ def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float6
     q_rad = q_rad[visit.order]
     port = None if port is None else port[visit.order]
     if options is None:
-        write_plan(args.out, q_rad, port_names, port)
+        write_plan(args.out, q_rad, robot, port_names, port)
     else:
         write_atomic(args.out, plan_module(robot, q_rad, options, port_names, port))
     unit = "s at the rated joint speeds" if robot.velocity_rad_s is not None \

@@ -52,20 +52,20 @@ def run(args: argparse.Namespace) -> int:
     from twin.calibration.predict import predict
     from twin.io.capture_file import parse_port_mm
     from twin.io.identified import load_result, warn_result_cautions
-    from twin.io.measurements import joint_columns, load_poses
+    from twin.io.measurements import joint_units_said, load_poses
     from twin.io.pose_tables import write_prediction
 
     identified = load_result(args.identified, given_robot(args), args.method)
     robot = identified.robot
     warn_result_cautions(args.identified, args.method, "the prediction")
     port_m = None if args.port is None else parse_port_mm(args.port, "--port", "")
-    poses = load_poses(args.joints, robot, f"a pose CSV ({','.join(joint_columns(1))}.."
-                       f"q{robot.n_joints} in degrees)", stdin=True)
+    poses = load_poses(args.joints, robot,
+                       f"a pose CSV ({joint_units_said(robot.n_joints, robot)})", stdin=True)
     try:
         prediction = predict(identified, poses.q_rad, approach=poses.approach, port_m=port_m)
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=args.joints) from None
-    write_prediction(args.out, poses.q_rad, poses.approach, prediction)
+    write_prediction(args.out, poses.q_rad, poses.approach, prediction, robot)
     model = identified.model
     estimated = model.has("attachment")
     point = "identified attachment point" if estimated else "attachment point" \

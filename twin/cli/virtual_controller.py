@@ -55,10 +55,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.hardware.robot_sources.sim import DEFAULT_POSE_FILE
     from twin.hardware.rws.virtual_controller import ControllerSettings, Robot, serve
+    from twin.io.rapid import refuse_prismatic
     from twin.scenario import load_scenario
     from twin.units import rad_to_deg
 
     robot = load_scenario(args.scenario).robot
+    refuse_prismatic(robot.joint_names, robot.prismatic, args.scenario)
     settings = ControllerSettings(
         robot.n_joints, tuple(float(v) for v in rad_to_deg(robot.lower_rad)),
         tuple(float(v) for v in rad_to_deg(robot.upper_rad)), args.module,

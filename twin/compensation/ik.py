@@ -3,7 +3,7 @@
 One batched damped-least-squares Newton iteration solves all rows at once (no loop over rows):
 each step is ``Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e`` with e the position error (m) and, for full poses, the
 rotation error ``log(R_target Rᵀ)`` (rad, base frame); λ is adapted per row (Levenberg–
-Marquardt: a step is taken only if it lowers ‖e‖). With 3 equations and 4 to 7 joints (flange
+Marquardt: a step is taken only if it lowers ‖e‖). With 3 equations and 4 to 9 joints (flange
 positions only) the step is the minimum-norm one, so the solution stays next to its seed.
 
 Targets that come without joint angles are solved on the nominal model from a few joint-space
@@ -13,8 +13,10 @@ angles, leaving out ∂Δq/∂q (some 1e-3 of the identity): each step then shri
 about that factor instead of quadratically — a step or two more, the same solution.
 
 Solutions are never clipped: a row that does not converge is *unreachable*, a converged row
-whose angles (after choosing among the equivalent angles q + 2πk the one closest to the seed)
-leave the joint limits is reported as a *joint-limit* violation.
+whose angles (after choosing among the equivalent angles q + 2πk the one closest to the seed;
+a prismatic joint's travel has no such twin) leave the joint limits is reported as a
+*joint-limit* violation. A prismatic joint's column of J is in m/m beside the others' m/rad:
+the minimum-norm step weighs a metre of travel like a radian of turn (a turn at a lever of 1 m).
 """
 
 from __future__ import annotations
@@ -124,8 +126,9 @@ def _errors(
 
 
 def _into_limits(robot: RobotModel, q_rad: Array, q_seed: Array) -> tuple[Array, NDArray[np.bool_]]:
-    """Per joint, the angle q + 2πk inside the limits closest to the seed (if any)."""
-    turns = np.arange(-2, 3)
+    """Per joint, the angle q + 2πk inside the limits closest to the seed (if any); a
+    prismatic joint's travel as it is."""
+    turns = np.arange(-2, 3) * np.where(robot.prismatic, 0.0, 1.0)[:, None]  # (n, 5)
     candidates = q_rad[..., None] + 2 * np.pi * turns  # (m, n, 5)
     inside = (candidates >= robot.lower_rad[:, None]) & (candidates <= robot.upper_rad[:, None])
     distance = np.abs(candidates - q_seed[..., None]) + np.where(inside, 0.0, 1e3)

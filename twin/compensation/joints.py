@@ -12,7 +12,7 @@ Two requests, both solved by the batched inverse kinematics of :mod:`twin.compen
   (``rotation_error_rad``) rather than solved;
 - **Cartesian targets** (flange positions only): first a nominal solution (position-only IK on
   the nominal model from a few joint-space starts, :func:`twin.compensation.ik.nominal_ik`), then
-  position-only IK on the identified model seeded from it. With 3 equations and 4 to 7 joints the
+  position-only IK on the identified model seeded from it. With 3 equations and 4 to 9 joints the
   Newton step is the minimum-norm one, so the corrected joints stay next to the nominal ones and the
   flange orientation stays close to the nominal solution's.
 

@@ -46,20 +46,26 @@ def dexterity(robot: RobotModel, q_rad: ArrayLike, length_m: float = DEXTERITY_L
     return np.asarray(np.linalg.svd(jacobian, compute_uv=False)[:, -1])
 
 
+MARGIN_M = 0.01
+"""How far inside its limits a prismatic joint's travel stays for a reachable target, m."""
+
+
 def reachable_targets(
     robot: RobotModel, n_targets: int, rng: np.random.Generator,
     margin_rad: float = np.deg2rad(5.0), min_dexterity: float = MIN_DEXTERITY,
 ) -> tuple[Array, Array]:
     """Random reachable targets: the nominal flange at random joint angles.
 
-    Angles stay ``margin_rad`` inside every limit and at least ``min_dexterity`` from a
-    singularity (see :func:`dexterity`), so a robot a few millimetres off the nominal one reaches
-    them with joints a few mrad away, still inside the limits.
+    Angles stay ``margin_rad`` inside every limit (a prismatic joint's travel :data:`MARGIN_M`)
+    and at least ``min_dexterity`` from a singularity (see :func:`dexterity`), so a robot a few
+    millimetres off the nominal one reaches them with joints a few mrad away, still inside the
+    limits.
 
     Returns:
         ``(q_rad, base_p_target)``: shapes (n_targets, n) in rad and (n_targets, 3) in m.
     """
-    low, high = robot.lower_rad + margin_rad, robot.upper_rad - margin_rad
+    margin = np.where(robot.prismatic, MARGIN_M, margin_rad)
+    low, high = robot.lower_rad + margin, robot.upper_rad - margin
     kept: list[Array] = []
     while sum(len(k) for k in kept) < n_targets:
         q = rng.uniform(low, high, (2 * n_targets, robot.n_joints))

@@ -1,7 +1,8 @@
-"""MJCF for MuJoCo, from the twin's own model builder: hinge joints and a site ``flange``.
+"""MJCF for MuJoCo, from the twin's own model builder: hinge joints (slides for prismatic
+ones, q in m) and a site ``flange``.
 
-The joint positions ``qpos`` are the D-H joint angles q (the θ offsets sit in the bodies'
-orientations), so the flange site's pose equals :func:`twin.geometry.kinematics.flange_transform`;
+The joint positions ``qpos`` are the D-H joint values q (the θ and d offsets sit in the bodies'
+placements), so the flange site's pose equals :func:`twin.geometry.kinematics.flange_transform`;
 :func:`twin.sim.builder.model_xml` writes the kinematic attributes at full double precision,
 so the exported FK agrees to 1e-9 m.
 """

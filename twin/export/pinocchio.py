@@ -5,9 +5,9 @@ An adapter: it imports Pinocchio, and nothing in the core imports it. (Reading a
 :mod:`twin.io.urdf_reader`; writing one is :mod:`twin.export.urdf`.)
 
 A robot of any parametrisation is its fixed transforms
-(:func:`twin.geometry.kinematics.fixed_transforms`): joint i is a revolute about z placed at T_{i−1}
-in joint i − 1's frame, and a frame named
-``flange`` sits at T_n on the last joint.
+(:func:`twin.geometry.kinematics.fixed_transforms`): joint i turns about z (or, prismatic, slides
+along it) placed at T_{i−1} in joint i − 1's frame, and a frame named ``flange`` sits at T_n on
+the last joint.
 """
 
 from __future__ import annotations
@@ -26,18 +26,18 @@ FLANGE_FRAME = "flange"
 
 
 def build_model(robot: RobotModel) -> pin.Model:
-    """The robot as a Pinocchio model: n revolute-z joints named as the robot's and a
-    ``flange`` frame.
+    """The robot as a Pinocchio model: n joints named as the robot's (revolute about z, or
+    prismatic along z) and a ``flange`` frame.
 
-    Joint limits are the robot's; ``model.lowerPositionLimit`` etc. are in rad. Link inertias are
-    left empty: the model is for kinematics.
+    Joint limits are the robot's; ``model.lowerPositionLimit`` etc. are in rad (m for a
+    prismatic joint). Link inertias are left empty: the model is for kinematics.
 
     Args:
         robot: The robot, SI, in any parametrisation.
 
     Returns:
-        A ``pinocchio.Model`` with ``nq = robot.n_joints`` whose configuration is q in rad, the
-        same q as :func:`twin.geometry.kinematics.flange_transform` takes.
+        A ``pinocchio.Model`` with ``nq = robot.n_joints`` whose configuration is q in rad (m),
+        the same q as :func:`twin.geometry.kinematics.flange_transform` takes.
     """
     fixed = fixed_transforms(robot.structure, robot.dh)
     model = pin.Model()
@@ -46,7 +46,7 @@ def build_model(robot: RobotModel) -> pin.Model:
     for i, name in enumerate(robot.joint_names):
         parent = model.addJoint(
             parent,
-            pin.JointModelRZ(),
+            pin.JointModelPZ() if robot.prismatic[i] else pin.JointModelRZ(),
             pin.SE3(fixed[i]),
             name,
             np.zeros(1),
@@ -59,8 +59,9 @@ def build_model(robot: RobotModel) -> pin.Model:
 
 
 def configurations(model: pin.Model, joint_names: Sequence[str], q_rad: Array) -> Array:
-    """Pinocchio configurations with the named joints at q (m, n) rad and every other joint at
-    its neutral value, shape (m, nq); a continuous joint takes (cos q, sin q)."""
+    """Pinocchio configurations with the named joints at q (m, n), rad (m for a prismatic
+    joint), and every other joint at its neutral value, shape (m, nq); a continuous joint takes
+    (cos q, sin q)."""
     q = np.atleast_2d(q_rad)
     result = np.tile(pin.neutral(model), (len(q), 1))
     for column, name in enumerate(joint_names):
@@ -75,12 +76,12 @@ def configurations(model: pin.Model, joint_names: Sequence[str], q_rad: Array) -
 
 def urdf_flange(text: str, joint_names: Sequence[str], q_rad: Array, tip_link: str,
                 base_link: str | None = None) -> Array:
-    """base_T_tip of a URDF document by Pinocchio's forward kinematics, at joint angles q.
+    """base_T_tip of a URDF document by Pinocchio's forward kinematics, at joint values q.
 
     Args:
         text: The URDF document.
         joint_names: The joints q gives, in its column order.
-        q_rad: Joint angles, shape (m, n), rad.
+        q_rad: Joint values, shape (m, n), rad (m for a prismatic joint).
         tip_link: The link whose frame is returned.
         base_link: The link it is expressed in; the URDF's root if None.
 

@@ -119,7 +119,7 @@ def ur_origins(robot: RobotModel) -> UrOrigins:
     origins = joint_origins(robot)
     root = ET.fromstring(robot.urdf.text)
     chain = find_chain(root, robot.urdf.base_link, robot.urdf.tip_link, "the robot's URDF")
-    last = chain.revolute[-1]
+    last = chain.moving[-1]
     axis = last.find("axis")
     if axis is None or not np.allclose([float(v) for v in axis.get("xyz", "1 0 0").split()],
                                        [0.0, 0.0, 1.0], rtol=0.0, atol=1e-12):

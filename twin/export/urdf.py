@@ -5,22 +5,23 @@
   inertial, limit, comment and name (``tool0``, ``flange``, the base link…) is kept, so
   robot_state_publisher, MoveIt configurations and drivers keep working with it.
 - **A robot from a model TOML file**: a URDF with the ROS-Industrial names — ``base_link``,
-  ``joint_1``…``joint_n`` (revolute, about z), ``link_1``…``link_n``, and the flange frame as
-  ``tool0`` on a fixed joint ``link_n-tool0`` — and the file's limits.
+  ``joint_1``…``joint_n`` (revolute about z, or prismatic along it), ``link_1``…``link_n``, and
+  the flange frame as ``tool0`` on a fixed joint ``link_n-tool0`` — and the file's limits (m,
+  m/s and N on a prismatic joint).
 
 How the calibration goes in. The identified chain's fixed transforms
 (:func:`twin.geometry.kinematics.fixed_transforms`) give every joint's frame at q = 0, the joint
-turning about its z axis. When the robot was read, each URDF joint's frame (turned so that its axis
-is z) was recorded as a shift along and a turn about that same axis from the table's frame
-(:attr:`twin.robot.UrdfSource.frame_offsets`); such a screw commutes with the joint's turn, so
-the calibrated URDF joint frame is the calibrated table frame with the same screw, and each link
-frame — with its meshes and inertials — moves by the calibration alone. Revolute joint k's
-origin is then its calibrated frame seen from its parent link, through the fixed joints between
-them (unchanged), its ``<axis>`` unchanged. The flange's calibrated place goes into the first
-fixed joint between the last revolute joint and the tip link; when the tip link is the last
-joint's own child, only a turn about and a shift along the last axis can go into that joint's
-origin, and a calibration that moves the flange off its axis is refused (name a tip link after a
-fixed joint, such as ``tool0``).
+turning about (or sliding along) its z axis. When the robot was read, each URDF joint's frame
+(turned so that its axis is z) was recorded as a shift along and a turn about that same axis from
+the table's frame (:attr:`twin.robot.UrdfSource.frame_offsets`); such a screw commutes with the
+joint's turn or slide, so the calibrated URDF joint frame is the calibrated table frame with the
+same screw, and each link frame — with its meshes and inertials — moves by the calibration alone.
+Moving joint k's origin is then its calibrated frame seen from its parent link, through the fixed
+joints between them (unchanged), its ``<axis>`` unchanged. The flange's calibrated place goes
+into the first fixed joint between the last moving joint and the tip link; when the tip link is
+the last joint's own child, only a turn about and a shift along the last axis can go into that
+joint's origin, and a calibration that moves the flange off its axis is refused (name a tip link
+after a fixed joint, such as ``tool0``).
 
 Origins are written as ``xyz`` (m) and fixed-axis ``rpy`` (rad) at full double precision, so that
 Pinocchio's forward kinematics of the file equals the identified model's to 1e-9 m
@@ -38,7 +39,7 @@ import numpy as np
 from twin.arrays import Array
 from twin.geometry.kinematics import fixed_transforms, xyz_rpy
 from twin.geometry.parametrisation import joint_frames
-from twin.io.urdf_reader import REVOLUTE, axis_alignment, find_chain, joint_axis, origin_transform
+from twin.io.urdf_reader import MOVING, axis_alignment, find_chain, joint_axis, origin_transform
 from twin.robot import RobotModel
 
 SCREW_TOLERANCE = 1e-12
@@ -86,10 +87,10 @@ def _calibrated_origins(robot: RobotModel, root: ET.Element) -> dict[str, Array]
     source = robot.urdf
     assert source is not None
     chain = find_chain(root, source.base_link, source.tip_link, SOURCE)
-    groups: list[list[ET.Element]] = [[]]  # fixed joints before each revolute, then the tail
+    groups: list[list[ET.Element]] = [[]]  # fixed joints before each moving one, then the tail
     revolute: list[ET.Element] = []
     for joint in chain.joints:
-        if joint.get("type") in REVOLUTE:
+        if joint.get("type") in MOVING:
             revolute.append(joint)
             groups.append([])
         else:
@@ -128,7 +129,7 @@ def _calibrated_origins(robot: RobotModel, root: ET.Element) -> dict[str, Array]
 
 def joint_origins(robot: RobotModel) -> dict[str, Array]:
     """The origin of every joint whose origin holds the robot's calibration, by joint name:
-    each revolute joint of the chain and the fixed joint that carries the flange, (4, 4) in the
+    each moving joint of the chain and the fixed joint that carries the flange, (4, 4) in the
     parent link's frame, m.
 
     Raises:
@@ -173,7 +174,7 @@ def _conventional(robot: RobotModel) -> str:
     lines = ['<?xml version="1.0"?>',
              f"<!-- {robot.name}: written by twin export from a model file "
              f"({'/'.join(sorted(set(robot.structure.parametrisation)))} table). Joint i turns "
-             "about z of its frame; tool0 is the flange frame. -->"]
+             "about (prismatic: slides along) z of its frame; tool0 is the flange frame. -->"]
     missing = [what for what, values in (("speed", robot.velocity_rad_s),
                                          ("torque", robot.effort_nm)) if values is None]
     if missing:
@@ -186,7 +187,7 @@ def _conventional(robot: RobotModel) -> str:
         attributes = _origin_attributes(origin)
         lines += [
             f'  <link name="{child}"/>',
-            f'  <joint name="{name}" type="revolute">',
+            f'  <joint name="{name}" type="{robot.structure.joint_types[i]}">',
             f'    <parent link="{parent}"/>',
             f'    <child link="{child}"/>',
             f'    <origin xyz="{attributes["xyz"]}" rpy="{attributes["rpy"]}"/>',

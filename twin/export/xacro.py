@@ -1,7 +1,7 @@
 """The calibration as xacro properties a description includes, the description left as it is.
 
 For each joint whose origin holds the calibration (:func:`twin.export.urdf.joint_origins`: every
-revolute joint of the chain and the fixed joint carrying the flange) two properties, in m and
+moving joint of the chain and the fixed joint carrying the flange) two properties, in m and
 the URDF's fixed-axis roll–pitch–yaw in rad, at full double precision::
 
     <xacro:property name="shoulder_pan_joint_origin_xyz" value="0.0 0.0 0.1625"/>

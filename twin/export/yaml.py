@@ -12,7 +12,7 @@ built from a xacro that takes its joint origins from such a file::
         yaw: 0.0
       ...
 
-One entry per joint whose origin holds the calibration (every revolute joint of the chain and
+One entry per joint whose origin holds the calibration (every moving joint of the chain and
 the fixed joint carrying the flange, :func:`twin.export.urdf.joint_origins`), keyed by the
 URDF's joint names (``joint_1``… for a robot from a model file): ``x, y, z`` in m and fixed-axis
 ``roll, pitch, yaw`` in rad, in the parent link's frame, at full double precision. UR's own

@@ -9,8 +9,10 @@ the point in the frame before the motion. Loops run over motions outside and pos
 the compiler vectorises over poses. Compiled once and cached on disk (``cache=True``): the
 first call in a fresh install compiles, later processes load the machine code.
 
-Chains here are revolute: the joint variable adds to the joint slot's angle, whose cosine and
-sine come from the poses' cached cos q, sin q by the angle-sum identity.
+A revolute joint's variable adds to its θ, whose cosine and sine come from the poses' cached
+cos q, sin q by the angle-sum identity; a prismatic joint's adds to the translation it drives
+(its d, or a Hayati joint's slot-less slide), read from the joint values themselves — a chain
+without one never reads them.
 """
 
 from __future__ import annotations
@@ -26,13 +28,15 @@ from twin.arrays import Array
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m: int
             ) -> tuple[Array, Array]:
-    """cos and sin of every motion's angle for table k at every pose, shape (motions, m) each;
-    the joint slot's is q + θ, the others the table's (the same at every pose): what the
-    Jacobian's directions turn by on their way out."""
+    """cos and sin of every rotation's angle for table k at every pose, shape (motions, m)
+    each (a translation's rows unset); a revolute joint's is q + θ, the others the table's (the
+    same at every pose): what the Jacobian's directions turn by on their way out."""
     motions = plan.shape[0]
     cos = np.empty((motions, m))
     sin = np.empty((motions, m))
     for index in range(motions):
+        if plan[index, 0] == 1:
+            continue
         slot, joint, driven = plan[index, 2], plan[index, 3], plan[index, 4]
         value = table[k, slot, joint]
         c, s = math.cos(value), math.sin(value)
@@ -48,15 +52,16 @@ def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _carry(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, start: Array,
-           kp: int, p: Array, before: Array, keep: bool) -> None:
+def _carry(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, k: int, kq: int,
+           start: Array, kp: int, p: Array, before: Array, keep: bool) -> None:
     """Carry the point from the flange to the base for table k into ``p`` (3, m); with
     ``keep``, the point in the frame before each rotation into ``before`` (motions, 3, m).
 
     Each rotation's cosine and sine are made where they are used: a rotation the poses do not
-    drive turns every pose by the same two numbers, the joint's turn by q + θ from the poses'
-    cos q, sin q (the angle sum, as :func:`_angles`). Written to arrays of m copies first (as
-    the Jacobian's way out needs them), they took two thirds of a swarm's positions."""
+    drive turns every pose by the same two numbers, a revolute joint's turn by q + θ from the
+    poses' cos q, sin q (the angle sum, as :func:`_angles`). Written to arrays of m copies
+    first (as the Jacobian's way out needs them), they took two thirds of a swarm's
+    positions."""
     m = p.shape[1]
     for axis in range(3):
         for i in range(m):
@@ -64,7 +69,11 @@ def _carry(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, sta
     for index in range(plan.shape[0] - 1, -1, -1):
         kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
         if kind == 1:
-            value = table[k, slot, joint]
+            value = table[k, slot, joint] if slot >= 0 else 0.0
+            if plan[index, 4]:  # a prismatic joint's slide: its travel at each pose
+                for i in range(m):
+                    p[axis, i] += value + slides[joint, kq, i]
+                continue
             for i in range(m):
                 p[axis, i] += value
             continue
@@ -100,14 +109,17 @@ def _to_base(base: Array, p: Array, out: Array, k: int) -> None:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def positions(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base: Array
-              ) -> Array:
+def positions(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, start: Array,
+              base: Array) -> Array:
     """The point in the base frame for K tables at m poses.
 
     Args:
         table: Tables, shape (K, 4, n), m and rad.
-        plan: The motions base to flange, rows (kind, axis, slot, joint, driven), (4n, 5).
+        plan: The motions base to flange, rows (kind, axis, slot, joint, driven, column),
+            (motions, 6); slot −1 for a motion without a table entry.
         cq: cos q joint-major, shape (n, 1 or K, m). sq: sin q, likewise.
+        slides: q joint-major, shape (n, 1 or K, m), read for prismatic joints only (any
+            shape without one).
         start: The point in the last joint's frame (tool applied), shape (1 or K, 3), m.
         base: The base transform, (4, 4).
 
@@ -120,30 +132,30 @@ def positions(table: Array, plan: Array, cq: Array, sq: Array, start: Array, bas
     unused = np.empty((0, 3, m))
     for k in range(tables):
         kq, kp = min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1)
-        _carry(table, plan, cq, sq, k, kq, start, kp, p, unused, False)
+        _carry(table, plan, cq, sq, slides, k, kq, start, kp, p, unused, False)
         _to_base(base, p, out, k)
     return out
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base: Array,
-             tool: Array, directions: Array) -> tuple[Array, Array, Array]:
+def jacobian(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, start: Array,
+             base: Array, tool: Array, directions: Array, n_columns: int
+             ) -> tuple[Array, Array, Array]:
     """The point and its derivatives along r directions per pose, for K tables at m poses.
 
     Args:
-        table, plan, cq, sq, start, base: As :func:`positions`.
+        table, plan, cq, sq, slides, start, base: As :func:`positions`.
         tool: The tool transform, (4, 4).
         directions: Directions in the base frame, shape (1 or K, 1 or m, r, 3).
+        n_columns: Number of derivative columns (the plan's largest column + 1).
 
     Returns:
-        ``(position, table_columns, rotation)``: shapes (K, m, 3), (K, m, r, 4n) in the error
-        vector's order (slot-major), (K, m, r, 3).
+        ``(position, columns, rotation)``: shapes (K, m, 3), (K, m, r, n_columns) — the
+        error vector's order (slot-major), then the slot-less slides —, (K, m, r, 3).
     """
-    tables, m = table.shape[0], cq.shape[2]
-    motions, r = plan.shape[0], directions.shape[2]
-    n = motions // 4
+    tables, m, motions, r = table.shape[0], cq.shape[2], plan.shape[0], directions.shape[2]
     position = np.empty((tables, m, 3))
-    columns = np.empty((tables, m, r, 4 * n))
+    columns = np.empty((tables, m, r, n_columns))
     rotation = np.empty((tables, m, r, 3))
     before = np.empty((motions, 3, m))
     p = np.empty((3, m))
@@ -151,7 +163,7 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base
     for k in range(tables):
         kq, kp, kw = (min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1),
                       min(k, directions.shape[0] - 1))
-        _carry(table, plan, cq, sq, k, kq, start, kp, p, before, True)
+        _carry(table, plan, cq, sq, slides, k, kq, start, kp, p, before, True)
         cos, sin = _angles(table, plan, cq, sq, k, kq, m)
         _to_base(base, p, position, k)
         for direction in range(r):
@@ -162,9 +174,7 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, start: Array, base
                                  + base[1, row] * directions[kw, iw, direction, 1]
                                  + base[2, row] * directions[kw, iw, direction, 2])
             for index in range(motions):
-                kind, axis, slot, joint = (plan[index, 0], plan[index, 1], plan[index, 2],
-                                           plan[index, 3])
-                column = slot * n + joint
+                kind, axis, column = plan[index, 0], plan[index, 1], plan[index, 5]
                 if kind == 1:
                     for i in range(m):
                         columns[k, i, direction, column] = w[axis, i]

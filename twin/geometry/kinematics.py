@@ -1,9 +1,10 @@
-"""Forward kinematics of serial revolute chains, vectorised over poses and over parameter tables.
+"""Forward kinematics of serial chains of revolute and prismatic joints, vectorised over poses
+and over parameter tables.
 
-A chain is a :class:`Structure` — one parametrisation per joint, a fixed base transform and a
-fixed tool transform — and a parameter table ``dh`` of shape (..., 4, n) whose four rows are the
-joints' *slots*; any leading dimensions are a batch of K candidate tables. Joint i contributes,
-with slots (s0, s1, s2, s3) and joint angle q_i:
+A chain is a :class:`Structure` — one parametrisation and one joint type per joint, a fixed base
+transform and a fixed tool transform — and a parameter table ``dh`` of shape (..., 4, n) whose
+four rows are the joints' *slots*; any leading dimensions are a batch of K candidate tables.
+Joint i contributes, with slots (s0, s1, s2, s3) and joint variable q_i:
 
 - ``"dh"`` (standard, distal D-H), slots (a, d, α, θ): ``Rz(q + θ) · Tz(d) · Tx(a) · Rx(α)``;
 - ``"mdh"`` (modified D-H, Craig), slots (a, d, α, θ) with a, α those of the link before the
@@ -11,6 +12,13 @@ with slots (s0, s1, s2, s3) and joint angle q_i:
 - ``"hayati"`` (Hayati–Mirmirani, for a joint whose axis is nearly parallel to the next one),
   slots (a, β, α, θ): ``Rz(q + θ) · Tx(a) · Rx(α) · Ry(β)`` — a small tilt of the next axis is a
   small β, where standard D-H needs a huge change of d.
+
+That is a revolute joint (q in rad, added to θ). A prismatic joint slides by q (m) along the
+same axis, z of the frame before it: q adds to d instead (``Rz(θ) · Tz(d + q) · Tx(a) · Rx(α)``,
+``Rx(α) · Tx(a) · Rz(θ) · Tz(d + q)``), and a Hayati joint, which has no d, slides by q alone:
+``Rz(θ) · Tz(q) · Tx(a) · Rx(α) · Ry(β)`` (its offset along the axis, like a revolute Hayati
+joint's, is the next joint's). Arrays of joint values are "q_rad" throughout: radians for a
+revolute joint, metres for a prismatic one.
 
 ``base_T_flange(q) = base · A_1(q_1) ⋯ A_n(q_n) · tool``. Lengths in m, angles in rad. The error
 vector of a calibration keeps the table's layout, slot by slot: (s0 of joints 1..n, s1 of joints
@@ -46,8 +54,15 @@ SLOT_NAMES = {"dh": ("a", "d", "alpha", "theta"), "mdh": ("a", "d", "alpha", "th
 SLOT_IS_LENGTH = {"dh": (True, True, False, False), "mdh": (True, True, False, False),
                   "hayati": (True, False, False, False)}
 """Whether each slot is a length (m) rather than an angle (rad), per parametrisation."""
+JOINT_TYPES = ("revolute", "prismatic")
+"""What a joint's variable moves (a URDF's names): it turns about the joint's axis (rad) or slides
+along it (m); see the module docstring."""
 JOINT_SLOT = 3
-"""The slot the joint angle adds to (θ)."""
+"""The slot a revolute joint's angle adds to (θ)."""
+SLIDE_SLOT = 1
+"""The slot a prismatic joint's travel adds to (d; a Hayati joint has none)."""
+NO_SLOT = -1
+"""The slot of a motion that holds no table entry: a prismatic Hayati joint's slide."""
 
 _ROT, _TRANS = 0, 1
 _X, _Y, _Z = 0, 1, 2
@@ -56,7 +71,25 @@ _MOTIONS = {
     "mdh": ((_ROT, _X, 2), (_TRANS, _X, 0), (_ROT, _Z, 3), (_TRANS, _Z, 1)),
     "hayati": ((_ROT, _Z, 3), (_TRANS, _X, 0), (_ROT, _X, 2), (_ROT, _Y, 1)),
 }
-"""Elementary motions of each parametrisation, base side first: (kind, local axis, slot)."""
+"""Elementary motions of each parametrisation's revolute joint, base side first: (kind, local
+axis, slot)."""
+
+
+@cache
+def joint_motions(parametrisation: str, joint_type: str
+                  ) -> tuple[tuple[int, int, int, bool], ...]:
+    """The elementary motions of one joint, base side first: (kind, local axis, slot, driven),
+    ``driven`` for the one motion q moves (θ's turn, or the slide along z), ``slot``
+    :data:`NO_SLOT` for a prismatic Hayati joint's slide."""
+    motions = _MOTIONS[parametrisation]
+    if joint_type == "revolute":
+        return tuple((kind, axis, slot, slot == JOINT_SLOT) for kind, axis, slot in motions)
+    if parametrisation == "hayati":
+        (kind, axis, slot), *rest = motions
+        return ((kind, axis, slot, False), (_TRANS, _Z, NO_SLOT, True),
+                *((kind, axis, slot, False) for kind, axis, slot in rest))
+    return tuple((kind, axis, slot, kind == _TRANS and slot == SLIDE_SLOT)
+                 for kind, axis, slot in motions)
 
 
 def _identity() -> Array:
@@ -65,17 +98,20 @@ def _identity() -> Array:
 
 @dataclass(frozen=True)
 class Structure:
-    """What a parameter table means: the parametrisation of each joint and the fixed ends.
+    """What a parameter table means: the parametrisation and type of each joint and the fixed
+    ends.
 
     Attributes:
         parametrisation: One of :data:`PARAMETRISATIONS` per joint, base to flange.
         base: Fixed transform from the robot's base frame to the chain's frame 0, (4, 4), m.
         tool: Fixed transform from the last joint's frame to the flange frame, (4, 4), m.
+        joint_types: One of :data:`JOINT_TYPES` per joint; every joint revolute if empty.
     """
 
     parametrisation: tuple[str, ...]
     base: Array = field(default_factory=_identity)
     tool: Array = field(default_factory=_identity)
+    joint_types: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         kinds = tuple(self.parametrisation)
@@ -84,6 +120,11 @@ class Structure:
             raise ValueError(f"parametrisation {kinds!r}: expected one or more of "
                              + ", ".join(PARAMETRISATIONS))
         object.__setattr__(self, "parametrisation", kinds)
+        types = tuple(self.joint_types) or ("revolute",) * len(kinds)
+        if len(types) != len(kinds) or any(kind not in JOINT_TYPES for kind in types):
+            raise ValueError(f"joint_types {types!r}: expected one of "
+                             + ", ".join(JOINT_TYPES) + f" for each of {len(kinds)} joints")
+        object.__setattr__(self, "joint_types", types)
         for name in ("base", "tool"):
             transform = frozen_array(getattr(self, name), (4, 4), name)
             rotation = transform[:3, :3]
@@ -94,13 +135,44 @@ class Structure:
 
     @classmethod
     def standard(cls, n_joints: int) -> Structure:
-        """n standard D-H joints, base and tool frames at the chain's ends."""
+        """n standard D-H revolute joints, base and tool frames at the chain's ends."""
         return cls(("dh",) * n_joints)
 
     @property
     def n_joints(self) -> int:
         """Number of joints n."""
         return len(self.parametrisation)
+
+    @property
+    def prismatic(self) -> NDArray[np.bool_]:
+        """Whether each joint slides (its q in m) rather than turns (rad), shape (n,)."""
+        return np.array([kind == "prismatic" for kind in self.joint_types], dtype=bool)
+
+    @property
+    def all_revolute(self) -> bool:
+        """Every joint revolute: the kernel's shortest path."""
+        return all(kind == "revolute" for kind in self.joint_types)
+
+    @property
+    def joint_units(self) -> tuple[str, ...]:
+        """The SI unit of each joint's variable: ``rad`` (revolute) or ``m`` (prismatic)."""
+        return tuple("m" if kind == "prismatic" else "rad" for kind in self.joint_types)
+
+    @property
+    def joint_columns(self) -> NDArray[np.intp]:
+        """Where each joint's variable sits among a trace's derivative columns (the error
+        vector's 4n, then a column per prismatic Hayati joint's slide), shape (n,): θ_i's
+        column for a revolute joint, d_i's for a prismatic one."""
+        return _joint_columns(self.parametrisation, self.joint_types)
+
+    @property
+    def n_columns(self) -> int:
+        """Number of a trace's derivative columns: the table's 4n and one per prismatic Hayati
+        joint's slide (which holds no table entry)."""
+        return 4 * self.n_joints + sum(kind == "hayati" and joint_type == "prismatic"
+                                       for kind, joint_type in zip(self.parametrisation,
+                                                                   self.joint_types,
+                                                                   strict=True))
 
     @property
     def is_standard(self) -> bool:
@@ -155,7 +227,7 @@ class PointJacobian(NamedTuple):
     table: Array
     """w·∂p/∂table in the error vector's order, shape (..., m, r, 4n), m/m or m/rad."""
     joints: Array
-    """w·∂p/∂q, shape (..., m, r, n), m/rad."""
+    """w·∂p/∂q, shape (..., m, r, n), m/rad (m/m for a prismatic joint)."""
     rotation: Array
     """w·∂p/∂(point in the flange frame), shape (..., m, r, 3): along the base axes the flange's
     rotation base_R_flange."""
@@ -172,7 +244,8 @@ def _check_shapes(structure: Structure, dh: Array, q_rad: Array) -> None:
 class Turns(NamedTuple):
     """Joint angles with their cosines and sines, joint-major and contiguous: what every
     evaluation on the same poses reuses (a fit never changes its measured joints; make them
-    once per data set with :func:`turns`, and :meth:`shifted` for angles moved by x).
+    once per data set with :func:`turns`, and :meth:`shifted` for angles moved by x). A
+    prismatic joint's values (m) are kept as they are; the kernel never reads their cosines.
 
     Attributes:
         q_rad: The angles as given, shape (..., m, n), rad.
@@ -230,11 +303,19 @@ def _cos_sin(structure: Structure, dh: Array, angles: Turns
     ct = cq * cos_slots[JOINT_SLOT] - sq * sin_slots[JOINT_SLOT]
     st = sq * cos_slots[JOINT_SLOT] + cq * sin_slots[JOINT_SLOT]
     per_joint = []
-    for i in range(structure.n_joints):
+    for i, joint_type in enumerate(structure.joint_types):
         values = [(cos_slots[k, i], sin_slots[k, i]) for k in range(4)]
-        values[JOINT_SLOT] = (ct[i], st[i])
+        if joint_type == "revolute":  # a prismatic joint's θ is the table's alone
+            values[JOINT_SLOT] = (ct[i], st[i])
         per_joint.append(tuple(v for pair in values for v in pair))
     return ndim, per_joint, slots
+
+
+def _slide(q_rad: Array, joint: int, ndim: int) -> Array:
+    """Joint ``joint``'s values of q (..., m, n) shaped as one joint of a joint-major array of
+    ``ndim`` dimensions, (1..., batch..., m): the travel a prismatic joint adds to its slot."""
+    values = q_rad[..., joint]
+    return values.reshape(*(1,) * (ndim - 1 - values.ndim), *values.shape)
 
 
 KERNEL_VARIABLE = "TWIN_KERNEL"
@@ -268,12 +349,18 @@ def _compiled() -> Any:
 
 
 @cache
-def _plan_rows(parametrisation: tuple[str, ...]) -> NDArray[np.int64]:
-    """The motions base to flange as rows (kind, axis, slot, joint, driven), shape (4n, 5):
-    what the compiled kernel reads."""
-    rows = [(kind, axis, slot, joint, int(slot == JOINT_SLOT))
-            for kind, axis, _, _, slot, joint in _plan(parametrisation)]
+def _plan_rows(parametrisation: tuple[str, ...], joint_types: tuple[str, ...]
+               ) -> NDArray[np.int64]:
+    """The motions base to flange as rows (kind, axis, slot, joint, driven, column), shape
+    (motions, 6): what the compiled kernel reads."""
+    rows = [(kind, axis, slot, joint, int(driven), column)
+            for kind, axis, _, _, slot, joint, driven, column in _plan(parametrisation,
+                                                                        joint_types)]
     return np.ascontiguousarray(rows, dtype=np.int64)
+
+
+_NO_SLIDES = np.zeros((0, 1, 1))
+"""The compiled kernel's joint values for a chain without a prismatic joint (never read)."""
 
 
 class _Compiled(NamedTuple):
@@ -283,6 +370,7 @@ class _Compiled(NamedTuple):
     table: Array
     cos: Array
     sin: Array
+    slides: Array
     start: Array
 
 
@@ -300,9 +388,11 @@ def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
     n, m = structure.n_joints, angles.q_rad.shape[-2]
     start = (local @ structure.tool[:3, :3].T + structure.tool[:3, 3]).reshape(-1, 3)
     shape = (n, size if q_batch else 1, m)
+    slides = _NO_SLIDES if structure.all_revolute else np.ascontiguousarray(
+        np.moveaxis(angles.q_rad, -1, 0).reshape(shape))
     return _Compiled(batch, np.ascontiguousarray(dh.reshape(size, 4, n)),
                      np.ascontiguousarray(angles.cos.reshape(shape)),
-                     np.ascontiguousarray(angles.sin.reshape(shape)),
+                     np.ascontiguousarray(angles.sin.reshape(shape)), slides,
                      np.ascontiguousarray(start))
 
 
@@ -313,8 +403,8 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns
     Args:
         structure: What the table means.
         dh: Parameter tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad, or their :class:`Turns`
-            (cosines and sines made once for the poses).
+        q_rad: Joint values, shape (m, n) or (..., m, n), rad (m for a prismatic joint), or
+            their :class:`Turns` (cosines and sines made once for the poses).
         point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
             tables), m; the flange centre (origin) if None.
 
@@ -329,22 +419,25 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns
     compiled = _compiled()
     inputs = None if compiled is None else _compiled_inputs(structure, dh, angles, point_m)
     if inputs is not None:
-        out = compiled.positions(inputs.table, _plan_rows(structure.parametrisation),
-                                 inputs.cos, inputs.sin, inputs.start, structure.base)
+        out = compiled.positions(inputs.table, _plan_rows(structure.parametrisation,
+                                                          structure.joint_types),
+                                 inputs.cos, inputs.sin, inputs.slides, inputs.start,
+                                 structure.base)
         return np.asarray(out.reshape(*inputs.batch, -1, 3))
-    _, per_joint, slots = _cos_sin(structure, dh, angles)
+    ndim, per_joint, slots = _cos_sin(structure, dh, angles)
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
     start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
     p = [start[..., k, None] for k in range(3)]  # (..., 1): broadcast over the poses
-    for i in range(structure.n_joints - 1, -1, -1):
-        cs = per_joint[i]
-        for kind, axis, slot in reversed(_MOTIONS[structure.parametrisation[i]]):
-            if kind == _TRANS:
-                p[axis] = p[axis] + slots[slot, i]
-                continue
-            c, s = cs[2 * slot], cs[2 * slot + 1]
-            j, k = (axis + 1) % 3, (axis + 2) % 3
-            p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
+    for kind, axis, j, k, slot, i, driven, _ in reversed(_plan(structure.parametrisation,
+                                                               structure.joint_types)):
+        if kind == _TRANS:
+            value = slots[slot, i] if slot != NO_SLOT else 0.0
+            if driven:
+                value = value + _slide(angles.q_rad, i, ndim)
+            p[axis] = p[axis] + value
+            continue
+        c, s = per_joint[i][2 * slot], per_joint[i][2 * slot + 1]
+        p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
     position = np.stack(np.broadcast_arrays(*p), axis=-1)
     rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
     return np.asarray(position @ rotation.T + translation, dtype=np.float64)
@@ -374,14 +467,18 @@ def distances(points_m: ArrayLike, anchors_m: ArrayLike) -> Array:
     return np.asarray(out.reshape(*batch, -1))
 
 
+_Moved = tuple[int, int, bool, Array, Array]
+"""A motion as :func:`_walk` records it: (kind, joint, driven, axis u, origin o), u and o in the
+base frame at that motion."""
+
+
 def _walk(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, record: bool
-          ) -> tuple[list[tuple[Array, ...]], list[tuple[int, int, int, Array, Array]], Array]:
+          ) -> tuple[list[tuple[Array, ...]], list[_Moved], Array]:
     """Frames after each joint, base to flange, carrying origin and axes.
 
     Returns:
         ``(frames, motions, flange)``: frames 0..n as (origin, x, y, z), each (..., m, 3); if
-        ``record``, every parametrised motion as (kind, joint, slot, axis u, origin o) in the
-        base frame at that motion; the flange frame as (..., m, 4, 4).
+        ``record``, every motion (:data:`_Moved`); the flange frame as (..., m, 4, 4).
     """
     dh = np.asarray(dh, dtype=np.float64)
     q_rad = np.asarray(q_rad, dtype=np.float64)
@@ -393,14 +490,15 @@ def _walk(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, record: bool
     axes = [np.broadcast_to(base[:3, k], (*batch, 3)) for k in range(3)]
     origin = np.broadcast_to(base[:3, 3], (*batch, 3))
     frames: list[tuple[Array, ...]] = [(origin, *axes)]
-    motions: list[tuple[int, int, int, Array, Array]] = []
-    for i in range(structure.n_joints):
-        for kind, axis, slot in _MOTIONS[structure.parametrisation[i]]:
-            value = table[..., slot, i, None]
-            if slot == JOINT_SLOT:
+    motions: list[_Moved] = []
+    for i, (name, joint_type) in enumerate(zip(structure.parametrisation,
+                                               structure.joint_types, strict=True)):
+        for kind, axis, slot, driven in joint_motions(name, joint_type):
+            value = table[..., slot, i, None] if slot != NO_SLOT else np.zeros((*batch, 1))
+            if driven:
                 value = value + q[..., i, None]
             if record:
-                motions.append((kind, i, slot, axes[axis], origin))
+                motions.append((kind, i, driven, axes[axis], origin))
             if kind == _TRANS:
                 origin = origin + value * axes[axis]
                 continue
@@ -431,20 +529,22 @@ def frames(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> Frames:
 
 
 def joint_axes(structure: Structure, dh: ArrayLike, q_rad: ArrayLike) -> tuple[Array, Array]:
-    """Where each joint turns: a point on its axis and the axis' direction, in the base frame.
+    """Where each joint turns (or slides): a point on its axis and the axis' direction, in the
+    base frame.
 
     Args:
         structure: What the table means.
         dh: Parameter tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        q_rad: Joint values, shape (m, n) or (..., m, n), rad (m for a prismatic joint).
 
     Returns:
         ``(origins, axes)``: shapes (..., m, n, 3), m and unit vectors; a positive joint rate
         turns everything beyond joint i about ``axes[..., i, :]`` through ``origins[..., i, :]``
-        (for a D-H joint, frame i−1's z axis through its origin).
+        (for a D-H joint, frame i−1's z axis through its origin), or for a prismatic joint
+        moves it along ``axes[..., i, :]``.
     """
     _, motions, flange = _walk(structure, dh, q_rad, record=True)
-    turns = [(u, o) for _, _, slot, u, o in motions if slot == JOINT_SLOT]
+    turns = [(u, o) for _, _, driven, u, o in motions if driven]
     shape = (*flange.shape[:-2], 3)
     origins = np.stack([np.broadcast_to(o, shape) for _, o in turns], axis=-2)
     axes = np.stack([np.broadcast_to(u, shape) for u, _ in turns], axis=-2)
@@ -458,7 +558,7 @@ def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
     Args:
         structure: What the table means.
         dh: Parameter tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad.
+        q_rad: Joint values, shape (m, n) or (..., m, n), rad (m for a prismatic joint).
         point_m: The point in the flange frame, shape (3,) or (..., 3), m; origin if None.
 
     Returns:
@@ -468,9 +568,11 @@ def point_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike,
     return trace_point(structure, dh, q_rad, point_m).jacobian()
 
 
-_Motion = tuple[int, int, int, int, int, int]
-"""An elementary motion of a chain: (kind, local axis, j, k, slot, joint); a rotation turns
-axis j towards k."""
+_Motion = tuple[int, int, int, int, int, int, bool, int]
+"""An elementary motion of a chain: (kind, local axis, j, k, slot, joint, driven, column); a
+rotation turns axis j towards k; ``driven`` for the motion the joint's variable moves;
+``column`` where its derivative goes among a trace's columns: slot · n + joint for a table entry
+(the error vector's order), 4n onwards for the prismatic Hayati joints' slides."""
 _Step = tuple[int, int, int, int, int, Any, Any, list[Array] | None]
 """One elementary motion as :class:`PointTrace` keeps it: (kind, axis, j, k, column of the error
 vector, cos, sin, the point in the frame before the motion); cos, sin and the point are None
@@ -478,11 +580,37 @@ for a translation."""
 
 
 @cache
-def _plan(parametrisation: tuple[str, ...]) -> tuple[_Motion, ...]:
-    """The elementary motions of a chain, base to flange (:data:`_MOTIONS` per joint)."""
-    return tuple((kind, axis, (axis + 1) % 3, (axis + 2) % 3, slot, joint)
-                 for joint, name in enumerate(parametrisation)
-                 for kind, axis, slot in _MOTIONS[name])
+def _plan(parametrisation: tuple[str, ...], joint_types: tuple[str, ...]
+          ) -> tuple[_Motion, ...]:
+    """The elementary motions of a chain, base to flange (:func:`joint_motions` per joint)."""
+    n = len(parametrisation)
+    plan, extra = [], 4 * n
+    for joint, (name, joint_type) in enumerate(zip(parametrisation, joint_types, strict=True)):
+        for kind, axis, slot, driven in joint_motions(name, joint_type):
+            column = slot * n + joint if slot != NO_SLOT else extra
+            extra += slot == NO_SLOT
+            plan.append((kind, axis, (axis + 1) % 3, (axis + 2) % 3, slot, joint, driven,
+                         column))
+    return tuple(plan)
+
+
+@cache
+def _joint_columns(parametrisation: tuple[str, ...], joint_types: tuple[str, ...]
+                   ) -> NDArray[np.intp]:
+    """:attr:`Structure.joint_columns` (read-only)."""
+    columns = np.array([motion[7] for motion in _plan(parametrisation, joint_types)
+                        if motion[6]], dtype=np.intp)
+    columns.setflags(write=False)
+    return columns
+
+
+def _split_columns(structure: Structure, columns: Array) -> tuple[Array, Array]:
+    """A trace's derivative columns (..., 4n + slides) as (table (..., 4n), joints (..., n))."""
+    n = structure.n_joints
+    table = columns[..., :4 * n] if columns.shape[-1] > 4 * n else columns
+    if structure.all_revolute:  # every joint's column is θ's: a view, no copy
+        return table, table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n]
+    return table, columns[..., structure.joint_columns]
 
 
 class PointTrace:
@@ -516,7 +644,6 @@ class PointTrace:
             table (..., m, r, 4n), joints (..., m, r, n), rotation (..., m, r, 3).
         """
         structure = self._structure
-        n = structure.n_joints
         base_R = structure.base[:3, :3]
         if directions is None:  # R_baseᵀ e_row, the same at every pose: (3, r = 3, 1)
             w_local = base_R.T[:, :, None]
@@ -527,7 +654,7 @@ class PointTrace:
             w_local = (base_R.T @ along.reshape(3, -1)).reshape(along.shape)
         w = list(w_local)
         shape = np.broadcast_shapes(w_local.shape[1:], self._shape)
-        columns = np.empty((4 * n, *shape))
+        columns = np.empty((structure.n_columns, *shape))
         for kind, axis, j, k, column, c, s, before in self._steps:
             if kind == _TRANS:
                 columns[column] = w[axis]
@@ -539,12 +666,10 @@ class PointTrace:
         for k in range(3):
             last[k] = w[k]
         flange = (structure.tool[:3, :3].T @ last.reshape(3, -1)).reshape(last.shape)
-        # (3 or 4n, batch..., r, m) to (batch..., m, r, 3 or 4n)
+        # (3 or columns, batch..., r, m) to (batch..., m, r, 3 or columns)
         order = (*range(1, columns.ndim - 2), columns.ndim - 1, columns.ndim - 2, 0)
-        table = columns.transpose(order)
-        return PointJacobian(self.position, table,
-                             table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
-                             flange.transpose(order))
+        table, joints = _split_columns(structure, columns.transpose(order))
+        return PointJacobian(self.position, table, joints, flange.transpose(order))
 
 
 class CompiledTrace:
@@ -558,15 +683,15 @@ class CompiledTrace:
     def __init__(self, structure: Structure, inputs: _Compiled) -> None:
         self._structure = structure
         self._inputs = inputs
-        self._plan = _plan_rows(structure.parametrisation)
+        self._plan = _plan_rows(structure.parametrisation, structure.joint_types)
         out = _compiled().positions(inputs.table, self._plan, inputs.cos, inputs.sin,
-                                    inputs.start, structure.base)
+                                    inputs.slides, inputs.start, structure.base)
         self.position = np.asarray(out.reshape(*inputs.batch, -1, 3))
 
     def jacobian(self, directions: ArrayLike | None = None) -> PointJacobian:
         """As :meth:`PointTrace.jacobian`."""
         inputs, structure = self._inputs, self._structure
-        n, m = structure.n_joints, self.position.shape[-2]
+        m = self.position.shape[-2]
         if directions is None:
             w = np.eye(3)[None, None]
         else:
@@ -575,11 +700,11 @@ class CompiledTrace:
                 w_m = np.broadcast_to(w_m, (*inputs.batch, *w_m.shape[-3:]))
             w = w_m.reshape(-1, *w_m.shape[-3:])
         _, columns, rotation = _compiled().jacobian(
-            inputs.table, self._plan, inputs.cos, inputs.sin, inputs.start, structure.base,
-            structure.tool, np.ascontiguousarray(w))
-        table = columns.reshape(*inputs.batch, m, -1, 4 * n)
-        return PointJacobian(self.position, table,
-                             table[..., JOINT_SLOT * n:(JOINT_SLOT + 1) * n],
+            inputs.table, self._plan, inputs.cos, inputs.sin, inputs.slides, inputs.start,
+            structure.base, structure.tool, np.ascontiguousarray(w), structure.n_columns)
+        table, joints = _split_columns(structure, columns.reshape(*inputs.batch, m, -1,
+                                                                  structure.n_columns))
+        return PointJacobian(self.position, table, joints,
                              rotation.reshape(*inputs.batch, m, -1, 3))
 
 
@@ -590,7 +715,8 @@ def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
     Args:
         structure: What the table means.
         dh: Parameter tables, shape (..., 4, n), m and rad.
-        q_rad: Joint angles, shape (m, n) or (..., m, n), rad, or their :class:`Turns`.
+        q_rad: Joint values, shape (m, n) or (..., m, n), rad (m for a prismatic joint), or
+            their :class:`Turns`.
         point_m: The point in the flange frame, shape (3,) or (..., 3) (batched with the
             tables), m; the flange centre (origin) if None.
     """
@@ -621,17 +747,21 @@ def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
     start = local @ structure.tool[:3, :3].T + structure.tool[:3, 3]  # (..., 3)
     p = [start[..., k, None, None] for k in range(3)]
     steps: list[_Step] = []
-    for kind, axis, j, k, slot, i in reversed(_plan(structure.parametrisation)):
+    for kind, axis, j, k, slot, i, driven, column in reversed(_plan(structure.parametrisation,
+                                                                    structure.joint_types)):
         if kind == _TRANS:
-            p[axis] = p[axis] + values[slot][i]
-            steps.append((kind, axis, j, k, slot * n + i, None, None, None))
+            value = values[slot][i] if slot != NO_SLOT else 0.0
+            if driven:  # (batch..., 1, m), as cq
+                value = value + _slide(angles.q_rad, i, batch + 2)[..., None, :]
+            p[axis] = p[axis] + value
+            steps.append((kind, axis, j, k, column, None, None, None))
             continue
-        if slot == JOINT_SLOT:
+        if driven:
             c, s = cos_turned[i], sin_turned[i]
         else:
             c, s = cos_values[slot][i], sin_values[slot][i]
         p[j], p[k] = c * p[j] - s * p[k], s * p[j] + c * p[k]
-        steps.append((kind, axis, j, k, slot * n + i, c, s, list(p)))
+        steps.append((kind, axis, j, k, column, c, s, list(p)))
     steps.reverse()
     shape = np.broadcast_shapes(cos_turned.shape[1:], *(v.shape for v in p))
     position = np.empty((*shape, 3))
@@ -646,21 +776,22 @@ def flange_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike
                     ) -> tuple[Array, Array]:
     """Flange pose and its geometric joint Jacobian, for inverse kinematics.
 
-    Column i is the flange's linear velocity (m/rad) and angular velocity (rad/rad) in the base
-    frame per unit rate of joint i.
+    Column i is the flange's linear velocity (m/rad; m/m for a prismatic joint) and angular
+    velocity (rad/rad; zero for a prismatic joint) in the base frame per unit rate of joint i.
 
     Returns:
         ``(base_T_flange, jacobian)``: shapes (..., m, 4, 4) and (..., m, 6, n), rows
         (vx, vy, vz, wx, wy, wz).
     """
     _, motions, flange = _walk(structure, dh, q_rad, record=True)
-    joint_motions = [motion for motion in motions if motion[2] == JOINT_SLOT]
-    linear = _columns(joint_motions, flange[..., :3, 3])
-    angular = np.stack([u for _, _, _, u, _ in joint_motions], axis=-1)
+    driven = [motion for motion in motions if motion[2]]
+    linear = _columns(driven, flange[..., :3, 3])
+    angular = np.stack([u if kind == _ROT else np.zeros(u.shape) for kind, _, _, u, _ in driven],
+                       axis=-1)
     return flange, np.concatenate([linear, angular], axis=-2)
 
 
-def _columns(motions: list[tuple[int, int, int, Array, Array]], p: Array) -> Array:
+def _columns(motions: list[_Moved], p: Array) -> Array:
     """How the point p moves with each motion: u for a translation along u, u × (p − o) for a
     rotation about u through o; shape (..., m, 3, len(motions)), all in one cross product."""
     u = np.stack([motion[3] for motion in motions], axis=-1)
@@ -672,8 +803,9 @@ def _columns(motions: list[tuple[int, int, int, Array, Array]], p: Array) -> Arr
 
 
 def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
-    """The chain as fixed transforms between joints: base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯
-    Rz(q_n) · T_n, each joint turning about the z axis of its own frame.
+    """The chain as fixed transforms between joints: base_T_flange(q) = T_0 · J_1(q_1) · T_1 ⋯
+    J_n(q_n) · T_n, each joint turning about the z axis of its own frame (J = Rz) or, prismatic,
+    sliding along it (J = Tz).
 
     The form a URDF, Pinocchio or MuJoCo model needs: T_0 places joint 1 in the base frame,
     T_i joint i + 1 in joint i's frame, T_n the flange in joint n's frame.
@@ -694,7 +826,8 @@ def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
 
 
 def joint_placements(structure: Structure, dh: ArrayLike) -> tuple[Array, Array]:
-    """Each joint's link transform split at its turn: A_i(q) = pre_i · Rz(q_i) · post_i.
+    """Each joint's link transform split where its variable acts: A_i(q) = pre_i · J(q_i) ·
+    post_i, J = Rz for a revolute joint, Tz for a prismatic one.
 
     ``post_i`` places link frame i (the frame :func:`frames` gives, which turns with joint i) in
     the joint's own turning frame: where a link's centre of mass, given in its link frame, sits
@@ -712,21 +845,22 @@ def joint_placements(structure: Structure, dh: ArrayLike) -> tuple[Array, Array]
     if table.shape != (4, n):
         raise ValueError(f"dh: shape {table.shape}, expected (4, {n})")
     pre, post = [], []
-    for i, kind in enumerate(structure.parametrisation):
-        motions = _MOTIONS[kind]
-        joint_at = next(index for index, motion in enumerate(motions) if motion[2] == JOINT_SLOT)
+    for i, (kind, joint_type) in enumerate(zip(structure.parametrisation,
+                                               structure.joint_types, strict=True)):
+        motions = joint_motions(kind, joint_type)
+        joint_at = next(index for index, motion in enumerate(motions) if motion[3])
         pre.append(_compose(motions[:joint_at], table[:, i]))
-        # The joint's own offset θ turns with q: Rz(q + θ) = Rz(q) · Rz(θ).
+        # The joint's own offset moves with q: Rz(q + θ) = Rz(q) · Rz(θ), Tz(q + d) likewise.
         post.append(_compose(motions[joint_at:], table[:, i]))
     return np.stack(pre), np.stack(post)
 
 
-def _compose(motions: tuple[tuple[int, int, int], ...], slots: Array) -> Array:
+def _compose(motions: tuple[tuple[int, int, int, bool], ...], slots: Array) -> Array:
     transform = np.eye(4)
-    for kind, axis, slot in motions:
+    for kind, axis, slot, _ in motions:
         step = np.eye(4)
         if kind == _TRANS:
-            step[axis, 3] = slots[slot]
+            step[axis, 3] = slots[slot] if slot != NO_SLOT else 0.0
         else:
             c, s = np.cos(slots[slot]), np.sin(slots[slot])
             j, k = (axis + 1) % 3, (axis + 2) % 3

@@ -1,9 +1,10 @@
 """A chain's joint axes as a parameter table: which parametrisation per joint, and the exact
 conversion to it.
 
-Any serial revolute chain can be written as fixed transforms between joints,
-``base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯ Rz(q_n) · T_n`` (what a URDF, Pinocchio and
-:func:`twin.geometry.kinematics.fixed_transforms` hold). :func:`convert` turns such a chain into a
+Any serial chain can be written as fixed transforms between joints,
+``base_T_flange(q) = T_0 · J_1(q_1) · T_1 ⋯ J_n(q_n) · T_n``, J = Rz for a revolute joint and Tz
+for a prismatic one (what a URDF, Pinocchio and :func:`twin.geometry.kinematics.fixed_transforms`
+hold). :func:`convert` turns such a chain into a
 :class:`~twin.geometry.kinematics.Structure` and a table with the same forward kinematics — every
 joint in the parametrisation asked for, a base transform placing frame 0 on joint 1's axis and a
 tool transform from the last joint's frame to the flange absorbing what the table cannot hold
@@ -29,6 +30,11 @@ How the frames are placed (all at q = 0, in the base frame):
   Hayati: no d, the offset goes to the tool), x towards the flange origin when it is off the
   axis (a_n), else the flange's x axis made perpendicular; α_n = β_n = 0; the tool transform
   holds the rest.
+
+A prismatic joint's axis is a direction only: its line is kept where the source puts it (a
+URDF joint's origin), so that the table's frames stay on the source's; at q = 0 its frames are
+a revolute joint's, and the table is built alike — only how q enters differs
+(:mod:`twin.geometry.kinematics`).
 
 Standard D-H and Hayati joints mix freely (each ends on the next axis, where both start); a
 modified D-H joint starts off its own axis and ends on it, so modified D-H is a whole chain:
@@ -300,14 +306,16 @@ def _table_mdh(joints: Array, flange: Array) -> tuple[Array, Array]:
     return table, start
 
 
-def convert(fixed: ArrayLike, request: str | Sequence[str] = AUTO_PARAMETRISATION
-            ) -> tuple[Structure, Array]:
+def convert(fixed: ArrayLike, request: str | Sequence[str] = AUTO_PARAMETRISATION,
+            joint_types: Sequence[str] = ()) -> tuple[Structure, Array]:
     """The chain as a structure and table with the same forward kinematics.
 
     Args:
         fixed: T_0..T_n, shape (n + 1, 4, 4), m (see :func:`joint_frames`).
         request: ``auto``, one parametrisation for every joint, or one per joint
             (:func:`resolve`).
+        joint_types: Each joint's type (:data:`twin.geometry.kinematics.JOINT_TYPES`); every
+            joint revolute if empty.
 
     Returns:
         ``(structure, table)``: the table of shape (4, n), m and rad.
@@ -323,32 +331,36 @@ def convert(fixed: ArrayLike, request: str | Sequence[str] = AUTO_PARAMETRISATIO
         table, base = _table_mdh(joints, flange)
     else:
         table, base = _table_dh_hayati(kinds, joints, flange)
-    bare = Structure(kinds, base=base)
+    bare = Structure(kinds, base=base, joint_types=tuple(joint_types))
     last = flange_transform(bare, table, np.zeros((1, len(kinds))))[0]
     tool = np.linalg.inv(last) @ flange
     tool[3] = (0.0, 0.0, 0.0, 1.0)
-    structure = Structure(kinds, base=base, tool=tool)
+    structure = Structure(kinds, base=base, tool=tool, joint_types=bare.joint_types)
     _check_same(transforms, structure, table)
     return structure, table
 
 
-def chain_flange(fixed: ArrayLike, q_rad: ArrayLike) -> Array:
-    """base_T_flange of a chain of fixed transforms at joint angles q (m, n): (m, 4, 4), m."""
+def chain_flange(fixed: ArrayLike, q_rad: ArrayLike, joint_types: Sequence[str] = ()) -> Array:
+    """base_T_flange of a chain of fixed transforms at joint values q (m, n), rad (m for a
+    prismatic joint; every joint revolute if ``joint_types`` is empty): (m, 4, 4), m."""
     transforms = np.asarray(fixed, dtype=np.float64)
     q = np.atleast_2d(np.asarray(q_rad, dtype=np.float64))
+    sliding = [kind == "prismatic" for kind in joint_types] or [False] * (len(transforms) - 1)
     result = np.broadcast_to(transforms[0], (len(q), 4, 4)).copy()
     for i in range(len(transforms) - 1):
-        c, s = np.cos(q[:, i]), np.sin(q[:, i])
-        turn = np.zeros((len(q), 4, 4))
-        turn[:, 0, 0], turn[:, 0, 1], turn[:, 1, 0], turn[:, 1, 1] = c, -s, s, c
-        turn[:, 2, 2] = turn[:, 3, 3] = 1.0
-        result = result @ turn @ transforms[i + 1]
+        move = np.broadcast_to(np.eye(4), (len(q), 4, 4)).copy()
+        if sliding[i]:
+            move[:, 2, 3] = q[:, i]
+        else:
+            c, s = np.cos(q[:, i]), np.sin(q[:, i])
+            move[:, 0, 0], move[:, 0, 1], move[:, 1, 0], move[:, 1, 1] = c, -s, s, c
+        result = result @ move @ transforms[i + 1]
     return result
 
 
 def _check_same(fixed: Array, structure: Structure, table: Array) -> None:
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (32, structure.n_joints))
-    source = chain_flange(fixed, q)
+    source = chain_flange(fixed, q, structure.joint_types)
     converted = flange_transform(structure, table, q)
     worst = float(np.max(np.abs(source - converted)))
     if not worst <= EXACT_M:

@@ -4,6 +4,9 @@ The torque that loads joint i is the moment about its axis of every load beyond 
 
     τ_i = u_i · Σ_j (p_j − o_i) × F_j,
 
+and for a prismatic joint the force along its axis, τ_i = u_i · Σ_j F_j (N, its generalised
+force),
+
 with u_i, o_i the joint's axis and a point on it (:func:`twin.geometry.kinematics.joint_axes`), F_j
 = m_j g at the centre of mass p_j of each link j ≥ i, and an external force (the drawstring's pull)
 at a point fixed to the flange. It is the generalised force the loads exert on the joint (what
@@ -48,7 +51,8 @@ def joint_torques(
         force_n: The force at that point in the base frame, shape (m, 3), N; none if None.
 
     Returns:
-        τ, shape (m, n), N·m: positive where the loads turn the joint towards larger q.
+        τ, shape (m, n), N·m (N on a prismatic joint): positive where the loads move the joint
+        towards larger q.
     """
     q = np.asarray(q_rad, dtype=np.float64)
     mass = np.asarray(mass_kg, dtype=np.float64)
@@ -71,7 +75,8 @@ def joint_torques(
         force_beyond = force_beyond + force[:, None, :]
     origins, axes = joint_axes(structure, dh, q)
     about_joint = moment_beyond - np.cross(origins, force_beyond)
-    return np.asarray(np.sum(axes * about_joint, axis=-1), dtype=np.float64)
+    load = np.where(structure.prismatic[:, None], force_beyond, about_joint)
+    return np.asarray(np.sum(axes * load, axis=-1), dtype=np.float64)
 
 
 def link_torques(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, mass_kg: ArrayLike,
@@ -84,7 +89,7 @@ def link_torques(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, mass_kg:
         structure, dh, q_rad, mass_kg, com_m: As :func:`joint_torques`.
 
     Returns:
-        Shape (m, n, n), N·m.
+        Shape (m, n, n), N·m (N on a prismatic joint).
     """
     q = np.asarray(q_rad, dtype=np.float64)
     mass = np.asarray(mass_kg, dtype=np.float64)
@@ -96,7 +101,9 @@ def link_torques(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, mass_kg:
     weights[..., 2] = -GRAVITY_M_S2 * mass
     origins, axes = joint_axes(structure, dh, q)
     arms = centres[:, None, :, :] - origins[:, :, None, :]  # (m, joint i, link j, 3)
-    torque = np.einsum("mic,mijc->mij", axes, np.cross(arms, weights[:, None, :, :]))
+    moments = np.cross(arms, weights[:, None, :, :])
+    loads = np.where(structure.prismatic[None, :, None, None], weights[:, None, :, :], moments)
+    torque = np.einsum("mic,mijc->mij", axes, loads)
     n = mass.size
     return np.asarray(torque * (np.arange(n)[None, :] >= np.arange(n)[:, None]),
                       dtype=np.float64)

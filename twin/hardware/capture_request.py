@@ -3,7 +3,7 @@ scenario's for a source that simulates the cell), which robot source and encoder
 durable capture (:func:`twin.hardware.capture_session.capture_folder`).
 
 Any arm twin calibrates captures: a model file or a URDF of
-:data:`~twin.robot.MIN_JOINTS` to :data:`~twin.robot.MAX_JOINTS` joints; the plan's columns
+:data:`~twin.choices.MIN_JOINTS` to :data:`~twin.choices.MAX_JOINTS` joints; the plan's columns
 are the robot's ``q1..qN``.
 """
 
@@ -14,12 +14,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.errors import InputError
 from twin.hardware.capture_session import CAPTURE_NAME, MEASUREMENTS_NAME, capture_folder
 from twin.hardware.encoders import resolve
 from twin.hardware.encoders.settle import SettleRule
 from twin.hardware.robot_sources import SourceRequest, get_source
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
+from twin.robot import RobotModel
 
 
 @dataclass(frozen=True)
@@ -122,9 +123,9 @@ def capture_request(request: CaptureRequest,
     else:
         robot, rig, calibration = _told_cell(request)
     check_joint_count(robot, request.scenario or request.robot or "the IRB 120")
-    plan_q_rad, _ = load_plan(request.plan, robot,
-                              f"a pose plan CSV (q1..q{robot.n_joints} in degrees)")
-    source_request = replace(request.source, plan_q_rad=plan_q_rad)
+    plan_q_rad, _ = load_plan(request.plan, robot)
+    source_request = replace(request.source, plan_q_rad=plan_q_rad,
+                             prismatic=tuple(bool(v) for v in robot.prismatic))
     files = kind.files(source_request) if kind.files is not None else {}
     source = kind.open(source_request)
     try:

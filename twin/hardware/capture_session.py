@@ -3,8 +3,8 @@
 Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
-- ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg, mm, ±1; N
-  the robot's joints, 4 to 7),
+- ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg — mm for a
+  prismatic joint —, mm, ±1; N the robot's joints, 4 to 9),
   one row per measured pose, appended as one whole line and ``fsync``-ed before the robot moves
   on (a journal, :mod:`twin.io.journal`). ``pose`` numbers the plan rows from 1; `twin
   calibrate` ignores it. ``approach`` is the direction each joint moved in to reach the pose:
@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration.settings import CalibrationSettings
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.encoders import EncoderConfig, open_encoder
@@ -59,7 +60,7 @@ from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.report.display import mm, seconds
 from twin.rig import Rig
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
+from twin.robot import RobotModel
 
 POSE_COLUMN = "pose"
 
@@ -97,10 +98,11 @@ RECONNECT_POLL_S = 0.5
 
 
 def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float,
-               approach: NDArray[np.int8]) -> str:
-    """One line of the measurement file, with its LF; ``approach`` (n,) the pose's sides."""
+               approach: NDArray[np.int8], robot: RobotModel | None = None) -> str:
+    """One line of the measurement file of ``robot`` (a prismatic joint's q in mm), with its
+    LF; ``approach`` (n,) the pose's sides."""
     measured = Measurements(q_rad[None, :], np.array([length_m]), approach=approach[None, :])
-    return f"{pose},{format_measurements(measured).splitlines()[1]}\n"
+    return f"{pose},{format_measurements(measured, robot).splitlines()[1]}\n"
 
 
 def journal(path: Path, n_joints: int) -> Journal:
@@ -144,7 +146,7 @@ def locked(folder: Path) -> contextlib.AbstractContextManager[None]:
 
 
 def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
-                 robot_text: str) -> None:
+                 robot: RobotModel) -> None:
     """Refuse, before anything is written, a folder that holds something else than a capture
     of this plan and robot (another capture, a `twin simulate` output, unrelated files).
 
@@ -152,9 +154,10 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         InputError: naming the file that belongs to something else.
     """
     resume = "the capture this folder was started with (or a new --out folder)"
+    robot_text = "".join(robot_files(robot).values())
     stored_plan, stored_robot = folder / PLAN_NAME, folder / ROBOT_NAME
     if stored_plan.exists() and not np.array_equal(
-            load_plan(stored_plan, journal=True)[0], plan_q_rad):
+            load_plan(stored_plan, robot, journal=True)[0], plan_q_rad):
         raise InputError(f"a capture of another plan than {plan_path}", resume,
                          source=stored_plan)
     # Written again by today's writer, so that a file of an older twin (unrounded numbers)
@@ -259,7 +262,7 @@ def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
         InputError: if ``folder`` holds something else (see :func:`check_folder`).
     """
     files = robot_files(robot)
-    check_folder(folder, plan_path, plan_q_rad, "".join(files.values()))
+    check_folder(folder, plan_path, plan_q_rad, robot)
     for name, text in ((PLAN_NAME, read_text(plan_path, "a pose plan CSV")), *files.items(),
                        *(source_files or {}).items()):
         if not (folder / name).exists():
@@ -309,6 +312,7 @@ def capture(
     *,
     reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
+    nominal: RobotModel | None = None,
 ) -> int:
     """Measure every plan pose that has no row yet, appending each row durably.
 
@@ -321,6 +325,8 @@ def capture(
         reconnect_s: How long to try reopening a port that failed, s (None: until it comes
             back).
         report: Receives progress and fault lines.
+        nominal: The robot measured (its prismatic joints' values are written in mm); every
+            joint revolute if None.
 
     Returns:
         The number of poses measured by this call.
@@ -348,7 +354,8 @@ def capture(
                 settled = measure(encoder, rule, reconnect_s, report)
             except TwinError as exc:
                 raise _stopped(exc, pose, done, n_poses) from None
-            record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1]))
+            record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1],
+                                     nominal))
             done.add(pose)
             try:
                 robot.recorded(pose, n_poses)
@@ -388,7 +395,7 @@ def capture_folder(
         folder: The capture folder (created).
         plan_path: The plan CSV, copied into the folder.
         plan_q_rad: Its poses, shape (N, n), rad.
-        robot: The nominal robot (a model file or a URDF, 4 to 7 joints).
+        robot: The nominal robot (a model file or a URDF, 4 to 9 joints).
         rig: The rig as told: the encoder's one port (base frame, m), the cable's attachment
             point (flange frame, m) and its tension (N), written to ``capture.toml``.
         config: How to talk to the encoder.
@@ -408,7 +415,7 @@ def capture_folder(
         InputError: if the folder holds another plan or robot, or another capture runs in it.
         CaptureError: as :func:`capture`.
     """
-    check_folder(folder, plan_path, plan_q_rad, "".join(robot_files(robot).values()))
+    check_folder(folder, plan_path, plan_q_rad, robot)
     with locked(folder), open_encoder(config) as encoder:
         prepare(folder, plan_path, plan_q_rad, robot, source_files)
         # Named once written, the encoder open: the operator loads it into the controller
@@ -422,7 +429,7 @@ def capture_folder(
                       truth=TRUTH_FILE if truth is not None else None,
                       encoder={"url": config.to_url()})
         return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,
-                       reconnect_s=reconnect_s, report=report)
+                       reconnect_s=reconnect_s, report=report, nominal=robot)
 
 
 def _stopped(exc: TwinError, pose: int, done: set[int], n_poses: int) -> TwinError:

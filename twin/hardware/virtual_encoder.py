@@ -72,13 +72,15 @@ class MeasuringHead:
         n_joints: Joints of the robot (the pose before any move is all zeros).
         pose_file: Where the simulated robot publishes its pose.
         seed: Seed of the noise; the generator of pose K is seeded with (seed, K).
+        prismatic: Which joints slide (their values in the pose file in mm); none if empty.
     """
 
     def __init__(self, lengths_m: LengthSource, read: Reading, n_joints: int,
-                 pose_file: str | Path, seed: int) -> None:
+                 pose_file: str | Path, seed: int, prismatic: tuple[bool, ...] = ()) -> None:
         self.lengths_m = lengths_m
         self.read = read
         self.n_joints = n_joints
+        self.prismatic = prismatic
         self.pose_file = Path(pose_file)
         self.seed = seed
         self._command: str | None = None
@@ -88,7 +90,7 @@ class MeasuringHead:
 
     def reading_m(self) -> float:
         """The next reading, m."""
-        commanded = read_pose(self.pose_file)
+        commanded = read_pose(self.pose_file, self.prismatic)
         command = "" if commanded is None else commanded.command
         if command != self._command:
             home = np.zeros(self.n_joints)
@@ -130,7 +132,8 @@ def scenario_instrument(scenario_path: str | Path, pose_file: str | Path,
     def read(length_m: float, rng: np.random.Generator) -> float:
         return float(scenario.noise.read(np.array([length_m]), rng).length_m[0])
 
-    return MeasuringHead(lengths_m, read, sim.robot.n_joints, pose_file, sim.seed)
+    return MeasuringHead(lengths_m, read, sim.robot.n_joints, pose_file, sim.seed,
+                         tuple(bool(v) for v in sim.robot.prismatic))
 
 
 def _open_pty() -> tuple[int, int, str]:

@@ -178,10 +178,13 @@ def check_same_robot(recorded: RobotModel, given: RobotModel, path: Path, where:
     """
     limits = np.concatenate([recorded.lower_rad - given.lower_rad,
                              recorded.upper_rad - given.upper_rad])
+    travel = np.tile(np.where(recorded.prismatic, mm_to_m(ROBOT_TOLERANCE_MM),
+                              deg_to_rad(ROBOT_TOLERANCE_DEG)), 2)
     ends = np.concatenate([(recorded.structure.base - given.structure.base).ravel(),
                            (recorded.structure.tool - given.structure.tool).ravel()])
     differences = (
-        ("joint limits", bool(np.any(np.abs(limits) > deg_to_rad(ROBOT_TOLERANCE_DEG)))),
+        ("joint limits or types", recorded.structure.joint_types
+         != given.structure.joint_types or bool(np.any(np.abs(limits) > travel))),
         ("base or tool transform", bool(np.any(np.abs(ends) > mm_to_m(ROBOT_TOLERANCE_MM)))),
         ("URDF", (recorded.urdf is None) != (given.urdf is None) or (
             recorded.urdf is not None and given.urdf is not None

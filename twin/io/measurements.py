@@ -1,6 +1,6 @@
 """Measurement files: CSV, one row per pose, degrees and mm.
 
-Columns ``q1..qN`` (the robot's joints, degrees) and exactly one of:
+Columns ``q1..qN`` (the robot's joints: degrees, mm for a prismatic joint) and exactly one of:
 
 - ``length`` — a cable length (mm) from a drawstring encoder; with an optional ``port`` column
   naming the port each row's cable ran from, when the encoder was moved between ports;
@@ -34,12 +34,31 @@ from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
 from twin.io.table import shown
 from twin.robot import RobotModel
-from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
+from twin.units import (
+    MAX_LENGTH_M,
+    joint_file_units,
+    joints_from_file,
+    joints_to_file,
+    m_to_mm,
+    mm_to_m,
+)
 
 
 def joint_columns(n_joints: int) -> tuple[str, ...]:
     """``q1``…``qN``."""
     return tuple(f"q{i}" for i in range(1, n_joints + 1))
+
+
+def joint_units_said(n_joints: int, robot: RobotModel | None = None) -> str:
+    """How a file's joint columns are read, for messages: ``q1..q6 in deg``, or with prismatic
+    joints ``q1..q8 in deg (q1 in mm)``."""
+    columns = joint_columns(n_joints)
+    said = f"{columns[0]}..{columns[-1]} in deg"
+    if robot is None or not robot.prismatic.any():
+        return said
+    sliding = ",".join(name for name, slides in zip(columns, robot.prismatic, strict=True)
+                       if slides)
+    return f"{said} ({sliding} in mm)"
 
 
 def approach_columns(n_joints: int) -> tuple[str, ...]:
@@ -214,14 +233,20 @@ def load_labels(path: str | Path, column: str) -> list[str]:
     return table.labels[column]
 
 
+def _prismatic(robot: RobotModel | None) -> NDArray[np.bool_] | None:
+    """Which of the robot's joints slide (their q in mm in files), or None without a robot."""
+    return None if robot is None else robot.prismatic
+
+
 def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                       stdin: bool = False) -> Measurements:
     """Read a measurement CSV (degrees, mm) into SI measurements; see the module docstring.
 
     Args:
         path: The CSV file.
-        robot: The robot measured: its joint count sets the ``q`` columns (6 without it) and
-            every joint angle is checked against its limits.
+        robot: The robot measured: its joint count sets the ``q`` columns (6 without it), its
+            prismatic joints' columns are read in mm, and every joint value is checked against
+            its limits.
         stdin: Whether the path ``-`` means standard input.
 
     Raises:
@@ -230,7 +255,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     n = robot.n_joints if robot is not None else 6
     joints = joint_columns(n)
     kinds = f"{LENGTH_COLUMN} (mm), {','.join(POSITION_COLUMNS)} (mm) or {POINT_COLUMN}"
-    what = f"a measurement CSV ({joints[0]}..{joints[-1]} in deg and {kinds})"
+    what = f"a measurement CSV ({joint_units_said(n, robot)} and {kinds})"
     table = read_columns(path, joints, what, optional=(LENGTH_COLUMN, *POSITION_COLUMNS,
                                                        *approach_columns(n)),
                          labels=(PORT_COLUMN, POINT_COLUMN), stdin=stdin)
@@ -247,15 +272,19 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
         raise InputError(f"columns {','.join(name for name in table.header if name in known)}",
                          f"exactly one of {kinds} beside {joints[0]}..{joints[-1]}",
                          source=path, where=header_line)
-    q_deg = table.values
+    q_file = table.values
     if robot is not None:
-        check_joint_limits(q_deg, table.lines, robot, path)
-    if len(table.lines) >= 3 and np.all(np.abs(q_deg) <= 2 * math.pi) and np.any(q_deg != 0):
+        check_joint_limits(q_file, table.lines, robot, path)
+    turning = np.ones(n, dtype=bool) if robot is None else ~robot.prismatic
+    angles = q_file[:, turning]
+    if len(table.lines) >= 3 and angles.size and np.all(np.abs(angles) <= 2 * math.pi) \
+            and np.any(angles != 0):
         warnings.warn(
             f"{path}: every joint angle is within ±2π; the columns {joints[0]}..{joints[-1]} are "
             "read as degrees — convert them if they are radians",
             UnitWarning, stacklevel=2,
         )
+    q_rad = joints_from_file(q_file, _prismatic(robot))
     approach = _approach(table, n, path)
     longest_mm = float(m_to_mm(MAX_LENGTH_M))
     if given[0] == LENGTH_COLUMN:
@@ -267,14 +296,14 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                              source=path, where=f"line {table.lines[bad[0]]}, column length")
         port_names, port = _names(table.labels[PORT_COLUMN]) if PORT_COLUMN in table.labels \
             else ((), None)
-        return Measurements(deg_to_rad(q_deg), mm_to_m(length_mm), port=port,
+        return Measurements(q_rad, mm_to_m(length_mm), port=port,
                             approach=approach, port_names=port_names)
     if PORT_COLUMN in table.labels:
         raise InputError(f"a {PORT_COLUMN} column", f"{PORT_COLUMN} only beside {LENGTH_COLUMN}",
                          source=path, where=header_line)
     if given[0] == POINT_COLUMN:
         point_names, point = _names(table.labels[POINT_COLUMN])
-        return Measurements(deg_to_rad(q_deg), point=point, approach=approach,
+        return Measurements(q_rad, point=point, approach=approach,
                             point_names=point_names)
     xyz_mm = np.stack([table.optional[c] for c in POSITION_COLUMNS], axis=1)
     bad = np.flatnonzero(np.any(np.abs(xyz_mm) > longest_mm, axis=1))
@@ -282,7 +311,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
         raise InputError(f"{np.max(np.abs(xyz_mm[bad[0]])):g} mm",
                          f"coordinates within ±{longest_mm:g} mm", source=path,
                          where=f"line {table.lines[bad[0]]}")
-    return Measurements(deg_to_rad(q_deg), position_m=mm_to_m(xyz_mm), approach=approach)
+    return Measurements(q_rad, position_m=mm_to_m(xyz_mm), approach=approach)
 
 
 def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
@@ -320,39 +349,42 @@ def _approach(table: Columns, n: int, path: str | Path) -> NDArray[np.int8] | No
 def load_plan(
     path: str | Path,
     robot: RobotModel | None = None,
-    what: str = "a pose plan CSV (q1..q6 in degrees)",
+    what: str | None = None,
     *,
     stdin: bool = False,
     journal: bool = False,
 ) -> tuple[NDArray[np.float64], list[int]]:
-    """Read joint angles: CSV with columns q1..q6 in degrees (a measurement file without
+    """Read joint values: CSV with columns q1..q6 in degrees (a measurement file without
     ``length``: a pose plan, or a robot program); other columns are ignored.
 
     Args:
         path: The CSV file.
-        robot: If given, every joint angle is checked against its limits.
-        what: What the file is, for error messages.
+        robot: If given, its joints' columns q1..qN (a prismatic joint's in mm), each value
+            checked against its limits.
+        what: What the file is, for error messages (a pose plan CSV if None).
         stdin: Whether the path ``-`` means standard input.
         journal: The command's own file (see :func:`twin.io.paths.read_bytes`).
 
     Returns:
-        ``(q_rad, lines)``: joint angles, shape (N, 6), rad, and each pose's line in the file.
+        ``(q_rad, lines)``: joint values, shape (N, n), rad (m for a prismatic joint), and each
+        pose's line in the file.
 
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
     columns = joint_columns(robot.n_joints) if robot is not None else JOINT_COLUMNS
-    q_deg, lines = read_table(path, columns, what, stdin=stdin, journal=journal)
+    what = what or f"a pose plan CSV ({joint_units_said(len(columns), robot)})"
+    q_file, lines = read_table(path, columns, what, stdin=stdin, journal=journal)
     if robot is not None:
-        check_joint_limits(q_deg, lines, robot, path)
-    return deg_to_rad(q_deg), lines
+        check_joint_limits(q_file, lines, robot, path)
+    return joints_from_file(q_file, _prismatic(robot)), lines
 
 
 class Poses(NamedTuple):
     """Joint angles to evaluate a model at, with the directions the joints came from."""
 
     q_rad: NDArray[np.float64]
-    """Joint angles, shape (N, n), rad."""
+    """Joint values, shape (N, n), rad (m for a prismatic joint)."""
     approach: NDArray[np.int8] | None
     """The ``approach1..approachN`` columns (±1), shape (N, n), or None when absent."""
     lines: list[int]
@@ -361,8 +393,9 @@ class Poses(NamedTuple):
 
 def load_poses(path: str | Path, robot: RobotModel, what: str, *, stdin: bool = False
                ) -> Poses:
-    """Read joint angles (``q1..qN`` in degrees, checked against the limits) and, when the
-    file has them, the ``approach1..approachN`` columns; other columns are ignored.
+    """Read joint values (``q1..qN`` in degrees, mm for a prismatic joint, checked against the
+    limits) and, when the file has them, the ``approach1..approachN`` columns; other columns are
+    ignored.
 
     Raises:
         InputError: on any problem with the file, naming line and column.
@@ -371,30 +404,36 @@ def load_poses(path: str | Path, robot: RobotModel, what: str, *, stdin: bool = 
     table = read_columns(path, joint_columns(n), what, optional=approach_columns(n),
                          stdin=stdin)
     check_joint_limits(table.values, table.lines, robot, path)
-    return Poses(deg_to_rad(table.values), _approach(table, n, path), table.lines)
+    return Poses(joints_from_file(table.values, robot.prismatic), _approach(table, n, path),
+                 table.lines)
 
 
 def check_joint_limits(
-    q_deg: NDArray[np.float64], lines: list[int], robot: RobotModel, path: str | Path
+    q_file: NDArray[np.float64], lines: list[int], robot: RobotModel, path: str | Path
 ) -> None:
-    """Raise an InputError for the first joint angle outside the robot's limits."""
-    lower, upper = rad_to_deg(robot.lower_rad), rad_to_deg(robot.upper_rad)
-    outside = (q_deg < lower - 1e-9) | (q_deg > upper + 1e-9)
+    """Raise an InputError for the first joint value (as the file writes it: degrees, mm for a
+    prismatic joint) outside the robot's limits."""
+    lower = joints_to_file(robot.lower_rad, robot.prismatic)
+    upper = joints_to_file(robot.upper_rad, robot.prismatic)
+    outside = (q_file < lower - 1e-9) | (q_file > upper + 1e-9)
     if np.any(outside):
         row, joint = np.argwhere(outside)[0]
+        unit = joint_file_units(robot.prismatic)[joint]
         raise InputError(
-            f"{q_deg[row, joint]:g} deg",
-            f"within [{lower[joint]:g}, {upper[joint]:g}] deg (joint {joint + 1} of {robot.name})",
-            source=path, where=f"line {lines[row]}, column q{joint + 1}",
+            f"{q_file[row, joint]:g} {unit}",
+            f"within [{lower[joint]:g}, {upper[joint]:g}] {unit} (joint {joint + 1} of "
+            f"{robot.name})", source=path, where=f"line {lines[row]}, column q{joint + 1}",
         )
 
 
-def format_measurements(measurements: Measurements) -> str:
-    """The CSV text (header, degrees, mm) of measurements, exactly round-tripping floats."""
+def format_measurements(measurements: Measurements, robot: RobotModel | None = None) -> str:
+    """The CSV text (header, degrees, mm) of measurements of ``robot`` (whose prismatic joints'
+    values are written in mm; every joint revolute without one), exactly round-tripping
+    floats."""
     n = measurements.q_rad.shape[1]
     header = list(joint_columns(n))
-    columns: list[list[str]] = [[repr(float(v)) for v in row]
-                                for row in rad_to_deg(measurements.q_rad)]
+    columns: list[list[str]] = [[repr(float(v)) for v in row] for row in
+                                joints_to_file(measurements.q_rad, _prismatic(robot))]
     kind = measurements.kind
     extra: list[list[str]] = []
     if kind == "length":
@@ -425,6 +464,7 @@ def format_measurements(measurements: Measurements) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_measurements(path: str | Path, measurements: Measurements) -> None:
-    """Write a measurement CSV atomically."""
-    write_atomic(path, format_measurements(measurements))
+def write_measurements(path: str | Path, measurements: Measurements,
+                       robot: RobotModel | None = None) -> None:
+    """Write a measurement CSV of ``robot`` (:func:`format_measurements`) atomically."""
+    write_atomic(path, format_measurements(measurements, robot))

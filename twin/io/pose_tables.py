@@ -1,4 +1,4 @@
-"""CSV tables of joint angles twin writes, and the Cartesian targets it reads (degrees, mm):
+"""CSV tables of joint values twin writes, and the Cartesian targets it reads (degrees, mm):
 
 - a pose **plan** (`twin plan`): ``q1..qN`` (and ``port``, the station of each pose);
 - **corrected** commands (`twin compensate`): ``q1..qN`` (empty when unreachable), ``status``,
@@ -12,7 +12,8 @@
   not UR's rotation vector), and the configuration ``cf1,cf4,cf6,cfx``
   (:mod:`twin.compensation.configuration`).
 
-Angles are written to 1e-6 degree, lengths to 1e-6 mm; every file atomically.
+Joint values are written in degrees, a prismatic joint's in mm (:mod:`twin.units`), to 1e-6 of
+their unit; lengths to 1e-6 mm; every file atomically.
 """
 
 from __future__ import annotations
@@ -30,13 +31,14 @@ from twin.compensation.joints import InOrder
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.measurements import PORT_COLUMN, approach_columns, joint_columns
+from twin.robot import RobotModel
 from twin.units import (
-    FILE_DEG_DECIMALS,
+    FILE_JOINT_DECIMALS,
     MAX_LENGTH_M,
     RESULT_MM_DECIMALS,
+    joints_to_file,
     m_to_mm,
     mm_to_m,
-    rad_to_deg,
     rounded,
 )
 
@@ -52,9 +54,11 @@ LENGTH_COLUMN = "length"
 TRACKER_COLUMNS = ("tracker_x", "tracker_y", "tracker_z")
 
 
-def _angles(q_rad: Array) -> list[list[str]]:
-    """Each row's angles in degrees, to 1e-6 degree."""
-    return [list(map(repr, rounded(q, FILE_DEG_DECIMALS))) for q in rad_to_deg(q_rad)]
+def _joint_values(q_rad: Array, robot: RobotModel) -> list[list[str]]:
+    """Each row's joint values as files write them (degrees, mm for a prismatic joint), to
+    1e-6 of their unit."""
+    return [list(map(repr, rounded(q, FILE_JOINT_DECIMALS)))
+            for q in joints_to_file(q_rad, robot.prismatic)]
 
 
 class PoseTargets(NamedTuple):
@@ -123,39 +127,39 @@ def load_pose_targets(path: str | Path, *, stdin: bool = False) -> PoseTargets:
                        None if conf is None else np.round(conf).astype(np.int64))
 
 
-def write_plan(path: str | Path, q_rad: Array, port_names: tuple[str, ...] = (),
-               port: NDArray[np.intp] | None = None) -> None:
-    """A pose plan: q1..qN (deg) and, for an encoder moved between stations, each pose's
-    station (``port``: index into ``port_names``)."""
+def write_plan(path: str | Path, q_rad: Array, robot: RobotModel,
+               port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> None:
+    """A pose plan of ``robot``: q1..qN (deg; mm for a prismatic joint) and, for an encoder
+    moved between stations, each pose's station (``port``: index into ``port_names``)."""
     header = joint_columns(q_rad.shape[1]) + ((PORT_COLUMN,) if port is not None else ())
     rows = [",".join(header)]
-    rows += [",".join([*angles, *(() if port is None else (port_names[port[k]],))])
-             for k, angles in enumerate(_angles(q_rad))]
+    rows += [",".join([*values, *(() if port is None else (port_names[port[k]],))])
+             for k, values in enumerate(_joint_values(q_rad, robot))]
     write_atomic(path, "\n".join(rows) + "\n")
 
 
-def format_corrected(ordered: InOrder) -> str:
-    """CSV text: q1..qN (deg to 1e-6, empty when unreachable), status, remaining flange error
-    (mm); with backlash, approach1..N: the side each joint must come from (the corrections hold
-    for it)."""
+def format_corrected(ordered: InOrder, robot: RobotModel) -> str:
+    """CSV text: ``robot``'s q1..qN (deg, mm for a prismatic joint, to 1e-6; empty when
+    unreachable), status, remaining flange error (mm); with backlash, approach1..N: the side
+    each joint must come from (the corrections hold for it)."""
     solved = ordered.solved
     error_mm = m_to_mm(solved.position_error_m)
     n = solved.q_rad.shape[1]
     header = [*joint_columns(n), *RESULT_COLUMNS,
               *(approach_columns(n) if ordered.approach is not None else ())]
     lines = [",".join(header)]
-    for row, (angles, status, error) in enumerate(zip(_angles(solved.q_rad), solved.status,
-                                                      error_mm, strict=True)):
-        angles = [""] * n if status == STATUS_UNREACHABLE else angles
+    for row, (values, status, error) in enumerate(zip(_joint_values(solved.q_rad, robot),
+                                                      solved.status, error_mm, strict=True)):
+        values = [""] * n if status == STATUS_UNREACHABLE else values
         sides = [] if ordered.approach is None else [f"{int(s):+d}"
                                                      for s in ordered.approach[row]]
-        lines.append(",".join([*angles, str(status), f"{error:.6f}", *sides]))
+        lines.append(",".join([*values, str(status), f"{error:.6f}", *sides]))
     return "\n".join(lines) + "\n"
 
 
-def write_corrected(path: str | Path, ordered: InOrder) -> None:
+def write_corrected(path: str | Path, ordered: InOrder, robot: RobotModel) -> None:
     """Write :func:`format_corrected` atomically."""
-    write_atomic(path, format_corrected(ordered))
+    write_atomic(path, format_corrected(ordered, robot))
 
 
 def prediction_columns(prediction: Prediction) -> tuple[str, ...]:
@@ -166,13 +170,14 @@ def prediction_columns(prediction: Prediction) -> tuple[str, ...]:
 
 
 def format_prediction(q_rad: Array, approach: NDArray[np.int8] | None,
-                      prediction: Prediction) -> str:
-    """CSV text: the poses as given (q in degrees, approach), then x,y,z, length and
-    tracker_x,tracker_y,tracker_z (those the prediction has) in mm to 1e-6 mm."""
+                      prediction: Prediction, robot: RobotModel) -> str:
+    """CSV text: the poses as given (``robot``'s q in degrees, mm for a prismatic joint;
+    approach), then x,y,z, length and tracker_x,tracker_y,tracker_z (those the prediction has)
+    in mm to 1e-6 mm."""
     n = q_rad.shape[1]
     header = [*joint_columns(n), *(approach_columns(n) if approach is not None else ()),
               *prediction_columns(prediction)]
-    columns = _angles(q_rad)
+    columns = _joint_values(q_rad, robot)
     if approach is not None:
         columns = [[*row, *(f"{int(v):+d}" for v in signs)]
                    for row, signs in zip(columns, approach, strict=True)]
@@ -189,6 +194,6 @@ def format_prediction(q_rad: Array, approach: NDArray[np.int8] | None,
 
 
 def write_prediction(path: str | Path, q_rad: Array, approach: NDArray[np.int8] | None,
-                     prediction: Prediction) -> None:
+                     prediction: Prediction, robot: RobotModel) -> None:
     """Write :func:`format_prediction` atomically."""
-    write_atomic(path, format_prediction(q_rad, approach, prediction))
+    write_atomic(path, format_prediction(q_rad, approach, prediction, robot))

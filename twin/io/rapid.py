@@ -24,7 +24,7 @@ and statements.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -35,6 +35,21 @@ from twin.errors import InputError
 from twin.io.paths import read_bytes
 
 WHAT = "a RAPID module (.mod)"
+
+
+def refuse_prismatic(names: Sequence[str], prismatic: Iterable[bool], source: str | Path
+                     ) -> None:
+    """RAPID's jointtargets hold a robot's axes in degrees; a linear axis (a track, a lift) is
+    an external axis in mm, which twin neither reads nor writes: refuse a robot with one.
+
+    Raises:
+        InputError: naming the first prismatic joint.
+    """
+    sliding = [name for name, slides in zip(names, prismatic, strict=True) if slides]
+    if sliding:
+        raise InputError(f"the prismatic joint {sliding[0]!r}", "a robot of revolute joints "
+                         "for RAPID (twin does not write a linear axis as an external axis)",
+                         source=source)
 ENCODING = "latin-1"
 """Bytes to characters one to one: offsets into the text are offsets into the file."""
 NO_AXIS = 9e9

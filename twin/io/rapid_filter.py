@@ -52,6 +52,7 @@ from twin.io.rapid import (
     format_number,
     jointtarget,
     parse_literal,
+    refuse_prismatic,
     rewrite,
     robtarget,
     tooldata,
@@ -441,6 +442,7 @@ def filter_module(module: Module, model: Model, x: ArrayLike, nominal: RobotMode
         InputError: for a module with robtargets and no ``flange_T_tool0``, a target literal
             that does not parse, or a result with backlash.
     """
+    refuse_prismatic(nominal.joint_names, nominal.prismatic, module.source)
     if model.needs_approach:
         raise InputError("a result with backlash", "a result without backlash for a RAPID "
                          "module (it does not say from which side each joint comes to a "

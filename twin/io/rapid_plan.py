@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from twin.arrays import Array
 from twin.choices import DEFAULT_SETTLE_S, DEFAULT_SPEED
 from twin.errors import InputError
-from twin.io.rapid import format_number
+from twin.io.rapid import format_number, refuse_prismatic
 from twin.robot import RobotModel
 from twin.units import FILE_DEG_DECIMALS, rad_to_deg
 
@@ -111,6 +111,7 @@ def plan_module(robot: RobotModel, q_rad: Array, options: PlanOptions,
     if robot.n_joints != 6:
         raise InputError(f"a robot of {robot.n_joints} joints", "a 6-axis robot for a RAPID "
                          "module (a jointtarget holds six axes)", source="--out")
+    refuse_prismatic(robot.joint_names, robot.prismatic, "--out")
     if options.speed not in SPEEDS:
         raise InputError(f"{options.speed!r}", "one of ABB's speeddata: " + ", ".join(SPEEDS),
                          source="--speed")

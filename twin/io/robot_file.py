@@ -13,8 +13,8 @@ A model file is TOML, in mm and degrees (or m and rad, as declared)::
     base = { xyz = [0.0, 0.0, 0.0], rpy = [0.0, 0.0, 0.0] }   # optional
     tool = { xyz = [0.0, 0.0, 0.0], rpy = [0.0, 0.0, 0.0] }   # optional
 
-From 4 to 7 joints. ``parametrisation`` says what a joint row means
-(:mod:`twin.geometry.kinematics`):
+From 4 to 9 joints (:data:`twin.choices.MAX_JOINTS`). ``parametrisation`` says what a joint row
+means (:mod:`twin.geometry.kinematics`):
 
 - ``"dh"``: standard (distal) D-H, joint i contributes ``Rz(q_i + theta_i) · Tz(d_i) · Tx(a_i) ·
   Rx(alpha_i)`` — the paper's form;
@@ -27,8 +27,11 @@ From 4 to 7 joints. ``parametrisation`` says what a joint row means
 
 ``base`` and ``tool`` are fixed transforms (xyz in the length unit, fixed-axis roll–pitch–yaw in
 the angle unit, as a URDF origin) before joint 1 and after the last joint's row. Optional
-per-joint keys: ``mass`` (kg, of the link after the joint), ``com = [x, y, z]`` (length unit:
-that link's centre of mass in its own frame i, which turns with joint i; needs ``mass``) and
+per-joint keys: ``type`` (``"revolute"``, the default, or ``"prismatic"``: the joint slides along
+its axis, its q adding to d — :mod:`twin.geometry.kinematics` —, and its ``lower``, ``upper``
+are lengths in the length unit, its ``velocity`` in length unit per second, its ``effort`` a
+force in N); ``mass`` (kg, of the link after the joint), ``com = [x, y, z]`` (length unit:
+that link's centre of mass in its own frame i, which moves with joint i; needs ``mass``) and
 ``radius`` (length unit, of that link's capsule) for the digital twin and the ``compliance``
 unknowns' gravity torques; ``velocity`` (angle unit per second) and ``effort`` (N·m), the
 joint's rated limits, for exported URDFs.
@@ -62,8 +65,10 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.errors import InputError
 from twin.geometry.kinematics import (
+    JOINT_TYPES,
     PARAMETRISATIONS,
     SLOT_IS_LENGTH,
     SLOT_NAMES,
@@ -77,7 +82,7 @@ from twin.io.paths import read_toml
 from twin.io.table import Table
 from twin.io.urdf_reader import load_urdf
 from twin.io.xacro_reader import XACRO_SUFFIX, expand_xacro
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel
+from twin.robot import RobotModel
 from twin.units import (
     ANGLE_FACTORS,
     FILE_DEG_DECIMALS,
@@ -85,6 +90,7 @@ from twin.units import (
     LENGTH_FACTORS,
     MAX_ANGLE_RAD,
     MAX_LINK_M,
+    joints_to_file,
     m_to_mm,
     rad_to_deg,
     rounded,
@@ -166,11 +172,14 @@ _TOP_KEYS = ("name", "parametrisation", "convention", "length_unit", "angle_unit
 _LIMIT_KEYS = ("lower", "upper")
 _OPTIONAL_JOINT_KEYS = ("mass", "radius", "velocity", "effort")
 _COM_KEY = "com"
+_TYPE_KEY = "type"
 MAX_MASS_KG = 1e4
 MAX_VELOCITY_RAD_S = 100.0
 """Largest joint velocity limit accepted from a model file, rad/s (some 950 rpm)."""
 MAX_EFFORT_NM = 1e6
-"""Largest joint effort limit accepted from a model file, N·m."""
+"""Largest joint effort limit accepted from a model file, N·m (N on a prismatic joint)."""
+MAX_SPEED_M_S = 100.0
+"""Largest velocity limit of a prismatic joint accepted from a model file, m/s."""
 
 
 def parametrisation_request(table: Table, default: str) -> str | tuple[str, ...]:
@@ -227,15 +236,18 @@ class _Units(NamedTuple):
         """Radians per angle unit."""
         return ANGLE_FACTORS[self.angle]
 
-    def limits(self) -> dict[str, tuple[float, float, str, float | None]]:
+    def limits(self, prismatic: bool = False) -> dict[str, tuple[float, float, str, float | None]]:
         """Each per-joint key beside the table's: (factor to SI, largest magnitude in SI, unit
-        as written, smallest value in SI or None for ±largest)."""
+        as written, smallest value in SI or None for ±largest); a prismatic joint's limits
+        and speed are lengths, its effort a force."""
+        travel = (self.to_m, MAX_LINK_M, self.length, None) if prismatic \
+            else (self.to_rad, MAX_ANGLE_RAD, self.angle, None)
         return {"mass": (1.0, MAX_MASS_KG, "kg", 0.0),
                 "radius": (self.to_m, MAX_LINK_M, self.length, 0.0),
-                "velocity": (self.to_rad, MAX_VELOCITY_RAD_S, f"{self.angle}/s", 0.0),
-                "effort": (1.0, MAX_EFFORT_NM, "N·m", 0.0),
-                "lower": (self.to_rad, MAX_ANGLE_RAD, self.angle, None),
-                "upper": (self.to_rad, MAX_ANGLE_RAD, self.angle, None)}
+                "velocity": (self.to_m, MAX_SPEED_M_S, f"{self.length}/s", 0.0) if prismatic
+                else (self.to_rad, MAX_VELOCITY_RAD_S, f"{self.angle}/s", 0.0),
+                "effort": (1.0, MAX_EFFORT_NM, "N" if prismatic else "N·m", 0.0),
+                "lower": travel, "upper": travel}
 
 
 class _Joint(NamedTuple):
@@ -247,6 +259,8 @@ class _Joint(NamedTuple):
     """Its limits and the optional keys given (mass, radius, velocity, effort)."""
     com_m: NDArray[np.float64] | None
     """Its centre of mass, shape (3,), m, if given."""
+    joint_type: str
+    """``revolute`` or ``prismatic``."""
 
 
 def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
@@ -268,7 +282,7 @@ def parse_robot(document: dict[str, Any], source: str | Path) -> RobotModel:
             for index, (values, kind) in enumerate(zip(joints, kinds, strict=True))]
     optional = _optional_columns(doc, read)
     structure, table = _structure(doc, kinds, request, np.stack([j.slots for j in read], axis=1),
-                                  units)
+                                  units, tuple(j.joint_type for j in read))
     return RobotModel(
         name=name, dh=table, structure=structure,
         lower_rad=np.array([j.values["lower"] for j in read]),
@@ -298,12 +312,13 @@ def _joint_kinds(doc: Table, request: str | tuple[str, ...]
 
 
 def _joint(values: Any, index: int, kind: str, source: str | Path, units: _Units) -> _Joint:
-    """Joint ``index`` (0-based) of ``kind``: its centre of mass, its table slots, its limits
-    and optional keys, in that order of checking."""
+    """Joint ``index`` (0-based) of ``kind``: its type, its centre of mass, its table slots,
+    its limits and optional keys, in that order of checking."""
     slots = SLOT_NAMES[kind]
     joint = Table(values, source, f"joint {index + 1}",
-                  allowed=(*slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY),
+                  allowed=(_TYPE_KEY, *slots, *_LIMIT_KEYS, *_OPTIONAL_JOINT_KEYS, _COM_KEY),
                   kind=f"a {kind} joint")
+    joint_type = joint.text(_TYPE_KEY, "revolute", choices=JOINT_TYPES)
     com_m = None
     if joint.has(_COM_KEY):
         largest = MAX_LINK_M / units.to_m
@@ -318,7 +333,7 @@ def _joint(values: Any, index: int, kind: str, source: str | Path, units: _Units
         column[slot] = joint.number(key, minimum=-largest / factor, maximum=largest / factor,
                                     expected=_within(unit, largest / factor)) * factor
     given = {}
-    for key, (factor, largest, unit, smallest) in units.limits().items():
+    for key, (factor, largest, unit, smallest) in units.limits(joint_type == "prismatic").items():
         if key in _LIMIT_KEYS:
             joint.required(key, _within(unit, largest / factor))
         if joint.has(key):
@@ -330,7 +345,7 @@ def _joint(values: Any, index: int, kind: str, source: str | Path, units: _Units
     if given["lower"] >= given["upper"]:
         raise joint.error("lower", f"{values['lower']} >= upper = {values['upper']}",
                           "lower < upper")
-    return _Joint(column, given, com_m)
+    return _Joint(column, given, com_m, joint_type)
 
 
 def _optional_columns(doc: Table, joints: list[_Joint]
@@ -357,7 +372,7 @@ def _optional_columns(doc: Table, joints: list[_Joint]
 
 
 def _structure(doc: Table, kinds: tuple[str, ...], request: str | tuple[str, ...],
-               table: NDArray[np.float64], units: _Units
+               table: NDArray[np.float64], units: _Units, joint_types: tuple[str, ...]
                ) -> tuple[Structure, NDArray[np.float64]]:
     """The chain with the file's ``base`` and ``tool``, and its table; an ``auto`` request
     converted to the parametrisation each joint needs."""
@@ -365,9 +380,11 @@ def _structure(doc: Table, kinds: tuple[str, ...], request: str | tuple[str, ...
     try:
         structure = Structure(
             kinds, base=_end_transform(doc, "base", units.to_m, units.to_rad, names),
-            tool=_end_transform(doc, "tool", units.to_m, units.to_rad, names))
+            tool=_end_transform(doc, "tool", units.to_m, units.to_rad, names),
+            joint_types=joint_types)
         if request == AUTO_PARAMETRISATION:
-            return convert(fixed_transforms(structure, table), AUTO_PARAMETRISATION)
+            return convert(fixed_transforms(structure, table), AUTO_PARAMETRISATION,
+                           joint_types)
         check_mix(kinds)
     except ValueError as exc:
         raise doc.error("parametrisation", str(exc),
@@ -415,18 +432,23 @@ def robot_to_toml(robot: RobotModel) -> str:
     ]
     display = np.where(robot.is_length, m_to_mm(robot.dh), rad_to_deg(robot.dh))
     decimals = np.where(robot.is_length, FILE_MM_DECIMALS, FILE_DEG_DECIMALS)
-    optional = {"lower": rad_to_deg(robot.lower_rad), "upper": rad_to_deg(robot.upper_rad),
+    sliding = robot.prismatic
+    travel = np.where(sliding, FILE_MM_DECIMALS, FILE_DEG_DECIMALS)
+    optional = {"lower": joints_to_file(robot.lower_rad, sliding),
+                "upper": joints_to_file(robot.upper_rad, sliding),
                 "mass": robot.mass_kg, "radius": None if robot.radius_m is None
                 else m_to_mm(robot.radius_m), "velocity": None if robot.velocity_rad_s is None
-                else rad_to_deg(robot.velocity_rad_s), "effort": robot.effort_nm}
-    places = {"lower": FILE_DEG_DECIMALS, "upper": FILE_DEG_DECIMALS, "mass": 3,
-              "radius": FILE_MM_DECIMALS, "velocity": FILE_DEG_DECIMALS, "effort": 3}
+                else joints_to_file(robot.velocity_rad_s, sliding), "effort": robot.effort_nm}
+    places = {"lower": travel, "upper": travel, "mass": np.full(robot.n_joints, 3),
+              "radius": np.full(robot.n_joints, FILE_MM_DECIMALS), "velocity": travel,
+              "effort": np.full(robot.n_joints, 3)}
     coms = None if robot.com_m is None else np.reshape(
         rounded(m_to_mm(robot.com_m), FILE_MM_DECIMALS), (-1, 3)).tolist()
     for i, kind in enumerate(kinds):
-        items = [f"{key} = {rounded([display[slot, i]], int(decimals[slot, i]))[0]!r}"
-                 for slot, key in enumerate(SLOT_NAMES[kind])]
-        items += [f"{key} = {rounded([values[i]], places[key])[0]!r}"
+        items = ['type = "prismatic"'] if sliding[i] else []
+        items += [f"{key} = {rounded([display[slot, i]], int(decimals[slot, i]))[0]!r}"
+                  for slot, key in enumerate(SLOT_NAMES[kind])]
+        items += [f"{key} = {rounded([values[i]], int(places[key][i]))[0]!r}"
                   for key, values in optional.items() if values is not None]
         if coms is not None:
             items.append(f"{_COM_KEY} = [{', '.join(map(repr, coms[i]))}]")

@@ -8,24 +8,27 @@ down to a tip link:
 - **base link**: ``--base-link`` / ``base_link``, by default the URDF's root link;
 - **tip link**: ``--tip-link`` / ``tip_link``, by default ``tool0`` when the URDF has it, else
   ``flange``, else the one leaf link (several leaves: the error lists them);
-- every joint on the way must be revolute (or continuous: limits ±180° then) or fixed, and none
-  a ``<mimic>``; off-chain joints (a gripper's fingers) are kept in the URDF and left at zero.
+- every joint on the way must be revolute (or continuous: limits ±180° then), prismatic (a torso
+  lift, a linear track: it slides along its axis, limits in m) or fixed, and none a
+  ``<mimic>``; off-chain joints (a gripper's fingers) are kept in the URDF and left at zero.
 
 The XML is read twice, by expat here (the chain, names and numbers) and by urdfdom in
 Pinocchio, so it is held to what both read alike: no document type declaration (expat expands
 its entities, urdfdom does not), at most :data:`MAX_URDF_BYTES` bytes and
 :data:`MAX_URDF_ELEMENTS` links and joints (urdfdom's parse grows quadratically), every origin
-within 1 km and two turns, every axis a direction, the chain's limits within two turns; and
+within 100 m and two turns, every axis a direction, the chain's limits within two turns (100 m
+for a prismatic joint); and
 Pinocchio's chain must have the same names, and at q = 0 the same tip and axes, as expat's.
 
-Each revolute joint's frame is turned so that its axis is z, which gives the chain as fixed
+Each moving joint's frame is turned so that its axis is z, which gives the chain as fixed
 transforms T_0 … T_n (:func:`twin.geometry.kinematics.fixed_transforms`' form: fixed joints between
-two revolute joints merge into one transform), and :func:`twin.geometry.parametrisation.convert`
-turns those into the chosen parametrisation exactly. Joint limits, rated speeds and torques come
-from the URDF's ``<limit>``; link masses from Pinocchio's inertias (a joint's mass is that of every
-link rigidly attached after it). The URDF text itself is kept (:class:`twin.robot.UrdfSource`) so
-that a calibration can be written back into it with every name, mesh and inertial
-(:mod:`twin.export.urdf`).
+two moving joints merge into one transform), and :func:`twin.geometry.parametrisation.convert`
+turns those into the chosen parametrisation exactly, a prismatic joint's line kept through its
+URDF origin. Joint limits, rated speeds and efforts (torques, or forces on a prismatic joint)
+come from the URDF's ``<limit>``, in the URDF's SI units; link masses from Pinocchio's inertias
+(a joint's mass is that of every link rigidly attached after it). The URDF text itself is kept
+(:class:`twin.robot.UrdfSource`) so that a calibration can be written back into it with every
+name, mesh and inertial (:mod:`twin.export.urdf`).
 """
 
 from __future__ import annotations
@@ -45,12 +48,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
+from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.errors import InputError
 from twin.geometry.kinematics import fixed_transforms, rigid_transform
 from twin.geometry.parametrisation import AUTO_PARAMETRISATION, convert, joint_frames
 from twin.io.paths import read_text
 from twin.io.table import shown
-from twin.robot import MAX_JOINTS, MIN_JOINTS, RobotModel, UrdfSource
+from twin.robot import RobotModel, UrdfSource
 from twin.units import MAX_ANGLE_RAD, MAX_LINK_M
 
 if TYPE_CHECKING:
@@ -62,6 +66,8 @@ TIP_NAMES = ("tool0", "flange")
 CONTINUOUS_LIMIT_RAD = math.pi
 """Limits given to a continuous joint (the URDF gives none): ±180°."""
 REVOLUTE = ("revolute", "continuous")
+MOVING = (*REVOLUTE, "prismatic")
+"""The joint types a chain's joints may have besides fixed: each is one of the robot's joints."""
 WHAT = "a URDF file"
 MAX_URDF_BYTES = 16 * 2**20
 """Largest URDF read, bytes (16 MiB; the shipped arms take under 10 kB)."""
@@ -86,9 +92,17 @@ class Chain(NamedTuple):
     """Every joint element from the base link down to the tip link, in order."""
 
     @property
-    def revolute(self) -> tuple[ET.Element, ...]:
-        """The chain's revolute (and continuous) joints, base to tip."""
-        return tuple(joint for joint in self.joints if joint.get("type") in REVOLUTE)
+    def moving(self) -> tuple[ET.Element, ...]:
+        """The chain's moving joints (revolute, continuous and prismatic), base to tip: the
+        robot's joints."""
+        return tuple(joint for joint in self.joints if joint.get("type") in MOVING)
+
+    @property
+    def joint_types(self) -> tuple[str, ...]:
+        """Each of the robot's joints as :class:`twin.geometry.kinematics.Structure` types it
+        (a continuous joint is revolute)."""
+        return tuple("prismatic" if joint.get("type") == "prismatic" else "revolute"
+                     for joint in self.moving)
 
 
 def _child(joint: ET.Element) -> str:
@@ -121,7 +135,7 @@ def find_chain(root: ET.Element, base_link: str | None, tip_link: str | None,
     Raises:
         InputError: for an unknown link, a link with two parents, a cycle of joints, a tip
             that is not below the base, an ambiguous default tip, or a joint on the chain that
-            is neither revolute nor fixed.
+            is neither revolute, continuous, prismatic nor fixed.
     """
     links = [str(link.get("name")) for link in root.findall("link")]
     joints = root.findall("joint")
@@ -152,10 +166,10 @@ def find_chain(root: ET.Element, base_link: str | None, tip_link: str | None,
             raise InputError(f"tip link {tip_link!r} not below base link {base_link!r}",
                              "a tip link on the chain below the base link", source=source)
         joint = by_child[link]
-        if joint.get("type") not in (*REVOLUTE, "fixed"):
+        if joint.get("type") not in (*MOVING, "fixed"):
             raise InputError(f"joint {joint.get('name')!r} of type {joint.get('type')!r} on "
-                             "the chain", "revolute, continuous or fixed joints only",
-                             source=source)
+                             "the chain", "revolute, continuous, prismatic or fixed joints "
+                             "only", source=source)
         path.append(joint)
         link = _parent(joint)
         if link in seen:  # a link its own ancestor: the walk would never reach the base
@@ -264,18 +278,20 @@ def _fixed_transforms(model: pin.Model, chain: Chain) -> tuple[Array, list[int]]
     """T_0..T_n of the chain from Pinocchio's placements at q = 0, and the chain's joint ids.
 
     Joint k's frame is Pinocchio's joint frame turned by :func:`axis_alignment` of its axis
-    (read back from the joint's Jacobian, whatever Pinocchio's joint type)."""
+    (read back from the joint's Jacobian, whatever Pinocchio's joint type: the angular column
+    of a revolute joint, the linear one of a prismatic joint)."""
     import pinocchio as pin
 
     data = model.createData()
     pin.forwardKinematics(model, data, pin.neutral(model))
     pin.updateFramePlacements(model, data)
-    ids = [model.getJointId(str(joint.get("name"))) for joint in chain.revolute]
+    ids = [model.getJointId(str(joint.get("name"))) for joint in chain.moving]
     pin.computeJointJacobians(model, data, pin.neutral(model))
     frames = []
-    for joint_id in ids:
+    for joint_id, joint_type in zip(ids, chain.joint_types, strict=True):
         jacobian = pin.getJointJacobian(model, data, joint_id, pin.ReferenceFrame.LOCAL)
-        axis = jacobian[3:, model.joints[joint_id].idx_v]
+        rows = slice(0, 3) if joint_type == "prismatic" else slice(3, 6)
+        axis = jacobian[rows, model.joints[joint_id].idx_v]
         frame = data.oMi[joint_id].homogeneous.copy()
         frame[:3, :3] = frame[:3, :3] @ axis_alignment(axis)
         frames.append(frame)
@@ -346,8 +362,8 @@ def _parse(text: str, source: str | Path) -> ET.Element:
 
 
 def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
-    """Every joint's origin and axis plausible, and each revolute joint of the chain
-    independent (no ``<mimic>``) with limits within two turns.
+    """Every joint's origin and axis plausible, and each moving joint of the chain independent
+    (no ``<mimic>``) with limits within two turns (100 m for a prismatic joint).
 
     Raises:
         InputError: naming the joint and the field.
@@ -356,7 +372,7 @@ def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
         origin_transform(joint, source)
         if joint.get("type") not in ("fixed", "floating"):
             joint_axis(joint, source)
-    for joint in chain.revolute:
+    for joint in chain.moving:
         name = joint.get("name")
         mimic = joint.find("mimic")
         if mimic is not None:
@@ -366,8 +382,10 @@ def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
                              where=f"joint {name!r}")
         limit = joint.find("limit")
         if joint.get("type") == "continuous" or limit is None:
-            continue  # urdfdom refuses a revolute joint without limits
+            continue  # urdfdom refuses a revolute or prismatic joint without limits
         where = f"joint {name!r} <limit>"
+        largest, unit = (MAX_LINK_M, "m") if joint.get("type") == "prismatic" \
+            else (MAX_ANGLE_RAD, "rad (two turns)")
         bounds = []
         for key in ("lower", "upper"):
             written = str(limit.get(key, "0"))
@@ -375,10 +393,9 @@ def _check_numbers(root: ET.Element, chain: Chain, source: str | Path) -> None:
                 value = float(written)
             except ValueError:
                 value = math.nan
-            if not abs(value) <= MAX_ANGLE_RAD:
-                raise InputError(f"{key}={shown(written)}", f"a number within "
-                                 f"±{MAX_ANGLE_RAD:g} rad (two turns)", source=source,
-                                 where=where)
+            if not abs(value) <= largest:
+                raise InputError(f"{key}={shown(written)}", f"a number within ±{largest:g} "
+                                 f"{unit}", source=source, where=where)
             bounds.append(value)
         if bounds[0] >= bounds[1]:
             raise InputError(f"lower={bounds[0]:g} >= upper={bounds[1]:g}", "lower < upper",
@@ -393,7 +410,7 @@ def _check_agreement(model: pin.Model, chain: Chain, source: str | Path) -> None
     """
     import pinocchio as pin
 
-    missing = [f"joint {str(joint.get('name'))!r}" for joint in chain.revolute
+    missing = [f"joint {str(joint.get('name'))!r}" for joint in chain.moving
                if not model.existJointName(str(joint.get("name")))]
     missing += [f"link {link!r}" for link in (chain.base_link, chain.tip_link)
                 if not model.existFrame(link, pin.FrameType.BODY)]
@@ -412,7 +429,7 @@ def _check_same_chain(fixed: Array, chain: Chain, source: str | Path) -> None:
     transform, axes = np.eye(4), []
     for joint in chain.joints:
         transform = transform @ origin_transform(joint, source)
-        if joint.get("type") in REVOLUTE:
+        if joint.get("type") in MOVING:
             axes.append(transform[:3, :3] @ joint_axis(joint, source))
     frames, tip = joint_frames(fixed)
     scale = 1.0 + sum(float(np.abs(origin_transform(j, source)[:3, 3]).sum())
@@ -447,32 +464,34 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
         InputError: for a file that is not a URDF Pinocchio reads (or reads otherwise than
             expat: a document type declaration), one larger than :data:`MAX_URDF_BYTES` or
             with more than :data:`MAX_URDF_ELEMENTS` links or joints, links it does not have,
-            a chain of other joints than revolute and fixed (or a ``<mimic>`` one), fewer than
-            4 or more than 7 revolute joints, an origin, axis or limit that cannot be right
+            a chain of other joints than revolute, prismatic and fixed (or a ``<mimic>`` one),
+            fewer than 4 or more than 9 moving joints, an origin, axis or limit that cannot be
+            right
             (:func:`origin_transform`, :func:`joint_axis`), or a parametrisation the chain
             cannot take.
     """
     text = read_text(path, WHAT) if text is None else text
     root = _parse(text, path)
     chain = find_chain(root, base_link, tip_link, path)
-    revolute = chain.revolute
-    if not MIN_JOINTS <= len(revolute) <= MAX_JOINTS:
-        raise InputError(f"{len(revolute)} revolute joints from {chain.base_link!r} to "
-                         f"{chain.tip_link!r}", f"{MIN_JOINTS} to {MAX_JOINTS}", source=path)
+    moving = chain.moving
+    if not MIN_JOINTS <= len(moving) <= MAX_JOINTS:
+        raise InputError(f"{len(moving)} moving joints from {chain.base_link!r} to "
+                         f"{chain.tip_link!r}", f"{MIN_JOINTS} to {MAX_JOINTS} (revolute, "
+                         "continuous or prismatic)", source=path)
     _check_numbers(root, chain, path)
     model = _pinocchio_model(text, path)
     _check_agreement(model, chain, path)
     fixed, ids = _fixed_transforms(model, chain)
     _check_same_chain(fixed, chain, path)
     try:
-        structure, table = convert(fixed, parametrisation)
+        structure, table = convert(fixed, parametrisation, chain.joint_types)
     except ValueError as exc:
         raise InputError(str(exc), "a parametrisation the chain can take (auto)",
                          source=path, where="parametrisation") from None
     offsets = frame_offsets(joint_frames(fixed)[0],
                             joint_frames(fixed_transforms(structure, table))[0])
     lower, upper, velocity, effort = [], [], [], []
-    for joint, joint_id in zip(revolute, ids, strict=True):
+    for joint, joint_id in zip(moving, ids, strict=True):
         index = model.joints[joint_id].idx_q
         if joint.get("type") == "continuous":
             lower.append(-CONTINUOUS_LIMIT_RAD)
@@ -483,7 +502,7 @@ def load_urdf(path: str | Path, *, base_link: str | None = None, tip_link: str |
         velocity.append(float(model.velocityLimit[model.joints[joint_id].idx_v]))
         effort.append(float(model.effortLimit[model.joints[joint_id].idx_v]))
     mass = np.array([model.inertias[joint_id].mass for joint_id in ids])
-    names = tuple(str(joint.get("name")) for joint in revolute)
+    names = tuple(str(joint.get("name")) for joint in moving)
     try:
         return RobotModel(
             name=str(root.get("name") or Path(path).stem), dh=table, structure=structure,

@@ -22,7 +22,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.units import DISPLAY_UNITS, m_to_mm, rad_to_arcsec, rad_to_deg, to_display
+from twin.units import (
+    DISPLAY_UNITS,
+    joint_file_units,
+    joints_to_file,
+    m_to_mm,
+    rad_to_arcsec,
+    rad_to_deg,
+    to_display,
+)
 
 LENGTH_DECIMALS = 4
 """A measured length or error, mm: 0.1 µm, ten times finer than a good encoder resolves."""
@@ -94,6 +102,19 @@ def deg_values(values_rad: ArrayLike, decimals: int = ANGLE_DECIMALS, *,
                separator: str = ", ") -> str:
     """Angles given in rad, in degrees, joined by ``separator`` and without the unit."""
     return separator.join(plain(v, decimals) for v in np.ravel(rad_to_deg(values_rad)))
+
+
+def joint_values(values_si: ArrayLike, prismatic: ArrayLike, decimals: int = ANGLE_DECIMALS,
+                 *, separator: str = ", ") -> tuple[str, str]:
+    """Joint values given in SI (rad, m for a prismatic joint), in degrees and mm, joined by
+    ``separator`` without units, and the units' label: ``deg``, or ``deg, q1 in mm``."""
+    sliding = np.ravel(np.asarray(prismatic, dtype=bool))
+    text = separator.join(plain(v, decimals) for v in joints_to_file(values_si, sliding))
+    if not sliding.any():
+        return text, "deg"
+    units = joint_file_units(sliding)
+    return text, "deg, " + ",".join(f"q{i + 1}" for i, unit in enumerate(units)
+                                    if unit == "mm") + " in mm"
 
 
 def joint_angles(q_rad: ArrayLike, decimals: int = JOINT_ANGLE_DECIMALS) -> str:

@@ -21,6 +21,7 @@ from twin.geometry.rigid import angles
 from twin.loss import REJECT_SCALES
 from twin.report.display import (
     JOINT_DECIMALS,
+    LENGTH_DECIMALS,
     SIGNIFICANT,
     deg,
     deg_values,
@@ -39,8 +40,10 @@ from twin.solvers import SOLVERS, get_solver
 from twin.units import DH_KEYS, slot_label
 
 if TYPE_CHECKING:
+    from twin.arrays import Array
     from twin.calibration.accuracy import TruthErrors
     from twin.calibration.diagnosis import Cause
+    from twin.model import Model
 
 MAX_ROWS_SHOWN = 20
 """Rejected rows listed in the report (the JSON lists them all)."""
@@ -139,7 +142,8 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     if result.uncertainty is not None:
         lines.append(_accuracy_line(result))
     if result.workspace is not None:
-        lines.append(f"  workspace: {result.workspace.describe()}")
+        lines.append("  workspace: "
+                     + result.workspace.describe(result.model.robot.prismatic))
     return lines
 
 
@@ -273,7 +277,7 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
     gauge = result.gauge
     if gauge is not None and gauge.names:
         lines.append("  motions of the flange the data cannot see: " + gauge.describe()
-                     + "; pin them with " + " or ".join(gauge.pins))
+                     + ("; pin them with " + " or ".join(gauge.pins) if gauge.pins else ""))
     return lines
 
 
@@ -380,38 +384,57 @@ def _metric_rows(result: CalibrationResult) -> list[str]:
             _metric_row("after, validation", result.metrics["validation"])]
 
 
-JOINT_GROUP_COLUMNS = {"transmission": ("sin q", "cos q", "sin 2q", "cos 2q"),
-                       "backlash": ("backlash",), "compliance": ("compliance",)}
-"""Columns of each joint-level group in the report, one row per joint."""
+JOINT_GROUP_COLUMNS: dict[str, tuple[str, ...]] = {
+    "transmission": ("sin q", "cos q", "sin 2q", "cos 2q"), "backlash": ("backlash",),
+    "compliance": ("compliance",)}
+"""Columns of each joint-level group in the report, one row per revolute joint."""
+SLIDE_GROUP_COLUMNS: dict[str, tuple[str, ...]] = {
+    "transmission": ("scale",), "backlash": ("lost motion",), "compliance": ("compliance",)}
+"""The same for a prismatic joint (:mod:`twin.unknowns.transmission` and the others)."""
 
 
 def format_joint_groups(result: CalibrationResult) -> list[str]:
     """The identified joint-level errors, one row per joint, each with its σ (— where the
-    poses do not identify it); empty without joint-level groups."""
+    poses do not identify it); the prismatic joints in a table of their own (a scale in µm/m,
+    a lost motion in mm, a compliance in µm/N); empty without joint-level groups."""
     model = result.model
     present = [name for name in JOINT_GROUP_COLUMNS if model.has(name)]
     if not present:
         return []
     sigma = result.uncertainty.sigma if result.uncertainty is not None \
         else np.full(model.n_params, np.nan)
-    n = model.robot.n_joints
-    header, tables = "  joint", []
-    for name in present:
-        unit, columns = model.group(name).units[0], JOINT_GROUP_COLUMNS[name]
-        values, label = joint_level(model.block(result.solver.x, name), unit)
-        deviations, _ = joint_level(sigma[model.slice(name)], unit)
-        header += "".join(f"{f'{column} [{label}]':>24}{'±σ':>8}" for column in columns)
-        tables.append((np.reshape(values, (n, -1)), np.reshape(deviations, (n, -1))))
-    lines = ["", "Identified joint-level errors", header]
-    for i in range(n):
-        row = f"  {i + 1:>5}"
-        for table, table_sigma in tables:
-            for value, deviation in zip(table[i], table_sigma[i], strict=True):
-                row += plain(value, JOINT_DECIMALS, width=24) + (
-                    plain(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation)
-                    else f"{'—':>8}")
-        lines.append(row)
+    sliding = model.robot.prismatic
+    lines = []
+    for title, columns, joints in (
+            ("Identified joint-level errors", JOINT_GROUP_COLUMNS, np.flatnonzero(~sliding)),
+            ("Identified joint-level errors of the prismatic joints", SLIDE_GROUP_COLUMNS,
+             np.flatnonzero(sliding))):
+        if joints.size:
+            lines += ["", title, *_joint_table(model, result.solver.x, sigma, present, columns,
+                                               joints)]
     return lines
+
+
+def _joint_table(model: Model, x: Array, sigma: Array, present: list[str],
+                 columns: dict[str, tuple[str, ...]], joints: NDArray[np.intp]) -> list[str]:
+    """The header and one row per joint of ``joints`` of the groups ``present``."""
+    header, rows = "  joint", [f"  {i + 1:>5}" for i in joints]
+    for name in present:
+        group, where = model.group(name), model.slice(name)
+        owner = np.asarray(group.joint)
+        label = ""
+        for row, i in enumerate(joints):
+            mine = np.flatnonzero(owner == i)
+            unit = group.units[mine[0]]
+            values, label = joint_level(x[where][mine], unit)
+            deviations, _ = joint_level(sigma[where][mine], unit)
+            decimals = LENGTH_DECIMALS if unit == "m" else JOINT_DECIMALS
+            for value, deviation in zip(values, deviations, strict=True):
+                rows[row] += plain(value, decimals, width=24) + (
+                    plain(deviation, decimals, width=8) if np.isfinite(deviation)
+                    else f"{'—':>8}")
+        header += "".join(f"{f'{column} [{label}]':>24}{'±σ':>8}" for column in columns[name])
+    return [header, *rows]
 
 
 def format_cross_validation(crossed: CrossValidation) -> str:
@@ -503,7 +526,8 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         lines.append(f"  predicted {what} RMS error over the workspace [mm]: "
                      + ", ".join(predicted))
         if first.workspace is not None:
-            lines.append(f"  workspace: {first.workspace.describe()}")
+            lines.append("  workspace: "
+                         + first.workspace.describe(first.model.robot.prismatic))
     misfits = [name for name, result in results.items()
                if result.misfit is not None and result.misfit.misfit]
     if misfits:

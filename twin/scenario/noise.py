@@ -47,7 +47,8 @@ class NoiseModel:
         outlier_m: Typical outlier size, m.
         offset_m: Constant length offset the calibration is not told, m.
         joint_resolution_rad: The resolution the joint angles are recorded to, one for every
-            joint or one per joint, rad (empty or 0: exact).
+            joint or one per joint, rad (empty or 0: exact); a prismatic joint's travel is
+            recorded exactly (its entry 0, :func:`twin.scenario.reader` sees to it).
     """
 
     sigma_m: float = 0.0

@@ -1,9 +1,9 @@
 """Non-geometric physics a scenario asks of the twin: joint servos of finite stiffness, gravity,
 cable tension, and how far the true masses are from the robot file's.
 
-The robot holds each joint with a position servo of stiffness k_j (N·m/rad): at rest the joint
-sits where the servo torque balances gravity and the cable's pull (the twin solves it,
-:mod:`twin.sim.equilibrium`).
+The robot holds each joint with a position servo of stiffness k_j (N·m/rad; N/m on a prismatic
+joint): at rest the joint sits where the servo torque (force) balances gravity and the cable's
+pull (the twin solves it, :mod:`twin.sim.equilibrium`).
 """
 
 from __future__ import annotations
@@ -21,8 +21,9 @@ class Physics:
     """Which non-geometric effects the twin simulates.
 
     Attributes:
-        stiffness_nm_per_rad: Servo stiffness per joint, shape (n,), N·m/rad; None means rigid
-            joints (the joint angle is exactly the commanded one, no statics are solved).
+        stiffness_nm_per_rad: Servo stiffness per joint, shape (n,), N·m/rad (N/m on a
+            prismatic joint); None means rigid joints (the joint value is exactly the commanded
+            one, no statics are solved).
         gravity: Whether gravity (9.81 m/s², −z of the base) loads the joints.
         tension_n: Constant cable tension pulling the flange towards the port, N.
         mass_error: Relative error of the robot file's link masses and centres of mass: the
@@ -68,8 +69,8 @@ class Physics:
         }
 
     def compliance(self, n: int) -> Array:
-        """The joints' compliance 1/k, shape (n,), rad/(N·m): what the ``compliance`` unknowns
-        of a calibration identify (zeros for rigid joints)."""
+        """The joints' compliance 1/k, shape (n,), rad/(N·m) (m/N on a prismatic joint): what
+        the ``compliance`` unknowns of a calibration identify (zeros for rigid joints)."""
         stiffness = self.stiffness_nm_per_rad
         return np.zeros(n) if stiffness is None else 1.0 / stiffness
 

@@ -6,7 +6,7 @@ joint errors), paths relative to the scenario file::
     name = "paper_irb120"                  # required
     description = "..."
     seed = 7                               # required: seeds every random draw
-    robot = "../models/irb120.toml"        # nominal model (model TOML or URDF, 4 to 7 joints);
+    robot = "../models/irb120.toml"        # nominal model (model TOML or URDF, 4 to 9 joints);
                                            # default: the packaged IRB 120
     robot_base_link = "base_link"          # for a URDF robot: its chain (default: the root
     robot_tip_link = "tool0"               #   link to tool0, flange or the one leaf)
@@ -60,15 +60,19 @@ joint errors), paths relative to the scenario file::
 
     [joints]                               # joint-level errors (see twin.scenario.joint_errors)
     repeatability_mm = 0.0                 # RMS flange jitter from the joints
-    resolution_deg = 0.0                   # the joint angles recorded to this (or one per joint)
-    transmission_arcsec = 0.0              # amplitude, number or one per joint
+    resolution_deg = 0.0                   # the joint angles recorded to this (or one per
+                                           # joint; a prismatic joint's travel is exact)
+    transmission_arcsec = 0.0              # amplitude, number or one per joint (0 on a
+                                           # prismatic joint)
     transmission_harmonic = 1              # cycles per joint revolution
     transmission_phase_deg = [...]         # one per joint; drawn uniformly when absent
-    backlash_arcsec = 0.0                  # full lash, number or one per joint
+    backlash_arcsec = 0.0                  # full lash, number or one per joint (0 on a
+                                           # prismatic joint)
 
     [physics]
     compliance = false                     # joint servos of finite stiffness
-    stiffness_nm_per_rad = [...]           # required with compliance
+    stiffness_nm_per_rad = [...]           # required with compliance (N/m on a prismatic
+                                           # joint)
     gravity = true                         # with compliance
     tension_n = 0.0                        # cable tension, with compliance
     mass_error = 0.0                       # true masses and centres of mass off the file's by
@@ -170,7 +174,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     perturbation = _perturbation(tables["perturbation"], robot)
     plan, count = _poses(tables["poses"], tables["fixture"], instrument, source.parent)
     cable_range = _cable_range(tables["encoder"])
-    joint_errors, draw_phases = _joint_errors(tables["joints"], robot.n_joints)
+    joint_errors, draw_phases = _joint_errors(tables["joints"], robot)
     physics = _physics(tables["physics"], robot)
     scenario = Scenario(
         name=name,
@@ -184,7 +188,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         pose_count=count,
         pose_plan=plan,
         constraints=_constraints(tables["poses"], cable_range),
-        noise=_noise(tables["encoder"], tables["joints"], robot.n_joints),
+        noise=_noise(tables["encoder"], tables["joints"], robot),
         joint_errors=joint_errors,
         draw_phases=draw_phases,
         physics=physics,
@@ -290,9 +294,18 @@ def _cable_range(encoder: Table) -> Array:
     return cable_range
 
 
-def _joint_errors(joints: Table, n: int) -> tuple[JointErrors, bool]:
+def _joint_errors(joints: Table, robot: RobotModel) -> tuple[JointErrors, bool]:
     """``[joints]``' transmission error and backlash, and whether the phases are to be drawn
-    (none given)."""
+    (none given). They are a gearbox's angles: a prismatic joint has none in the twin."""
+    n = robot.n_joints
+    for key in ("transmission_arcsec", "backlash_arcsec"):
+        given = joints.vector(key, n, per_joint=True, minimum=0.0, default=0.0)
+        sliding = np.flatnonzero((given > 0) & robot.prismatic)
+        if sliding.size:
+            raise joints.error(key, f"{given[sliding[0]]:g} arcsec on joint {sliding[0] + 1}, "
+                               f"prismatic ({robot.joint_names[sliding[0]]})", "0 for a "
+                               "prismatic joint: the twin simulates a gearbox's angles, not "
+                               "a linear axis's lead error or lost motion (a list with 0 there)")
     arcsec = deg_to_rad(1.0 / ARCSEC_PER_DEG)
     harmonic = joints.vector("transmission_harmonic", n, per_joint=True, minimum=1.0, default=1)
     if np.any(harmonic != np.round(harmonic)):
@@ -319,7 +332,8 @@ def _physics(phys: Table, robot: RobotModel) -> Physics:
                 raise phys.error(key, f"{key} with compliance = false",
                                  "compliance = true to use it")
         return Physics()
-    phys.required("stiffness_nm_per_rad", "the servo stiffness per joint in N·m/rad")
+    phys.required("stiffness_nm_per_rad", "the servo stiffness per joint in N·m/rad (N/m "
+                  "on a prismatic joint)")
     if robot.mass_kg is None and phys.boolean("gravity", True):
         raise phys.error("gravity", "true with a robot model without masses",
                          "link masses in the model file (key 'mass'), or gravity = false")
@@ -343,12 +357,14 @@ def _constraints(poses: Table, cable_range: Array) -> PoseConstraints:
     )
 
 
-def _noise(encoder: Table, joints: Table, n: int) -> NoiseModel:
+def _noise(encoder: Table, joints: Table, robot: RobotModel) -> NoiseModel:
     """The reading's noise: ``[encoder]``'s σ, resolution, outliers and offset, the robot's
-    repeatability and the resolution its joint angles are recorded to (``[joints]``)."""
+    repeatability and the resolution its joint angles are recorded to (``[joints]``; an angle's:
+    a prismatic joint's travel is recorded exactly)."""
+    resolution = deg_to_rad(joints.vector("resolution_deg", robot.n_joints, per_joint=True,
+                                          minimum=0.0, default=0.0))
     return NoiseModel(
-        joint_resolution_rad=tuple(deg_to_rad(joints.vector(
-            "resolution_deg", n, per_joint=True, minimum=0.0, default=0.0)).tolist()),
+        joint_resolution_rad=tuple(np.where(robot.prismatic, 0.0, resolution).tolist()),
         sigma_m=float(mm_to_m(encoder.number("sigma_mm", 0.0, minimum=0.0))),
         resolution_m=float(mm_to_m(encoder.number("resolution_mm", DEFAULT_RESOLUTION_MM,
                                                   minimum=0.0))),

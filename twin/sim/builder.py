@@ -1,12 +1,13 @@
-"""A MuJoCo model of a serial revolute arm, built with :class:`mujoco.MjSpec` from a RobotModel.
+"""A MuJoCo model of a serial arm, built with :class:`mujoco.MjSpec` from a RobotModel.
 
 The chain is the robot's fixed transforms (:func:`twin.geometry.kinematics.fixed_transforms`),
-``base_T_flange(q) = T_0 · Rz(q_1) · T_1 ⋯ Rz(q_n) · T_n``, whatever the parametrisation of its
+``base_T_flange(q) = T_0 · J_1(q_1) · T_1 ⋯ J_n(q_n) · T_n``, whatever the parametrisation of its
 joints (standard or modified D-H, Hayati) and its base and tool transforms: body ``link<i>``
 (child of ``link<i−1>``, or of the world for i = 1) sits at ``T_{i−1}`` in its parent and carries
-hinge ``joint<i>`` about its local z axis at its origin; site ``flange`` sits at ``T_n`` in
-``link<n>``. With the joints at q, the flange site's pose is therefore exactly the core's
-``flange_transform`` (tested over 1000 random poses, for every parametrisation).
+joint ``joint<i>`` along its local z axis at its origin — a hinge for a revolute joint, a slide
+(q in m) for a prismatic one; site ``flange`` sits at ``T_n`` in ``link<n>``. With the joints at
+q, the flange site's pose is therefore exactly the core's ``flange_transform`` (tested over 1000
+random poses, for every parametrisation and joint type).
 
 Each link is drawn and collides as capsules along its skeleton, from its joint to the next
 joint (or the flange): along the joint axis first, then across to the next origin (for a
@@ -18,8 +19,8 @@ capsule of the world reaches up to it. Site ``point`` in ``link<n>`` is the meas
 eyelet, tracker target, ball) when it is off the flange centre. World site ``port`` is the
 encoder port; spatial tendon ``cable`` runs from ``port`` to ``point`` (``flange`` without one):
 its ``ten_length`` is the measured cable length. With compliant physics, actuators ``servo<i>``
-are position servos of the joint stiffness, and actuator ``tension`` pulls the cable with a force
-equal to its ``ctrl`` (N).
+are position servos of the joint stiffness (N·m/rad; N/m on a slide), and actuator ``tension``
+pulls the cable with a force equal to its ``ctrl`` (N).
 """
 
 from __future__ import annotations
@@ -35,12 +36,13 @@ from twin.geometry.kinematics import fixed_transforms, joint_placements
 from twin.geometry.statics import GRAVITY_M_S2
 from twin.robot import RobotModel
 from twin.scenario.physics import RIGID, Physics
-from twin.units import rad_to_deg
+from twin.units import joints_to_file
 
 DEFAULT_RADIUS_M = 0.04
 """Capsule radius when the model file gives none, m."""
 ARMATURE_KG_M2 = 0.05
-"""Reflected rotor inertia per joint, kg·m²: keeps stiff servos stable when stepping."""
+"""Reflected rotor inertia per joint, kg·m² (kg on a slide): keeps stiff servos stable when
+stepping."""
 SERVO_DAMPING_RATIO = 1.0
 """Servo damping as a ratio of critical: statics ignore it, stepping settles with it."""
 TIMESTEP_S = 5e-4
@@ -124,9 +126,12 @@ def build_spec(
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     end = _add_chain(spec, robot, attachment_m)
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
-    # offset, links two apart meet at the wrist and elbow centres too.
-    for i in range(1, robot.n_joints - 1):
-        spec.add_exclude(bodyname1=f"link{i}", bodyname2=f"link{i + 2}")
+    # offset, links two apart meet at the wrist and elbow centres too, and farther apart
+    # where the links between them are points (a torso lift before the FR3's shoulder).
+    radius = robot.radius_m if robot.radius_m is not None \
+        else np.full(robot.n_joints, DEFAULT_RADIUS_M)
+    for first, second in _touching(fixed_transforms(robot.structure, robot.dh), radius):
+        spec.add_exclude(bodyname1=f"link{first}", bodyname2=f"link{second}")
     # Link 1 stands on the floor at the base; it only turns about the vertical.
     spec.add_exclude(bodyname1="world", bodyname2="link1")
     if floor:
@@ -138,6 +143,24 @@ def build_spec(
     if port_m is not None:
         _add_cable(spec, port_m, end, physics)
     return spec
+
+
+def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
+    """Pairs of links (1-based) whose capsules meet whatever the joints: every link and the one
+    two on, and link i with link j > i + 2 when links i + 1 … j − 1 all start within a capsule
+    radius of one point (link i ends about where link j starts: the FR3's shoulder behind a
+    torso lift, also with a calibration's millimetres added)."""
+    n = len(fixed) - 1
+    at_parent = [bool(np.linalg.norm(fixed[k][:3, 3]) < radius_m[min(k, n - 1)])
+                 for k in range(n + 1)]
+    pairs = []
+    for i in range(1, n - 1):
+        pairs.append((i, i + 2))
+        j = i + 2
+        while at_parent[i + 1] and j < n and at_parent[j]:
+            pairs.append((i, j + 1))
+            j += 1
+    return pairs
 
 
 def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike | None) -> str:
@@ -157,15 +180,16 @@ def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike |
     for i in range(n):
         body = parent.add_body(name=f"link{i + 1}", pos=fixed[i][:3, 3],
                                quat=_quat(fixed[i][:3, :3]))
-        joint = body.add_joint(name=f"joint{i + 1}", type=mujoco.mjtJoint.mjJNT_HINGE,
-                               axis=[0.0, 0.0, 1.0], armature=ARMATURE_KG_M2)
+        kind = mujoco.mjtJoint.mjJNT_SLIDE if robot.prismatic[i] else mujoco.mjtJoint.mjJNT_HINGE
+        joint = body.add_joint(name=f"joint{i + 1}", type=kind, axis=[0.0, 0.0, 1.0],
+                               armature=ARMATURE_KG_M2)
         joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
         joint.range = [robot.lower_rad[i], robot.upper_rad[i]]
         _add_link_geoms(body, fixed[i + 1][:3, 3], radius[i],
                         None if robot.mass_kg is None else float(robot.mass_kg[i]))
         if robot.com_m is not None:
             assert robot.mass_kg is not None  # RobotModel: a centre of mass needs a mass
-            link = post[i]  # link frame i in the body, which turns with joint i
+            link = post[i]  # link frame i in the body, which moves with joint i
             _set_inertial(body, float(robot.mass_kg[i]), link[:3, :3] @ robot.com_m[i]
                           + link[:3, 3], radius[i])
         parent = body
@@ -182,8 +206,8 @@ def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike |
 
 
 def _add_servos(spec: mujoco.MjSpec, robot: RobotModel, stiffness_nm_per_rad: Array) -> None:
-    """Actuators ``servo<i>``: position servos of each joint's stiffness (N·m/rad), within
-    the joint's limits."""
+    """Actuators ``servo<i>``: position servos of each joint's stiffness (N·m/rad, N/m on a
+    slide), within the joint's limits."""
     for i, (kp, lower, upper) in enumerate(
         zip(stiffness_nm_per_rad, robot.lower_rad, robot.upper_rad, strict=True)
     ):
@@ -224,10 +248,11 @@ def model_xml(robot: RobotModel, port_m: ArrayLike | None = None,
     written again from the spec at full double precision, so the file's FK agrees to 1e-9 m.
     """
     spec = build_spec(robot, port_m, physics)
+    units = "mm|deg" if robot.prismatic.any() else "deg"
     spec.comment = (
         f"{robot.name}: generated by twin.sim.builder.model_xml from the kinematic table "
-        f"(joint limits {np.round(rad_to_deg(robot.lower_rad), 3).tolist()} .. "
-        f"{np.round(rad_to_deg(robot.upper_rad), 3).tolist()} deg)"
+        f"(joint limits {np.round(joints_to_file(robot.lower_rad, robot.prismatic), 3).tolist()}"
+        f" .. {np.round(joints_to_file(robot.upper_rad, robot.prismatic), 3).tolist()} {units})"
     )
     root = ET.fromstring(str(spec.to_xml()),
                          ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))

@@ -1,7 +1,7 @@
 """Static equilibrium of the twin's compliant joints under gravity and the cable's pull.
 
-The robot holds each joint with a position servo of stiffness k_j (N·m/rad): at rest the joint
-sits where the servo torque balances gravity and the cable's pull,
+The robot holds each joint with a position servo of stiffness k_j (N·m/rad; N/m on a slide): at
+rest the joint sits where the servo torque (force) balances gravity and the cable's pull,
 
     k (q − q_cmd) = τ_actuator,cable(q) − τ_gravity(q).
 
@@ -39,7 +39,7 @@ def static_equilibrium(
         model: Compiled twin with servos; contacts and constraints should be disabled.
         data: Scratch data of that model (overwritten).
         q_cmd_rad: Commanded joint angles, shape (m, n), rad.
-        stiffness: Servo stiffness k, shape (n,), N·m/rad.
+        stiffness: Servo stiffness k, shape (n,), N·m/rad (N/m on a slide).
 
     Returns:
         Joint angles at static equilibrium, shape (m, n), rad.

@@ -43,12 +43,12 @@ from twin.sim.poses import read_pose_plan, sample_poses
 from twin.sim.touches import touch_poses
 from twin.units import (
     ARCSEC_PER_DEG,
-    COMPLIANCE_UNIT,
     dh_rows_to_display,
     m_to_mm,
     rad_to_deg,
     to_display,
 )
+from twin.unknowns.compliance import compliance_units
 
 MEASUREMENTS_FILE = "measurements.csv"
 ROBOT_FILE = "robot.toml"
@@ -154,16 +154,20 @@ class Simulation:
     @property
     def joint_unknowns(self) -> dict[str, list[Any]]:
         """The true joint-level errors as a calibration's unknowns name them, in the units its
-        results show (degrees, µrad/(N·m)); null for a transmission error of a higher harmonic
-        than the model's two."""
-        n = self.robot.n_joints
+        results show (degrees, µrad/(N·m); a prismatic joint's scale in µm/m — the twin's is 0
+        —, its lost motion in mm, its compliance in µm/N); null for a transmission error of a
+        higher harmonic than the model's two."""
+        robot, n = self.robot, self.robot.n_joints
         terms = self.joint_errors.coefficients()
         compliance = self.scenario.physics.compliance(n)
         return {
-            "transmission": [[None if np.isnan(v) else float(v) for v in row]
-                             for row in rad_to_deg(terms)],
-            "backlash": rad_to_deg(0.5 * self.joint_errors.backlash_rad).tolist(),
-            "compliance": to_display(compliance, [COMPLIANCE_UNIT] * n)[0],
+            "transmission": [[0.0] if sliding else [None if np.isnan(v) else float(v)
+                                                    for v in row]
+                             for row, sliding in zip(rad_to_deg(terms), robot.prismatic,
+                                                     strict=True)],
+            "backlash": to_display(0.5 * self.joint_errors.backlash_rad,
+                                   robot.structure.joint_units)[0],
+            "compliance": to_display(compliance, compliance_units(robot))[0],
         }
 
     @property
@@ -348,7 +352,7 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
         The capture file's path.
     """
     out = Path(out_dir)
-    write_measurements(out / MEASUREMENTS_FILE, sim.measurements)
+    write_measurements(out / MEASUREMENTS_FILE, sim.measurements, sim.robot)
     for name, text in robot_files(sim.robot, Path(ROBOT_FILE).stem).items():
         write_atomic(out / name, text)
     write_truth(out / TRUTH_FILE, sim.truth)

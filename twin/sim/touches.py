@@ -18,7 +18,6 @@ from numpy.typing import NDArray
 from twin.arrays import Array
 from twin.compensation.ik import solve_ik
 from twin.errors import InputError
-from twin.geometry.kinematics import Structure
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
 from twin.sim.mujoco_twin import Twin
@@ -52,8 +51,7 @@ def touch_poses(robot: RobotModel, twin: Twin, points_m: Array, touches: int,
     tool = np.eye(4)
     tool[:3, 3] = twin.attachment_m
     structure = robot.structure
-    pointer = replace(robot, structure=Structure(structure.parametrisation, structure.base,
-                                                 structure.tool @ tool))
+    pointer = replace(robot, structure=replace(structure, tool=structure.tool @ tool))
     rows, index = [], []
     for j, point in enumerate(points_m):
         found: list[Array] = []

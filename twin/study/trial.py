@@ -58,6 +58,7 @@ from twin.study.rows import TrialRow
 from twin.study.store import TrialOutcome
 from twin.units import m_to_mm, to_display
 from twin.unknowns import Stage
+from twin.unknowns.transmission import unknowns as transmission_unknowns
 
 WORKSPACE_STREAM = 0x5EED
 """Second word of the workspace poses' seed sequence, apart from every trial's."""
@@ -89,9 +90,11 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     the port's correction and the offset (of the robot's errors, those the calibration did not
     fix)."""
     x = np.zeros(model.n_params)
+    n = sim.robot.n_joints
     robot_errors = {
         "dh": lambda: sim.delta.ravel(),
-        "transmission": lambda: np.nan_to_num(sim.joint_errors.coefficients()).ravel(),
+        "transmission": lambda: transmission_unknowns(
+            sim.robot, np.nan_to_num(sim.joint_errors.coefficients()), np.zeros(n)),
         "backlash": lambda: 0.5 * sim.joint_errors.backlash_rad,
         "compliance": lambda: sim.scenario.physics.compliance(sim.robot.n_joints)}
     for name, truth in robot_errors.items():

@@ -17,6 +17,12 @@ Bounds −10 to 1000 µrad/(N·m): an IRB 120 joint is some 1e4–1e6 N·m/rad s
 negative; the lower bound sits a little below zero so that a joint that carries almost no torque
 (joint 1 sees only the cable's pull; the last joint carries nothing at the flange centre) comes
 out as noise around zero instead of resting on the bound. Radius 10 µrad/(N·m).
+
+A prismatic joint gives way along its axis under the force along it (its τ_i is that force, N:
+:func:`twin.geometry.statics.joint_torques`): c_i in m/N (results show µm/N), bounds −0.1 to 10
+µm/N (a lift or a track is some 1e6–1e8 N/m stiff: 0.01–1 µm/N), radius 0.1 µm/N. A vertical
+lift carries the same weight in every pose: that part of c_i τ_i is a constant, which trades with
+the joint's δd; the cable's pull, which changes with the pose, is what separates them.
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ from twin.errors import InputError
 from twin.geometry.statics import joint_torques
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import COMPLIANCE_UNIT
+from twin.units import COMPLIANCE_UNIT, LINEAR_COMPLIANCE_UNIT
 from twin.unknowns.group import Array, Group, Stage, cached
 
 LOWER = -1e-5
@@ -37,6 +43,14 @@ UPPER = 1e-3
 """Upper search bound of a compliance, rad/(N·m)."""
 RADIUS = 1e-5
 """Typical compliance, rad/(N·m)."""
+LINEAR_LOWER, LINEAR_UPPER, LINEAR_RADIUS = -1e-7, 1e-5, 1e-7
+"""A prismatic joint's search bounds and typical compliance, m/N."""
+
+
+def compliance_units(robot: RobotModel) -> tuple[str, ...]:
+    """The unit of each joint's compliance: rad/(N·m), or m/N for a prismatic joint."""
+    return tuple(LINEAR_COMPLIANCE_UNIT if sliding else COMPLIANCE_UNIT
+                 for sliding in robot.prismatic)
 
 
 def cable_forces(robot: RobotModel, rig: Rig, data: Measurements) -> Array:
@@ -88,9 +102,11 @@ def make(robot: RobotModel, rig: Rig) -> Group:
     def basis(data: Measurements) -> Array:
         return torques(robot, rig, data)
 
+    sliding = robot.prismatic
     return Group(
         name="compliance", stage=Stage.JOINTS,
-        names=tuple(f"compliance{i + 1}" for i in range(n)), units=(COMPLIANCE_UNIT,) * n,
-        lower=np.full(n, LOWER), upper=np.full(n, UPPER), radius=np.full(n, RADIUS),
-        basis=cached(basis), joint=tuple(range(n)),
+        names=tuple(f"compliance{i + 1}" for i in range(n)), units=compliance_units(robot),
+        lower=np.where(sliding, LINEAR_LOWER, LOWER), upper=np.where(sliding, LINEAR_UPPER, UPPER),
+        radius=np.where(sliding, LINEAR_RADIUS, RADIUS), basis=cached(basis),
+        joint=tuple(range(n)),
     )

@@ -24,7 +24,7 @@ earlier one on the unknowns they share (``dh=10mm,a2=50mm``: every length ±10 m
   estimating them.
 
 Values accept the units of :data:`twin.units.QUANTITY_UNITS` (mm, m, deg, rad, arcsec,
-urad/Nm).
+urad/Nm; um/N and um/m for a prismatic joint's compliance and scale).
 """
 
 from __future__ import annotations
@@ -38,12 +38,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.errors import InputError
-from twin.units import COMPLIANCE_UNIT, DISPLAY_UNITS, QUANTITY_UNITS
+from twin.units import (
+    COMPLIANCE_UNIT,
+    DISPLAY_UNITS,
+    LINEAR_COMPLIANCE_UNIT,
+    QUANTITY_UNITS,
+    SCALE_UNIT,
+)
 from twin.unknowns.group import Group, Stage
 
-LARGEST = {"m": 10.0, "rad": math.pi, COMPLIANCE_UNIT: 1.0}
-"""The widest bound or prior of each SI unit: 10 m, 180°, 1 rad/(N·m) — beyond any real
-error; a wider one is a typo."""
+LARGEST = {"m": 10.0, "rad": math.pi, COMPLIANCE_UNIT: 1.0, LINEAR_COMPLIANCE_UNIT: 1.0,
+           SCALE_UNIT: 1.0}
+"""The widest bound or prior of each SI unit: 10 m, 180°, 1 rad/(N·m), 1 m/N, 1 m/m — beyond
+any real error; a wider one is a typo."""
+TYPED = {COMPLIANCE_UNIT: "urad/Nm", LINEAR_COMPLIANCE_UNIT: "um/N", SCALE_UNIT: "um/m"}
+"""How a rule's text writes the units whose display form is awkward to type."""
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _VALUE = re.compile(rf"^({_NUMBER})(?::({_NUMBER}))?\s*(\S+)$")
 _SELECT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -74,7 +83,7 @@ def _number(value_si: float, unit: str) -> str:
 
 def _suffix(unit: str) -> str:
     """The unit a rule's text writes values of the SI unit ``unit`` in."""
-    return "urad/Nm" if unit == COMPLIANCE_UNIT else DISPLAY_UNITS[unit][0]
+    return TYPED.get(unit, DISPLAY_UNITS[unit][0])
 
 
 def _rule(text: str, where: str, expected: str) -> tuple[str, float, float | None, str]:

@@ -25,6 +25,8 @@ shoulder and elbow they trade with the forearm's (weak directions).
 
 Bounds −100 to 10000 µrad/(N·m): ten times compliance's upper bound, for a link up to ten times
 heavier than its file says; a little below zero for the weak directions. Radius 10 µrad/(N·m).
+A prismatic joint's coefficients are in m/N, on the force along its axis, bounded likewise at ten
+times compliance's (−1 to 100 µm/N).
 """
 
 from __future__ import annotations
@@ -35,8 +37,15 @@ from twin.dataset import Measurements
 from twin.geometry.statics import joint_torques, link_torques
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import COMPLIANCE_UNIT
-from twin.unknowns.compliance import RADIUS, cable_forces, require_inertia
+from twin.unknowns.compliance import (
+    LINEAR_LOWER,
+    LINEAR_RADIUS,
+    LINEAR_UPPER,
+    RADIUS,
+    cable_forces,
+    compliance_units,
+    require_inertia,
+)
 from twin.unknowns.group import Array, Group, Stage, cached
 
 LOWER = -1e-4
@@ -56,7 +65,6 @@ def make(robot: RobotModel, rig: Rig) -> Group:
     joint, link = np.triu_indices(n)  # link j turns with joint i when j >= i
     names = tuple(f"compliance{i + 1}_cable" for i in range(n)) + tuple(
         f"compliance{i + 1}_link{j + 1}" for i, j in zip(joint, link, strict=True))
-    p = len(names)
 
     def basis(data: Measurements) -> Array:
         cable = joint_torques(robot.structure, robot.dh, data.q_rad, np.zeros(n), com,
@@ -64,7 +72,12 @@ def make(robot: RobotModel, rig: Rig) -> Group:
         weights = link_torques(robot.structure, robot.dh, data.q_rad, mass, com)
         return np.concatenate([cable, weights[:, joint, link]], axis=1)
 
+    turned = (*range(n), *joint.tolist())
+    sliding = robot.prismatic[list(turned)]
+    units = compliance_units(robot)
     return Group(name="link_compliance", stage=Stage.JOINTS, names=names,
-                 units=(COMPLIANCE_UNIT,) * p, lower=np.full(p, LOWER),
-                 upper=np.full(p, UPPER), radius=np.full(p, RADIUS), basis=cached(basis),
-                 joint=(*range(n), *joint.tolist()))
+                 units=tuple(units[i] for i in turned),
+                 lower=np.where(sliding, 10.0 * LINEAR_LOWER, LOWER),
+                 upper=np.where(sliding, 10.0 * LINEAR_UPPER, UPPER),
+                 radius=np.where(sliding, LINEAR_RADIUS, RADIUS), basis=cached(basis),
+                 joint=turned)

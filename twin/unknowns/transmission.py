@@ -9,6 +9,14 @@ rad (results show degrees, like the D-H angles they trade with). The error of a 
 with the motor angle too, but at the joint the first two harmonics of q carry most of it
 (method-notes §6).
 
+A prismatic joint (a lift, a track) has no angle to repeat with: its transmission error is the
+lead error of its screw or rack, a travel error that grows with the travel, ``Δq_i = scale_q_i
+· q_i`` — one unknown ``scale_q{i}``, in m/m (results show µm/m), bounded by ±1000 µm/m
+(racks and screws are 10–100 µm/m off their lead; a millimetre per metre would be a wrong
+pitch), radius 50 µm/m. The periodic error of a screw repeats with its pitch, which a robot
+file does not give: it is not modelled, and is left to the residual. A scale trades with δd of
+the joint when its travel spans little (q a nearly constant times the scale).
+
 Bounds ±1° on each coefficient: the transmission errors of industrial reducers are arc-minutes
 (the paper scenario's twin has 2–4 arcmin), so a degree is far beyond any gear in working order
 and still leaves the data, not the box, to decide. Radius 1 arcmin.
@@ -25,11 +33,12 @@ What trades with what (docs/identifiability.md):
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from twin.dataset import Measurements
 from twin.rig import Rig
 from twin.robot import RobotModel
-from twin.units import deg_to_rad
+from twin.units import SCALE_UNIT, deg_to_rad
 from twin.unknowns.group import Array, Group, Stage, cached
 
 BOUND_RAD = float(deg_to_rad(1.0))
@@ -37,7 +46,13 @@ BOUND_RAD = float(deg_to_rad(1.0))
 RADIUS_RAD = float(deg_to_rad(1.0 / 60.0))
 """Typical coefficient: 1 arc-minute."""
 TERMS = ("sin_q", "cos_q", "sin2_q", "cos2_q")
-"""The four terms of a joint, in the order of x."""
+"""The four terms of a revolute joint, in the order of x."""
+SCALE_TERM = "scale_q"
+"""The one term of a prismatic joint: its travel's scale (lead) error."""
+SCALE_BOUND = 1e-3
+"""Search bound on a prismatic joint's scale error, m/m (1000 µm/m)."""
+SCALE_RADIUS = 5e-5
+"""Typical scale error, m/m (50 µm/m)."""
 
 
 def harmonics(q_rad: Array) -> Array:
@@ -46,18 +61,51 @@ def harmonics(q_rad: Array) -> Array:
                     axis=-1)
 
 
+def terms(robot: RobotModel) -> tuple[tuple[int, str], ...]:
+    """Each unknown as (joint, term), joint by joint: the four harmonics of a revolute joint,
+    the scale of a prismatic one."""
+    return tuple((i, term) for i, sliding in enumerate(robot.prismatic)
+                 for term in ((SCALE_TERM,) if sliding else TERMS))
+
+
+def unknowns(robot: RobotModel, harmonics_rad: ArrayLike, scale: ArrayLike) -> Array:
+    """The group's unknowns, in its order, of given errors.
+
+    Args:
+        robot: The robot.
+        harmonics_rad: Each joint's coefficients of sin q, cos q, sin 2q, cos 2q, shape (n, 4),
+            rad: a revolute joint's.
+        scale: Each joint's scale error, shape (n,), m/m: a prismatic joint's.
+
+    Returns:
+        Shape (p_g,).
+    """
+    rows, scales = np.asarray(harmonics_rad, dtype=np.float64), np.asarray(scale, dtype=float)
+    return np.array([scales[i] if term == SCALE_TERM else rows[i, TERMS.index(term)]
+                     for i, term in terms(robot)])
+
+
 def make(robot: RobotModel, rig: Rig) -> Group:
     """The transmission error of every joint of ``robot``."""
-    n = robot.n_joints
-    p = len(TERMS) * n
+    layout = terms(robot)
+    joint = tuple(i for i, _ in layout)
+    sliding = np.array([term == SCALE_TERM for _, term in layout])
+    revolute = np.flatnonzero(~robot.prismatic)
+    columns = np.flatnonzero(~sliding)
 
     def basis(data: Measurements) -> Array:
-        return harmonics(data.q_rad).reshape(len(data), p)  # joint by joint, as x
+        if not robot.prismatic.any():
+            return harmonics(data.q_rad).reshape(len(data), -1)  # joint by joint, as x
+        values = np.empty((len(data), len(layout)))
+        values[:, columns] = harmonics(data.q_rad[:, revolute]).reshape(len(data), -1)
+        values[:, sliding] = data.q_rad[:, np.asarray(joint)[sliding]]
+        return values
 
     return Group(
         name="transmission", stage=Stage.JOINTS,
-        names=tuple(f"{term}{i + 1}" for i in range(n) for term in TERMS),
-        units=("rad",) * p, lower=np.full(p, -BOUND_RAD), upper=np.full(p, BOUND_RAD),
-        radius=np.full(p, RADIUS_RAD), basis=cached(basis),
-        joint=tuple(i for i in range(n) for _ in TERMS),
+        names=tuple(f"{term}{i + 1}" for i, term in layout),
+        units=tuple(SCALE_UNIT if slide else "rad" for slide in sliding),
+        lower=np.where(sliding, -SCALE_BOUND, -BOUND_RAD),
+        upper=np.where(sliding, SCALE_BOUND, BOUND_RAD),
+        radius=np.where(sliding, SCALE_RADIUS, RADIUS_RAD), basis=cached(basis), joint=joint,
     )

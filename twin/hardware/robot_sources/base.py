@@ -55,7 +55,11 @@ class SourceRequest:
     Attributes:
         spec: The ``--robot-source`` value (``sim``, ``manual``, ``file``,
             ``rws://HOST[:PORT]``, ``rws2://HOST[:PORT]``).
-        plan_q_rad: The plan, shape (N, n), rad (filled in once the plan is read).
+        plan_q_rad: The plan, shape (N, n), rad (m for a prismatic joint; filled in once the
+            plan is read).
+        prismatic: Which of the robot's joints slide (their values in mm wherever the source
+            shows, reads or writes them, degrees for the others); filled in with the plan,
+            every joint revolute if empty.
         pose_file: sim: the channel to the virtual encoder (None: the default file).
         joint_log: file: the controller's log.
         joint_log_wait_s: file: how long to wait for a pose's row (None: until it comes).
@@ -66,6 +70,7 @@ class SourceRequest:
 
     spec: str
     plan_q_rad: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 0)))
+    prismatic: tuple[bool, ...] = ()
     pose_file: Path | None = None
     joint_log: Path | None = None
     joint_log_wait_s: float | None = 60.0

@@ -1,8 +1,9 @@
-"""Joint angles logged by the robot controller, matched to the plan by pose number.
+"""Joint values logged by the robot controller, matched to the plan by pose number.
 
 The controller (e.g. a RAPID program running the plan) appends one CSV row per pose once the
-robot stands still: ``pose,q1,…,qN`` with q in degrees (other columns are ignored), one whole
-line per write. The capture waits for the row of each pose to appear, then reads the encoder.
+robot stands still: ``pose,q1,…,qN`` with q in degrees, mm for a prismatic joint (other columns
+are ignored), one whole line per write. The capture waits for the row of each pose to appear,
+then reads the encoder.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from twin.errors import InputError
 from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
 from twin.io.measurements import joint_columns, read_table
 from twin.io.paths import read_bytes
-from twin.units import deg_to_rad
+from twin.units import joints_from_file
 
 POSE_COLUMN = "pose"
 
@@ -31,18 +32,25 @@ class FileRobot(RobotSource):
         wait_s: How long to wait for a pose's row to appear, s; None waits until it does.
         poll_s: How often to look again, s.
         n_joints: The robot's joints (the log's columns q1..qN).
+        prismatic: Which joints slide (logged in mm), shape (n,); none if empty.
     """
 
     def __init__(self, path: str | Path, wait_s: float | None = 0.0,
-                 poll_s: float = 0.2, n_joints: int = 6) -> None:
+                 poll_s: float = 0.2, n_joints: int = 6,
+                 prismatic: tuple[bool, ...] = ()) -> None:
         self.path, self.wait_s, self.poll_s = Path(path), wait_s, poll_s
         self.columns = joint_columns(n_joints)
+        self.prismatic = prismatic or None
 
     def _logged(self) -> dict[int, NDArray[np.float64]]:
-        """Pose number -> joint angles in degrees, shape (n,); empty if there is no log yet."""
+        """Pose number -> joint values as logged (degrees, mm), shape (n,); empty if there is
+        no log yet."""
         if not self.path.exists():
             return {}
-        what = f"a controller log CSV (pose, q1..q{len(self.columns)} in deg)"
+        sliding = [name for name, slides in zip(self.columns, self.prismatic or (), strict=False)
+                   if slides]
+        what = (f"a controller log CSV (pose, q1..q{len(self.columns)} in deg"
+                + (f", {','.join(sliding)} in mm)" if sliding else ")"))
         text = read_bytes(self.path, what).splitlines()
         if sum(1 for line in text if line.strip() and not line.lstrip().startswith(b"#")) < 2:
             return {}  # the controller has not logged a pose yet
@@ -60,14 +68,14 @@ class FileRobot(RobotSource):
                 ) -> NDArray[np.float64]:
         """The logged angles of this pose, waiting up to ``wait_s`` for them."""
         deadline = math.inf if self.wait_s is None else time.monotonic() + self.wait_s
-        while (q_deg := self._logged().get(pose)) is None:
+        while (q_file := self._logged().get(pose)) is None:
             if time.monotonic() >= deadline:
                 raise InputError(f"no row for pose {pose}/{n_poses}",
                                  f"a row 'pose={pose},q1..q{len(self.columns)}' logged by the "
                                  "controller "
                                  f"(waited {self.wait_s:g} s)", source=self.path)
             time.sleep(self.poll_s)
-        return deg_to_rad(q_deg)
+        return joints_from_file(q_file, self.prismatic)
 
 
 def _open(request: SourceRequest) -> RobotSource:
@@ -75,7 +83,7 @@ def _open(request: SourceRequest) -> RobotSource:
         raise InputError("no --joint-log", "the controller's log CSV (--robot-source file)",
                          source="command line")
     return FileRobot(request.joint_log, wait_s=request.joint_log_wait_s,
-                     n_joints=request.plan_q_rad.shape[1])
+                     n_joints=request.plan_q_rad.shape[1], prismatic=request.prismatic)
 
 
 KIND = SourceKind("file", "joint angles logged by the controller (--joint-log)", _open)

@@ -16,8 +16,8 @@ from numpy.typing import NDArray
 
 from twin.errors import TwinError
 from twin.hardware.robot_sources.base import RobotSource, SourceKind, SourceRequest
-from twin.report.display import joint_angles
-from twin.units import deg_to_rad
+from twin.report.display import JOINT_ANGLE_DECIMALS, joint_values
+from twin.units import joints_from_file
 
 
 class ManualRobot(RobotSource):
@@ -26,20 +26,24 @@ class ManualRobot(RobotSource):
     Args:
         prompt_out: Where the prompts go (the terminal).
         answers_in: Where the operator's answers come from.
+        prismatic: Which joints slide (shown and typed in mm), shape (n,); none if empty.
     """
 
-    def __init__(self, prompt_out: TextIO, answers_in: TextIO) -> None:
+    def __init__(self, prompt_out: TextIO, answers_in: TextIO,
+                 prismatic: tuple[bool, ...] = ()) -> None:
         self.prompt_out, self.answers_in = prompt_out, answers_in
+        self.prismatic = prismatic or None
 
     def move_to(self, pose: int, n_poses: int, target_q_rad: NDArray[np.float64]
                 ) -> NDArray[np.float64]:
-        """Show the target, wait for Enter or for the joint angles reached."""
+        """Show the target, wait for Enter or for the joint values reached."""
         n = target_q_rad.shape[0]
-        target = joint_angles(target_q_rad)
+        sliding = np.zeros(n, dtype=bool) if self.prismatic is None else self.prismatic
+        target, unit = joint_values(target_q_rad, sliding, JOINT_ANGLE_DECIMALS, separator=" ")
         while True:
             self.prompt_out.write(
-                f"pose {pose}/{n_poses}: jog to q = [{target}] deg, then press Enter "
-                f"(or type the {n} joint angles reached, deg): "
+                f"pose {pose}/{n_poses}: jog to q = [{target}] {unit}, then press Enter "
+                f"(or type the {n} joint values reached, {unit}): "
             )
             self.prompt_out.flush()
             answer = self.answers_in.readline()
@@ -50,17 +54,18 @@ class ManualRobot(RobotSource):
             if not fields:
                 return np.asarray(target_q_rad, dtype=np.float64)
             try:
-                reached_deg = np.array([float(f) for f in fields])
+                reached = np.array([float(f) for f in fields])
             except ValueError:
-                reached_deg = np.full(0, np.nan)
-            if reached_deg.shape == (n,) and np.all(np.isfinite(reached_deg)):
-                return deg_to_rad(reached_deg)
+                reached = np.full(0, np.nan)
+            if reached.shape == (n,) and np.all(np.isfinite(reached)):
+                return joints_from_file(reached, self.prismatic)
             self.prompt_out.write(f"  found {answer.strip()!r}, expected Enter or {n} numbers "
-                                  "in degrees; try again\n")
+                                  f"({unit}); try again\n")
 
 
 def _open(request: SourceRequest) -> RobotSource:
-    return ManualRobot(request.prompt_out or sys.stdout, request.answers_in or sys.stdin)
+    return ManualRobot(request.prompt_out or sys.stdout, request.answers_in or sys.stdin,
+                       request.prismatic)
 
 
 KIND = SourceKind("manual", "the operator jogs and confirms on the terminal", _open)

@@ -30,7 +30,7 @@ from twin.errors import InputError
 from twin.hardware.robot_sources.base import Cell, RobotSource, SourceKind, SourceRequest
 from twin.io.atomic import write_atomic
 from twin.io.paths import read_text
-from twin.units import deg_to_rad, rad_to_deg
+from twin.units import joints_from_file, joints_to_file
 
 DEFAULT_POSE_FILE = Path(tempfile.gettempdir()) / f"twin-sim-pose-{os.getuid()}.json"
 """Where the simulated controller publishes its pose unless told otherwise."""
@@ -42,23 +42,26 @@ class CommandedPose(NamedTuple):
     pose: int
     """Pose number, from 1."""
     q_rad: NDArray[np.float64]
-    """Joint angles, shape (n,), rad."""
+    """Joint values, shape (n,), rad (m for a prismatic joint)."""
     from_q_rad: NDArray[np.float64]
-    """Where the robot came from, shape (n,), rad (sets the backlash side)."""
+    """Where the robot came from, shape (n,), rad (m) (sets the backlash side)."""
     command: str
     """Identifier of this move."""
 
 
 def publish_pose(path: str | Path, pose: int, q_rad: NDArray[np.float64],
-                 from_q_rad: NDArray[np.float64]) -> None:
-    """Replace the pose file atomically with a new move."""
-    document = {"pose": pose, "q_deg": rad_to_deg(q_rad).tolist(),
-                "from_q_deg": rad_to_deg(from_q_rad).tolist(), "command": uuid.uuid4().hex}
+                 from_q_rad: NDArray[np.float64], prismatic: tuple[bool, ...] = ()) -> None:
+    """Replace the pose file atomically with a new move: ``q`` and ``from_q`` as files write
+    joint values (degrees, mm for the ``prismatic`` joints)."""
+    mask = prismatic or None
+    document = {"pose": pose, "q": joints_to_file(q_rad, mask).tolist(),
+                "from_q": joints_to_file(from_q_rad, mask).tolist(), "command": uuid.uuid4().hex}
     write_atomic(path, json.dumps(document) + "\n")
 
 
-def read_pose(path: str | Path) -> CommandedPose | None:
-    """The last published move, or None if the robot was never moved.
+def read_pose(path: str | Path, prismatic: tuple[bool, ...] = ()) -> CommandedPose | None:
+    """The last published move (its ``prismatic`` joints' values in mm), or None if the robot
+    was never moved.
 
     Raises:
         InputError: if the file is not a pose file.
@@ -69,32 +72,37 @@ def read_pose(path: str | Path) -> CommandedPose | None:
                      journal=True)
     try:
         document = json.loads(text)
-        return CommandedPose(int(document["pose"]), deg_to_rad(document["q_deg"]),
-                             deg_to_rad(document["from_q_deg"]), str(document["command"]))
+        mask = prismatic or None
+        return CommandedPose(int(document["pose"]), joints_from_file(document["q"], mask),
+                             joints_from_file(document["from_q"], mask),
+                             str(document["command"]))
     except (ValueError, KeyError, TypeError):
-        raise InputError("a file that is not a pose file", 'a pose file {"pose", "q_deg", '
-                         '"from_q_deg", "command"}', source=path) from None
+        raise InputError("a file that is not a pose file", 'a pose file {"pose", "q", '
+                         '"from_q", "command"}', source=path) from None
 
 
 class SimRobot(RobotSource):
     """The twin's robot: moves by publishing the commanded pose.
 
     Args:
-        plan_q_rad: The plan, shape (N, n), rad: pose K is approached from pose K − 1.
+        plan_q_rad: The plan, shape (N, n), rad (m): pose K is approached from pose K − 1.
         pose_file: The channel to the virtual encoder.
+        prismatic: Which joints slide, shape (n,); none if empty.
     """
 
     def __init__(self, plan_q_rad: NDArray[np.float64],
-                 pose_file: str | Path = DEFAULT_POSE_FILE) -> None:
+                 pose_file: str | Path = DEFAULT_POSE_FILE,
+                 prismatic: tuple[bool, ...] = ()) -> None:
         self.plan_q_rad = np.asarray(plan_q_rad, dtype=np.float64)
         self.pose_file = Path(pose_file)
+        self.prismatic = prismatic
 
     def move_to(self, pose: int, n_poses: int, target_q_rad: NDArray[np.float64]
                 ) -> NDArray[np.float64]:
         """Publish the move; the controller reports the commanded angles."""
         home = np.zeros(self.plan_q_rad.shape[1])
         publish_pose(self.pose_file, pose, target_q_rad,
-                     self.plan_q_rad[pose - 2] if pose > 1 else home)
+                     self.plan_q_rad[pose - 2] if pose > 1 else home, self.prismatic)
         return np.asarray(target_q_rad, dtype=np.float64)
 
 
@@ -120,7 +128,8 @@ def scenario_cell(scenario: Path | None, seed: int | None) -> Cell:
 
 
 def _open(request: SourceRequest) -> RobotSource:
-    return SimRobot(request.plan_q_rad, request.pose_file or DEFAULT_POSE_FILE)
+    return SimRobot(request.plan_q_rad, request.pose_file or DEFAULT_POSE_FILE,
+                    request.prismatic)
 
 
 KIND = SourceKind("sim", "the twin moves (with twin virtual-encoder)", _open,

@@ -10,9 +10,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.dataset import Measurements
-from twin.report.display import JOINT_ANGLE_DECIMALS, deg
+from twin.report.display import JOINT_ANGLE_DECIMALS, plain
 from twin.robot import RobotModel
-from twin.units import deg_to_rad
+from twin.units import deg_to_rad, joint_file_units, joints_to_file
 
 
 class Imported(NamedTuple):
@@ -29,7 +29,8 @@ class StillRule:
     """When a recording's joints count as standing still.
 
     Attributes:
-        tol_rad: Largest spread of every joint over the window, rad.
+        tol_rad: Largest spread of every joint over the window, rad; a prismatic joint's, in
+            m, is held to the same number (the travel of a point 1 m off a revolute axis).
         min_s: Shortest still window, s.
     """
 
@@ -43,12 +44,16 @@ class StillRule:
 
 
 def outside_limits(q_rad: NDArray[np.float64], robot: RobotModel) -> str:
-    """Why joint angles (n,) rad lie outside the robot's limits, or "" if they do not."""
+    """Why joint values (n,), rad (m for a prismatic joint), lie outside the robot's limits, or
+    "" if they do not."""
     below, above = q_rad < robot.lower_rad - 1e-9, q_rad > robot.upper_rad + 1e-9
     bad = np.flatnonzero(below | above)
     if not bad.size:
         return ""
     j = int(bad[0])
-    return (f"{robot.joint_names[j]} = {deg(q_rad[j], JOINT_ANGLE_DECIMALS)} outside "
-            f"[{deg(robot.lower_rad[j], JOINT_ANGLE_DECIMALS, unit=False)}, "
-            f"{deg(robot.upper_rad[j], JOINT_ANGLE_DECIMALS, unit=False)}] deg")
+    value, lower, upper = (joints_to_file(v, robot.prismatic)[j]
+                           for v in (q_rad, robot.lower_rad, robot.upper_rad))
+    unit = joint_file_units(robot.prismatic)[j]
+    lower_text, upper_text = (plain(v, JOINT_ANGLE_DECIMALS) for v in (lower, upper))
+    return (f"{robot.joint_names[j]} = {plain(value, JOINT_ANGLE_DECIMALS)} {unit} outside "
+            f"[{lower_text}, {upper_text}] {unit}")

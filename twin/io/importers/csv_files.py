@@ -1,6 +1,6 @@
 """The CSV files people have into measurements: radians or degrees, metres or millimetres as
-told, joint columns named as the robot's joints (a URDF's, or ``q1..qN``), headerless files,
-one file per fixed point.
+told (a prismatic joint's values in the length unit), joint columns named as the robot's joints
+(a URDF's, or ``q1..qN``), headerless files, one file per fixed point.
 
 - **With a header**: the joint columns are the robot's joint names (``panda_joint1``…) or
   ``q1..qN``; the reading is a ``length`` column, ``x,y,z`` columns or a ``point`` column (the
@@ -119,7 +119,8 @@ def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
             dropped.append(f"{where}: a field that is not a finite number: dropped")
             continue
         if angle_unit == "deg":
-            q = deg_to_rad(q)
+            q = np.where(robot.prismatic, q, deg_to_rad(q))
+        q = np.where(robot.prismatic, q * length_factor, q)
         reason = outside_limits(q, robot) or (
             f"a length that is not in (0, {MAX_LENGTH_M:g}] m" if len(values) == 1
             and not 0 < values[0] <= MAX_LENGTH_M else "")
