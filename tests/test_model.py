@@ -140,6 +140,19 @@ def test_groups_must_fit_the_kind(irb120: RobotModel, port_m: np.ndarray) -> Non
 JOINT_GROUPS = ["transmission", "backlash", "compliance"]
 
 
+def _assert_jacobians(model: Model, x: np.ndarray, data: Measurements) -> None:
+    """∂r/∂x and ∂(flange)/∂x at x equal central differences; r is the residuals'."""
+    r, jacobian = model.jacobian(x, data)
+    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
+    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
+    eps = 1e-6
+    steps = np.eye(model.n_params) * eps
+    numeric = (model.flange_positions(x + steps, data)
+               - model.flange_positions(x - steps, data)) / (2 * eps)
+    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
+                               atol=1e-8)
+
+
 def _with_approach(data: Measurements) -> Measurements:
     return Measurements(data.q_rad, data.length_m, approach=approach_directions(data.q_rad))
 
@@ -158,15 +171,7 @@ def test_joint_groups_jacobian_matches_finite_differences(
     x = np.random.default_rng(3).normal(scale=1e-3, size=model.n_params)
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     data = _with_approach(measurements.subset(np.arange(15)))
-    r, jacobian = model.jacobian(x, data)
-    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
-    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
-    eps = 1e-6
-    steps = np.eye(model.n_params) * eps
-    numeric = (model.flange_positions(x + steps, data)
-               - model.flange_positions(x - steps, data)) / (2 * eps)
-    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
-                               atol=1e-8)
+    _assert_jacobians(model, x, data)
 
 
 def test_joint_groups_move_the_joints_as_stated(
@@ -275,15 +280,7 @@ def test_every_group_on_prismatic_joints_matches_finite_differences(
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     q = rng.uniform(robot.lower_rad, robot.upper_rad, (15, 6))
     data = Measurements(q, length_m=np.full(15, 0.8), approach=approach_directions(q))
-    r, jacobian = model.jacobian(x, data)
-    np.testing.assert_allclose(r, model.residuals(x, data), atol=1e-15)
-    np.testing.assert_allclose(jacobian, _numeric_jacobian(model, x, data), atol=1e-8)
-    eps = 1e-6
-    steps = np.eye(model.n_params) * eps
-    numeric = (model.flange_positions(x + steps, data)
-               - model.flange_positions(x - steps, data)) / (2 * eps)
-    np.testing.assert_allclose(model.flange_jacobian(x, data), np.moveaxis(numeric, 0, -1),
-                               atol=1e-8)
+    _assert_jacobians(model, x, data)
 
 
 def test_joint_groups_move_a_prismatic_joint_as_stated(

@@ -48,12 +48,18 @@ def _joint_file(path: Path, robot: RobotModel, q_rad: np.ndarray) -> None:
         ",".join(repr(float(v)) for v in row) + "\n" for row in values))
 
 
+PIN_WEIGHT = 1e2
+"""m of residual per unit of a held direction (bound-scaled): a millionth of the box there
+costs ten times a reading's noise."""
+
+
 def test_torso_from_its_urdf_calibrates_to_the_bound(tmp_path: Path,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     """`twin simulate` the FR3 on its lift (8 joints, the lift a prismatic Hayati joint, two
     stations), `twin calibrate` the capture: the flange error over held-out workspace poses is
     within 2× the Cramér–Rao bound, as the referee's (scipy's least_squares on the same
-    residual), and the two answers' flanges agree far inside the bound."""
+    residual, over the directions the answer leaves free), and the two answers' flanges agree
+    far inside the bound."""
     out = tmp_path / "capture"
     assert main(["simulate", str(SCENARIO), "--out", str(out)]) == 0
     assert (out / "robot.urdf").read_text() == (ROOT / "models/fr3_torso/fr3_torso.urdf"
@@ -74,10 +80,15 @@ def test_torso_from_its_urdf_calibrates_to_the_bound(tmp_path: Path,
     train = data.subset(result.train_rows)
     x_true = true_unknowns(sim, model)
     sigma_m = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
+    # The referee fits the same residual in the same box with the answer's held directions
+    # (what the data cannot see, or cannot tell from zero) pinned at the nominal by stiff rows.
+    assert result.unseen is not None
+    pin = PIN_WEIGHT * result.unseen.basis.T / result.unseen.scale  # (k, p)
     lower, upper = model.bounds()
-    referee = least_squares(lambda x: model.residuals(x, train), np.zeros(model.n_params),
-                            jac=lambda x: model.jacobian(x, train)[1], bounds=(lower, upper),
-                            method="trf", x_scale="jac")
+    referee = least_squares(
+        lambda x: np.concatenate([model.residuals(x, train), pin @ x]), np.zeros(model.n_params),
+        jac=lambda x: np.vstack([model.jacobian(x, train)[1], pin]), bounds=(lower, upper),
+        method="trf", x_scale="jac")
     workspace = random_poses(robot, WORKSPACE, np.random.default_rng(1))
     at = model.poses(workspace)
     truth = sim.true_robot.flange_positions(workspace)
@@ -200,3 +211,31 @@ def test_nine_joints_load_calibrate_and_compensate(tmp_path: Path) -> None:
     np.testing.assert_allclose(
         result.identified_geometry.flange_transforms(program.q_rad[program.ok]),
         robot.flange_transforms(q_program[program.ok]), rtol=0.0, atol=1e-9)
+
+
+def test_what_a_prismatic_joint_cannot_take_is_refused_in_one_line(tmp_path: Path) -> None:
+    """RAPID holds a robot's axes in degrees: a plan module for an arm with a prismatic joint
+    is refused, naming the joint; the twin's gearbox errors (angles) on a prismatic joint are
+    refused, naming the key and the joint; a bound in µm/m reaches the lift's scale."""
+    from dataclasses import replace
+
+    from twin.errors import InputError
+    from twin.io.rapid_plan import PlanOptions, plan_module
+    from twin.io.robot_file import default_robot
+    from twin.unknowns.limits import Bound
+
+    irb120 = default_robot()
+    sliding = replace(irb120, structure=replace(irb120.structure, joint_types=(
+        "prismatic",) + ("revolute",) * 5))
+    options = PlanOptions("v100", "tool0", "wobj0", 0.5, None)
+    with pytest.raises(InputError, match="found the prismatic joint 'joint_1', expected a "
+                       "robot of revolute joints for RAPID"):
+        plan_module(sliding, np.zeros((2, 6)), options)
+    text = SCENARIO.read_text().replace("../models", (ROOT / "models").as_posix())
+    path = tmp_path / "torso.toml"
+    path.write_text(text + "\n[joints]\nbacklash_arcsec = 30.0\n")
+    with pytest.raises(InputError, match=r"\[joints\] backlash_arcsec: found 30 arcsec on "
+                       r"joint 1, prismatic \(torso_lift_joint\), expected 0 for a prismatic"):
+        load_scenario(path)
+    bound = Bound.parse("scale_q=200um/m")
+    assert bound.unit == "m/m" and bound.upper == pytest.approx(2e-4)

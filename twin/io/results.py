@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
@@ -29,6 +29,7 @@ from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import (
     FILE_DEG_DECIMALS,
+    FILE_MM_DECIMALS,
     RESULT_MM_DECIMALS,
     dh_rows_rounded,
     m_to_mm,
@@ -123,18 +124,27 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
         if result.workspace is not None:
-            fields["workspace"] = workspace_to_dict(result.workspace)
+            fields["workspace"] = workspace_to_dict(result.workspace, model.robot.prismatic)
         if model.has("attachment"):
             fields["predicted_point_rms"] = _mm(uncertainty.point_rms_m)[0]
     return fields
 
 
-def workspace_to_dict(workspace: Workspace) -> dict[str, Any]:
+def workspace_to_dict(workspace: Workspace, prismatic: NDArray[np.bool_] | None = None
+                      ) -> dict[str, Any]:
     """The ``workspace`` JSON object: where the predicted and true flange errors are stated —
-    how many poses, within which joint ranges (degrees), covering what."""
-    return {"poses": len(workspace.q_rad), "covers": workspace.covers,
-            "lower_deg": rounded(rad_to_deg(workspace.lower_rad), FILE_DEG_DECIMALS),
-            "upper_deg": rounded(rad_to_deg(workspace.upper_rad), FILE_DEG_DECIMALS)}
+    how many poses, within which joint ranges (degrees; a robot with prismatic joints has their
+    travels in ``lower_mm``, ``upper_mm`` and nulls for them in the degrees'), covering what."""
+    fields: dict[str, Any] = {"poses": len(workspace.q_rad), "covers": workspace.covers}
+    sliding = np.zeros(workspace.lower_rad.size, dtype=bool) if prismatic is None else prismatic
+    for key, values in (("lower", workspace.lower_rad), ("upper", workspace.upper_rad)):
+        fields[f"{key}_deg"] = [None if slides else value for value, slides in zip(
+            rounded(rad_to_deg(values), FILE_DEG_DECIMALS), sliding, strict=True)]
+    if sliding.any():
+        for key, values in (("lower", workspace.lower_rad), ("upper", workspace.upper_rad)):
+            fields[f"{key}_mm"] = [value if slides else None for value, slides in zip(
+                rounded(m_to_mm(values), FILE_MM_DECIMALS), sliding, strict=True)]
+    return fields
 
 
 def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
@@ -392,7 +402,8 @@ def assessment_to_dict(assessment: Assessment, sigma_mm: float,
         "nominal": {
             **identifiability_to_dict(nominal, "nominal"),
             "observability": score.observability._asdict(),
-            "workspace": workspace_to_dict(assessment.workspace),
+            "workspace": workspace_to_dict(assessment.workspace,
+                                           assessment.result.model.robot.prismatic),
             "cramer_rao_flange_rms": rounded(m_to_mm(score.flange_rms_m),
                                              RESULT_MM_DECIMALS)[0]
             if assessment.pinned else None,
