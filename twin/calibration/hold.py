@@ -34,6 +34,7 @@ from twin.analysis.uncertainty import residual_sigma
 from twin.analysis.unseen import SIGNIFICANCE_LEVEL, Unseen, unseen_directions
 from twin.arrays import Array
 from twin.problem import Problem
+from twin.report.display import mm2
 
 POLISH_ITERATIONS = 3
 """Gauss–Newton steps of the polish: the residuals it restores are a second-order change."""
@@ -169,8 +170,8 @@ def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
     _, f_start = _objective(problem, start)
     rows = target.size
     if _bic(f_start, rows, 0) <= _bic(f_held, rows, rank):
-        reason = (f"the answer's training objective ({f_held:.4g} m²) does not beat the start's "
-                  f"({f_start:.4g} m²) by more than fitting {rank} combinations to noise would "
+        reason = (f"the answer's training objective ({mm2(f_held)}) does not beat the start's "
+                  f"({mm2(f_start)}) by more than fitting {rank} combinations to noise would "
                   "(BIC)")
         return Held(np.array(start), unseen, x, moved, f_method, f_start, reason)
     return Held(held, unseen, x, moved, f_method, f_held, "")
