@@ -23,9 +23,9 @@ from twin.analysis.identifiability import measurement_identifiability
 from twin.analysis.uncertainty import rms_distance
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
-from twin.dataset import Measurements
 from twin.design.optimal import choose_port, plan_poses, score_poses
 from twin.io.robot_file import default_robot
+from twin.kinds.length import length_measurements
 from twin.problem import Problem
 from twin.rig import Rig
 from twin.robot import random_poses
@@ -56,7 +56,7 @@ def main() -> None:
 
     print("1. Identifiability at the nominal geometry, 200 random poses")
     q = random_poses(robot, 40 if tiny else 200, rng)
-    data = Measurements(q, np.ones(len(q)))
+    data = length_measurements(q, np.ones(len(q)))
     for port, offset in [(False, False), (True, False), (False, True), (True, True)]:
         model = make_model(robot, Rig.cable(PORT_M),
                            settings=CalibrationSettings(estimate=(*(["port"] if port else []),

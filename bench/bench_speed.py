@@ -120,7 +120,7 @@ def kernel(poses: int, seconds: float) -> None:
     model = make_model(robot, Rig.cable(PORT_M))
     x = rng.uniform(-1, 1, model.n_params) * model.radius
     data = model.measure(x, random_poses(robot, poses, rng))
-    lengths = data.length_m
+    lengths = data.value("length_m")
     steps = np.vstack([np.zeros(model.n_params), STEP * np.eye(model.n_params)])
 
     def reference() -> tuple[np.ndarray, np.ndarray]:

@@ -619,7 +619,7 @@ def stations_table() -> str:
             settings = CalibrationSettings(estimate=("port",) if estimated else ())
             model = make_model(robot, rig, settings=settings)
             x0 = np.zeros(model.n_params)
-            data = model.poses(q, port)
+            data = model.poses(q, port=port)
             ident = measurement_identifiability(model, x0, data)
             covariance = base_covariance(model.identifiable_jacobian(x0, data)[1], ident.base,
                                          sigma_m)
@@ -738,6 +738,109 @@ def unknown_sets_table() -> str:
     return markdown_table(["unknowns", "rank", "not identifiable"], rows) + "\n\n" + stamp(
         f"IRB 120, port (600, −400, 100) mm, {RANK_POSES} random poses within the joint limits, "
         "nominal geometry.")
+
+
+KIND_TRIALS = 10
+"""Trials of the pose and plane tables (each a simulation and a calibration per row)."""
+
+
+def _kind_trial(regime: str, trial: int, settings: CalibrationSettings, data_kind: str = "",
+                distances: bool = True) -> dict[str, Any]:
+    """One simulated capture of a regime calibrated with ``settings`` (LM): its identifiability,
+    the true unknowns, the Cramér–Rao covariance at them and the identified x; tracker
+    positions only (the same readings' x, y, z) with ``data_kind="position"``; the told
+    distances left out without ``distances``."""
+    from twin.analysis.uncertainty import cramer_rao_covariance
+    from twin.kinds.position import position_measurements
+
+    scenario = load_scenario(scenario_path(regime))
+    sim = simulate(scenario, trial_seed(scenario.seed, trial))
+    data = sim.measurements
+    if data_kind == "position":
+        data = position_measurements(data.q_rad, data.value("position_m"),
+                                     approach=data.approach)
+    rig = sim.rig_told if distances else replace(sim.rig_told, distances=())
+    result = calibrate(sim.robot, data, rig=rig, method="lm", settings=settings, seed=trial)
+    model, train = result.model, data.subset(result.train_rows)
+    x_true = true_unknowns(sim, model)
+    sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
+    return {"result": result, "sim": sim, "x_true": x_true, "sigma": sigma,
+            "covariance": cramer_rao_covariance(model, x_true, train, sigma)}
+
+
+NULL_SHARE = 1e-6
+"""An unknown with less than this of its unit vector in the null space is identified alone."""
+POSE_SETUPS = (("6-D poses, tool frame told", "pose", ("base",)),
+               ("6-D poses, tool frame estimated (--estimate-tool)", "pose", ("base", "tool")),
+               ("their positions alone (a tracker)", "position", ("base",)))
+
+
+def pose_table() -> str:
+    """α6 and θ6 from 6-D poses against the twin's truth, beside what the same poses' positions
+    and an estimated tool frame leave of them: RMS error over trials and the Cramér–Rao σ."""
+    base = load_scenario(scenario_path("pose")).calibration
+    rows = []
+    for title, kind, estimate in POSE_SETUPS:
+        trials = [_kind_trial("pose", k, replace(base, estimate=estimate), kind)
+                  for k in range(KIND_TRIALS)]
+        model = trials[0]["result"].model
+        cells = []
+        for name in ("alpha6", "theta6"):
+            i = model.names.index(name)
+            # Seen alone: its unit vector has nothing along the training poses' null space.
+            seen = all(np.max(np.abs(t["result"].identifiability.null_space[i]), initial=0.0)
+                       < NULL_SHARE for t in trials)
+            if not seen:
+                cells += ["not identifiable", "—", "—"]
+                continue
+            error = np.sqrt(np.mean([(t["result"].solver.x[i] - t["x_true"][i]) ** 2
+                                     for t in trials]))
+            bound = np.sqrt(np.mean([t["covariance"][i, i] for t in trials]))
+            arcsec = 180 / np.pi * 3600
+            cells += [fmt(error * arcsec), fmt(bound * arcsec), fmt(error / bound)]
+        rows.append([title, *cells])
+    header = ["data", "α6 RMS error [arcsec]", "α6 bound σ [arcsec]", "α6 ratio",
+              "θ6 RMS error [arcsec]", "θ6 bound σ [arcsec]", "θ6 ratio"]
+    return markdown_table(header, rows) + "\n\n" + stamp(
+        f"`scenarios/pose_irb120.toml`, {KIND_TRIALS} trials (the scenario's trial seeds), LM, "
+        "the instrument's frame estimated; RMS over trials of the identified α6 and θ6 against "
+        "the twin's truth, and the RMS over trials of their Cramér–Rao σ at the truth.")
+
+
+def plane_table() -> str:
+    """The probe's ball from touches of planes against the twin's truth, with and without the
+    gauge block's height told: its error over the workspace modulo what the data cannot see,
+    over its Cramér–Rao bound, and the motions named."""
+    from twin.analysis.uncertainty import cramer_rao_rms
+    from twin.calibration.accuracy import rigid_truth, truth_errors
+    from twin.robot import random_poses
+
+    scenario = load_scenario(scenario_path("plane"))
+    rows = []
+    for title, told in (("four faces, the block's height told", True),
+                        ("four faces, no distance told", False)):
+        ratios, errors, motions = [], [], set()
+        for k in range(KIND_TRIALS):
+            trial = _kind_trial("plane", k, scenario.calibration, distances=told)
+            result, sim = trial["result"], trial["sim"]
+            q = random_poses(sim.robot, 1000, np.random.default_rng(k))
+            found = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
+            bound = cramer_rao_rms(result.model, trial["x_true"],
+                                   sim.measurements.subset(result.train_rows), trial["sigma"],
+                                   q)[1]
+            ratios.append(found.point_gauge_free_m / bound)
+            errors.append(found.point_gauge_free_m)
+            motions |= set(result.gauge.names if result.gauge is not None else ())
+        rows.append([title, fmt(float(m_to_mm(np.sqrt(np.mean(np.square(errors)))))),
+                     fmt(statistics.median(ratios)), fmt(float(np.sqrt(np.mean(
+                         np.square(ratios))))), fmt(max(ratios)), ", ".join(sorted(motions))])
+    header = ["data", "ball mod gauge, RMS [mm]", "ratio to bound (median)",
+              "ratio (RMS over trials)", "ratio (max)", "what the data cannot see"]
+    return markdown_table(header, rows) + "\n\n" + stamp(
+        f"`scenarios/plane_irb120.toml`, {KIND_TRIALS} trials, LM with the ball estimated; the "
+        "ball's position over 1000 workspace poses against the twin's truth, modulo the motions "
+        "the data cannot see (named by the calibration's gauge, union over trials), over its "
+        "Cramér–Rao bound.")
 
 
 HOLD_TRIALS = 12
@@ -1011,7 +1114,19 @@ def main() -> None:
         "robots.md": {"parametrisation": parametrisation_table},
         "measurements.md": {"rigs": lambda: rigs_table(fresh(args.out / "rigs")),
                             "stations": stations_table, "limits": limits_table,
-                            "noise-inputs": noise_inputs_table},
+                            "noise-inputs": noise_inputs_table,
+                            "pose-table": pose_table,
+                            "pose-transcript": lambda: transcript(
+                                ["simulate scenarios/pose_irb120.toml --out out/pose",
+                                 "calibrate out/pose/capture.toml --json out/pose/result.json",
+                                 "predict --identified out/pose/result.json --joints "
+                                 "out/pose/measurements.csv --out out/pose/predicted.csv"],
+                                head=18),
+                            "plane-table": plane_table,
+                            "plane-transcript": lambda: transcript(
+                                ["simulate scenarios/plane_irb120.toml --out out/plane",
+                                 "calibrate out/plane/capture.toml --json out/plane/result.json"],
+                                head=26)},
         "../README.md": {"readme-calibrate": lambda: transcript(
             ["calibrate examples/irb120_lm/measurements.csv --port 600,-400,100 --json "
              "out/result.json"], head=7)},

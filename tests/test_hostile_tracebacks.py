@@ -18,6 +18,7 @@ from conftest import Refusals
 
 from twin.io.paths import MAX_LINE_CHARS, MAX_NESTING
 from twin.io.robot_file import robot_to_toml
+from twin.kinds import KINDS
 from twin.robot import RobotModel
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -138,6 +139,11 @@ def test_a_full_disk(csv_path: Path, tmp_path: Path, refusals: Refusals) -> None
     assert list(out.iterdir()) == []
 
 
+KINDS_TEXT = ", ".join(kind.columns_text for kind in list(KINDS.values())[:-1]) \
+    + f" or {list(KINDS.values())[-1].columns_text}"
+"""Every measurement kind's columns, as a measurement CSV's description lists them."""
+
+
 @pytest.mark.parametrize(
     ("name", "content", "match"),
     [
@@ -145,8 +151,7 @@ def test_a_full_disk(csv_path: Path, tmp_path: Path, refusals: Refusals) -> None
          + "\n", "line 2: found a line of"),
         ("comment.csv", "#" + "x" * 2**20 + "\nq1,q2,q3,q4,q5,q6,length\n",
          f"line 1: found a line of {2**20 + 1} characters, expected a measurement CSV (q1..q6 "
-         f"in deg and length (mm), x,y,z (mm) or point) with lines of at most "
-         f"{MAX_LINE_CHARS}"),
+         f"in deg and {KINDS_TEXT}) with lines of at most {MAX_LINE_CHARS}"),
     ],
     ids=["1 MB field", "1 MB comment"],
 )

@@ -14,6 +14,7 @@ from twin.analysis.identifiability import (
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 
@@ -24,7 +25,7 @@ KNOWN_PORT_NULL = {"theta6", "alpha6", "d2-d3", "a5+theta5", "d5-alpha5"}
 def poses(irb120: RobotModel) -> Measurements:
     """200 random poses (their lengths do not enter a Jacobian)."""
     q = random_poses(irb120, 200, np.random.default_rng(0))
-    return Measurements(q, np.ones(len(q)))
+    return length_measurements(q, np.ones(len(q)))
 
 
 def _at_nominal(robot: RobotModel, port_m: np.ndarray, data: Measurements,

@@ -33,7 +33,8 @@ def recording(seed: int = 0) -> dict[str, np.ndarray]:
     1e-5 rad of encoder noise, readings at 50 Hz with the instrument's noise, also while
     moving."""
     sim = simulate(load_scenario(SCENARIO))
-    q_poses, lengths = sim.measurements.q_rad[:N_POSES], sim.measurements.lengths[:N_POSES]
+    q_poses = sim.measurements.q_rad[:N_POSES]
+    lengths = sim.measurements.value("length_m")[:N_POSES]
     points = sim.true_robot.flange_positions(q_poses)
     rng = np.random.default_rng(seed)
     t, q, t_read, length, point = [], [], [], [], []
@@ -127,7 +128,7 @@ def test_a_ros2_bag_imports_to_the_poses_it_holds(storage: StoragePlugin,
     assert "imported 8 poses (length)" in printed
     imported = load_measurements(out, load_robot(robot_file))
     assert np.max(np.abs(imported.q_rad - data["q_poses"])) < 1e-5
-    assert np.max(np.abs(imported.lengths - data["lengths"])) < 1e-5
+    assert np.max(np.abs(imported.value("length_m") - data["lengths"])) < 1e-5
 
 
 def test_a_ros1_bag_of_points_imports_to_its_poses(data: dict[str, np.ndarray],
@@ -138,7 +139,7 @@ def test_a_ros1_bag_of_points_imports_to_its_poses(data: dict[str, np.ndarray],
     robot = load_robot(ROOT / "models" / "fr3" / "fr3.urdf")
     imported = import_files([bag], robot, angle_unit=None, rule=StillRule())
     assert np.max(np.abs(imported.measurements.q_rad - data["q_poses"])) < 1e-5
-    assert np.max(np.abs(imported.measurements.position_m - data["points"])) < 1e-5
+    assert np.max(np.abs(imported.measurements.value("position_m") - data["points"])) < 1e-5
 
 
 def test_a_bag_without_its_topics_is_one_line(data: dict[str, np.ndarray], tmp_path: Path,
@@ -177,8 +178,8 @@ def test_csv_files_in_their_units_import(tmp_path: Path,
     printed = capsys.readouterr().out
     assert printed.count("a field that is not a finite number: dropped") == 2
     imported = load_measurements(out, robot)
-    assert imported.point_names == ("front/hole_0", "front/hole_1", "left/hole_0", "left/hole_1")
-    assert np.bincount(imported.point).tolist() == [3, 3, 3, 3]
+    assert imported.names("point") == ("front/hole_0", "front/hole_1", "left/hole_0", "left/hole_1")
+    assert np.bincount(imported.index("point")).tolist() == [3, 3, 3, 3]
     assert np.max(np.abs(imported.q_rad - np.vstack([q, q]))) < 1e-12
 
     named = tmp_path / "named.csv"
@@ -190,4 +191,4 @@ def test_csv_files_in_their_units_import(tmp_path: Path,
                  "--length-unit", "m", "--out", str(tmp_path / "lengths.csv")]) == 0
     assert "fr3_joint4 = 0.000 deg outside" in capsys.readouterr().out
     lengths = load_measurements(tmp_path / "lengths.csv", robot)
-    assert np.allclose(m_to_mm(lengths.lengths), 750.0) and len(lengths.lengths) == 6
+    assert np.allclose(m_to_mm(lengths.value("length_m")), 750.0) and len(lengths) == 6

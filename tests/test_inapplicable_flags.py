@@ -35,6 +35,9 @@ def test_flags_for_other_data(irb120: RobotModel, csv_path: Path, tmp_path: Path
                  "cable lengths")
     refusals.cli(["calibrate", csv_path, "--port", "600,-400,100", "--distance", "a,b=50"],
                  [csv_path], "--distance: found --distance with length measurements")
+    refusals.cli(["calibrate", csv_path, "--port", "600,-400,100", "--angle", "a,b=90"],
+                 [csv_path], "--angle: found --angle with length measurements, expected --angle "
+                 "only with touches of planes")
     refusals.cli(["calibrate", csv_path, "--port", "600,-400,100", "--loss-scale", "0.03"],
                  [csv_path], "--loss-scale: found --loss-scale with the linear loss")
     scenario = Path(__file__).resolve().parents[1] / "scenarios" / "geometric_irb120.toml"

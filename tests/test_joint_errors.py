@@ -18,6 +18,7 @@ from twin.calibration.setup import make_model
 from twin.cli import main
 from twin.dataset import Measurements, approach_directions
 from twin.io.identified import load_result
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 from twin.units import deg_to_rad
@@ -49,8 +50,8 @@ def core_case(irb120: RobotModel, port_m: np.ndarray, true_delta: np.ndarray
     x_true = true_unknowns(model, rng, true_delta)
     q = random_poses(irb120, 400, rng)
     exact = model.measure(x_true, q, approach=approach_directions(q))
-    noisy = Measurements(q, exact.lengths + rng.normal(0.0, SIGMA_M, len(q)),
-                         approach=exact.approach)
+    noisy = length_measurements(q, exact.value("length_m") + rng.normal(0.0, SIGMA_M, len(q)),
+                                approach=exact.approach)
     return model, x_true, noisy
 
 
@@ -137,9 +138,10 @@ def test_predict_is_the_model_and_needs_approach(
     rows = data.subset(np.arange(30))
     prediction = predict(truth, rows.q_rad, approach=rows.approach)  # type: ignore[arg-type]
     np.testing.assert_allclose(prediction.position_m, model.positions(x_true, rows), atol=1e-15)
-    assert prediction.length_m is not None
-    np.testing.assert_allclose(prediction.length_m,
-                               model.measure(x_true, rows.q_rad, approach=rows.approach).lengths,
+    assert "length_m" in prediction.readings
+    np.testing.assert_allclose(prediction.readings["length_m"],
+                               model.measure(x_true, rows.q_rad, approach=rows.approach)
+                               .value("length_m"),
                                atol=1e-15)
     from twin.errors import InputError
 
@@ -147,8 +149,8 @@ def test_predict_is_the_model_and_needs_approach(
         predict(truth, rows.q_rad)  # type: ignore[arg-type]
     elsewhere = predict(truth, rows.q_rad, approach=rows.approach,  # type: ignore[arg-type]
                         port_m=[0.1, 0.5, 0.0])
-    assert elsewhere.length_m is not None
-    np.testing.assert_allclose(elsewhere.length_m, np.linalg.norm(
+    assert "length_m" in elsewhere.readings
+    np.testing.assert_allclose(elsewhere.readings["length_m"], np.linalg.norm(
         elsewhere.position_m - [0.1, 0.5, 0.0], axis=1), atol=1e-15)
 
 

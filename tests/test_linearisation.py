@@ -12,7 +12,7 @@ from twin.analysis.identifiability import identifiability
 from twin.analysis.linearisation import chain_jacobian, fingerprint, linearise
 from twin.analysis.uncertainty import parameter_covariance, seen_covariance
 from twin.calibration.setup import make_model
-from twin.dataset import Measurements
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 
@@ -63,7 +63,7 @@ def test_kept_by_content_not_by_identity(setup) -> None:
     fewer = data.subset(np.arange(len(data) - 1))
     assert fingerprint(fewer) != fingerprint(data)
     assert linearise(model, x, fewer).jacobian.shape[0] == len(data) - 1
-    read = replace(data, length_m=data.length_m + 1e-6)
+    read = replace(data, values={"length_m": data.value("length_m") + 1e-6})
     assert fingerprint(read) != fingerprint(data)
     np.testing.assert_allclose(linearise(model, x, read).residuals, first.residuals - 1e-6,
                                rtol=0, atol=1e-15)
@@ -102,8 +102,8 @@ def test_checks_on_r_agree_with_the_checks_on_j(setup) -> None:
 def test_measurements_fingerprint_covers_the_columns(irb120: RobotModel) -> None:
     """Ports and approach labels are part of what is recognised."""
     q = random_poses(irb120, 5, np.random.default_rng(0))
-    one = Measurements(q, np.ones(5), port=np.zeros(5, dtype=np.intp))
-    other = Measurements(q, np.ones(5), port=np.array([0, 1, 0, 1, 0]))
-    approach = Measurements(q, np.ones(5), approach=np.ones(q.shape, dtype=np.int8))
+    one = length_measurements(q, np.ones(5), port=np.zeros(5, dtype=np.intp))
+    other = length_measurements(q, np.ones(5), port=np.array([0, 1, 0, 1, 0]))
+    approach = length_measurements(q, np.ones(5), approach=np.ones(q.shape, dtype=np.int8))
     assert len({fingerprint(one), fingerprint(other), fingerprint(approach),
-                fingerprint(Measurements(q, np.ones(5)))}) == 4
+                fingerprint(length_measurements(q, np.ones(5)))}) == 4

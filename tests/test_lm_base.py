@@ -10,6 +10,7 @@ from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 from twin.solvers import SOLVERS, get_solver
@@ -58,7 +59,7 @@ def shifted_data(irb120: RobotModel, true_robot: RobotModel, port_m: np.ndarray)
     rng = np.random.default_rng(21)
     data = synthesize(true_robot, random_poses(irb120, 150, rng),
                       port_m + np.array([3e-3, -2e-3, 4e-3]), SIGMA_M, rng)
-    return Measurements(data.q_rad, data.length_m + 5e-3)
+    return length_measurements(data.q_rad, data.value("length_m") + 5e-3)
 
 
 @pytest.mark.parametrize("method", ["lm", "lm-base"])

@@ -11,6 +11,9 @@ import pytest
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.measurements import UnitWarning, load_measurements, write_measurements
+from twin.kinds.length import length_measurements
+from twin.kinds.point import point_measurements
+from twin.kinds.position import position_measurements
 from twin.robot import RobotModel
 
 HEADER = "q1,q2,q3,q4,q5,q6,length\n"
@@ -23,7 +26,8 @@ def test_round_trip_is_exact(measurements: Measurements, tmp_path: Path) -> None
     write_measurements(path, measurements)
     back = load_measurements(path)
     np.testing.assert_allclose(back.q_rad, measurements.q_rad, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(back.length_m, measurements.length_m, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(back.value("length_m"), measurements.value("length_m"), rtol=0,
+                               atol=1e-12)
 
 
 def test_extra_columns_comments_and_order(tmp_path: Path) -> None:
@@ -32,7 +36,7 @@ def test_extra_columns_comments_and_order(tmp_path: Path) -> None:
     path.write_text("# captured by hand\npose,length,q1,q2,q3,q4,q5,q6,note\n"
                     "1,812.5,10,20,-30,40,-50,60,ok\n")
     data = load_measurements(path)
-    assert data.length_m[0] == pytest.approx(0.8125)
+    assert data.value("length_m")[0] == pytest.approx(0.8125)
     np.testing.assert_allclose(np.rad2deg(data.q_rad[0]), [10, 20, -30, 40, -50, 60])
 
 
@@ -89,26 +93,25 @@ def test_every_kind_round_trips_with_approach_columns(tmp_path: Path, kind: str)
     if kind.startswith("length"):
         ports = dict(port=np.array([0, 1, 1, 0, 1]), port_names=("front", "back")) \
             if kind.endswith("ports") else {}
-        data = Measurements(q, length_m=rng.uniform(0.5, 1.0, 5), approach=approach, **ports)
+        data = length_measurements(q, rng.uniform(0.5, 1.0, 5), approach=approach, **ports)
     elif kind == "position":
-        data = Measurements(q, position_m=rng.normal(size=(5, 3)), approach=approach)
+        data = position_measurements(q, rng.normal(size=(5, 3)), approach=approach)
     else:
-        data = Measurements(q, point=np.array([0, 0, 1, 2, 1]), approach=approach,
-                            point_names=("A", "B", "C"))
+        data = point_measurements(q, np.array([0, 0, 1, 2, 1]), approach=approach,
+                                  point_names=("A", "B", "C"))
     path = tmp_path / "m.csv"
     write_measurements(path, data)
     loaded = load_measurements(path)
     assert loaded.kind == data.kind
     np.testing.assert_allclose(loaded.q_rad, data.q_rad, rtol=1e-15)
     np.testing.assert_array_equal(loaded.approach, approach)
-    for name in ("length_m", "position_m"):
-        if getattr(data, name) is not None:
-            np.testing.assert_allclose(getattr(loaded, name), getattr(data, name), rtol=1e-15)
-    if data.port is not None:
-        assert [loaded.port_names[j] for j in loaded.port] == [data.port_names[j]
-                                                              for j in data.port]
-    if data.point is not None:
-        assert [loaded.point_names[j] for j in loaded.point] == ["A", "A", "B", "C", "B"]
+    assert set(loaded.values) == set(data.values)
+    for name, column in data.values.items():
+        np.testing.assert_allclose(loaded.value(name), column, rtol=1e-15)
+    if "port" in data.labels:
+        assert loaded.labels["port"].per_row() == data.labels["port"].per_row()
+    if "point" in data.labels:
+        assert loaded.labels["point"].per_row() == ["A", "A", "B", "C", "B"]
 
 
 @pytest.mark.parametrize(
@@ -148,7 +151,7 @@ def test_a_prismatic_joint_is_in_mm(tmp_path: Path) -> None:
                        / "fr3_torso.urdf")
     q = np.random.default_rng(0).uniform(robot.lower_rad, robot.upper_rad, (5, 8))
     q[0, 0] = 0.25
-    data = Measurements(q, length_m=np.full(5, 1.2))
+    data = length_measurements(q, np.full(5, 1.2))
     path = tmp_path / "m.csv"
     write_measurements(path, data, robot)
     first = path.read_text().splitlines()[1].split(",")

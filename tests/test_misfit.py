@@ -12,7 +12,7 @@ from scipy.stats import chi2
 from twin.analysis.misfit import ALPHA, FAR, chi2_quantile, misfit_test, reading_sigma, repeat_sigma
 from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
-from twin.dataset import Measurements
+from twin.kinds.length import length_measurements
 from twin.robot import RobotModel, random_poses
 from twin.scenario import Scenario, load_scenario
 from twin.sim import simulate
@@ -47,11 +47,11 @@ def test_repeat_readings_measure_the_noise(irb120: RobotModel, true_robot: Robot
     rng = np.random.default_rng(1)
     q = np.repeat(random_poses(irb120, 40, rng), 3, axis=0)
     data = synthesize(true_robot, q, port_m, 5e-5, rng)
-    measured = repeat_sigma(data, data.lengths - np.repeat(
-        synthesize(true_robot, q[::3], port_m, 0.0, rng).lengths, 3), 1)
+    measured = repeat_sigma(data, data.value("length_m") - np.repeat(
+        synthesize(true_robot, q[::3], port_m, 0.0, rng).value("length_m"), 3), 1)
     assert measured is not None and measured[1] == 80
     assert measured[0] == pytest.approx(5e-5, rel=0.2)
-    result = calibrate(irb120, Measurements(q, data.lengths), port_m,
+    result = calibrate(irb120, length_measurements(q, data.value("length_m")), port_m,
                        settings=CalibrationSettings(sigma_m=1e-5))
     assert result.misfit is not None and not result.misfit.misfit
     assert result.misfit.noise_source.startswith("repeat readings")
@@ -99,7 +99,8 @@ def _flags(scenario: Scenario, seeds: range, scale: float = 0.0) -> int:
     flagged = 0
     for seed in seeds:
         sim = simulate(scenario, seed)
-        data = replace(sim.measurements, length_m=sim.measurements.lengths * (1.0 + scale))
+        data = replace(sim.measurements, values={
+            "length_m": sim.measurements.value("length_m") * (1.0 + scale)})
         result = calibrate(sim.robot, data, rig=sim.rig_told_pulled,
                            settings=scenario.calibration, seed=seed)
         assert result.misfit is not None

@@ -11,7 +11,7 @@ from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, UnknownChoiceError
-from twin.kinds.length import cable_length
+from twin.kinds.length import cable_length, length_measurements
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -62,7 +62,7 @@ def test_several_ports_and_an_attachment(irb120: RobotModel, measurements: Measu
     data = model.measure(np.zeros(model.n_params), measurements.q_rad, port=which)
     flange = irb120.flange_transforms(measurements.q_rad)
     point = flange[:, :3, :3] @ attachment + flange[:, :3, 3]
-    np.testing.assert_allclose(data.lengths, np.linalg.norm(point - ports[which], axis=1),
+    np.testing.assert_allclose(data.value("length_m"), np.linalg.norm(point - ports[which], axis=1),
                                atol=1e-15)
     x = rng.normal(scale=1e-3, size=model.n_params)
     subset = data.subset(np.arange(20))
@@ -83,7 +83,8 @@ def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
     np.testing.assert_allclose(upper[12:24], np.deg2rad(8.0))
     np.testing.assert_array_equal(lower, -upper)
     assert list(GROUPS) == ["dh", "transmission", "backlash", "compliance", "link_compliance",
-                            "port", "offset", "attachment", "base", "points"]
+                            "port", "offset", "attachment", "base", "points", "tool",
+                            "planes"]
 
 
 def test_batched_residuals(
@@ -107,7 +108,7 @@ def test_offset_adds_to_every_length(
     x = np.zeros(25)
     x[-1] = 0.002
     plain = np.linalg.norm(irb120.flange_positions(measurements.q_rad) - port_m, axis=-1)
-    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.lengths,
+    np.testing.assert_allclose(model.residuals(x, measurements) + measurements.value("length_m"),
                                plain + 0.002, atol=1e-15)
 
 
@@ -154,7 +155,8 @@ def _assert_jacobians(model: Model, x: np.ndarray, data: Measurements) -> None:
 
 
 def _with_approach(data: Measurements) -> Measurements:
-    return Measurements(data.q_rad, data.length_m, approach=approach_directions(data.q_rad))
+    return length_measurements(data.q_rad, data.value("length_m"),
+                               approach=approach_directions(data.q_rad))
 
 
 @pytest.mark.parametrize("group", [*JOINT_GROUPS, "link_compliance", "all"])
@@ -279,7 +281,7 @@ def test_every_group_on_prismatic_joints_matches_finite_differences(
     x = rng.normal(scale=1e-3, size=model.n_params)
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     q = rng.uniform(robot.lower_rad, robot.upper_rad, (15, 6))
-    data = Measurements(q, length_m=np.full(15, 0.8), approach=approach_directions(q))
+    data = length_measurements(q, np.full(15, 0.8), approach=approach_directions(q))
     _assert_jacobians(model, x, data)
 
 
@@ -302,7 +304,7 @@ def test_joint_groups_move_a_prismatic_joint_as_stated(
     assert model.group("compliance").units[:3] == ("m/N", "m/N", "rad/(N·m)")
     rng = np.random.default_rng(5)
     q = rng.uniform(robot.lower_rad, robot.upper_rad, (10, 6))
-    data = Measurements(q, length_m=np.full(10, 0.8), approach=approach_directions(q))
+    data = length_measurements(q, np.full(10, 0.8), approach=approach_directions(q))
     scale, harmonic = rng.normal(scale=1e-4, size=2), rng.normal(scale=1e-3, size=(4, 4))
     backlash, compliance = rng.normal(scale=1e-4, size=6), rng.uniform(1e-7, 1e-6, size=6)
     x = np.zeros(model.n_params)

@@ -148,7 +148,7 @@ def test_repeat_readings_give_sigma(irb120: RobotModel, true_robot: RobotModel,
     data = synthesize(true_robot, q, port_m, 2e-5, rng)
     result = twin.calibrate(irb120, data, port_m, settings=twin.CalibrationSettings(
         sigma_auto=True, train_fraction=1.0))
-    groups = data.lengths.reshape(60, 3)
+    groups = data.value("length_m").reshape(60, 3)
     pooled = np.sqrt(np.sum((groups - groups.mean(axis=1, keepdims=True)) ** 2) / (60 * 2))
     assert result.noise is not None and result.noise.source.startswith("repeat readings")
     assert result.settings.sigma_m == pytest.approx(pooled, rel=1e-9)

@@ -46,10 +46,10 @@ def test_plan_stations_is_d_optimal_over_pairs(irb120: RobotModel) -> None:
     x0 = np.zeros(model.n_params)
     plan = plan_stations(model, x0, candidates, 45)
     np.testing.assert_array_equal(plan.q_rad, candidates[plan.port, plan.selection.rows % 200])
-    rows = model.jacobian(x0, model.poses(plan.q_rad, plan.port))[1][:, plan.base_mask]
+    rows = model.jacobian(x0, model.poses(plan.q_rad, port=plan.port))[1][:, plan.base_mask]
     assert np.linalg.slogdet(rows.T @ rows)[1] == pytest.approx(plan.selection.log_det)
     pick = rng.choice(600, 45, replace=False)
     q_all, port_all = candidates.reshape(600, -1), np.repeat(np.arange(3), 200)
-    random_rows = model.jacobian(x0, model.poses(q_all[pick], port_all[pick]))[1]
+    random_rows = model.jacobian(x0, model.poses(q_all[pick], port=port_all[pick]))[1]
     random_rows = random_rows[:, plan.base_mask]
     assert plan.selection.log_det > np.linalg.slogdet(random_rows.T @ random_rows)[1]

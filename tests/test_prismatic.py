@@ -21,7 +21,6 @@ from twin.calibration.pipeline import calibrate
 from twin.cli import main
 from twin.compensation.joints import compensate_program
 from twin.compensation.targets import reachable_targets
-from twin.dataset import Measurements
 from twin.export.pinocchio import urdf_flange
 from twin.geometry.kinematics import fixed_transforms, rigid_transform
 from twin.geometry.parametrisation import convert
@@ -29,6 +28,7 @@ from twin.io.capture_file import load_capture
 from twin.io.identified import load_result
 from twin.io.measurements import load_measurements
 from twin.io.robot_file import load_robot, robot_to_toml
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 from twin.scenario import load_scenario
@@ -191,9 +191,9 @@ def test_nine_joints_load_calibrate_and_compensate(tmp_path: Path) -> None:
     station = np.arange(len(q)) % 2
     sigma_m = 1e-5
     lengths = np.concatenate([synthesize(truth, q[station == k], ports[k], sigma_m, rng)
-                              .length_m for k in (0, 1)])
+                              .value("length_m") for k in (0, 1)])
     order = np.concatenate([np.flatnonzero(station == k) for k in (0, 1)])
-    data = Measurements(q[order], lengths, port=station[order], port_names=("a", "b"))
+    data = length_measurements(q[order], lengths, port=station[order], port_names=("a", "b"))
     result = calibrate(robot, data, rig=Rig(ports, ("a", "b")), method="lm", seed=0)
     model = result.model
     train = data.subset(result.train_rows)

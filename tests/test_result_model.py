@@ -14,6 +14,7 @@ from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.identified import load_result
 from twin.io.results import result_to_dict, write_json
+from twin.kinds.point import point_measurements
 from twin.robot import RobotModel
 
 
@@ -88,7 +89,7 @@ def test_results_of_every_rig_rebuild_their_model(tmp_path: Path, irb120: RobotM
     elif kind == "point":
         points = irb120.flange_positions(q[:2])
         place = np.arange(60) % 2
-        data = Measurements(q, point=place, point_names=("a", "b"))
+        data = point_measurements(q, place, point_names=("a", "b"))
         rig = Rig(distances=(Distance("a", "b", float(np.linalg.norm(points[0] - points[1]))),))
         estimate = ("attachment",)
     else:

@@ -202,8 +202,8 @@ def test_stations_with_unknown_ports() -> None:
     """Three stations, every port estimated: gauge-free flange error within 2× the bound, the
     referee's likewise, and rows from each station."""
     sim = _simulate("stations_irb120")
-    assert sim.measurements.port_names == ("front", "left", "back")
-    assert np.bincount(sim.measurements.port_index).tolist() == [40, 40, 40]
+    assert sim.measurements.names("port") == ("front", "left", "back")
+    assert np.bincount(sim.measurements.index("port")).tolist() == [40, 40, 40]
     result = _calibrate(sim)
     q = _workspace(sim)
     errors = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
@@ -303,7 +303,7 @@ def test_predict_gives_what_the_tracker_reads(tmp_path: Path) -> None:
     frame = sim.rig.base_in_tracker
     truth_mm = 1e3 * (sim.true_points_m @ frame[:3, :3].T + frame[:3, 3])
     assert rms_distance(tracker_mm, truth_mm) / np.sqrt(3) < 0.01
-    read_mm = 1e3 * sim.measurements.position_m
+    read_mm = 1e3 * sim.measurements.value("position_m")
     scatter = rms_distance(tracker_mm, read_mm) / np.sqrt(3)
     assert 0.5 * 0.01 < scatter < 1.5 * 0.01, scatter
 

@@ -274,7 +274,7 @@ def check_calibration(cell: dict[str, object], out: Path, reference: Path) -> No
 
     def residual(x: np.ndarray) -> np.ndarray:
         flange = robot.perturbed(x).flange_positions(data.q_rad)
-        return np.linalg.norm(flange - port_m, axis=1) - data.lengths
+        return np.linalg.norm(flange - port_m, axis=1) - data.value("length_m")
 
     referee = least_squares(residual, np.zeros(24), x_scale=1e-3, method="lm")
     workspace = sim.measurements.q_rad  # type: ignore[attr-defined]

@@ -31,8 +31,9 @@ def test_every_scenario_loads_and_simulates(path: Path) -> None:
     expected = scenario.pose_count or len(sim.measurements)
     assert len(sim.measurements) == expected
     data = sim.measurements
-    readings = {"length": data.length_m, "position": data.position_m, "point": data.point}
-    assert np.all(np.isfinite(np.asarray(readings[data.kind], dtype=np.float64)))
+    assert data.values or data.labels
+    for column in data.values.values():
+        assert np.all(np.isfinite(column))
 
 
 def _document(**changes: object) -> dict:

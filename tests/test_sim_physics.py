@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from twin.io.robot_file import default_robot, load_robot
-from twin.kinds.length import cable_length
+from twin.kinds.length import cable_length, length_measurements
 from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics
 from twin.sim import Twin, static_equilibrium
@@ -114,7 +114,6 @@ def test_core_torques_equal_mujoco_generalised_forces(make: Callable[[], RobotMo
     of mass, the cable's pull towards the port) equal MuJoCo's generalised forces on the twin built
     from the same file, qfrc_actuator − qfrc_bias with the servos at the pose, to 1e-9 N·m — and
     on a prismatic lift the force along it (N, a slide's generalised force)."""
-    from twin.dataset import Measurements
     from twin.rig import Rig
     from twin.unknowns.compliance import torques
 
@@ -133,7 +132,7 @@ def test_core_torques_equal_mujoco_generalised_forces(make: Callable[[], RobotMo
         mujoco.mj_forward(twin.statics_model, data)
         expected[row] = data.qfrc_actuator - data.qfrc_bias
     rig = Rig.cable(PORT_M, tension_n=physics.tension_n)
-    tau = torques(robot, rig, Measurements(q, length_m=np.zeros(len(q))))
+    tau = torques(robot, rig, length_measurements(q, np.zeros(len(q))))
     assert np.max(np.abs(expected)) > 10.0  # the shoulder carries tens of N·m
     np.testing.assert_allclose(tau, expected, atol=1e-9)
     if robot.prismatic.any():  # the lift carries the whole arm's weight, some 200 N

@@ -45,7 +45,7 @@ def test_rigid_noise_free_lengths_equal_the_core_model_under_the_truth() -> None
     sim = simulate(scenario)
     expected = cable_length(sim.true_robot.structure, sim.true_robot.dh, sim.measurements.q_rad,
                             sim.port_m)
-    assert np.max(np.abs(sim.measurements.length_m - expected)) < 1e-9
+    assert np.max(np.abs(sim.measurements.value("length_m") - expected)) < 1e-9
     assert np.allclose(sim.true_robot.dh, sim.robot.dh + sim.delta)
     assert np.any(sim.delta != 0)
 
@@ -54,7 +54,8 @@ def test_same_seed_same_capture_other_seed_other_capture() -> None:
     """A seed fixes every draw; the scenario's seed is the default."""
     scenario = load_scenario(PAPER)
     first, again = simulate(scenario), simulate(scenario, seed=scenario.seed)
-    assert np.array_equal(first.measurements.length_m, again.measurements.length_m)
+    assert np.array_equal(first.measurements.value("length_m"),
+                          again.measurements.value("length_m"))
     assert np.array_equal(first.delta, again.delta)
     other = simulate(scenario, seed=scenario.seed + 1)
     assert not np.array_equal(first.delta, other.delta)
@@ -71,7 +72,7 @@ def test_port_error_offset_and_outliers_reach_the_data() -> None:
         "sigma_mm": 0.0, "resolution_mm": 0.0, "offset_mm": 2.5, "outlier_rate": 0.05,
         "outlier_mm": 1.0,
     }))
-    error = noisy.measurements.length_m - noisy.true_length_m - 2.5e-3
+    error = noisy.measurements.value("length_m") - noisy.true_length_m - 2.5e-3
     assert np.array_equal(np.flatnonzero(np.abs(error) > 1e-12), noisy.outlier_rows)
     assert 0 < noisy.outlier_rows.size < 20
 
@@ -87,7 +88,7 @@ def test_files_round_trip_and_calibrate_finds_them(tmp_path: Path) -> None:
     assert np.allclose(load_robot(tmp_path / "robot.toml").dh, sim.robot.dh)
     data = load_measurements(capture.measurements, capture.robot)
     assert np.allclose(data.q_rad, sim.measurements.q_rad, atol=1e-12)
-    assert np.allclose(data.length_m, sim.measurements.length_m, atol=1e-12)
+    assert np.allclose(data.value("length_m"), sim.measurements.value("length_m"), atol=1e-12)
     assert capture.truth is not None
     assert np.allclose(load_truth_delta(capture.truth, 6), sim.delta, atol=1e-12)
     truth = json.loads(capture.truth.read_text())

@@ -43,3 +43,56 @@ def test_the_check_sees_a_long_function(tmp_path: Path) -> None:
     assert long_functions(tmp_path) == ["long.py:163 outer (82 lines)",
                                         "long.py:164 inner (81 lines)",
                                         "long.py:82 method (81 lines)"]
+
+
+KINDS_PACKAGE = PACKAGE / "kinds"
+
+
+def _literals(node: ast.AST) -> set[str]:
+    """The strings a comparison's side holds: a string, or the strings of a tuple, list or
+    set of them."""
+    items = node.elts if isinstance(node, ast.Tuple | ast.List | ast.Set) else [node]
+    return {item.value for item in items
+            if isinstance(item, ast.Constant) and isinstance(item.value, str)}
+
+
+def kind_branches(root: Path, names: set[str], skip: Path | None = None) -> list[str]:
+    """``path:line code`` for every comparison or ``case`` under ``root`` (outside ``skip``)
+    that names a measurement kind: ``data.kind == "length"``, ``kind in ("point", …)``."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if skip is not None and path.is_relative_to(skip):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare):
+                named = set().union(*(_literals(side) for side in (node.left, *node.comparators)))
+            elif isinstance(node, ast.MatchValue):
+                named = _literals(node.value)
+            else:
+                continue
+            if named & names:
+                found.append(f"{path.relative_to(root).as_posix()}:{node.lineno} "
+                             f"{ast.unparse(node)}")
+    return found
+
+
+def test_no_branch_on_a_kind_name_outside_the_kinds() -> None:
+    """Nothing outside twin/kinds asks which kind a measurement is: each kind owns its columns,
+    residuals, start, truth in the twin, predictions, report lines and drawing
+    (twin.kinds.base.Kind), so that a new kind is one module and its registration."""
+    from twin.kinds import KINDS
+
+    assert kind_branches(PACKAGE, set(KINDS), skip=KINDS_PACKAGE) == []
+
+
+def test_the_kind_check_sees_a_branch(tmp_path: Path) -> None:
+    """The check finds a kind's name compared, tested for membership or matched; not another
+    string, nor a kind compared with a name held in a variable."""
+    (tmp_path / "a.py").write_text(
+        'if data.kind == "length":\n    pass\n'
+        'x = kind in ("point", "other")\n'
+        'match kind:\n    case "length":\n        pass\n'
+        'y = data.kind == kind.name\n'
+        'z = token.kind == "number"\n')
+    assert kind_branches(tmp_path, {"length", "point"}) == [
+        "a.py:1 data.kind == 'length'", "a.py:3 kind in ('point', 'other')", "a.py:5 'length'"]

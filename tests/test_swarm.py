@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from twin.calibration.setup import make_model
-from twin.dataset import Measurements
 from twin.io.robot_file import default_robot
+from twin.kinds.length import length_measurements
 from twin.problem import Problem
 from twin.rig import Rig
 from twin.solvers.swarm import (
@@ -86,7 +86,8 @@ def test_initial_swarm_is_within_1mm_1deg_of_the_centre() -> None:
     robot = default_robot()
     q = np.zeros((30, 6))
     problem = Problem(make_model(robot, Rig.cable(np.array([0.6, -0.4, 0.1]))),
-                      Measurements(q[:25], np.ones(25)), Measurements(q[25:], np.ones(5)))
+                      length_measurements(q[:25], np.ones(25)),
+                      length_measurements(q[25:], np.ones(5)))
     center = np.full(24, 1e-4)
     x = initial_swarm(problem, center, 100, np.random.default_rng(0))
     radius = np.where(problem.model.is_length, 1e-3, np.deg2rad(1.0))

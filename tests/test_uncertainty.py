@@ -19,6 +19,7 @@ from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements
+from twin.kinds.length import length_measurements
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 
@@ -29,7 +30,7 @@ SIGMA_M = 1e-5
 def setup(irb120: RobotModel, port_m: np.ndarray):
     """Nominal model, 96 poses, their Jacobian and identifiability."""
     q = random_poses(irb120, 96, np.random.default_rng(11))
-    data = Measurements(q, np.ones(len(q)))
+    data = length_measurements(q, np.ones(len(q)))
     model = make_model(irb120, Rig.cable(port_m))
     _, J = model.jacobian(np.zeros(24), data)
     return model, data, J, measurement_identifiability(model, np.zeros(24), data)

@@ -23,6 +23,7 @@ from twin.calibration.setup import make_problem
 from twin.cli import main
 from twin.dataset import Measurements
 from twin.errors import InputError
+from twin.kinds.length import length_measurements
 from twin.report.text import format_result
 from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
@@ -93,7 +94,7 @@ def test_a_separate_file_validates(csv_path: Path, tmp_path: Path, irb120: Robot
     identified table's lengths against FILE's, computed here."""
     rng = np.random.default_rng(21)
     q = random_poses(irb120, 40, rng)
-    other = Measurements(q, length_m=_lengths(true_robot, q, port_m) + rng.normal(0, 1e-5, 40))
+    other = length_measurements(q, _lengths(true_robot, q, port_m) + rng.normal(0, 1e-5, 40))
     held = tmp_path / "held.csv"
     twin.write_measurements(held, other)
     out = tmp_path / "r.json"
@@ -103,10 +104,10 @@ def test_a_separate_file_validates(csv_path: Path, tmp_path: Path, irb120: Robot
     assert document["validation"]["source"] == str(held)
     assert document["validation"]["train_poses"] == 120
     identified = irb120.perturbed(twin.load_result(out).delta)
-    residuals = _lengths(identified, other.q_rad, port_m) - other.lengths
+    residuals = _lengths(identified, other.q_rad, port_m) - other.value("length_m")
     assert document["metrics"]["validation"]["rmse"] == pytest.approx(
         np.sqrt(np.mean(residuals**2)) * 1e3, rel=1e-4)
-    nominal = _lengths(irb120, other.q_rad, port_m) - other.lengths
+    nominal = _lengths(irb120, other.q_rad, port_m) - other.value("length_m")
     assert document["metrics"]["before"]["rmse"] == pytest.approx(
         np.sqrt(np.mean(nominal**2)) * 1e3, rel=1e-6)
 
@@ -128,7 +129,7 @@ def test_k_fold_holds_every_pose_out_once_and_each_fold_is_a_fit(
                             x_scale="jac")
         held = measurements.subset(fold.rows)
         referee = _lengths(irb120.perturbed(problem.model.table(fit.x) - irb120.dh),
-                           held.q_rad, port_m) - held.lengths
+                           held.q_rad, port_m) - held.value("length_m")
         pooled.append(referee)
         assert fold.held_out.rmse == pytest.approx(np.sqrt(np.mean(referee**2)), rel=0.05)
     assert crossed.pooled.rmse == pytest.approx(
@@ -171,7 +172,7 @@ def test_a_rig_unknown_only_held_out_rows_touch_is_fitted_to_them(
     q = random_poses(irb120, 80, rng)
     which = np.r_[np.zeros(60, dtype=np.intp), np.ones(20, dtype=np.intp)]
     lengths = np.linalg.norm(true_robot.flange_positions(q) - true[which], axis=1)
-    data = Measurements(q, length_m=lengths + rng.normal(0, 1e-5, 80), port=which)
+    data = length_measurements(q, lengths + rng.normal(0, 1e-5, 80), port=which)
     rig = Rig(told, ("a", "b"))
     settings = twin.CalibrationSettings(estimate=("port",))
     split = make_problem(irb120, data, rig=rig, settings=settings,

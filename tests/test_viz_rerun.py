@@ -144,7 +144,7 @@ def test_every_family_round_trips(calibrated: tuple[Path, CalibrationResult],
     port = np.array(column(batches, entities.PORT, "Points3D:positions")[0])
     np.testing.assert_array_equal(port, [loaded.port_m.astype(np.float32)])
     labels = column(batches, entities.CABLE, "LineStrips3D:labels")
-    first_length_mm = float(m_to_mm(measurements.length_m[0]))
+    first_length_mm = float(m_to_mm(measurements.value("length_m")[0]))
     assert len(labels) == n_poses and labels[0] == [f"L = {first_length_mm:.3f} mm"]
     # residuals: per pose, before (nominal) and after, in mm, float64.
     before = result.model.residuals(np.zeros(result.model.n_params), measurements)

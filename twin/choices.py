@@ -44,6 +44,10 @@ DEFAULT_SPEED = "v100"
 """The speeddata of a RAPID plan's moves (:mod:`twin.io.rapid_plan`)."""
 DEFAULT_SETTLE_S = 0.5
 """The pause of a RAPID plan at each pose before the reading, s."""
+DEFAULT_SIGMA_MM = 0.01
+"""The noise 1σ of a reading when none is stated, mm: a 0.01 mm class instrument."""
+DEFAULT_SIGMA_DEG = 0.01
+"""The noise 1σ of an angle read when none is stated, degrees: a 6-DoF tracker probe's class."""
 MAX_TENSION_N = 1000.0
 """Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
 bend an IRB 120 rather than load it."""

@@ -1,12 +1,16 @@
 """Measurements: joint angles and what an instrument read at each pose.
 
-One row per pose. What was read decides the measurement kind (:mod:`twin.kinds`):
+One row per pose. What was read, and how it is read, belongs to the measurement kind
+(:mod:`twin.kinds`, named by :attr:`Measurements.kind`): a kind keeps its readings as named
+columns of :attr:`~Measurements.values` (numbers, SI) and :attr:`~Measurements.labels` (a name per
+row out of a list) — a cable length ``length_m`` and the ``port`` it ran from, a tracker's
+``position_m``, the ``point`` a ball was set into. The kind's module makes its measurements
+(``twin.kinds.length.length_measurements`` …) and is the one place that reads those columns.
 
-- ``length``: a cable length from a port to the measured point (drawstring encoder), with the
-  port of each row when the encoder was moved between several ports;
-- ``position``: the measured point's 3-D position in an instrument frame (laser tracker);
-- ``point``: nothing but the name of an unknown fixed place the measured point was brought to
-  (a ball in a socket, a pointer on a mark).
+Any other per-row quantity lives beside the readings in the same two mappings, under its own
+name, whatever the kind: a time ``t_s``, a temperature ``temperature_c`` (values), the
+``session`` a row was captured in (labels). Subsets, file columns and the model carry them
+along without knowing them.
 
 Optionally, the direction each joint last moved in before the reading (``approach``, ±1), which
 backlash depends on.
@@ -14,7 +18,9 @@ backlash depends on.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,44 +28,61 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array, frozen_array
 
 
-def _index(values: ArrayLike | None, m: int, what: str) -> NDArray[np.intp] | None:
-    if values is None:
-        return None
-    array = np.asarray(values)
-    if array.shape != (m,) or (array.size and (not np.issubdtype(array.dtype, np.integer)
-                                               or array.min() < 0)):
-        raise ValueError(f"{what}: expected {m} non-negative integers, got {array.shape}")
-    index = np.array(array, dtype=np.intp)
-    index.setflags(write=False)
-    return index
+class Labels(NamedTuple):
+    """A name per row out of a list: the port each cable ran from, the fixed point a ball sat
+    in, the session a row was captured in."""
+
+    names: tuple[str, ...]
+    """The distinct names, in their order of first use (empty: unnamed, indices only)."""
+    indices: NDArray[np.intp]
+    """Each row's index into :attr:`names`, shape (m,)."""
+
+    @classmethod
+    def of(cls, labels: list[str] | tuple[str, ...]) -> Labels:
+        """Labels from one name per row: distinct names in order of first appearance."""
+        names = tuple(dict.fromkeys(labels))
+        return cls(names, np.array([names.index(label) for label in labels], dtype=np.intp))
+
+    def per_row(self, prefix: str = "") -> list[str]:
+        """Each row's name (unnamed indices as ``prefix`` and the 1-based index)."""
+        names = self.names or tuple(f"{prefix}{j + 1}"
+                                    for j in range(int(self.indices.max(initial=-1)) + 1))
+        return [names[j] for j in self.indices]
+
+
+def _labels(labels: Labels, m: int, what: str) -> Labels:
+    index = np.asarray(labels.indices)
+    if index.shape != (m,) or (index.size and (not np.issubdtype(index.dtype, np.integer)
+                                               or index.min() < 0)):
+        raise ValueError(f"{what}: expected {m} non-negative integers, got {index.shape}")
+    names = tuple(str(name) for name in labels.names)
+    if names and index.size and index.max() >= len(names):
+        raise ValueError(f"{what}: {len(names)} names for the {what} indices")
+    frozen = np.array(index, dtype=np.intp)
+    frozen.setflags(write=False)
+    return Labels(names, frozen)
 
 
 @dataclass(frozen=True)
 class Measurements:
-    """Joint angles and readings, one row per pose; exactly one of ``length_m``,
-    ``position_m``, ``point`` is given.
+    """Joint angles and readings, one row per pose (module docstring).
 
     Attributes:
         q_rad: Recorded joint angles, shape (m, n), rad.
-        length_m: Cable lengths, shape (m,), m.
-        position_m: Measured point positions in the instrument's frame, shape (m, 3), m.
-        point: Index of the fixed place each row's measured point was at, shape (m,).
-        port: Index of the port each row's cable ran from, shape (m,); None: one port.
-        port_names: The name of each port index, when the data name their ports (a ``port``
-            column); the calibration matches them to the rig's ports by name.
-        point_names: The name of each fixed place index (a ``point`` column).
+        kind: The measurement kind's name (:data:`twin.kinds.KINDS`); the kind's module makes
+            and reads its columns.
+        values: Numeric columns by name, each shape (m, ...), SI (the kind's readings, and any
+            other per-row quantity).
+        labels: Named columns by name (the kind's, and any other).
         approach: Direction each joint last moved in before the reading, shape (m, n), +1 or
             −1 (int8 labels); None when not recorded.
     """
 
     q_rad: Array
-    length_m: Array | None = None
-    position_m: Array | None = None
-    point: NDArray[np.intp] | None = None
-    port: NDArray[np.intp] | None = None
+    kind: str
+    values: Mapping[str, Array] = field(default_factory=dict)
+    labels: Mapping[str, Labels] = field(default_factory=dict)
     approach: NDArray[np.int8] | None = None
-    port_names: tuple[str, ...] = ()
-    point_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         q = np.asarray(self.q_rad, dtype=np.float64)
@@ -67,25 +90,15 @@ class Measurements:
             raise ValueError(f"q_rad: shape {q.shape}, expected (m, n)")
         m, n = q.shape
         object.__setattr__(self, "q_rad", frozen_array(q, (m, n), "q_rad"))
-        given = [name for name in ("length_m", "position_m", "point")
-                 if getattr(self, name) is not None]
-        if len(given) != 1:
-            raise ValueError(f"measurements: expected exactly one of length_m, position_m, "
-                             f"point, got {given or 'none'}")
-        if self.length_m is not None:
-            object.__setattr__(self, "length_m", frozen_array(self.length_m, (m,), "length_m"))
-        if self.position_m is not None:
-            object.__setattr__(self, "position_m",
-                               frozen_array(self.position_m, (m, 3), "position_m"))
-        object.__setattr__(self, "point", _index(self.point, m, "point"))
-        object.__setattr__(self, "port", _index(self.port, m, "port"))
-        if self.port is not None and self.length_m is None:
-            raise ValueError("port: only cable lengths have ports")
-        for index, names, what in ((self.port, self.port_names, "port"),
-                                   (self.point, self.point_names, "point")):
-            object.__setattr__(self, f"{what}_names", tuple(names))
-            if names and (index is None or (index.size and index.max() >= len(names))):
-                raise ValueError(f"{what}_names: {len(names)} names for the {what} indices")
+        if not self.kind:
+            raise ValueError("kind: expected the name of a measurement kind")
+        values = {}
+        for name, column in self.values.items():
+            array = np.asarray(column, dtype=np.float64)
+            values[name] = frozen_array(array, (m, *array.shape[1:]), name)
+        object.__setattr__(self, "values", values)
+        object.__setattr__(self, "labels", {name: _labels(Labels(*labels), m, name)
+                                            for name, labels in self.labels.items()})
         if self.approach is not None:
             labels = np.asarray(self.approach)
             # Labels, not measured values: each must be one of the two directions exactly.
@@ -95,42 +108,39 @@ class Measurements:
             approach.setflags(write=False)
             object.__setattr__(self, "approach", approach)
 
-    @property
-    def kind(self) -> str:
-        """``"length"``, ``"position"`` or ``"point"``."""
-        if self.length_m is not None:
-            return "length"
-        return "position" if self.position_m is not None else "point"
-
-    @property
-    def lengths(self) -> Array:
-        """The cable lengths, shape (m,), m.
+    def value(self, name: str) -> Array:
+        """The numeric column ``name``, shape (m, ...), SI.
 
         Raises:
-            ValueError: if these measurements are not cable lengths.
+            ValueError: naming the kind, if these measurements have no such column.
         """
-        if self.length_m is None:
-            raise ValueError(f"{self.kind} measurements hold no cable lengths")
-        return self.length_m
+        if name not in self.values:
+            raise ValueError(f"{self.kind} measurements hold no {name}")
+        return self.values[name]
 
-    @property
-    def port_index(self) -> NDArray[np.intp]:
-        """The port of each row, shape (m,); zeros when there is one port."""
-        return self.port if self.port is not None else np.zeros(len(self), dtype=np.intp)
+    def index(self, name: str) -> NDArray[np.intp]:
+        """Each row's index into the labels ``name``, shape (m,); zeros without them (one
+        port, one place)."""
+        labels = self.labels.get(name)
+        return labels.indices if labels is not None else np.zeros(len(self), dtype=np.intp)
+
+    def names(self, name: str) -> tuple[str, ...]:
+        """The names of the labels ``name`` (empty without them, or when unnamed)."""
+        labels = self.labels.get(name)
+        return labels.names if labels is not None else ()
 
     def __len__(self) -> int:
         return int(self.q_rad.shape[0])
 
     def subset(self, rows: ArrayLike) -> Measurements:
-        """The measurements at the given row indices."""
+        """The measurements at the given row indices (every column, the label names whole)."""
         index = np.asarray(rows, dtype=np.intp)
-
-        def pick(values: NDArray | None) -> NDArray | None:
-            return None if values is None else values[index]
-
-        return Measurements(self.q_rad[index], pick(self.length_m), pick(self.position_m),
-                            pick(self.point), pick(self.port), pick(self.approach),
-                            self.port_names, self.point_names)
+        return Measurements(
+            self.q_rad[index], self.kind,
+            {name: column[index] for name, column in self.values.items()},
+            {name: Labels(labels.names, labels.indices[index])
+             for name, labels in self.labels.items()},
+            None if self.approach is None else self.approach[index])
 
 
 def approach_directions(q_rad: ArrayLike, start_rad: ArrayLike | None = None) -> NDArray[np.int8]:

@@ -27,8 +27,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
 from twin.dataset import Measurements, approach_directions
-from twin.geometry.kinematics import PointJacobian, Turns, point_position, trace_point, turns
-from twin.kinds import Kind
+from twin.geometry.kinematics import (
+    PointJacobian,
+    Turns,
+    flange_turn_jacobian,
+    point_position,
+    trace_point,
+    turns,
+)
+from twin.kinds import Kind, KindJacobian, Measured
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.unknowns import Group, Stage, make_groups
@@ -244,44 +251,52 @@ class Model:
         return {group.name: self.block(x, group.name) for group in self.groups
                 if group.stage == Stage.MEASUREMENT}
 
-    def poses(self, q_rad: ArrayLike, port: ArrayLike | None = None,
-              approach: ArrayLike | None = None, point: ArrayLike | None = None
-              ) -> Measurements:
+    def poses(self, q_rad: ArrayLike, approach: ArrayLike | None = None,
+              **labels: ArrayLike | None) -> Measurements:
         """Poses where nothing was read, as measurements of this model's kind with zero
         readings: for the positions, flanges and Jacobians at poses of one's choosing.
 
         Args:
             q_rad: Joint angles, shape (m, n), rad.
-            port: The port of each row, shape (m,), for cable lengths; port 0 if None.
             approach: Direction each joint last moved in, shape (m, n), ±1, if known. If None
                 and the model needs it (:attr:`needs_approach`): the directions of visiting
                 the poses in the order given, from home (:func:`twin.dataset.approach_directions`).
-            point: The fixed place of each row, shape (m,), for fixed points; place 0 if None.
+            labels: The index of each row into the kind's labels, shape (m,) each (``port``
+                for cable lengths, ``point`` for fixed points…); the first if not given (or
+                None).
         """
         q = np.asarray(q_rad, dtype=np.float64)
-        ports = None if port is None else np.asarray(port, dtype=np.intp)
         if approach is None and self.needs_approach:
             approach = approach_directions(q)
-        labels = None if approach is None else np.asarray(approach)
-        if self.kind.name == "length":
-            return Measurements(q, length_m=np.zeros(len(q)), port=ports, approach=labels)
-        if self.kind.name == "point":
-            places = np.zeros(len(q), dtype=np.intp) if point is None \
-                else np.asarray(point, dtype=np.intp)
-            return Measurements(q, point=places, approach=labels,
-                                point_names=self.rig.point_names)
-        return Measurements(q, position_m=np.zeros((len(q), 3)), approach=labels)
+        template = self.kind.template(q, self.rig, {name: np.asarray(index, dtype=np.intp)
+                                                    for name, index in labels.items()
+                                                    if index is not None})
+        return template if approach is None else replace(template,
+                                                         approach=np.asarray(approach))
 
-    def measure(self, x: ArrayLike, q_rad: ArrayLike, port: ArrayLike | None = None,
-                approach: ArrayLike | None = None, point: ArrayLike | None = None
-                ) -> Measurements:
+    def measure(self, x: ArrayLike, q_rad: ArrayLike, approach: ArrayLike | None = None,
+                **labels: ArrayLike | None) -> Measurements:
         """Noise-free measurements of this model's kind at unknowns x (p,) and poses q (m, n):
         what the model fits exactly (arguments as :meth:`poses`)."""
         x = self._check(x)
-        template = self.poses(q_rad, port, approach, point)
-        measured = self.kind.measure(self.positions(x, template), self._measurement_values(x),
-                                     template.q_rad, self.rig, template.port, template.point)
-        return replace(measured, approach=template.approach)
+        template = self.poses(q_rad, approach, **labels)
+        return self.kind.measure(self.measured(x, template), self._measurement_values(x),
+                                 template, self.rig)
+
+    def measured(self, x: ArrayLike, data: Measurements) -> Measured:
+        """Where the measured point is at every pose for unknowns x (..., p), and the flange's
+        orientation if the kind reads it (:class:`twin.kinds.base.Measured`)."""
+        x = self._check(x)
+        if not self.kind.reads_rotation:
+            return Measured(self.positions(x, data))
+        # The flange's axes as the points one metre along them less its origin: the point
+        # kernel (compiled where it can be) carries a swarm's tables at once, where a walk
+        # of the whole frame would not.
+        table, joints = self.table(x), self._joint_turns(x, data)
+        structure = self.robot.structure
+        origin = point_position(structure, table, joints)
+        axes = [point_position(structure, table, joints, axis) - origin for axis in np.eye(3)]
+        return Measured(self.positions(x, data), np.stack(axes, axis=-1))
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
@@ -333,7 +348,7 @@ class Model:
     def residuals(self, x: ArrayLike, data: Measurements) -> Array:
         """Residuals r(x), shape (..., M), m, for unknowns of shape (..., p)."""
         x = self._check(x)
-        return self.kind.residuals(self.positions(x, data), self._measurement_values(x), data,
+        return self.kind.residuals(self.measured(x, data), self._measurement_values(x), data,
                                    self.rig)
 
     def jacobian(self, x: ArrayLike, data: Measurements) -> tuple[Array, Array]:
@@ -346,16 +361,10 @@ class Model:
         Returns:
             ``(r, J)``: residuals (M,) in m, Jacobian ∂r/∂x (M, p).
         """
-        x = self._check(x)
-        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
-                            self.point(x))
-        kind = self.kind.jacobian(trace.position, self._measurement_values(x), data, self.rig)
+        kind, moves = self._moves(self._check(x), data)
         m, rows = len(data), self.kind.rows_per_pose
         jacobian = np.zeros((kind.residuals.size, self.n_params))
-        # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
-        # along those directions alone (one row per pose for a length, not three).
-        self._chain_rule(trace.jacobian(kind.by_position), data, True,
-                         jacobian[: m * rows].reshape(m, rows, self.n_params))
+        self._chain_rule(moves, data, True, jacobian[: m * rows].reshape(m, rows, self.n_params))
         for group in self.groups:
             if group.stage == Stage.MEASUREMENT:
                 jacobian[:, self.slice(group.name)] = kind.by_group[group.name]
@@ -366,14 +375,32 @@ class Model:
         m/rad, at one x (p,): the rows that are not a pose's (known distances) do not move.
         Noise in the recorded angles reaches the rows through it (errors in variables); a
         joint-level correction's own dependence on q is second order and left out."""
-        x = self._check(x)
-        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
-                            self.point(x))
-        kind = self.kind.jacobian(trace.position, self._measurement_values(x), data, self.rig)
+        kind, moves = self._moves(self._check(x), data)
         m, rows = len(data), self.kind.rows_per_pose
-        moves = np.zeros((kind.residuals.size, self.robot.n_joints))
-        moves[: m * rows] = trace.jacobian(kind.by_position).joints.reshape(m * rows, -1)
-        return moves
+        joints = np.zeros((kind.residuals.size, self.robot.n_joints))
+        joints[: m * rows] = moves.joints.reshape(m * rows, -1)
+        return joints
+
+    def _moves(self, x: Array, data: Measurements) -> tuple[KindJacobian, PointJacobian]:
+        """The kind's residuals and derivatives at one x, and how each pose's rows move with
+        the table, the joints and the measured point (:meth:`_chain_rule` takes them to x)."""
+        table, joints = self.table(x), self._joint_turns(x, data)
+        trace = trace_point(self.robot.structure, table, joints, self.point(x))
+        flange = by_table = by_joint = None
+        if self.kind.reads_rotation:
+            flange, by_table, by_joint = flange_turn_jacobian(self.robot.structure, table,
+                                                              joints.q_rad)
+        kind = self.kind.jacobian(Measured(trace.position, flange),
+                                  self._measurement_values(x), data, self.rig)
+        # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
+        # along those directions alone (one row per pose for a length, not three).
+        moves = trace.jacobian(kind.by_position)
+        if kind.by_rotation is not None and by_table is not None and by_joint is not None:
+            # Rows that read the flange's orientation turn with it: ∂r/∂ω times the flange's
+            # angular velocity per table entry and per joint rate.
+            moves = moves._replace(table=moves.table + kind.by_rotation @ by_table,
+                                   joints=moves.joints + kind.by_rotation @ by_joint)
+        return kind, moves
 
     def symmetries(self, x: ArrayLike) -> Array:
         """The kind's known gauge directions at x (:meth:`twin.kinds.base.Kind.symmetries`),

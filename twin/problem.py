@@ -25,12 +25,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
+from twin.choices import DEFAULT_SIGMA_MM
 from twin.dataset import Measurements
 from twin.loss import LEAST_SQUARES, Loss
 from twin.model import Model
 from twin.units import mm_to_m
 
-DEFAULT_SIGMA_M = float(mm_to_m(0.01))
+DEFAULT_SIGMA_M = float(mm_to_m(DEFAULT_SIGMA_MM))
 """Default expected length noise (1σ): a 0.01 mm class drawstring encoder."""
 
 

@@ -15,13 +15,17 @@ errors (:mod:`twin.unknowns`):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 from twin.choices import MAX_TENSION_N
+
+PORT_LABELS = "port"
+"""The measurement labels (:attr:`twin.dataset.Measurements.labels`) whose indices say which of
+:attr:`Rig.ports_m` each row's cable ran from (port 0 without them)."""
 
 
 def _origin() -> Array:
@@ -40,6 +44,27 @@ class Distance(NamedTuple):
     second: str
     length_m: float
     """The distance, m."""
+
+
+class Angle(NamedTuple):
+    """A known angle between two named planes (a square's faces, a sine bar's): the angle
+    between their normals."""
+
+    first: str
+    second: str
+    angle_rad: float
+    """The angle, rad, in (0, π)."""
+
+
+class Part(Protocol):
+    """What a measurement kind keeps in the rig beyond the parts every kind shares: its own
+    frozen value (the tool rotation of 6-D poses, the planes of plane data), defined, started,
+    read and written by its kind (:mod:`twin.kinds`)."""
+
+    def places(self, group: str) -> tuple[str, ...]:
+        """The named places whose corrections the measurement-stage group ``group`` holds (the
+        planes of group ``planes``), or () when this part sizes no such group."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -63,7 +88,9 @@ class Rig:
             ``p_tracker = base_in_tracker · p_base``; the identity by default.
         point_names: A name per fixed point, length f.
         points_m: The fixed points in the robot base frame, shape (f, 3), m.
-        distances: Known distances between named fixed points.
+        distances: Known distances between named fixed points (or parallel planes).
+        angles: Known angles between named planes.
+        part: What the measurement kind keeps beyond these (:class:`Part`), or None.
     """
 
     ports_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
@@ -75,6 +102,13 @@ class Rig:
     point_names: tuple[str, ...] = ()
     points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
     distances: tuple[Distance, ...] = ()
+    angles: tuple[Angle, ...] = ()
+    part: Part | None = None
+
+    def places(self, group: str) -> tuple[str, ...]:
+        """The named places of the kind's part a measurement-stage group corrects
+        (:meth:`Part.places`), () without a part."""
+        return () if self.part is None else self.part.places(group)
 
     def __post_init__(self) -> None:
         ports = np.asarray(self.ports_m, dtype=np.float64).reshape(-1, 3)
@@ -116,6 +150,12 @@ class Rig:
                 raise ValueError(f"distance {distance}: expected two different points and a "
                                  "positive length")
         object.__setattr__(self, "distances", distances)
+        angles = tuple(Angle(str(a), str(b), float(angle)) for a, b, angle in self.angles)
+        for angle in angles:
+            if angle.first == angle.second or not 0.0 < angle.angle_rad < np.pi:
+                raise ValueError(f"angle {angle}: expected two different planes and an angle "
+                                 "between 0 and π")
+        object.__setattr__(self, "angles", angles)
 
     @classmethod
     def cable(cls, port_m: ArrayLike, attachment_m: ArrayLike | None = None,

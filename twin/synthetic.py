@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.dataset import Measurements
-from twin.kinds.length import cable_length
+from twin.kinds.length import cable_length, length_measurements
 from twin.robot import RobotModel
 
 
@@ -24,4 +24,4 @@ def synthesize(
     """Cable lengths of ``robot`` at the poses, with Gaussian noise of σ = ``sigma_m`` (m)."""
     q_rad = np.asarray(q_rad, dtype=np.float64)
     length_m = cable_length(robot.structure, robot.dh, q_rad, port_m)
-    return Measurements(q_rad, length_m + rng.normal(0.0, sigma_m, size=length_m.shape))
+    return length_measurements(q_rad, length_m + rng.normal(0.0, sigma_m, size=length_m.shape))

@@ -36,6 +36,7 @@ from twin.dataset import Measurements  # noqa: E402
 from twin.io.atomic import write_atomic  # noqa: E402
 from twin.io.measurements import load_measurements  # noqa: E402
 from twin.io.robot_file import load_robot  # noqa: E402
+from twin.kinds.point import point_measurements  # noqa: E402
 from twin.rig import Rig  # noqa: E402
 from twin.robot import RobotModel  # noqa: E402
 from twin.units import m_to_mm, mm_to_m  # noqa: E402
@@ -72,11 +73,12 @@ def import_data(folder: Path = OUT) -> Path:
 
 def subset(data: Measurements, placements: tuple[str, ...]) -> Measurements:
     """The rows of some placements, their points renumbered."""
-    names = tuple(n for n in data.point_names if n.split("/")[0] in placements)
-    keep = np.isin(np.asarray(data.point_names)[data.point], names)
-    index = {data.point_names.index(n): i for i, n in enumerate(names)}
-    return Measurements(data.q_rad[keep], point=np.array([index[p] for p in data.point[keep]]),
-                        point_names=names)
+    point, point_names = data.index("point"), data.names("point")
+    names = tuple(n for n in point_names if n.split("/")[0] in placements)
+    keep = np.isin(np.asarray(point_names)[point], names)
+    index = {point_names.index(n): i for i, n in enumerate(names)}
+    return point_measurements(data.q_rad[keep], [index[p] for p in point[keep]],
+                              point_names=names)
 
 
 def held_out(robot: RobotModel, ball_m: np.ndarray, data: Measurements) -> tuple[float, float]:
@@ -84,9 +86,10 @@ def held_out(robot: RobotModel, ball_m: np.ndarray, data: Measurements) -> tuple
     placement, the model fixed and the two socket centres fitted (their means)."""
     transforms = robot.flange_transforms(data.q_rad)
     balls = transforms[:, :3, :3] @ ball_m + transforms[:, :3, 3]
-    centres = np.stack([balls[data.point == j].mean(axis=0)
-                        for j in range(len(data.point_names))])
-    residuals = balls - centres[data.point]
+    point = data.index("point")
+    centres = np.stack([balls[point == j].mean(axis=0)
+                        for j in range(len(data.names("point")))])
+    residuals = balls - centres[point]
     distance = np.linalg.norm(centres[0] - centres[1])
     return float(m_to_mm(np.sqrt(np.mean(residuals**2)))), float(
         m_to_mm(distance) - SPACING_MM)

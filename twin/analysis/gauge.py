@@ -225,8 +225,7 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     points = model.positions(x, data) if measured else model.flange_positions(x, data)
     base = model.robot.structure.base
     origin, axes = base[:3, 3], base[:3, :3]
-    port = model.rig.ports_m[0] if model.kind.name == "length" and len(model.rig.ports_m) \
-        else None
+    port = model.kind.pivot(model.rig)
     gauge = Gauge((), np.zeros((points.size, 0)), points, None, origin, axes, model.point(x),
                   port)
     null = np.asarray(null_space, dtype=np.float64)

@@ -101,6 +101,9 @@ class Identifiability(NamedTuple):
     weak_sigma_per_noise: Array = np.zeros(0)
     """σ along each weak direction, in the unit of its leading unknown, per metre of reading
     noise: multiplied by the noise σ it is the Cramér–Rao σ of the combination, shape (w,)."""
+    beyond_points: tuple[str, ...] = ()
+    """For a kind that reads more than a point (a 6-D pose), the combinations its point rows
+    alone cannot identify and its other rows do (:func:`seen_beyond_points`), named."""
 
     @property
     def weak(self) -> int:
@@ -270,8 +273,39 @@ def measurement_identifiability(
               for index in range(model.n_params)[model.slice(group.name)]]
     found = identifiability(linearised.jacobian, model.names, rtol, prefer=prefer,
                             triangle=linearised.triangle)
+    found = found._replace(beyond_points=seen_beyond_points(model, linearised.jacobian, found,
+                                                            rtol))
     _KEPT[:] = [*_KEPT[-(KEPT - 1):], (weakref.ref(model), key, found)]
     return found
+
+
+SEEN_RTOL = 1e-6
+"""A direction the point rows leave unseen counts as seen by the whole rows when it lies farther
+than this (relative, column-scaled) from the whole rows' null space."""
+
+
+def seen_beyond_points(model: Model, jacobian: Array, whole: Identifiability,
+                       rtol: float = RANK_RTOL) -> tuple[str, ...]:
+    """The null directions of a kind's point rows (:attr:`twin.kinds.base.Kind.point_rows`: a
+    6-D pose's x, y, z) that its whole rows (``jacobian``, (M, p), and its ``whole``
+    identifiability) see, named: what orientations add to positions. Empty for a kind that
+    reads a point or less."""
+    rows, per = model.kind.point_rows, model.kind.rows_per_pose
+    if not rows:
+        return ()
+    poses = jacobian.shape[0] // per
+    pick = (np.arange(poses)[:, None] * per + np.asarray(rows)).ravel()
+    points = identifiability(jacobian[pick], model.names, rtol)
+    unit = np.where(whole.column_norms > 0, whole.column_norms, 1.0)
+    basis = whole.null_space * unit[:, None]
+    seen = []
+    for k, name in enumerate(points.unidentifiable):
+        direction = points.null_space[:, k] * unit
+        left = direction - basis @ np.linalg.lstsq(basis, direction, rcond=None)[0] \
+            if basis.shape[1] else direction
+        if np.linalg.norm(left) > SEEN_RTOL * np.linalg.norm(direction):
+            seen.append(name)
+    return tuple(seen)
 
 
 KEPT = 8

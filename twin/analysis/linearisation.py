@@ -52,11 +52,17 @@ def fingerprint(data: Measurements) -> bytes:
     """A digest of everything a model reads from ``data`` (joints, readings, indices, labels,
     names): equal sets made apart (a subset taken twice) share what is kept for them."""
     digest = hashlib.blake2b(digest_size=16)
-    for value in (data.q_rad, data.length_m, data.position_m, data.point, data.port,
-                  data.approach):
-        digest.update(b"-" if value is None else np.ascontiguousarray(value).tobytes())
+    arrays: list[np.ndarray] = [data.q_rad, *(data.values[name] for name in sorted(data.values)),
+                                *(data.labels[name].indices for name in sorted(data.labels))]
+    if data.approach is not None:
+        arrays.append(data.approach)
+    for value in arrays:
+        digest.update(np.ascontiguousarray(value).tobytes())
         digest.update(b"|")
-    digest.update(repr((data.q_rad.shape, data.port_names, data.point_names)).encode())
+    digest.update(repr((data.kind, data.q_rad.shape, data.approach is None,
+                        [(name, data.values[name].shape) for name in sorted(data.values)],
+                        [(name, data.labels[name].names) for name in sorted(data.labels)])
+                       ).encode())
     return digest.digest()
 
 

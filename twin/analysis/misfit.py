@@ -105,7 +105,7 @@ def chi2_quantile(level: float, dof: int) -> float:
 def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
                  ) -> tuple[float, int] | None:
     """The noise measured by repeat readings: pooled standard deviation of the residuals of
-    rows with the same joint angles (and port or fixed point), m, and its degrees of freedom;
+    rows with the same joint angles (and labels: port, fixed point…), m, and its degrees of freedom;
     None without repeats.
 
     Args:
@@ -116,10 +116,9 @@ def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
     """
     m = len(data)
     r = np.asarray(residuals_m, dtype=np.float64)[: rows_per_pose * m].reshape(m, rows_per_pose)
-    label = data.port if data.port is not None else data.point
     keys = np.round(data.q_rad / REPEAT_RTOL_RAD).astype(np.int64)
-    if label is not None:
-        keys = np.column_stack([keys, label])
+    for labels in data.labels.values():
+        keys = np.column_stack([keys, labels.indices])
     _, group = np.unique(keys, axis=0, return_inverse=True)
     group = np.ravel(group)
     counts = np.bincount(group)

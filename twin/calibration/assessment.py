@@ -21,7 +21,6 @@ from twin.analysis.workspace import MEASURED_RANGES, Workspace, data_workspace
 from twin.arrays import Array
 from twin.calibration.pipeline import solve_many
 from twin.calibration.result import CalibrationResult, SplitProblem
-from twin.calibration.start import match_ports
 from twin.choices import DEFAULT_METHOD
 from twin.dataset import Measurements
 from twin.design.optimal import DesignScore, score_poses
@@ -36,7 +35,7 @@ class Assessment(NamedTuple):
     """What a measurement set identifies (:func:`assess`)."""
 
     data: Measurements
-    """The measurements, their ports matched to the model's rig."""
+    """The measurements, their labels matched to the model's rig (its ports by name)."""
     nominal: Identifiability
     """Identifiability at the nominal geometry, all poses."""
     score: DesignScore
@@ -68,7 +67,7 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
         method: The calibration method (:data:`twin.solvers.SOLVERS`).
     """
     model = split.problem.model
-    data = match_ports(measurements, model.rig)
+    data = model.kind.prepare(robot, model.rig, measurements, split.settings.noise)[1]
     x0 = np.zeros(model.n_params)
     workspace = data_workspace(data.q_rad, np.random.default_rng(seed), covers=MEASURED_RANGES)
     nominal = measurement_identifiability(model, x0, data)

@@ -105,24 +105,11 @@ def _refit_robust(split: SplitProblem, result: CalibrationResult, noise_m: float
 
 
 def _units_suspect(problem: Problem) -> bool:
-    """Whether the readings' size is far from the nominal model's."""
+    """Whether the readings' size is far from the nominal model's
+    (:meth:`twin.kinds.base.Kind.units_ratio`)."""
     data, model = problem.train, problem.model
-    nominal = model.residuals(np.zeros(model.n_params), data)
-    rows = model.kind.rows_per_pose * len(data)
-    if data.kind == "length":
-        read = np.median(data.lengths)
-        modelled = np.median(nominal[:rows] + data.lengths)
-    elif data.kind == "position":
-        assert data.position_m is not None
-        measured = data.position_m
-        modelled_points = nominal[:rows].reshape(-1, 3) + measured
-        read = np.sqrt(np.mean(np.sum((measured - measured.mean(axis=0)) ** 2, axis=1)))
-        modelled = np.sqrt(np.mean(np.sum((modelled_points - modelled_points.mean(axis=0)) ** 2,
-                                          axis=1)))
-    else:
-        return False
-    ratio = float(read / modelled) if modelled > 0 else np.inf
-    return not 1.0 / UNITS_RATIO <= ratio <= UNITS_RATIO
+    ratio = model.kind.units_ratio(data, model.residuals(np.zeros(model.n_params), data))
+    return ratio is not None and not 1.0 / UNITS_RATIO <= ratio <= UNITS_RATIO
 
 
 def likely_causes(split: SplitProblem, result: CalibrationResult) -> tuple[Cause, ...]:

@@ -1,13 +1,16 @@
-"""What an identified model predicts at any poses: where the measured point is, what the cable
-reads. This is how a model is checked against anything else (a tracker, another capture, the
-twin's truth)::
+"""What an identified model predicts at any poses: where the measured point is, what its
+instrument reads. This is how a model is checked against anything else (a tracker, another
+capture, the twin's truth)::
 
     settings = twin.CalibrationSettings(errors=("dh", "compliance"))
     result = twin.calibrate(robot, data, rig=rig, settings=settings)
     prediction = twin.predict(result, q_rad, approach=None)   # or a load_result(...) model
-    prediction.position_m    # (m, 3) measured point, base frame, m
-    prediction.length_m      # (m,) cable length, m, when the rig has one port
-    prediction.tracker_m     # (m, 3) the point in the tracker frame, m, for tracker results
+    prediction.position_m               # (m, 3) measured point, base frame, m
+    prediction.readings["length_m"]     # (m,) cable length, m, when the rig has one port
+    prediction.readings["position_m"]   # (m, 3) the point in the tracker frame, m, for
+                                        # tracker results
+
+The readings are the measurement kind's (:meth:`twin.kinds.base.Kind.predict`).
 
 The measured point is the rig's attachment point (the flange centre unless one is set), moved by
 every group of the model: the D-H table, the joints' transmission error, backlash (for each row's
@@ -46,11 +49,13 @@ class Prediction(NamedTuple):
 
     position_m: Array
     """The measured point in the base frame, shape (m, 3), m."""
-    length_m: Array | None
-    """The cable length from the port, shape (m,), m; None when there is no single port."""
-    tracker_m: Array | None = None
-    """The measured point in the tracker frame (what the tracker reads), shape (m, 3), m; None
-    unless the model is of tracker positions."""
+    kind: str
+    """The measurement kind of the model (:data:`twin.kinds.KINDS`), whose readings these
+    are."""
+    readings: dict[str, Array]
+    """What the instrument reads there, by the kind's names (:meth:`twin.kinds.base.Kind.predict`:
+    ``length_m`` (m,) of a cable from a single port, ``position_m`` (m, 3) of a tracker in its
+    frame…), SI."""
 
 
 def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | None = None,
@@ -84,9 +89,5 @@ def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | N
     check_approach(model, approach)
     poses = model.poses(q, approach=approach)
     position = model.positions(x, poses)
-    length = tracker = None
-    if model.kind.name == "length" and len(model.rig.ports_m) == 1:
-        length = model.measure(x, q, approach=poses.approach).lengths
-    if model.kind.name == "position":
-        tracker = model.measure(x, q, approach=poses.approach).position_m
-    return Prediction(np.asarray(position, dtype=np.float64), length, tracker)
+    return Prediction(np.asarray(position, dtype=np.float64), model.kind.name,
+                      model.kind.predict(model, x, poses))

@@ -112,7 +112,7 @@ def warn_weak_data(robot: RobotModel, split: SplitProblem, errors: Sequence[str]
     few for the unknowns they identify (:func:`warn_few_poses`, naming the error groups
     ``errors``)."""
     problem = split.problem
-    if problem.train.kind != "point":
+    if problem.model.kind.random_poses:
         warn_rank_deficient(robot, problem.model, problem.x0, problem.train, source, seed)
     rank = measurement_identifiability(problem.model, problem.x0, problem.train).rank
     warn_few_poses(len(split.train_rows), rank, errors, problem.model.kind.rows_per_pose)

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from twin.choices import DEFAULT_SCALE_SIGMAS, LOSSES, MAX_ITERATIONS, PROTOCOLS
 from twin.errors import InputError
+from twin.kinds.base import Noise
 from twin.loss import Loss
 from twin.problem import DEFAULT_SIGMA_M
 from twin.stopping import Budget
@@ -37,8 +38,12 @@ MAX_JOINT_SIGMA_RAD = math.radians(10.0)
 TRAIN_FRACTION = 0.8
 """Share of the poses used for identification (paper: 80 / 20); 1 trains on every pose."""
 RIG_UNKNOWNS = {"port": "--estimate-port", "offset": "--estimate-offset",
-                "attachment": "--estimate-attachment", "base": "--estimate-base"}
+                "attachment": "--estimate-attachment", "base": "--estimate-base",
+                "tool": "--estimate-tool"}
 """The rig's unknown groups a calibration may add, and the flag that asks for each."""
+TOOL_ORIGIN = {"tool": "attachment"}
+"""A rig unknown that brings another with it: the tool frame (6-D) is its rotation (group
+``tool``) and its origin, the measured point (group ``attachment``)."""
 
 
 @dataclass(frozen=True)
@@ -52,6 +57,9 @@ class CalibrationSettings:
         estimate: The rig's unknowns to identify too (:data:`RIG_UNKNOWNS`), in that order.
         sigma_m: The noise 1σ of one reading, m: the filters' measurement noise and the
             misfit test's reference.
+        sigma_rad: The noise 1σ of one angle read (a 6-D pose's orientation), rad: what an
+            orientation row weighs against a position row (:mod:`twin.kinds.pose`); None: the
+            kind's default.
         loss: How residual rows count (:data:`twin.loss.LOSSES`).
         loss_scale_m: The robust loss's scale, m, or None for
             :data:`twin.loss.DEFAULT_SCALE_SIGMAS` times ``sigma_m``.
@@ -77,6 +85,7 @@ class CalibrationSettings:
     errors: tuple[str, ...] = ("dh",)
     estimate: tuple[str, ...] = ()
     sigma_m: float = DEFAULT_SIGMA_M
+    sigma_rad: float | None = None
     loss: str = LOSSES[0]
     loss_scale_m: float | None = None
     stop: str = PROTOCOLS[0]
@@ -94,10 +103,13 @@ class CalibrationSettings:
         if unknown:
             raise InputError(f"the rig unknown {unknown[0]!r}",
                              "some of " + ", ".join(RIG_UNKNOWNS), where="estimate")
-        object.__setattr__(self, "estimate",
-                           tuple(name for name in RIG_UNKNOWNS if name in self.estimate))
+        brought = {TOOL_ORIGIN[name] for name in self.estimate if name in TOOL_ORIGIN}
+        object.__setattr__(self, "estimate", tuple(name for name in RIG_UNKNOWNS
+                                                   if name in {*self.estimate, *brought}))
         _check(math.isfinite(self.sigma_m) and self.sigma_m > 0, "sigma_m", self.sigma_m,
                "a noise 1σ > 0, m")
+        _check(self.sigma_rad is None or (math.isfinite(self.sigma_rad) and self.sigma_rad > 0),
+               "sigma_rad", self.sigma_rad, "an angle noise 1σ > 0, rad")
         _check(self.loss in LOSSES, "loss", self.loss, "one of " + ", ".join(LOSSES))
         _check(self.loss_scale_m is None or (math.isfinite(self.loss_scale_m)
                                              and self.loss_scale_m > 0),
@@ -141,6 +153,11 @@ class CalibrationSettings:
     def groups(self) -> tuple[str, ...]:
         """The unknown groups of the model: the error groups, then the rig's."""
         return (*self.errors, *self.estimate)
+
+    @property
+    def noise(self) -> Noise:
+        """The noise of one reading, as a kind weighs its rows with it."""
+        return Noise(self.sigma_m, self.sigma_rad)
 
     @property
     def budget(self) -> Budget:

@@ -11,10 +11,11 @@ from twin.calibration.noise import with_noise
 from twin.calibration.result import SplitProblem
 from twin.calibration.settings import RIG_UNKNOWNS, CalibrationSettings
 from twin.calibration.split import required_poses, split_rows
-from twin.calibration.start import check_approach, match_ports, tracker_start, with_fixed_points
+from twin.calibration.start import check_approach
 from twin.dataset import Measurements
 from twin.errors import InputError
-from twin.kinds import KINDS
+from twin.kinds import DEFAULT_KIND, KINDS
+from twin.kinds.base import Noise
 from twin.model import Model
 from twin.problem import Problem
 from twin.rig import Rig
@@ -26,7 +27,7 @@ DEFAULT_SETTINGS = CalibrationSettings()
 """The paper's calibration: the D-H errors alone, least squares, run to convergence."""
 
 
-def make_model(robot: RobotModel, rig: Rig, kind: str = "length",
+def make_model(robot: RobotModel, rig: Rig, kind: str = DEFAULT_KIND,
                settings: CalibrationSettings = DEFAULT_SETTINGS) -> Model:
     """The measurement model of a calibration: the robot's error groups and the rig's unknowns
     the settings name (a port correction applies to the rig's estimated ports, every port
@@ -38,17 +39,19 @@ def make_model(robot: RobotModel, rig: Rig, kind: str = "length",
         kind: The measurement kind (:data:`twin.kinds.KINDS`).
         settings: Which groups to identify.
 
-    Fixed-point data always identify their fixed points (group ``points``). The settings'
-    bounds, priors and fixed parameters apply to the groups (:func:`twin.unknowns.limits.restrict`).
+    Some kinds always identify a group (fixed-point data their fixed points, group ``points``:
+    :attr:`twin.kinds.base.Kind.implied`). The settings' bounds, priors and fixed parameters
+    apply to the groups (:func:`twin.unknowns.limits.restrict`).
 
     Raises:
         InputError: for a bound, prior or fix that names no unknown of the model or has another
             unit (``where``: ``bounds``, ``priors``, ``fix``).
     """
-    names = [*settings.groups, *(["points"] if kind == "point" else [])]
+    measured = KINDS.lookup(kind)
+    names = [*settings.groups, *measured.implied]
     groups = restrict(make_groups(names, robot, rig), settings.bounds, settings.priors,
                       settings.fix)
-    return Model(robot, rig, KINDS.lookup(kind), groups)
+    return Model(robot, rig, measured, groups)
 
 
 def cable_rig(port_m: ArrayLike | None, rig: Rig | None) -> Rig:
@@ -75,32 +78,29 @@ def _check_unknowns(settings: CalibrationSettings, kind: str) -> None:
 def _prepared(robot: RobotModel, measurements: Measurements, setup: Rig,
               settings: CalibrationSettings) -> tuple[Measurements, Rig]:
     """The measurements and the rig as the model reads them: ports matched by name, fixed
-    points started (:mod:`twin.calibration.start`)."""
+    points started (:meth:`twin.kinds.base.Kind.prepare`)."""
     _check_unknowns(settings, measurements.kind)
-    if measurements.kind == "length":
-        if not len(setup.ports_m):
-            raise InputError("cable lengths without a port", "the port (--port X,Y,Z or "
-                             "--port NAME=X,Y,Z)")
-        measurements = match_ports(measurements, setup)
-    elif measurements.kind == "point":
-        setup = with_fixed_points(robot, setup, measurements)
+    setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements,
+                                                                   settings.noise)
     return measurements, setup
 
 
-def _held_out(validation: Measurements, kind: str, model: Model) -> Measurements:
+def _held_out(validation: Measurements, kind: str, model: Model, noise: Noise
+              ) -> Measurements:
     """A separate file's measurements as the model reads them (validation only).
 
     Raises:
         InputError: for another kind of measurement, fixed points (their points are the
             training data's own unknowns) or what the model reads and the file lacks.
     """
-    if validation.kind != kind or kind == "point":
+    implied = model.kind.implied
+    if validation.kind != kind or implied:
         raise InputError(f"{validation.kind} measurements to validate on",
                          f"{kind} measurements like the training data's"
-                         + (" (fixed points are validated by --cv-by: their points are the "
-                            "training data's unknowns)" if kind == "point" else ""),
-                         where="validation")
-    held_out = match_ports(validation, model.rig)
+                         + (f" ({model.kind.what} are validated by --cv-by: their "
+                            f"{'/'.join(implied)} are the training data's unknowns)"
+                            if implied else ""), where="validation")
+    held_out = model.kind.prepare(model.robot, model.rig, validation, noise)[1]
     check_approach(model, held_out.approach)
     return held_out
 
@@ -144,9 +144,11 @@ def make_problem(
 ) -> SplitProblem:
     """The problem the solvers see, with its train/validation split.
 
-    Tracker data with the tracker frame estimated start it at a rigid fit of the nominal
-    model's points to the training readings; fixed-point data start their points at the
-    nominal model's mean point of each name.
+    The measurement kind completes the rig from the data and starts it
+    (:meth:`twin.kinds.base.Kind.prepare`, :meth:`~twin.kinds.base.Kind.start`): tracker data
+    with the tracker frame estimated start it at a rigid fit of the nominal model's points to
+    the training readings; fixed-point data start their points at the nominal model's mean
+    point of each name.
 
     Args:
         robot: Nominal robot.
@@ -175,12 +177,12 @@ def make_problem(
     measurements, setup = _prepared(robot, measurements, cable_rig(port_m, rig), settings)
     model = make_model(robot, setup, measurements.kind, settings)
     check_approach(model, measurements.approach)
-    held_out = None if validation is None else _held_out(validation, measurements.kind, model)
+    held_out = None if validation is None else _held_out(validation, measurements.kind, model,
+                                                           settings.noise)
     train_rows, validation_rows = _rows(model, measurements, settings, seed, rows,
                                         held_out is not None)
     train = measurements.subset(train_rows)
-    if settings.estimates("base"):
-        model = tracker_start(model, train)
+    model = model.kind.start(model, train)
     # An angle's noise: a prismatic joint's recorded travel counts as exact (a linear axis's
     # encoder resolves micrometres).
     joints = np.where(robot.prismatic, 0.0, settings.joint_sigma(robot.n_joints))

@@ -181,6 +181,8 @@ def seconds(*, zero: bool) -> Callable[[str], float | None]:
 
 sigma_mm = number(0.0, 1000.0, above=True)
 """An argparse type: a length noise 1σ in mm."""
+sigma_deg = number(0.0, 90.0, above=True)
+"""An argparse type: an angle noise 1σ in degrees."""
 AUTO_SIGMA = "auto"
 """The ``--sigma`` value that lets the data say σ (:mod:`twin.calibration.noise`)."""
 
@@ -423,11 +425,25 @@ def add_rig_flags(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--estimate-attachment", action="store_true",
                         help="also identify the measured point in the flange frame")
     parser.add_argument("--estimate-base", action="store_true",
-                        help="tracker positions: also identify the tracker-to-base transform, "
-                        "started at a rigid fit of the nominal model's points")
+                        help="tracker positions and 6-D poses: also identify the "
+                        "instrument-to-base transform, started at a rigid fit of the nominal "
+                        "model's points")
+    parser.add_argument("--estimate-tool", action="store_true",
+                        help="6-D poses: also identify the tool frame on the flange, 6-D: its "
+                        "origin (as --estimate-attachment) and its rotation, started at the "
+                        "mean the readings say")
+    parser.add_argument("--sigma-deg", type=sigma_deg, metavar="DEG",
+                        help="6-D poses: the instrument's angle noise 1σ in degrees, what an "
+                        "orientation row weighs against a position row of --sigma (default: "
+                        "the capture's [encoder] sigma_deg, else 0.01)")
     parser.add_argument("--distance", action="append", metavar="A,B=MM",
                         help="fixed points: a known distance between the points named A and B, "
-                        "mm (a ball fixture's socket spacing); repeat for several")
+                        "mm (a ball fixture's socket spacing); touches of planes: between two "
+                        "parallel planes (a gauge block's faces); repeat for several")
+    parser.add_argument("--angle", action="append", metavar="A,B=DEG",
+                        help="touches of planes: a known angle between the normals of the "
+                        "planes named A and B, degrees (a square's faces: 90); repeat for "
+                        "several")
 
 
 ALL_PORTS = ""

@@ -167,11 +167,13 @@ def run(args: argparse.Namespace) -> int:
 def _run_auto(args: argparse.Namespace, inputs: Inputs, measurements: Measurements) -> int:
     """Fit the nested error models, print the comparison and the chosen one's result."""
     from twin.calibration.selection import choose_errors
+    from twin.cli.inputs import refuse_inapplicable
     from twin.io.results import choice_to_dict, result_to_dict, write_json
     from twin.report.text import format_choice, format_result
 
     settings = inputs.calibration
-    if len(inputs.rig.ports_m) != 1 or measurements.kind != "length":
+    refuse_inapplicable(inputs, measurements)
+    if len(inputs.rig.ports_m) != 1:
         raise InputError("--errors auto with this rig", "cable lengths from one port",
                          source="--errors")
     try:

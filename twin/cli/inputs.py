@@ -58,7 +58,12 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     """The rig of the capture (or none) with the flags' ports, attachment and distances."""
     import numpy as np
 
-    from twin.io.capture_file import parse_distances, parse_named_port, parse_port_mm
+    from twin.io.capture_file import (
+        parse_angles,
+        parse_distances,
+        parse_named_port,
+        parse_port_mm,
+    )
 
     rig = base
     ports = getattr(args, "port", None)
@@ -76,6 +81,8 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
         rig = replace(rig, attachment_m=parse_port_mm(args.attachment, "--attachment", ""))
     if getattr(args, "distance", None):
         rig = replace(rig, distances=parse_distances(args.distance, "--distance"))
+    if getattr(args, "angle", None):
+        rig = replace(rig, angles=parse_angles(args.angle, "--angle"))
     estimated = [name for name in (getattr(args, "estimate_port", None) or [])
                  if name != ALL_PORTS]
     for name in estimated:
@@ -87,6 +94,7 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
 JOINT_FLAGS = "--joint-resolution-deg or --joint-sigma-deg"
 """The flags of the joints' noise, named together by an error in it."""
 FLAGS = {"errors": "--errors", "estimate": "--estimate-port", "sigma_m": "--sigma",
+         "sigma_rad": "--sigma-deg",
          "loss": "--loss", "loss_scale_m": "--loss-scale", "stop": "--stop",
          "max_iterations": "--max-iterations", "train_fraction": "--train-fraction",
          "bounds": "--bounds", "priors": "--prior", "fix": "--fix",
@@ -118,10 +126,11 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
         InputError: naming the flag of a setting that is wrong.
     """
     from twin.analysis.misfit import reading_sigma
-    from twin.units import mm_to_m
+    from twin.units import deg_to_rad, mm_to_m
 
     flagged = {"estimate_port": "port", "estimate_offset": "offset",
-               "estimate_attachment": "attachment", "estimate_base": "base"}
+               "estimate_attachment": "attachment", "estimate_base": "base",
+               "estimate_tool": "tool"}
     estimate = {*base.estimate, *(name for flag, name in flagged.items()
                                   if getattr(args, flag, None))}
     errors = getattr(args, "errors", None)
@@ -137,6 +146,8 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
         "sigma_auto": auto or base.sigma_auto,
         "joint_sigma_rad": _joint_flags(args, base),
         "loss_scale_m": base.loss_scale_m if scale is None else float(mm_to_m(scale)),
+        "sigma_rad": base.sigma_rad if getattr(args, "sigma_deg", None) is None
+        else float(deg_to_rad(args.sigma_deg)),
         **{key: getattr(args, flag) for key, flag in (
             ("loss", "loss"), ("stop", "stop"), ("max_iterations", "max_iterations"),
             ("train_fraction", "train_fraction")) if getattr(args, flag, None) is not None},
@@ -167,6 +178,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     flag_robot = robot_from_flags(args)  # the IRB 120 without --robot
     tension = getattr(args, "cable_tension", None)
     flags = frozenset(flag for flag, name in (("--port", "port"), ("--distance", "distance"),
+                                              ("--angle", "angle"),
                                               ("--attachment", "attachment"),
                                               ("--loss-scale", "loss_scale"),
                                               ("--bounds", "bounds"), ("--prior", "prior"),
@@ -216,26 +228,16 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
                                          load_truth_attachment(path))
 
 
-PORT_IN_METRES_MM = 5.0
-"""Ports within ±5 mm in every coordinate beside lengths of hundreds of mm look like metres."""
-
-
-def _warn_port_unit(inputs: Inputs, measurements: Measurements) -> None:
-    """A one-line hint when the ports look given in metres (the Python API's unit) while the
-    flags and files take millimetres."""
-    import numpy as np
-
+def _warn_rig_unit(inputs: Inputs, measurements: Measurements) -> None:
+    """A one-line hint when the rig looks given in metres (the Python API's unit) while the
+    flags and files take millimetres (:meth:`twin.kinds.base.Kind.unit_hint`)."""
     from twin.io.measurements import UnitWarning
-    from twin.units import m_to_mm, mm_to_m
+    from twin.kinds import KINDS
 
-    if measurements.kind != "length" or not len(inputs.rig.ports_m):
-        return
-    small = np.all(np.abs(m_to_mm(inputs.rig.ports_m)) <= PORT_IN_METRES_MM)
-    if small and float(np.median(measurements.lengths)) > 20 * float(mm_to_m(PORT_IN_METRES_MM)):
+    hint = KINDS.lookup(measurements.kind).unit_hint(inputs.rig, measurements)
+    if hint is not None:
         where = "--port" if inputs.truth_path is None else str(inputs.measurements_path)
-        warnings.warn(f"{where}: every port coordinate is within ±{PORT_IN_METRES_MM:g} mm while "
-                      "the cable lengths are hundreds of millimetres: the port is read in mm — "
-                      "it looks like metres (0.6 for 600 mm)", UnitWarning, stacklevel=2)
+        warnings.warn(f"{where}: {hint}", UnitWarning, stacklevel=2)
 
 
 def prepare_error(inputs: Inputs, exc: InputError) -> InputError:
@@ -245,6 +247,9 @@ def prepare_error(inputs: Inputs, exc: InputError) -> InputError:
         return exc
     if exc.where == "distances":
         return exc.at(inputs.distance_source, where="")
+    if exc.where == "angles":
+        return exc.at("--angle" if "--angle" in inputs.flags or not inputs.settings_source
+                      else inputs.settings_source, where="")
     if exc.where in MODEL_FLAGS:
         flag = MODEL_FLAGS[str(exc.where)]
         return exc.at(flag, where="") if flag in inputs.flags or not inputs.settings_source \
@@ -258,12 +263,8 @@ def make_split(inputs: Inputs, measurements: Measurements, seed: int,
     errors naming the flag or file they come from."""
     from twin.calibration.setup import make_problem
 
-    if measurements.kind == "length" and not len(inputs.rig.ports_m):
-        raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
-                         "NAME=X,Y,Z per port, or a capture.toml as INPUT)",
-                         source=inputs.measurements_path)
-    _refuse_inapplicable(inputs, measurements)
-    _warn_port_unit(inputs, measurements)
+    refuse_inapplicable(inputs, measurements)
+    _warn_rig_unit(inputs, measurements)
     try:
         split = make_problem(inputs.robot, measurements, rig=inputs.rig,
                              settings=inputs.calibration, seed=seed,
@@ -286,19 +287,22 @@ MODEL_FLAGS = {"bounds": "--bounds", "priors": "--prior", "fix": "--fix",
                "joint_sigma_rad": JOINT_FLAGS}
 """The flag of each setting checked only against the model (what may move, the joints' noise
 per joint), named by an error in it."""
-APPLIES = {"--port": ("length", "cable lengths (a port per reading)"),
-           "--distance": ("point", "fixed points (the distance between two of them)")}
-"""The rig flags that apply to one kind of data only, and to which."""
 
 
-def _refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
+def refuse_inapplicable(inputs: Inputs, measurements: Measurements) -> None:
     """Refuse a flag the data cannot use, in one line naming the flag and why, rather than
     ignore it: a port for tracker positions, a distance for cable lengths, a loss scale without
     a robust loss."""
-    for flag, (kind, what) in APPLIES.items():
-        if flag in inputs.flags and measurements.kind != kind:
+    from twin.kinds import KINDS
+
+    applies: dict[str, dict[str, str]] = {}
+    for kind in KINDS.values():
+        for flag, what in kind.flags:
+            applies.setdefault(flag, {})[kind.name] = what
+    for flag, kinds in applies.items():
+        if flag in inputs.flags and measurements.kind not in kinds:
             raise InputError(f"{flag} with {measurements.kind} measurements",
-                             f"{flag} only with {what}", source=flag)
+                             f"{flag} only with " + " or ".join(kinds.values()), source=flag)
     if "--loss-scale" in inputs.flags and inputs.calibration.loss == "linear":
         raise InputError("--loss-scale with the linear loss", "it beside a robust --loss "
                          "(huber, soft_l1, cauchy): least squares has no scale",

@@ -71,9 +71,8 @@ def run(args: argparse.Namespace) -> int:
     point = "identified attachment point" if estimated else "attachment point" \
         if np.any(np.abs(model.rig.attachment_m) > 0) else "flange centre"
     groups = ", ".join(group.name for group in model.groups)
-    extra = (", length" if prediction.length_m is not None else "") + (
-        ", tracker_x,tracker_y,tracker_z (mm, tracker frame)"
-        if prediction.tracker_m is not None else "")
+    columns = [name for name, _ in model.kind.prediction_columns(prediction.readings)]
+    extra = f", {','.join(columns)}{model.kind.prediction_note}" if columns else ""
     print(f"{len(poses.q_rad)} poses: x,y,z (mm, base frame) of the {point}{extra}, by the "
           f"{identified.method} model ({groups})")
     print(f"wrote {args.out}")

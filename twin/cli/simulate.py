@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
 
     from twin.hardware.capture_session import real_measurements, set_aside
     from twin.io.lock import folder_lock
+    from twin.kinds import KINDS
     from twin.report.display import LENGTH_DECIMALS, plain, xyz_mm
     from twin.scenario import load_scenario
     from twin.sim import simulate, write_simulation
@@ -64,8 +65,8 @@ def run(args: argparse.Namespace) -> int:
           f"{'compliant' if not scenario.physics.rigid else 'rigid'} joints")
     shown = {key: f"{plain(value, LENGTH_DECIMALS)} mm" for key, value in effects.items()}
     print(f"  nominal model vs readings: RMSE {shown['nominal_rmse_mm']}")
-    readings = "lengths" if sim.measurements.kind == "length" else "readings"
-    print(f"  non-geometric share of the {readings}: RMS {shown['non_geometric_mm']}; "
+    kind = KINDS.lookup(sim.measurements.kind)
+    print(f"  non-geometric share of the {kind.reading_noun}: RMS {shown['non_geometric_mm']}; "
           f"flange shift by joint errors and sag: RMS {shown['flange_shift_mm']}")
     if sim.outlier_rows.size:
         print(f"  {sim.outlier_rows.size} outliers")
@@ -73,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     for name, port_m in zip(told.port_names, told.ports_m, strict=True):
         print(f"  port {'' if len(told.ports_m) == 1 else name + ' '}told to the calibration: "
               f"{xyz_mm(port_m)}")
-    if sim.measurements.kind != "length" or np.any(np.abs(sim.rig.attachment_m) > 0):
+    if not kind.on_flange or np.any(np.abs(sim.rig.attachment_m) > 0):
         print(f"  measured point in the flange frame: {xyz_mm(sim.rig.attachment_m)}, "
               f"told {xyz_mm(told.attachment_m)}")
     if sim.rig.point_names:

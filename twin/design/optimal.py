@@ -135,7 +135,7 @@ def score_poses(
         q_workspace_rad: Poses where the flange error is predicted, shape (k, n), rad.
         port: The station of each pose, shape (m,), for a rig of several ports; port 0 if None.
     """
-    data = model.poses(q_rad, port)
+    data = model.poses(q_rad, port=port)
     jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)[1]
     return DesignScore(
         observability=observability(jacobian[:, base_mask]),
@@ -201,7 +201,7 @@ def plan_stations(model: Model, x: ArrayLike, candidates_rad: ArrayLike, n_poses
     stations, count = candidates.shape[:2]
     q_all = candidates.reshape(stations * count, -1)
     port = np.repeat(np.arange(stations, dtype=np.intp), count)
-    jacobian = model.jacobian(np.asarray(x, dtype=np.float64), model.poses(q_all, port))[1]
+    jacobian = model.jacobian(np.asarray(x, dtype=np.float64), model.poses(q_all, port=port))[1]
     mask = identifiability(jacobian, model.names).base_mask
     selection = d_optimal_rows(jacobian[:, mask], n_poses)
     return StationDesign(q_all[selection.rows], port[selection.rows], selection, mask)

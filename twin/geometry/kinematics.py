@@ -791,6 +791,27 @@ def flange_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike
     return flange, np.concatenate([linear, angular], axis=-2)
 
 
+def flange_turn_jacobian(structure: Structure, dh: ArrayLike, q_rad: ArrayLike
+                         ) -> tuple[Array, Array, Array]:
+    """The flange's orientation and how it turns: base_R_flange (..., m, 3, 3); its angular
+    velocity in the base frame per unit of each table entry, shape (..., m, 3, 4n) in the error
+    vector's order (a rotation's axis, zero for a translation); and per unit rate of each
+    joint, shape (..., m, 3, n) (a revolute joint's axis, zero for a prismatic one)."""
+    _, motions, flange = _walk(structure, dh, q_rad, record=True)
+    n = structure.n_joints
+    slots = [slot for name, joint_type in zip(structure.parametrisation, structure.joint_types,
+                                              strict=True)
+             for _, _, slot, _ in joint_motions(name, joint_type)]
+    table = np.zeros((*flange.shape[:-2], 3, 4 * n))
+    joints = np.zeros((*flange.shape[:-2], 3, n))
+    for (kind, joint, driven, axis, _), slot in zip(motions, slots, strict=True):
+        if kind == _ROT:
+            table[..., slot * n + joint] = axis
+            if driven:
+                joints[..., joint] = axis
+    return flange[..., :3, :3], table, joints
+
+
 def _columns(motions: list[_Moved], p: Array) -> Array:
     """How the point p moves with each motion: u for a translation along u, u × (p − o) for a
     rotation about u through o; shape (..., m, 3, len(motions)), all in one cross product."""

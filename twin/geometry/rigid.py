@@ -1,5 +1,6 @@
 """Rigid transforms of 3-D points: rotations from three angles, their derivatives, and the
-rigid fit of one point set onto another (Kabsch).
+rigid fit of one point set onto another (Kabsch); rotation vectors (Exp and Log of SO(3), with
+scipy's ``Rotation``) and the Jacobians that carry small turns through them.
 
 Angles ``(rx, ry, rz)`` compose as ``R = Rz(rz) · Ry(ry) · Rx(rx)`` (rotations about the fixed
 x, then y, then z axes). They parametrise small corrections of a frame that is already close
@@ -12,6 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 
@@ -100,3 +102,72 @@ def kabsch(source_m: ArrayLike, target_m: ArrayLike) -> RigidFit:
     matrix[:3, 3] = target_centre - r @ source_centre
     carried = source @ r.T + matrix[:3, 3]
     return RigidFit(matrix, float(np.sqrt(np.mean(np.sum((carried - target) ** 2, axis=1)))))
+
+
+def skew(vectors: ArrayLike) -> Array:
+    """The cross-product matrices [v]× of vectors (..., 3): shape (..., 3, 3)."""
+    v = np.asarray(vectors, dtype=np.float64)
+    zero = np.zeros(v.shape[:-1])
+    return np.stack([np.stack([zero, -v[..., 2], v[..., 1]], axis=-1),
+                     np.stack([v[..., 2], zero, -v[..., 0]], axis=-1),
+                     np.stack([-v[..., 1], v[..., 0], zero], axis=-1)], axis=-2)
+
+
+def exp_rotation(vectors_rad: ArrayLike) -> Array:
+    """The rotations Exp(φ) of rotation vectors (..., 3), rad (axis times angle): shape
+    (..., 3, 3)."""
+    v = np.array(vectors_rad, dtype=np.float64)  # a copy: scipy refuses read-only buffers
+    return np.asarray(Rotation.from_rotvec(v.reshape(-1, 3)).as_matrix()
+                      .reshape(*v.shape[:-1], 3, 3), dtype=np.float64)
+
+
+def log_rotation(matrices: ArrayLike) -> Array:
+    """The rotation vectors Log(R) of rotations (..., 3, 3): shape (..., 3), rad, each of angle
+    at most π."""
+    r = np.array(matrices, dtype=np.float64)  # a copy: scipy refuses read-only buffers
+    return np.asarray(Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec()
+                      .reshape(*r.shape[:-2], 3), dtype=np.float64)
+
+
+SMALL_ANGLE_RAD = 1e-6
+"""Below this angle the Jacobians of Exp and Log take their series (their closed forms divide
+by the angle)."""
+
+
+def _angle_terms(vectors_rad: Array) -> tuple[Array, Array, Array]:
+    """θ, [φ]× and [φ]×² of rotation vectors (..., 3)."""
+    angle = np.linalg.norm(vectors_rad, axis=-1)
+    cross = skew(vectors_rad)
+    return angle, cross, cross @ cross
+
+
+def right_jacobian(vectors_rad: ArrayLike) -> Array:
+    """J_r(φ) of rotation vectors (..., 3): Exp(φ + δ) ≈ Exp(φ) Exp(J_r(φ) δ); shape
+    (..., 3, 3)."""
+    angle, cross, square = _angle_terms(np.asarray(vectors_rad, dtype=np.float64))
+    small = angle < SMALL_ANGLE_RAD
+    theta = np.where(small, 1.0, angle)
+    first = np.where(small, 0.5, (1.0 - np.cos(theta)) / theta**2)
+    second = np.where(small, 1.0 / 6.0, (theta - np.sin(theta)) / theta**3)
+    return np.asarray(np.eye(3) - first[..., None, None] * cross
+                      + second[..., None, None] * square, dtype=np.float64)
+
+
+def left_jacobian_inverse(vectors_rad: ArrayLike) -> Array:
+    """J_l⁻¹(φ) of rotation vectors (..., 3): Log(Exp(δ) Exp(φ)) ≈ φ + J_l⁻¹(φ) δ; shape
+    (..., 3, 3)."""
+    angle, cross, square = _angle_terms(np.asarray(vectors_rad, dtype=np.float64))
+    small = angle < SMALL_ANGLE_RAD
+    theta = np.where(small, 1.0, angle)
+    second = np.where(small, 1.0 / 12.0,
+                      1.0 / theta**2 - (1.0 + np.cos(theta)) / (2.0 * theta * np.sin(theta)))
+    return np.asarray(np.eye(3) - 0.5 * cross + second[..., None, None] * square,
+                      dtype=np.float64)
+
+
+def mean_rotation(matrices: ArrayLike) -> Array:
+    """The chordal L2 mean of rotations (k, 3, 3): the rotation nearest their sum (the SVD
+    projection, a proper rotation), shape (3, 3)."""
+    u, _, vt = np.linalg.svd(np.sum(np.asarray(matrices, dtype=np.float64), axis=0))
+    flip = np.diag([1.0, 1.0, 1.0 if np.linalg.det(u @ vt) > 0 else -1.0])
+    return np.asarray(u @ flip @ vt, dtype=np.float64)

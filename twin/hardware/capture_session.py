@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from twin.calibration.settings import CalibrationSettings
 from twin.choices import MAX_JOINTS, MIN_JOINTS
-from twin.dataset import Measurements, approach_directions
+from twin.dataset import approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.encoders import EncoderConfig, open_encoder
 from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
@@ -48,7 +48,6 @@ from twin.io.capture_file import write_capture
 from twin.io.journal import Journal
 from twin.io.lock import folder_lock
 from twin.io.measurements import (
-    LENGTH_COLUMN,
     approach_columns,
     format_measurements,
     joint_columns,
@@ -58,6 +57,8 @@ from twin.io.measurements import (
 from twin.io.paths import OutputFile, os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
+from twin.kinds.length import COLUMN as LENGTH_COLUMN
+from twin.kinds.length import length_measurements
 from twin.report.display import mm, seconds
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -101,7 +102,8 @@ def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float,
                approach: NDArray[np.int8], robot: RobotModel | None = None) -> str:
     """One line of the measurement file of ``robot`` (a prismatic joint's q in mm), with its
     LF; ``approach`` (n,) the pose's sides."""
-    measured = Measurements(q_rad[None, :], np.array([length_m]), approach=approach[None, :])
+    measured = length_measurements(q_rad[None, :], np.array([length_m]),
+                                   approach=approach[None, :])
     return f"{pose},{format_measurements(measured, robot).splitlines()[1]}\n"
 
 

@@ -67,8 +67,8 @@ def _angles_rad(table: Table, key: str) -> list[float]:
     return deg_to_rad(numbers).tolist()
 
 
-def parse_calibration(table: Table, sigma_m: float,
-                      joint_sigma_rad: tuple[float, ...] = ()) -> CalibrationSettings:
+def parse_calibration(table: Table, sigma_m: float, joint_sigma_rad: tuple[float, ...] = (),
+                      sigma_rad: float | None = None) -> CalibrationSettings:
     """The settings of a ``[calibration]`` table (every key optional) and the file's noise.
 
     Args:
@@ -76,11 +76,13 @@ def parse_calibration(table: Table, sigma_m: float,
         sigma_m: The noise 1σ of one reading the file states, m.
         joint_sigma_rad: The noise 1σ of the recorded joint angles the file states, rad (one
             or one per joint); the table's ``joint_*`` keys replace it.
+        sigma_rad: The noise 1σ of an angle it states, rad (6-D poses), or None.
 
     Raises:
         InputError: naming the file and key of the first wrong value.
     """
-    values: dict[str, Any] = {"sigma_m": sigma_m, "joint_sigma_rad": joint_sigma_rad}
+    values: dict[str, Any] = {"sigma_m": sigma_m, "joint_sigma_rad": joint_sigma_rad,
+                              "sigma_rad": sigma_rad}
     if table.has("sigma"):
         if table.values["sigma"] != AUTO:
             raise table.error("sigma", repr(table.values["sigma"]), f'"{AUTO}" (σ itself is the '

@@ -11,7 +11,8 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     left = [500.0, 500.0, 0.0]
     [rig]                             # optional
     attachment_mm = [0.0, 0.0, 40.0]  # the measured point in the flange frame (default 0,0,0)
-    distances = ["f1s1,f1s2=50"]      # known distances between fixed points, mm
+    distances = ["f1s1,f1s2=50"]      # known distances between fixed points (or planes), mm
+    angles = ["top,front=90"]         # known angles between planes, degrees
     [calibration]                     # optional: how to calibrate it (flags still override):
     errors = ["dh"]                   # the keys of twin.io.calibration_table, and
     cable_tension_n = 0.0             # the cable's pull, N (loads a compliant arm)
@@ -20,6 +21,7 @@ Written by ``twin simulate`` and ``twin capture``; paths are relative to the cap
     sigma_mm = 0.01                   # the instrument's noise 1σ (misfit test, filters)
     resolution_mm = 0.004             # its resolution
     repeatability_mm = 0.01           # the robot's RMS flange repeatability (noise of a pose)
+    sigma_deg = 0.01                  # a 6-D instrument's angle noise 1σ, degrees
 """
 
 from __future__ import annotations
@@ -43,12 +45,12 @@ from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot
 from twin.io.table import Table
 from twin.problem import DEFAULT_SIGMA_M
-from twin.rig import Distance, Rig
+from twin.rig import Angle, Distance, Rig
 from twin.robot import RobotModel
-from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
+from twin.units import MAX_LENGTH_M, deg_to_rad, m_to_mm, mm_to_m
 
 _KEYS = ("robot", "port_mm", "measurements", "truth", "calibration", "encoder", "ports", "rig")
-_RIG_KEYS = ("attachment_mm", "distances")
+_RIG_KEYS = ("attachment_mm", "distances", "angles")
 
 
 @dataclass(frozen=True)
@@ -86,6 +88,13 @@ class Capture:
         resolution = float(mm_to_m(self.encoder.get("resolution_mm", 0.0)))
         total = math.hypot(sigma, resolution / math.sqrt(12.0))
         return total if total > 0 else DEFAULT_SIGMA_M
+
+    @property
+    def angle_sigma_rad(self) -> float | None:
+        """The instrument's angle noise the capture states (``[encoder]`` sigma_deg), rad;
+        None when it states none."""
+        sigma = float(deg_to_rad(self.encoder.get("sigma_deg", 0.0)))
+        return sigma if sigma > 0 else None
 
     @property
     def repeatability_m(self) -> float:
@@ -137,6 +146,8 @@ def load_capture(path: str | Path) -> Capture:
     encoder = document.table("encoder")
     for key in ("sigma_mm", "resolution_mm", "repeatability_mm"):
         encoder.number(key, 0.0, minimum=0.0, expected="a noise in mm >= 0")
+    encoder.number("sigma_deg", 0.0, minimum=0.0, maximum=90.0,
+                   expected="an angle noise in degrees, 0 to 90")
     folder = path.parent
     table = document.table("calibration", allowed=(*KEYS, "cable_tension_n"))
     rig = replace(_parse_rig(document), tension_n=table.number(
@@ -151,7 +162,8 @@ def load_capture(path: str | Path) -> Capture:
         encoder=dict(encoder.values),
         rig=rig,
     )
-    return replace(capture, calibration=parse_calibration(table, capture.reading_sigma_m))
+    return replace(capture, calibration=parse_calibration(
+        table, capture.reading_sigma_m, sigma_rad=capture.angle_sigma_rad))
 
 
 def parse_distance(value: object, source: str | Path, where: str) -> Distance:
@@ -180,20 +192,54 @@ def parse_distances(values: list[Any], source: str | Path, where: str = ""
         source: The file or flag they come from.
         where: Where the list is in the file (``[rig] distances``), or "" for a flag.
     """
-    distances: list[Distance] = []
-    for index, value in enumerate(values):
-        item = f"{where}[{index}]" if where else ""
-        distance = parse_distance(value, source, item)
-        pair = {distance.first, distance.second}
-        for earlier in distances:
-            if {earlier.first, earlier.second} == pair:
-                raise InputError(
-                    f"{distance.first},{distance.second} a second time "
-                    f"({float(m_to_mm(earlier.length_m)):g} mm, then "
-                    f"{float(m_to_mm(distance.length_m)):g} mm)",
-                    "each pair of points once", source=source, where=item or None)
-        distances.append(distance)
+    distances = [parse_distance(value, source, f"{where}[{index}]" if where else "")
+                 for index, value in enumerate(values)]
+    _each_pair_once([(d.first, d.second, f"{float(m_to_mm(d.length_m)):g} mm")
+                     for d in distances], "points", source, where)
     return tuple(distances)
+
+
+def parse_angle(value: object, source: str | Path, where: str) -> Angle:
+    """``"A,B=DEG"``: a known angle between the planes A and B, degrees, to SI."""
+    text = value if isinstance(value, str) else ""
+    names, _, size = text.partition("=")
+    first, _, second = names.partition(",")
+    try:
+        angle_deg = float(size)
+    except ValueError:
+        angle_deg = math.nan
+    if not (first.strip() and second.strip() and first.strip() != second.strip()
+            and 1 <= angle_deg <= 179):
+        raise InputError(f"{value!r}", "A,B=DEG: two different plane names and the angle "
+                         "between their normals, 1 to 179 degrees (parallel planes: a distance)",
+                         source=source, where=where)
+    return Angle(first.strip(), second.strip(), float(deg_to_rad(angle_deg)))
+
+
+def parse_angles(values: list[Any], source: str | Path, where: str = "") -> tuple[Angle, ...]:
+    """Known angles ``"A,B=DEG"`` (:func:`parse_angle`), each pair of planes once.
+
+    Args:
+        values: The ``A,B=DEG`` texts.
+        source: The file or flag they come from.
+        where: Where the list is in the file (``[rig] angles``), or "" for a flag.
+    """
+    angles = [parse_angle(value, source, f"{where}[{index}]" if where else "")
+              for index, value in enumerate(values)]
+    _each_pair_once([(a.first, a.second, f"{math.degrees(a.angle_rad):g} deg")
+                     for a in angles], "planes", source, where)
+    return tuple(angles)
+
+
+def _each_pair_once(pairs: list[tuple[str, str, str]], what: str, source: str | Path,
+                    where: str) -> None:
+    """Refuse a pair told twice: two answers to one question (A,B and B,A are one pair)."""
+    for index, (first, second, value) in enumerate(pairs):
+        for earlier_first, earlier_second, earlier in pairs[:index]:
+            if {earlier_first, earlier_second} == {first, second}:
+                raise InputError(f"{first},{second} a second time ({earlier}, then {value})",
+                                 f"each pair of {what} once", source=source,
+                                 where=f"{where}[{index}]" if where else None)
 
 
 def parse_named_port(value: str, source: str | Path, where: str
@@ -225,9 +271,13 @@ def _parse_rig(document: Table) -> Rig:
     distances = table.values.get("distances", [])
     if not isinstance(distances, list):
         raise table.error("distances", f"{distances!r}", 'a list of "A,B=MM"')
+    angles = table.values.get("angles", [])
+    if not isinstance(angles, list):
+        raise table.error("angles", f"{angles!r}", 'a list of "A,B=DEG"')
     return Rig(np.reshape(values, (-1, 3)), names, attachment,
                distances=parse_distances(distances, document.source or "",
-                                         table.where("distances")))
+                                         table.where("distances")),
+               angles=parse_angles(angles, document.source or "", table.where("angles")))
 
 
 def write_capture(
@@ -244,8 +294,8 @@ def write_capture(
     """Write a capture file atomically; ``robot``, ``measurements``, ``truth`` are relative.
 
     The rig is ``port_m`` alone, or ``rig``: one port named ``port`` is written as
-    ``port_mm``, other ports as ``[ports]``; an attachment off the flange and known distances
-    as ``[rig]``.
+    ``port_mm``, other ports as ``[ports]``; an attachment off the flange, known distances and
+    known angles as ``[rig]``.
     """
     if rig is None:
         rig = Rig() if port_m is None else Rig.cable(port_m)
@@ -262,13 +312,17 @@ def write_capture(
         lines.append("[ports]")
         lines += [f"{json.dumps(name)} = {_vector_mm(port)}"
                   for name, port in zip(rig.port_names, rig.ports_m, strict=True)]
-    if np.any(np.abs(rig.attachment_m) > 0) or rig.distances:
+    if np.any(np.abs(rig.attachment_m) > 0) or rig.distances or rig.angles:
         lines.append("[rig]")
         lines.append("attachment_mm = " + _vector_mm(rig.attachment_m))
         if rig.distances:
             lines.append("distances = [" + ", ".join(
                 json.dumps(f"{d.first},{d.second}={float(m_to_mm(d.length_m))!r}")
                 for d in rig.distances) + "]")
+        if rig.angles:
+            lines.append("angles = [" + ", ".join(
+                json.dumps(f"{a.first},{a.second}={math.degrees(a.angle_rad)!r}")
+                for a in rig.angles) + "]")
     if calibration is not None:
         lines += [*calibration_lines(calibration), f"cable_tension_n = {rig.tension_n!r}"]
     if encoder:

@@ -36,9 +36,9 @@ from twin.io.capture_file import parse_port_mm
 from twin.io.paths import read_json
 from twin.io.robot_file import default_robot, robot_digest, robot_from_files
 from twin.io.truth import parse_dh_rows
-from twin.kinds import KINDS
+from twin.kinds import KINDS, Kind
 from twin.model import Model
-from twin.rig import Distance, Rig
+from twin.rig import Distance, Part, Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,
@@ -349,7 +349,7 @@ class IdentifiedModel(NamedTuple):
         return np.asarray(self.model.table(self.x) - self.model.robot.dh, dtype=np.float64)
 
 
-def _rig(document: Any, path: Path, where: str) -> Rig:
+def _rig(document: Any, kind: Kind, path: Path, where: str) -> Rig:
     here = f"{where}unknowns.rig"
     if not isinstance(document, dict) or not isinstance(document.get("ports"), dict):
         raise InputError("no rig", '"rig": {"ports": {name: [x, y, z]}, "attachment": [...]}',
@@ -385,10 +385,22 @@ def _rig(document: Any, path: Path, where: str) -> Rig:
                    points_m=np.reshape([parse_port_mm(value, path, f"{here}.points.{name}")
                                         for name, value in points.items()], (-1, 3)),
                    distances=tuple(_distance(value, path, f"{here}.distances")
-                                   for value in distances))
+                                   for value in distances),
+                   part=_part(document.get(kind.name), kind, path, f"{here}.{kind.name}"))
     except ValueError as exc:
         raise InputError(str(exc), "the rig of a result written by this version of twin "
                          "calibrate", source=path, where=here) from None
+
+
+def _part(document: Any, kind: Kind, path: Path, where: str) -> Part | None:
+    """The kind's part of the rig (:meth:`twin.kinds.base.Kind.read_part`), or None."""
+    if document is None:
+        return None
+    try:
+        return kind.read_part(document)
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=path,
+                         where=f"{where}.{exc.where}" if exc.where else where) from None
 
 
 def _distance(value: Any, path: Path, where: str) -> Distance:
@@ -531,14 +543,19 @@ def load_result(path: str | Path, robot: RobotModel | None = None, method: str |
     if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
         raise InputError("no 'unknowns'", "a result written by this version of twin calibrate",
                          source=path, where=f"{where}unknowns")
-    rig = _rig(unknowns.get("rig"), path, where)
+    try:
+        kind = KINDS.lookup(str(unknowns.get("kind")))
+    except InputError as exc:
+        raise InputError(exc.found, exc.expected, source=path,
+                         where=f"{where}unknowns") from None
+    rig = _rig(unknowns.get("rig"), kind, path, where)
     groups = unknowns.get("groups")
     if not isinstance(groups, list) or not all(isinstance(g, str) for g in groups):
         raise InputError(f"{groups!r}", "a list of unknown group names", source=path,
                          where=f"{where}unknowns.groups")
     try:
-        model = Model(robot, rig, KINDS.lookup(str(unknowns.get("kind"))), _recorded_limits(
-            make_groups(groups, robot, rig), unknowns, path, where))
+        model = Model(robot, rig, kind, _recorded_limits(make_groups(groups, robot, rig),
+                                                         unknowns, path, where))
     except InputError as exc:
         if exc.source is not None:
             raise

@@ -1,6 +1,8 @@
 """Measurement files: CSV, one row per pose, degrees and mm.
 
-Columns ``q1..qN`` (the robot's joints: degrees, mm for a prismatic joint) and exactly one of:
+Columns ``q1..qN`` (the robot's joints: degrees, mm for a prismatic joint) and the columns of
+exactly one measurement kind (:attr:`twin.kinds.base.Kind.columns` and its labels; the kind
+reads, checks and writes them):
 
 - ``length`` — a cable length (mm) from a drawstring encoder; with an optional ``port`` column
   naming the port each row's cable ran from, when the encoder was moved between ports;
@@ -8,6 +10,9 @@ Columns ``q1..qN`` (the robot's joints: degrees, mm for a prismatic joint) and e
   tracker;
 - ``point`` — the name of the unknown fixed place the measured point was brought to (a ball in a
   socket, a pointer on a mark).
+
+A kind whose columns hold another's (a pose's ``x,y,z`` and its orientation) is the one a file
+with all of them holds.
 
 Optional ``approach1..approachN`` (+1 / −1): the direction each joint last moved in before the
 reading, which backlash depends on. Other columns are ignored; ``#`` lines are comments. Every
@@ -33,15 +38,9 @@ from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
 from twin.io.table import shown
+from twin.kinds import KINDS, Kind
 from twin.robot import RobotModel
-from twin.units import (
-    MAX_LENGTH_M,
-    joint_file_units,
-    joints_from_file,
-    joints_to_file,
-    m_to_mm,
-    mm_to_m,
-)
+from twin.units import joint_file_units, joints_from_file, joints_to_file
 
 
 def joint_columns(n_joints: int) -> tuple[str, ...]:
@@ -68,12 +67,6 @@ def approach_columns(n_joints: int) -> tuple[str, ...]:
 
 JOINT_COLUMNS = joint_columns(6)
 """The joint columns of a 6-joint arm."""
-LENGTH_COLUMN = "length"
-COLUMNS = (*JOINT_COLUMNS, LENGTH_COLUMN)
-"""The columns of a 6-joint arm's cable measurements."""
-POSITION_COLUMNS = ("x", "y", "z")
-PORT_COLUMN = "port"
-POINT_COLUMN = "point"
 MAX_LABEL_CHARS = 64
 """Longest port or point name."""
 
@@ -211,10 +204,39 @@ def read_table(
     return table.values, table.lines
 
 
-def _names(labels: list[str]) -> tuple[tuple[str, ...], NDArray[np.intp]]:
-    """Distinct names in order of first appearance, and each row's index into them."""
-    names = tuple(dict.fromkeys(labels))
-    return names, np.array([names.index(label) for label in labels], dtype=np.intp)
+def _required(kind: Kind) -> set[str]:
+    return {*kind.columns, *kind.labels}
+
+
+def _which_kind(table: Columns, joints: tuple[str, ...], path: str | Path) -> Kind:
+    """The one kind whose columns the file has (a kind whose columns another's hold gives way
+    to it); a file with some of a kind's columns only, or with none or two kinds, is refused."""
+    header = set(table.header)
+    given = [kind for kind in KINDS.values() if _required(kind) <= header]
+    given = [kind for kind in given
+             if not any(_required(kind) < _required(other) for other in given)]
+    partial = [kind for kind in KINDS.values()
+               if 0 < len(_required(kind) & header) < len(_required(kind))
+               and not (len(given) == 1 and _required(kind) & header <= _required(given[0]))]
+    if len(given) != 1 or partial:
+        texts = [kind.columns_text for kind in KINDS.values()]
+        kinds = ", ".join(texts[:-1]) + f" or {texts[-1]}"
+        known = {*joints, *(name for kind in KINDS.values()
+                            for name in (*_required(kind), *kind.optional_labels))}
+        raise InputError(f"columns {','.join(name for name in table.header if name in known)}",
+                         f"exactly one of {kinds} beside {joints[0]}..{joints[-1]}",
+                         source=path, where=f"line {table.header_line}")
+    return given[0]
+
+
+def _refuse_other_labels(table: Columns, kind: Kind, path: str | Path) -> None:
+    """Refuse a label column another kind reads (a port beside tracker positions)."""
+    for other in KINDS.values():
+        for label in other.optional_labels:
+            if other is not kind and label in table.labels:
+                raise InputError(f"a {label} column", f"{label} only beside "
+                                 f"{','.join(other.columns)}", source=path,
+                                 where=f"line {table.header_line}")
 
 
 def load_labels(path: str | Path, column: str) -> list[str]:
@@ -254,24 +276,16 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     """
     n = robot.n_joints if robot is not None else 6
     joints = joint_columns(n)
-    kinds = f"{LENGTH_COLUMN} (mm), {','.join(POSITION_COLUMNS)} (mm) or {POINT_COLUMN}"
-    what = f"a measurement CSV ({joint_units_said(n, robot)} and {kinds})"
-    table = read_columns(path, joints, what, optional=(LENGTH_COLUMN, *POSITION_COLUMNS,
-                                                       *approach_columns(n)),
-                         labels=(PORT_COLUMN, POINT_COLUMN), stdin=stdin)
+    texts = [kind.columns_text for kind in KINDS.values()]
+    what = (f"a measurement CSV ({joint_units_said(n, robot)} and "
+            + ", ".join(texts[:-1]) + f" or {texts[-1]})")
+    numeric = tuple(dict.fromkeys(name for kind in KINDS.values() for name in kind.columns))
+    labels = tuple(dict.fromkeys(name for kind in KINDS.values()
+                                 for name in (*kind.optional_labels, *kind.labels)))
+    table = read_columns(path, joints, what, optional=(*numeric, *approach_columns(n)),
+                         labels=labels, stdin=stdin)
     _refuse_extra_joints(table, n, path)
-    given = [name for name, present in (
-        (LENGTH_COLUMN, LENGTH_COLUMN in table.optional),
-        (",".join(POSITION_COLUMNS), all(c in table.optional for c in POSITION_COLUMNS)),
-        (POINT_COLUMN, POINT_COLUMN in table.labels)) if present]
-    partial = [c for c in POSITION_COLUMNS if c in table.optional] and \
-        not all(c in table.optional for c in POSITION_COLUMNS)
-    header_line = f"line {table.header_line}"
-    if len(given) != 1 or partial:
-        known = (*joints, LENGTH_COLUMN, *POSITION_COLUMNS, PORT_COLUMN, POINT_COLUMN)
-        raise InputError(f"columns {','.join(name for name in table.header if name in known)}",
-                         f"exactly one of {kinds} beside {joints[0]}..{joints[-1]}",
-                         source=path, where=header_line)
+    kind = _which_kind(table, joints, path)
     q_file = table.values
     if robot is not None:
         check_joint_limits(q_file, table.lines, robot, path)
@@ -286,32 +300,11 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
         )
     q_rad = joints_from_file(q_file, _prismatic(robot))
     approach = _approach(table, n, path)
-    longest_mm = float(m_to_mm(MAX_LENGTH_M))
-    if given[0] == LENGTH_COLUMN:
-        length_mm = table.optional[LENGTH_COLUMN]
-        bad = np.flatnonzero((length_mm <= 0) | (length_mm > longest_mm))
-        if bad.size:
-            raise InputError(f"{length_mm[bad[0]]:g} mm",
-                             f"a positive cable length in mm, at most {longest_mm:g}",
-                             source=path, where=f"line {table.lines[bad[0]]}, column length")
-        port_names, port = _names(table.labels[PORT_COLUMN]) if PORT_COLUMN in table.labels \
-            else ((), None)
-        return Measurements(q_rad, mm_to_m(length_mm), port=port,
-                            approach=approach, port_names=port_names)
-    if PORT_COLUMN in table.labels:
-        raise InputError(f"a {PORT_COLUMN} column", f"{PORT_COLUMN} only beside {LENGTH_COLUMN}",
-                         source=path, where=header_line)
-    if given[0] == POINT_COLUMN:
-        point_names, point = _names(table.labels[POINT_COLUMN])
-        return Measurements(q_rad, point=point, approach=approach,
-                            point_names=point_names)
-    xyz_mm = np.stack([table.optional[c] for c in POSITION_COLUMNS], axis=1)
-    bad = np.flatnonzero(np.any(np.abs(xyz_mm) > longest_mm, axis=1))
-    if bad.size:
-        raise InputError(f"{np.max(np.abs(xyz_mm[bad[0]])):g} mm",
-                         f"coordinates within ±{longest_mm:g} mm", source=path,
-                         where=f"line {table.lines[bad[0]]}")
-    return Measurements(q_rad, position_m=mm_to_m(xyz_mm), approach=approach)
+    _refuse_other_labels(table, kind, path)
+    try:
+        return kind.from_columns(q_rad, table.optional, table.labels, table.lines, approach)
+    except InputError as exc:
+        raise exc.at(path) from None
 
 
 def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
@@ -429,32 +422,15 @@ def check_joint_limits(
 def format_measurements(measurements: Measurements, robot: RobotModel | None = None) -> str:
     """The CSV text (header, degrees, mm) of measurements of ``robot`` (whose prismatic joints'
     values are written in mm; every joint revolute without one), exactly round-tripping
-    floats."""
+    floats: the joints, the kind's columns (:meth:`twin.kinds.base.Kind.to_columns`), the
+    approach."""
     n = measurements.q_rad.shape[1]
     header = list(joint_columns(n))
     columns: list[list[str]] = [[repr(float(v)) for v in row] for row in
                                 joints_to_file(measurements.q_rad, _prismatic(robot))]
-    kind = measurements.kind
-    extra: list[list[str]] = []
-    if kind == "length":
-        header.append(LENGTH_COLUMN)
-        extra.append([repr(float(v)) for v in m_to_mm(measurements.lengths)])
-        if measurements.port is not None:
-            names = measurements.port_names or tuple(
-                f"port{j + 1}" for j in range(int(measurements.port.max()) + 1))
-            header.append(PORT_COLUMN)
-            extra.append([names[j] for j in measurements.port])
-    elif kind == "position":
-        assert measurements.position_m is not None
-        header += list(POSITION_COLUMNS)
-        xyz = m_to_mm(measurements.position_m)
-        extra += [[repr(float(v)) for v in xyz[:, k]] for k in range(3)]
-    else:
-        assert measurements.point is not None
-        names = measurements.point_names or tuple(
-            f"point{j + 1}" for j in range(int(measurements.point.max()) + 1))
-        header.append(POINT_COLUMN)
-        extra.append([names[j] for j in measurements.point])
+    readings = KINDS.lookup(measurements.kind).to_columns(measurements)
+    header += [name for name, _ in readings]
+    extra = [cells for _, cells in readings]
     if measurements.approach is not None:
         header += list(approach_columns(n))
         extra += [[f"{int(v):+d}" for v in measurements.approach[:, k]] for k in range(n)]

@@ -3,8 +3,9 @@
 - a pose **plan** (`twin plan`): ``q1..qN`` (and ``port``, the station of each pose);
 - **corrected** commands (`twin compensate`): ``q1..qN`` (empty when unreachable), ``status``,
   ``error_mm`` (the remaining flange error) and, with backlash, ``approach1..N``;
-- **predictions** (`twin predict`): the poses as given, then ``x,y,z`` (mm, base frame),
-  ``length`` and ``tracker_x,tracker_y,tracker_z`` (those the prediction has);
+- **predictions** (`twin predict`): the poses as given, then ``x,y,z`` (mm, base frame) and
+  the columns of the kind's readings: ``length`` (a cable from one port),
+  ``tracker_x,tracker_y,tracker_z`` (a tracker, in its frame)…;
 - **targets** (`twin compensate --targets`): ``x,y,z`` in mm (the flange centre in the base
   frame, or with an orientation the TCP in the work object), and optionally the orientation as
   a quaternion ``qw,qx,qy,qz`` (ABB's order, scalar first) or as fixed-axis angles ``rx,ry,rz``
@@ -30,7 +31,9 @@ from twin.compensation.ik import STATUS_UNREACHABLE
 from twin.compensation.joints import InOrder
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
-from twin.io.measurements import PORT_COLUMN, approach_columns, joint_columns
+from twin.io.measurements import approach_columns, joint_columns
+from twin.kinds import KINDS
+from twin.kinds.length import PORT
 from twin.robot import RobotModel
 from twin.units import (
     FILE_JOINT_DECIMALS,
@@ -50,8 +53,6 @@ INTEGER_TOLERANCE = 1e-9
 """How far from a whole number a configuration value may be written."""
 RESULT_COLUMNS = ("status", "error_mm")
 POSITION_COLUMNS = ("x", "y", "z")
-LENGTH_COLUMN = "length"
-TRACKER_COLUMNS = ("tracker_x", "tracker_y", "tracker_z")
 
 
 def _joint_values(q_rad: Array, robot: RobotModel) -> list[list[str]]:
@@ -131,7 +132,7 @@ def write_plan(path: str | Path, q_rad: Array, robot: RobotModel,
                port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> None:
     """A pose plan of ``robot``: q1..qN (deg; mm for a prismatic joint) and, for an encoder
     moved between stations, each pose's station (``port``: index into ``port_names``)."""
-    header = joint_columns(q_rad.shape[1]) + ((PORT_COLUMN,) if port is not None else ())
+    header = joint_columns(q_rad.shape[1]) + ((PORT,) if port is not None else ())
     rows = [",".join(header)]
     rows += [",".join([*values, *(() if port is None else (port_names[port[k]],))])
              for k, values in enumerate(_joint_values(q_rad, robot))]
@@ -162,33 +163,25 @@ def write_corrected(path: str | Path, ordered: InOrder, robot: RobotModel) -> No
     write_atomic(path, format_corrected(ordered, robot))
 
 
-def prediction_columns(prediction: Prediction) -> tuple[str, ...]:
-    """The value columns a prediction fills: x,y,z, and length and tracker_x,y,z if it has
-    them."""
-    return (*POSITION_COLUMNS, *((LENGTH_COLUMN,) if prediction.length_m is not None else ()),
-            *(TRACKER_COLUMNS if prediction.tracker_m is not None else ()))
-
-
 def format_prediction(q_rad: Array, approach: NDArray[np.int8] | None,
                       prediction: Prediction, robot: RobotModel) -> str:
     """CSV text: the poses as given (``robot``'s q in degrees, mm for a prismatic joint;
-    approach), then x,y,z, length and tracker_x,tracker_y,tracker_z (those the prediction has)
-    in mm to 1e-6 mm."""
+    approach), then x,y,z and the columns of the kind's readings (length;
+    tracker_x,tracker_y,tracker_z…: :meth:`twin.kinds.base.Kind.prediction_columns`) in mm to
+    1e-6 mm."""
     n = q_rad.shape[1]
+    readings = KINDS.lookup(prediction.kind).prediction_columns(prediction.readings)
     header = [*joint_columns(n), *(approach_columns(n) if approach is not None else ()),
-              *prediction_columns(prediction)]
+              *POSITION_COLUMNS, *(name for name, _ in readings)]
     columns = _joint_values(q_rad, robot)
     if approach is not None:
         columns = [[*row, *(f"{int(v):+d}" for v in signs)]
                    for row, signs in zip(columns, approach, strict=True)]
     xyz = m_to_mm(prediction.position_m)
-    length = None if prediction.length_m is None else m_to_mm(prediction.length_m)
-    tracker = None if prediction.tracker_m is None else m_to_mm(prediction.tracker_m)
     lines = [",".join(header)]
     for i, row in enumerate(columns):
-        values = rounded(xyz[i], RESULT_MM_DECIMALS) + (
-            [] if length is None else rounded([length[i]], RESULT_MM_DECIMALS)) + (
-            [] if tracker is None else rounded(tracker[i], RESULT_MM_DECIMALS))
+        values = rounded(xyz[i], RESULT_MM_DECIMALS) + rounded(
+            [float(column[i]) for _, column in readings], RESULT_MM_DECIMALS)
         lines.append(",".join([*row, *map(repr, values)]))
     return "\n".join(lines) + "\n"
 

@@ -25,6 +25,7 @@ from twin.calibration.selection import ErrorChoice
 from twin.geometry.rigid import angles
 from twin.io.atomic import write_atomic
 from twin.io.robot_file import robot_digest, robot_files
+from twin.kinds import Kind
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.units import (
@@ -86,6 +87,8 @@ def identifiability_to_dict(identifiability: Identifiability, at: str) -> dict[s
         "unidentifiable": list(identifiability.unidentifiable),
         "base": list(identifiability.base_names),
         "at": at,
+        **({"beyond_points": list(identifiability.beyond_points)}
+           if identifiability.beyond_points else {}),
     }
 
 
@@ -163,7 +166,7 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
-        "rig": rig_to_dict(model.rig, model.kind.name),
+        "rig": rig_to_dict(model.rig, model.kind),
         "fixed": [name for group in model.groups for name in group.full_names
                   if name not in group.names],
         "parameters": [
@@ -195,10 +198,11 @@ def pose_to_list(transform: Any) -> list[float]:
             *rounded(rad_to_deg(angles(transform[:3, :3])), FILE_DEG_DECIMALS)]
 
 
-def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
+def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     """The rig as the calibration was told it (mm, degrees) for measurements of ``kind``: what
-    rebuilds its model. The tracker frame of tracker positions is kept exactly (16 floats)
-    besides its readable pose: it is the rigid fit the calibration started from."""
+    rebuilds its model. The instrument's frame of readings in one (tracker positions:
+    :attr:`twin.kinds.base.Kind.in_instrument_frame`) is kept exactly (16 floats) besides its
+    readable pose: it is the rigid fit the calibration started from."""
     document: dict[str, Any] = {
         "ports": {name: _mm(port) for name, port in zip(rig.port_names, rig.ports_m,
                                                          strict=True)},
@@ -207,7 +211,7 @@ def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
     }
     if rig.estimated_ports:
         document["estimated_ports"] = list(rig.estimated_ports)
-    if kind == "position":
+    if kind.in_instrument_frame:
         document["base_in_tracker"] = {"exact": rig.base_in_tracker.ravel().tolist(),
                                        "pose": pose_to_list(rig.base_in_tracker)}
     if rig.point_names:
@@ -216,6 +220,11 @@ def rig_to_dict(rig: Rig, kind: str) -> dict[str, Any]:
     if rig.distances:
         document["distances"] = [{"points": [d.first, d.second], "length": _mm(d.length_m)[0]}
                                  for d in rig.distances]
+    if rig.angles:
+        document["angles"] = [{"planes": [a.first, a.second],
+                               "angle_deg": float(np.degrees(a.angle_rad))} for a in rig.angles]
+    if rig.part is not None:
+        document[kind.name] = kind.part_document(rig.part)
     return document
 
 

@@ -2,20 +2,51 @@
 
 For a row whose cable runs from port P_j, ``r = ‖p − (P_j + δP_j)‖ + c − L`` (paper eq. 1 with
 the optional port correction δP of group ``port`` and length offset c of group ``offset``).
+
+Readings: ``length_m`` (m,), m, and, when the encoder was moved between ports, the labels
+``port`` naming each row's port. In a file: a ``length`` column (mm) and an optional ``port``
+column.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array, lengths
-from twin.dataset import Measurements
+from twin.arrays import Array, frozen_array, lengths
+from twin.dataset import Labels, Measurements
+from twin.errors import InputError
 from twin.geometry.kinematics import Structure, distances, point_position
-from twin.kinds.base import KindJacobian, no_symmetries
-from twin.rig import Rig
+from twin.kinds.base import (
+    ANCHOR_RADIUS_M,
+    Canvas,
+    Kind,
+    KindJacobian,
+    Measured,
+    Noise,
+    mm_cells,
+)
+from twin.kinds.bench import Bench, Captured, Fields
+from twin.report.display import POSITION_DECIMALS, mm, xyz_mm
+from twin.rig import PORT_LABELS, Rig
+from twin.robot import RobotModel
+from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
+
+if TYPE_CHECKING:
+    from twin.model import Model
+
+LENGTH = "length_m"
+"""The readings: cable lengths, shape (m,), m."""
+PORT = PORT_LABELS
+"""The labels of each row's port (absent with one port)."""
+COLUMN = "length"
+"""The file column of a length, mm."""
+PORT_IN_METRES_MM = 5.0
+"""Ports within ±5 mm in every coordinate beside lengths of hundreds of mm look like metres."""
 
 
 def cable_length(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, port_m: ArrayLike,
@@ -37,13 +68,69 @@ def cable_length(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, port_m: 
     return lengths(positions - np.asarray(port_m, dtype=np.float64))
 
 
-class Length:
+def length_measurements(q_rad: ArrayLike, length_m: ArrayLike, *,
+                        port: ArrayLike | None = None, port_names: Sequence[str] = (),
+                        approach: ArrayLike | None = None) -> Measurements:
+    """Cable lengths: joint angles (m, n), rad, and lengths (m,), m.
+
+    Args:
+        q_rad: Recorded joint angles, shape (m, n), rad.
+        length_m: Cable lengths, shape (m,), m.
+        port: Index of the port each row's cable ran from, shape (m,); None: one port.
+        port_names: The name of each port index, when the data name their ports (a ``port``
+            column); the calibration matches them to the rig's ports by name.
+        approach: Direction each joint last moved in before the reading, shape (m, n), ±1.
+    """
+    labels = {} if port is None else {PORT: Labels(tuple(port_names),
+                                                   np.asarray(port, dtype=np.intp))}
+    if port is None and port_names:
+        raise ValueError("port_names: names without the port indices")
+    return Measurements(np.asarray(q_rad, dtype=np.float64), Length.name,
+                        {LENGTH: np.asarray(length_m, dtype=np.float64)}, labels,
+                        None if approach is None else np.asarray(approach))
+
+
+def match_ports(measurements: Measurements, rig: Rig) -> Measurements:
+    """The measurements with each row's port as an index into the rig's ports.
+
+    Data that name their ports (a ``port`` column) are matched to the rig's ports by name;
+    unnamed data use the rig's ports in order.
+
+    Raises:
+        InputError: for a port the rig does not have, or data from several unnamed ports.
+    """
+    names = measurements.names(PORT)
+    index = measurements.index(PORT)
+    if names:
+        unknown = [name for name in names if name not in rig.port_names]
+        if unknown:
+            raise InputError(f"port {unknown[0]!r} in the measurements",
+                             "one of the rig's ports: " + ", ".join(rig.port_names))
+        matched = np.array([rig.port_names.index(name) for name in names])
+        return Measurements(measurements.q_rad, measurements.kind, measurements.values,
+                            {**measurements.labels, PORT: Labels(rig.port_names,
+                                                                 matched[index])},
+                            measurements.approach)
+    if int(index.max()) >= len(rig.ports_m):
+        raise InputError(f"{int(index.max()) + 1} ports in the measurements",
+                         f"at most the rig's {len(rig.ports_m)}")
+    return measurements
+
+
+class Length(Kind):
     """Cable lengths (:mod:`twin.kinds.length`)."""
 
     name = "length"
-    symmetries = staticmethod(no_symmetries)
+    what = "cable lengths"
     rows_per_pose = 1
-    groups: tuple[str, ...] = ("port", "offset")
+    groups = ("port", "offset")
+    columns = (COLUMN,)
+    optional_labels = (PORT,)
+    columns_text = "length (mm)"
+    messages = ("std_msgs/msg/Float64",)
+    flags = (("--port", "cable lengths (a port per reading)"),)
+    reading_noun = "lengths"
+    on_flange = True
 
     @staticmethod
     def _ports(values: Mapping[str, Array], data: Measurements, rig: Rig) -> Array:
@@ -56,39 +143,264 @@ class Length:
             full[..., estimated, :] = correction.reshape(*correction.shape[:-1], len(estimated),
                                                          3)
             ports = ports + full
-        return np.asarray(ports[..., data.port_index, :], dtype=np.float64)
+        return np.asarray(ports[..., data.index(PORT), :], dtype=np.float64)
 
-    def residuals(self, positions: Array, values: Mapping[str, Array], data: Measurements,
+    def template(self, q_rad: Array, rig: Rig, labels: Mapping[str, NDArray[np.intp]]
+                 ) -> Measurements:
+        """Zero lengths, each row from its port (port 0 if not given)."""
+        return length_measurements(q_rad, np.zeros(len(q_rad)), port=labels.get(PORT))
+
+    def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = ‖p − port‖ + offset − L, shape (..., m), m."""
-        length = distances(positions, self._ports(values, data, rig))
+        length = distances(at.position_m, self._ports(values, data, rig))
         if "offset" in values:
             length = length + values["offset"][..., :1]
-        assert data.length_m is not None
-        return np.asarray(length - data.length_m, dtype=np.float64)
+        return np.asarray(length - data.value(LENGTH), dtype=np.float64)
 
-    def measure(self, positions: Array, values: Mapping[str, Array], q_rad: Array, rig: Rig,
-                port: NDArray[np.intp] | None = None, point: NDArray[np.intp] | None = None
-                ) -> Measurements:
-        """The cable lengths the model gives; row i from port ``port[i]`` (port 0 if None)."""
-        zeros = Measurements(q_rad, length_m=np.zeros(len(q_rad)), port=port)
-        return Measurements(q_rad, length_m=self.residuals(positions, values, zeros, rig),
-                            port=port)
+    def measure(self, at: Measured, values: Mapping[str, Array], template: Measurements,
+                rig: Rig) -> Measurements:
+        """The cable lengths the model gives, each row from its port."""
+        lengths = self.residuals(at, values, template, rig) + template.value(LENGTH)
+        return Measurements(template.q_rad, self.name, {LENGTH: lengths}, template.labels,
+                            template.approach)
 
-    def jacobian(self, positions: Array, values: Mapping[str, Array], data: Measurements,
+    def jacobian(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                  rig: Rig) -> KindJacobian:
         """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on the rows
         of estimated port j; ∂r/∂c = 1."""
-        difference = positions - self._ports(values, data, rig)
+        difference = at.position_m - self._ports(values, data, rig)
         distance = lengths(difference)
         u = difference / distance[:, None]
         by_group: dict[str, Array] = {}
         if "port" in values:
             columns = np.zeros((len(data), len(rig.ports_m), 3))
-            columns[np.arange(len(data)), data.port_index] = -u
+            columns[np.arange(len(data)), data.index(PORT)] = -u
             by_group["port"] = columns[:, rig.estimated_port_index].reshape(len(data), -1)
         if "offset" in values:
             distance = distance + values["offset"][0]
             by_group["offset"] = np.ones((len(data), 1))
-        assert data.length_m is not None
-        return KindJacobian(distance - data.length_m, u[:, None, :], by_group)
+        return KindJacobian(distance - data.value(LENGTH), u[:, None, :], by_group)
+
+    def pivot(self, rig: Rig) -> Array | None:
+        """The first port: one cable cannot see the arm turned about the vertical through it
+        on a chain that carries its arm sideways."""
+        return rig.ports_m[0] if len(rig.ports_m) else None
+
+    def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
+                ) -> tuple[Rig, Measurements]:
+        """The rows' ports matched to the rig's (:func:`match_ports`).
+
+        Raises:
+            InputError: without a port, or for a port the rig does not have.
+        """
+        if not len(rig.ports_m):
+            raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
+                             "NAME=X,Y,Z per port, or a capture.toml as INPUT)")
+        return rig, match_ports(data, rig)
+
+    def units_ratio(self, data: Measurements, nominal: Array) -> float | None:
+        """The median reading over the nominal model's median length."""
+        lengths = data.value(LENGTH)
+        modelled = np.median(nominal[: len(data)] + lengths)
+        return float(np.median(lengths) / modelled) if modelled > 0 else np.inf
+
+    def unit_hint(self, rig: Rig, data: Measurements) -> str | None:
+        """Ports within ±5 mm beside lengths of hundreds of mm: given in metres, likely."""
+        if not len(rig.ports_m):
+            return None
+        small = np.all(np.abs(m_to_mm(rig.ports_m)) <= PORT_IN_METRES_MM)
+        if small and float(np.median(data.value(LENGTH))) > 20 * float(mm_to_m(
+                PORT_IN_METRES_MM)):
+            return (f"every port coordinate is within ±{PORT_IN_METRES_MM:g} mm while the "
+                    "cable lengths are hundreds of millimetres: the port is read in mm — it "
+                    "looks like metres (0.6 for 600 mm)")
+        return None
+
+    def predict(self, model: Model, x: Array, poses: Measurements) -> dict[str, Array]:
+        """The cable length, when the rig has one port."""
+        if len(model.rig.ports_m) != 1:
+            return {}
+        return {LENGTH: model.measure(x, poses.q_rad, approach=poses.approach).value(LENGTH)}
+
+    def from_columns(self, q_rad: Array, numbers: Mapping[str, Array],
+                     labels: Mapping[str, list[str]], lines: Sequence[int],
+                     approach: NDArray[np.int8] | None) -> Measurements:
+        """A positive ``length`` in mm, at most :data:`~twin.units.MAX_LENGTH_M`; the
+        ``port`` names, if given."""
+        length_mm = numbers[COLUMN]
+        longest_mm = float(m_to_mm(MAX_LENGTH_M))
+        bad = np.flatnonzero((length_mm <= 0) | (length_mm > longest_mm))
+        if bad.size:
+            raise InputError(f"{length_mm[bad[0]]:g} mm",
+                             f"a positive cable length in mm, at most {longest_mm:g}",
+                             where=f"line {lines[bad[0]]}, column {COLUMN}")
+        ports = Labels.of(labels[PORT]) if PORT in labels else None
+        return length_measurements(q_rad, mm_to_m(length_mm),
+                                   port=None if ports is None else ports.indices,
+                                   port_names=() if ports is None else ports.names,
+                                   approach=approach)
+
+    def to_columns(self, data: Measurements) -> list[tuple[str, list[str]]]:
+        """``length`` (mm) and, for several ports, ``port``."""
+        columns = [(COLUMN, mm_cells(m_to_mm(data.value(LENGTH))))]
+        if PORT in data.labels:
+            columns.append((PORT, data.labels[PORT].per_row("port")))
+        return columns
+
+    def prediction_columns(self, predicted: Mapping[str, Array]) -> list[tuple[str, Array]]:
+        """``length`` (mm)."""
+        return [(COLUMN, m_to_mm(predicted[LENGTH]))] if LENGTH in predicted else []
+
+    def describe(self, rig: Rig, data: Measurements) -> str:
+        """``port (600.000, -400.000, 100.000) mm`` or ``2 ports (front, left)``."""
+        if len(rig.ports_m) == 1:
+            return f"port {xyz_mm(rig.ports_m[0])}"
+        return f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
+
+    def summary(self, data: Measurements) -> str:
+        """``, cable lengths 512.300 … 1203.400 mm``."""
+        lengths = data.value(LENGTH)
+        return (f", cable lengths {mm(lengths.min(), POSITION_DECIMALS, unit=False)} … "
+                f"{mm(lengths.max(), POSITION_DECIMALS)}")
+
+    def read_setup(self, tables: Mapping[str, Fields]) -> CableSetup:
+        """The encoder's ports and eyelet (:func:`read_cable`)."""
+        return read_cable(tables)
+
+    def deviation(self, rest: Any, rigid_m: Array, rig: Rig, data: Measurements) -> Array:
+        """The true length minus the rigid model's, per row, m."""
+        ports = rig.ports_m[data.index(PORT)]
+        return np.asarray(rest.length_m - np.linalg.norm(rigid_m - ports, axis=1),
+                          dtype=np.float64)
+
+    def draw(self, canvas: Canvas, rig: Rig, data: Measurements, points_m: Array) -> None:
+        """The ports (``world/port``) and, per pose, the cable from its port to the measured
+        point, labelled with the reading."""
+        canvas.anchors("port", rig.ports_m, list(rig.port_names), ANCHOR_RADIUS_M)
+        canvas.lines("cable", rig.ports_m[data.index(PORT)], points_m,
+                     [f"L = {mm(v, POSITION_DECIMALS)}" for v in data.value(LENGTH)])
+
+
+@dataclass(frozen=True)
+class CableSetup:
+    """A drawstring encoder in the twin: one cable from one port, or moved between stations
+    (:class:`twin.kinds.bench.Setup`).
+
+    Attributes:
+        attachment_m: The true cable eyelet in the flange frame, shape (3,), m.
+        attachment_told_m: The eyelet the calibration is told, shape (3,), m.
+        station_names: The name of each port, length k (``port`` for the one port).
+        stations_m: The true ports, base frame, shape (k, 3), m.
+        port_told_m: The one port the calibration is told, shape (3,), m; None: each true
+            port plus an N(0, ``port_error_m``²) draw per axis.
+        port_error_m: 1σ per axis of a told port's error, m.
+    """
+
+    attachment_m: Array
+    attachment_told_m: Array
+    station_names: tuple[str, ...]
+    stations_m: Array
+    port_told_m: Array | None = None
+    port_error_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("attachment_m", "attachment_told_m"):
+            object.__setattr__(self, name, frozen_array(getattr(self, name), (3,), name))
+        stations = np.asarray(self.stations_m, dtype=np.float64).reshape(-1, 3)
+        if not len(stations):
+            raise ValueError("port_m: cable lengths need a port")
+        object.__setattr__(self, "stations_m", frozen_array(stations, stations.shape,
+                                                            "stations_m"))
+        if len(self.station_names) != len(stations):
+            raise ValueError("station_names: one name per station expected")
+        if self.port_told_m is not None:
+            object.__setattr__(self, "port_told_m",
+                               frozen_array(self.port_told_m, (3,), "port_told_m"))
+
+    @property
+    def ports_m(self) -> Array:
+        """The true ports, shape (k, 3), m: a cable from each."""
+        return self.stations_m
+
+    @property
+    def pose_count(self) -> int | None:
+        """None: the scenario's ``[poses]`` set them."""
+        return None
+
+    def instrument_sigma_m(self, encoder_sigma_m: float) -> float:
+        """The encoder's."""
+        return encoder_sigma_m
+
+    def angle_sigma_rad(self) -> float | None:
+        """None: no angle is read."""
+        return None
+
+    def noise_mm(self, sigma_m: float, resolution_m: float) -> dict[str, float]:
+        """The encoder's σ and resolution."""
+        return {"sigma_mm": float(m_to_mm(sigma_m)),
+                "resolution_mm": float(m_to_mm(resolution_m))}
+
+    def rigs(self, rng: np.random.Generator) -> tuple[Rig, Rig]:
+        """The true ports, and each told with an N(0, σ²) error per axis (or as given)."""
+        told = np.array([port + rng.normal(0.0, 1.0, 3) * self.port_error_m
+                         for port in self.stations_m]).reshape(-1, 3)
+        if self.port_told_m is not None:
+            told = self.port_told_m[None]
+        return (Rig(self.stations_m, self.station_names, self.attachment_m),
+                Rig(told, self.station_names, self.attachment_told_m))
+
+    def capture(self, bench: Bench, rig: Rig, rng: np.random.Generator) -> Captured:
+        """The cable's length at rest at poses drawn station after station, read with the
+        encoder's noise; the rows name their port when there are several."""
+        visit = bench.visit(list(rig.ports_m), rng)
+        read_m, outliers = bench.read_lengths(visit.rest.length_m, rng)
+        several = len(rig.ports_m) > 1
+        data = length_measurements(visit.q_rad, read_m, port=visit.station if several else None,
+                                   port_names=rig.port_names if several else (),
+                                   approach=visit.approach)
+        return Captured(data, visit.rest, outliers, visit.joint_sigma_rad)
+
+    def truth(self, rig: Rig) -> dict[str, Any]:
+        """Nothing beyond the ports."""
+        return {}
+
+
+def read_cable(tables: Mapping[str, Fields]) -> CableSetup:
+    """``[cable]`` (the eyelet), ``[port]`` (one port or ``[port.stations_mm]``); no
+    ``[measurement]`` keys but the kind, no ``[fixture]``.
+
+    Raises:
+        InputError: naming the key that is wrong or does not apply.
+    """
+    measurement, cable, port = tables["measurement"], tables["cable"], tables["port"]
+    for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
+        if measurement.has(key):
+            raise measurement.error(key, f"{key} with cable lengths",
+                                    "[encoder] for the cable's noise, [cable] for its "
+                                    "attachment")
+    attachment = mm_to_m(cable.vector("attachment_mm", 3, default=[0.0, 0.0, 0.0]))
+    told = mm_to_m(cable.vector("told_attachment_mm", 3)) \
+        if cable.has("told_attachment_mm") else attachment
+    names: tuple[str, ...] = ()
+    stations = np.zeros((0, 3))
+    moved = port.has("stations_mm")
+    if moved:
+        if port.has("position_mm"):
+            raise port.error("stations_mm", "stations with position_mm or without cable "
+                             "lengths", "either position_mm or [port.stations_mm]")
+        block = port.table("stations_mm")
+        names = tuple(str(name) for name in block.values)
+        if not names:
+            raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
+        stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
+    if not moved:
+        port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
+        names, stations = ("port",), mm_to_m(port.vector("position_mm", 3))[None]
+    if port.has("told_mm") and port.has("told_error_mm"):
+        raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
+    if port.has("told_mm") and moved:
+        raise port.error("told_mm", "told_mm with stations", "told_error_mm for every station")
+    told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
+    return CableSetup(attachment, told, names, stations, told_m,
+                      float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0))))

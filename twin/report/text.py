@@ -18,6 +18,7 @@ from twin.calibration.selection import ErrorChoice
 from twin.dataset import Measurements
 from twin.geometry.parametrisation import PARALLEL_THRESHOLD_DEG
 from twin.geometry.rigid import angles
+from twin.kinds import KINDS
 from twin.loss import REJECT_SCALES
 from twin.report.display import (
     JOINT_DECIMALS,
@@ -56,13 +57,17 @@ def _metric_row(label: str, m: Metrics) -> str:
                                       for v in (m.rmse, m.mae, m.std, m.max))
 
 
-def _nominal_lines(nominal: Identifiability) -> list[str]:
-    return [
+def _nominal_lines(nominal: Identifiability, beyond: str) -> list[str]:
+    lines = [
         f"  identifiability (training poses, nominal geometry): rank {nominal.rank} of "
         f"{nominal.n_params}, condition {nominal.condition:.3g} "
         f"(tolerance {nominal.tolerance:g}, column-scaled Jacobian)",
         "  not identifiable: " + (", ".join(nominal.unidentifiable) or "none"),
     ]
+    if nominal.beyond_points:
+        lines.append(f"  {beyond} see what positions alone cannot: "
+                     + ", ".join(nominal.beyond_points))
+    return lines
 
 
 def _held_lines(result: CalibrationResult) -> list[str]:
@@ -129,7 +134,7 @@ def format_identifiability(result: CalibrationResult) -> list[str]:
     nominal, identified = result.identifiability, result.identified_identifiability
     lines = []
     if nominal is not None:
-        lines += _nominal_lines(nominal)
+        lines += _nominal_lines(nominal, result.model.kind.beyond_noun)
         lines += format_held(result)
     if identified is not None:
         lifted = " (the identified geometry lifts held directions off zero)" \
@@ -199,14 +204,9 @@ def format_parametrisation(robot: RobotModel) -> list[str]:
 
 def describe_rig(rig: Rig, measurements: Measurements) -> str:
     """``port (600.000, -400.000, 100.000) mm``, ``2 ports (front, left)``, ``tracker
-    positions`` or ``6 fixed points``, with the attachment when it is off the flange."""
-    if measurements.kind == "length":
-        text = f"port {xyz_mm(rig.ports_m[0])}" if len(rig.ports_m) == 1 \
-            else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
-    elif measurements.kind == "position":
-        text = "laser-tracker positions"
-    else:
-        text = f"{len(rig.point_names or measurements.point_names)} fixed points"
+    positions`` or ``6 fixed points`` (the kind's :meth:`~twin.kinds.base.Kind.describe`), with
+    the attachment when it is off the flange."""
+    text = KINDS.lookup(measurements.kind).describe(rig, measurements)
     if np.any(np.abs(rig.attachment_m) > 0):
         text += f", measured point {xyz_mm(rig.attachment_m)} in the flange frame"
     return text
@@ -230,6 +230,7 @@ def format_rig(result: CalibrationResult) -> list[str]:
                      f"rx ry rz ({deg_values(angles(transform[:3, :3]))}) deg")
     if model.has("points"):
         lines.append(f"  identified fixed points: {len(model.rig.point_names)} (in the JSON)")
+    lines += model.kind.report(model, result.solver.x)
     return lines
 
 
@@ -508,7 +509,7 @@ def format_comparison(results: Mapping[str, CalibrationResult]) -> str:
         )
     lines.append("  " + MAE_NOTE)
     if first.identifiability is not None:
-        lines += _nominal_lines(first.identifiability)
+        lines += _nominal_lines(first.identifiability, first.model.kind.beyond_noun)
         lines += _held_lines(first)[:1]
     kept = [name for name, result in results.items()
             if result.held is not None and result.held.kept_start]

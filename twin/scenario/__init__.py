@@ -18,7 +18,7 @@ Public API (SI inside: m, rad)::
 
 from twin.scenario.constraints import PoseConstraints
 from twin.scenario.description import Scenario
-from twin.scenario.instrument import Instrument, tracker_readings
+from twin.scenario.instrument import Instrument
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.noise import NoiseModel, Readings
 from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation

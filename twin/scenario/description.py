@@ -9,8 +9,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from twin.analysis.misfit import reading_sigma
 from twin.arrays import Array
 from twin.calibration.settings import CalibrationSettings
@@ -33,11 +31,8 @@ class Scenario:
         description: What the scenario is for.
         seed: Default seed of every random draw.
         robot: The nominal robot (what the calibration is told).
-        port_m: True port, shape (3,), m (the first station's with several); None without a
-            cable.
-        port_told_m: The port the calibration is told, shape (3,), m; None means the true port
-            plus an N(0, ``port_error_m``²) draw per axis.
-        port_error_m: 1σ per axis of the told port's error, m.
+        instrument: What measures: the kind and its setup (ports, attachment, tracker,
+            fixture…: :mod:`twin.scenario.instrument`).
         perturbation: How the true D-H errors are drawn.
         pose_count: Number of poses; with a plan, its first rows (0: all of them).
         pose_plan: Plan CSV of poses, or None to sample.
@@ -46,7 +41,6 @@ class Scenario:
         joint_errors: Joint-level errors (phases as given, or zeros when drawn).
         draw_phases: Whether transmission phases are drawn uniformly per seed.
         physics: Servo stiffness, gravity and tension.
-        instrument: Stations, attachment, tracker or fixture (:mod:`twin.scenario.instrument`).
         calibration: How the data are calibrated (``[calibration]``); its noise is
             :attr:`reading_sigma_m`, what the scenario's instrument states.
         study: The ``[study]`` table as written, for twin.study.
@@ -57,12 +51,10 @@ class Scenario:
     name: str
     seed: int
     robot: RobotModel
-    port_m: Array | None
+    instrument: Instrument
     perturbation: Perturbation
     pose_count: int
     description: str = ""
-    port_told_m: Array | None = None
-    port_error_m: float = 0.0
     pose_plan: Path | None = None
     constraints: PoseConstraints = field(default_factory=PoseConstraints)
     noise: NoiseModel = field(default_factory=NoiseModel)
@@ -72,7 +64,6 @@ class Scenario:
     study: dict[str, Any] = field(default_factory=dict)
     expect: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
-    instrument: Instrument = field(default_factory=Instrument)
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
 
     @property
@@ -82,27 +73,20 @@ class Scenario:
         repeatability (:func:`twin.analysis.misfit.reading_sigma`); the default 0.01 mm when both
         are zero. What twin simulate writes to capture.toml, so studies and `twin calibrate` on a
         simulated capture tell the filters and the misfit test the same."""
-        instrument = float(np.sqrt(np.mean(self.instrument.sigma_m**2))) \
-            if self.instrument.kind != "length" \
-            else float(np.hypot(self.noise.sigma_m, self.noise.resolution_m / np.sqrt(12.0)))
+        instrument = self.instrument.setup.instrument_sigma_m(self.noise.encoder_sigma_m)
         sigma = reading_sigma(instrument if instrument > 0 else DEFAULT_SIGMA_M,
                               self.noise.repeatability_m)
         return sigma
 
+    @property
+    def port_m(self) -> Array | None:
+        """The true port of the instrument's cable (its first station's with several), shape
+        (3,), m; None without a cable."""
+        ports = self.instrument.setup.ports_m
+        return ports[0] if len(ports) else None
+
     def __post_init__(self) -> None:
         n = self.robot.n_joints
-        if self.port_m is not None:
-            port = np.array(self.port_m, dtype=np.float64)
-            if port.shape != (3,) or not np.all(np.isfinite(port)):
-                raise ValueError("port_m: expected 3 finite values")
-            port.setflags(write=False)
-            object.__setattr__(self, "port_m", port)
-        elif self.instrument.kind == "length":
-            raise ValueError("port_m: cable lengths need a port")
-        if self.port_told_m is not None:
-            told = np.array(self.port_told_m, dtype=np.float64)
-            told.setflags(write=False)
-            object.__setattr__(self, "port_told_m", told)
         if self.joint_errors is None:
             object.__setattr__(self, "joint_errors", JointErrors.none(n))
         if self.pose_count < (0 if self.pose_plan is not None else 1):

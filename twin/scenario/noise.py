@@ -80,6 +80,11 @@ class NoiseModel:
         safe = np.where(step > 0, step, 1.0)
         return np.asarray(np.where(step > 0, np.round(q / safe) * safe, q), dtype=np.float64)
 
+    @property
+    def encoder_sigma_m(self) -> float:
+        """The encoder's noise 1σ with its resolution folded in (res²/12), m."""
+        return float(np.hypot(self.sigma_m, self.resolution_m / np.sqrt(12.0)))
+
     def joint_sigma_rad(self, robot: RobotModel, q_rad: ArrayLike) -> float:
         """σ_q that gives an RMS flange displacement of ``repeatability_m`` at these poses, rad.
 

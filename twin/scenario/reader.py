@@ -110,12 +110,11 @@ import numpy as np
 from twin.arrays import Array
 from twin.calibration.settings import joint_noise
 from twin.choices import MAX_POSES, MAX_TENSION_N
-from twin.geometry.rigid import transform
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
 from twin.io.table import Table
-from twin.kinds import KINDS
+from twin.kinds import DEFAULT_KIND, KINDS
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.scenario.constraints import PoseConstraints
@@ -129,14 +128,17 @@ from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import make_groups
 from twin.unknowns.limits import group_box
 
+_KIND_TABLES = {table: keys for kind in KINDS.values() for table, keys in kind.scenario_tables}
+"""The tables of one kind alone (a fixed-point scenario's ``[fixture]``…)."""
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
-        "cable", "measurement", "fixture", "perturbation", "poses", "encoder", "joints",
+        "cable", "measurement", *_KIND_TABLES, "perturbation", "poses", "encoder", "joints",
         "physics", "calibration", "study", "expect")
 _TABLES = {
     "port": ("position_mm", "told_error_mm", "told_mm", "stations_mm"),
     "cable": ("attachment_mm", "told_attachment_mm"),
-    "measurement": ("kind", "sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"),
-    "fixture": ("sockets_mm", "placements", "touches", "distances"),
+    "measurement": ("kind", *dict.fromkeys(key for kind in KINDS.values()
+                                           for key in kind.measurement_keys)),
+    **_KIND_TABLES,
     "perturbation": ("distribution", "a_mm", "d_mm", "beta_deg", "alpha_deg", "theta_deg"),
     "poses": ("count", "plan", "min_flange_height_mm", "cable_clearance_mm"),
     "encoder": ("range_mm", "sigma_mm", "resolution_mm", "outlier_rate", "outlier_mm",
@@ -149,8 +151,6 @@ _TABLES = {
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
 """Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
-POSE = "[x, y, z, rx, ry, rz] in mm and degrees"
-"""How a placement is written: position (mm) and fixed-axis angles (deg, R = Rz Ry Rx)."""
 
 
 def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
@@ -170,9 +170,8 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     passed_through = {key: dict(top.table(key, expected="a table (read by twin.study)").values)
                       for key in ("study", "expect")}
     instrument = _instrument(tables)
-    port_m, port_told_m, port_error_m = _port(tables["port"], instrument)
     perturbation = _perturbation(tables["perturbation"], robot)
-    plan, count = _poses(tables["poses"], tables["fixture"], instrument, source.parent)
+    plan, count = _poses(tables["poses"], instrument, source.parent)
     cable_range = _cable_range(tables["encoder"])
     joint_errors, draw_phases = _joint_errors(tables["joints"], robot)
     physics = _physics(tables["physics"], robot)
@@ -181,9 +180,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         description=top.text("description", ""),
         seed=top.integer("seed", minimum=0),
         robot=robot,
-        port_m=port_m,
-        port_told_m=port_told_m,
-        port_error_m=port_error_m,
+        instrument=instrument,
         perturbation=perturbation,
         pose_count=count,
         pose_plan=plan,
@@ -195,10 +192,10 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         study=passed_through["study"],
         expect=passed_through["expect"],
         source=source,
-        instrument=instrument,
     )
     calibration = parse_calibration(tables["calibration"], scenario.reading_sigma_m,
-                                    joint_noise((), scenario.noise.joint_resolution_rad))
+                                    joint_noise((), scenario.noise.joint_resolution_rad),
+                                    instrument.setup.angle_sigma_rad())
     lower, upper = group_box(make_groups(["dh"], robot, Rig())[0], calibration.bounds)
     box = (np.reshape(lower, robot.dh.shape), np.reshape(upper, robot.dh.shape))
     return replace(scenario, calibration=calibration,
@@ -215,27 +212,6 @@ def _robot(top: Table, folder: Path) -> RobotModel:
                         "robot = \"arm.urdf\" beside them")
     return load_robot_or_default(folder / top.text("robot") if top.has("robot") else None,
                                  base_link=links["base_link"], tip_link=links["tip_link"])
-
-
-def _port(port: Table, instrument: Instrument) -> tuple[Array | None, Array | None, float]:
-    """``[port]``: the true port, the one told (or the error to draw it with), m; none but
-    for cable lengths."""
-    if instrument.kind != "length":
-        if port.values:
-            raise port.error(sorted(port.values)[0], f"a port with {instrument.kind} "
-                             "measurements", "no [port] table (only cable lengths have ports)")
-        return None, None, 0.0
-    if not instrument.station_names:
-        port.required("position_mm", "the true port [x, y, z] in mm (or [port.stations_mm])")
-        port_m = mm_to_m(port.vector("position_mm", 3))
-    else:
-        port_m = instrument.stations_m[0]
-    if port.has("told_mm") and port.has("told_error_mm"):
-        raise port.error("told_mm", "both told_mm and told_error_mm", "at most one of them")
-    if port.has("told_mm") and instrument.station_names:
-        raise port.error("told_mm", "told_mm with stations", "told_error_mm for every station")
-    told_m = mm_to_m(port.vector("told_mm", 3)) if port.has("told_mm") else None
-    return port_m, told_m, float(mm_to_m(port.number("told_error_mm", 0.0, minimum=0.0)))
 
 
 def _perturbation(pert: Table, robot: RobotModel) -> Perturbation:
@@ -258,22 +234,13 @@ def _perturbation(pert: Table, robot: RobotModel) -> Perturbation:
     return Perturbation(distribution, scale, robot.is_length)
 
 
-def _poses(poses: Table, fixture: Table, instrument: Instrument, folder: Path
-           ) -> tuple[Path | None, int]:
-    """``[poses]``: the plan file (or None) and the number of poses to draw (fixed points:
-    one per touch of every socket of every placement of the ``[fixture]``)."""
+def _poses(poses: Table, instrument: Instrument, folder: Path) -> tuple[Path | None, int]:
+    """``[poses]``: the plan file (or None) and the number of poses to draw, unless the
+    instrument sets them (fixed points: one per touch of every socket of every placement)."""
+    fixed = instrument.setup.pose_count
+    if fixed is not None:
+        return None, fixed
     plan = folder / poses.text("plan") if poses.has("plan") else None
-    if instrument.kind == "point":
-        for key in ("count", "plan"):
-            if poses.has(key):
-                raise poses.error(key, f"{key} with fixed points",
-                                  "[fixture] placements and touches (they set the poses)")
-        points = len(instrument.sockets_m) * len(instrument.placements)
-        count = points * instrument.touches
-        if count > MAX_POSES:
-            raise fixture.error("touches", f"{instrument.touches} touches of {points} sockets "
-                                f"({count} poses)", f"at most {MAX_POSES} poses in all")
-        return plan, count
     if plan is None:
         poses.required("count", "the number of poses (or a plan)")
     return plan, poses.integer("count", minimum=1, maximum=MAX_POSES) if poses.has("count") \
@@ -375,62 +342,25 @@ def _noise(encoder: Table, joints: Table, robot: RobotModel) -> NoiseModel:
     )
 
 
-def _pose(values: Array) -> Array:
-    """``[x, y, z, rx, ry, rz]`` (mm, deg; R = Rz Ry Rx) as a 4×4 transform, m."""
-    return transform(mm_to_m(values[:3]), deg_to_rad(values[3:]))
-
-
 def _instrument(tables: dict[str, Table]) -> Instrument:
-    """The ``[cable]``, ``[measurement]``, ``[fixture]`` tables and ``[port.stations_mm]``."""
-    measurement, cable, fixture = tables["measurement"], tables["cable"], tables["fixture"]
-    kind = measurement.text("kind", "length", choices=tuple(KINDS))
-    if kind == "length":
-        for key in ("sigma_mm", "tracker_pose", "attachment_mm", "told_attachment_mm"):
-            if measurement.has(key):
-                raise measurement.error(key, f"{key} with cable lengths",
-                                        "[encoder] for the cable's noise, [cable] for its "
-                                        "attachment")
-        point_table = cable
-    else:
-        if cable.values:
-            raise cable.error(sorted(cable.values)[0], f"a [cable] table with {kind} "
-                              "measurements", "[measurement] attachment_mm")
-        point_table = measurement
-    attachment = mm_to_m(point_table.vector("attachment_mm", 3, default=[0.0, 0.0, 0.0]))
-    told = mm_to_m(point_table.vector("told_attachment_mm", 3)) \
-        if point_table.has("told_attachment_mm") else attachment
-    names: tuple[str, ...] = ()
-    stations = np.zeros((0, 3))
-    port = tables["port"]
-    if port.has("stations_mm"):
-        if kind != "length" or port.has("position_mm"):
-            raise port.error("stations_mm", "stations with position_mm or without cable "
-                             "lengths", "either position_mm or [port.stations_mm]")
-        block = port.table("stations_mm")
-        names = tuple(str(name) for name in block.values)
-        if not names:
-            raise port.error("stations_mm", "no station", "one or more name = [x, y, z]")
-        stations = np.stack([mm_to_m(block.vector(name, 3)) for name in names])
-    sigma = measurement.vector("sigma_mm", 3, per_joint=True, minimum=0.0, default=0.0)
-    tracker = _pose(measurement.vector("tracker_pose", 6, expected=POSE)) \
-        if measurement.has("tracker_pose") else np.eye(4)
-    if kind != "position" and measurement.has("tracker_pose"):
-        raise measurement.error("tracker_pose", f"a tracker with {kind} measurements",
-                                "kind = \"position\"")
-    if (kind == "point") != bool(fixture.values):
-        raise fixture.error(sorted(fixture.values)[0] if fixture.values else "sockets_mm",
-                            "a [fixture] table" if fixture.values else "no [fixture] table",
-                            "[fixture] with fixed points (kind = \"point\") only")
-    sockets, placements, touches = np.zeros((0, 3)), np.zeros((0, 4, 4)), 0
-    if kind == "point":
-        sockets = mm_to_m(fixture.rows("sockets_mm", 3, expected="a list of [x, y, z] in mm"))
-        placements = np.stack([_pose(row) for row in fixture.rows(
-            "placements", 6, expected=f"a list of {POSE}")])
-        touches = fixture.integer("touches", 12, minimum=1, maximum=MAX_POSES)
-    return Instrument(kind=kind, attachment_m=attachment, attachment_told_m=told,
-                      station_names=names, stations_m=stations, sigma_m=mm_to_m(sigma),
-                      base_in_tracker=tracker, sockets_m=sockets, placements=placements,
-                      touches=touches, tell_distances=fixture.boolean("distances", True))
+    """``[measurement] kind``, and the tables its kind reads
+    (:meth:`twin.kinds.base.Kind.read_setup`: ``[cable]``, ``[port]``, ``[measurement]``,
+    ``[fixture]``…)."""
+    measurement = tables["measurement"]
+    kind = KINDS.lookup(measurement.text("kind", DEFAULT_KIND, choices=tuple(KINDS)))
+    for other in KINDS.values():
+        for table, _ in other.scenario_tables:
+            if other is not kind and tables[table].values:
+                raise tables[table].error(sorted(tables[table].values)[0], f"a [{table}] table",
+                                          f"[{table}] with {other.what} "
+                                          f"(kind = \"{other.name}\") only")
+    setup = kind.read_setup(tables)
+    for key in measurement.values:
+        if key != "kind" and key not in kind.measurement_keys:
+            raise measurement.error(key, f"{key} with {kind.what}",
+                                    f"[measurement] keys for {kind.what}: "
+                                    + ", ".join(("kind", *kind.measurement_keys)))
+    return Instrument(kind.name, setup)
 
 
 def load_scenario(path: str | Path) -> Scenario:

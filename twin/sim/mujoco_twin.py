@@ -43,6 +43,8 @@ class AtRest(NamedTuple):
     """Flange centres in the base frame, shape (m, 3), m."""
     point_m: Array
     """The measured point in the base frame, shape (m, 3), m."""
+    rotation: Array
+    """The flange's orientation in the base frame, base_R_flange, shape (m, 3, 3)."""
 
 
 class Twin:
@@ -126,6 +128,7 @@ class Twin:
         lengths = np.full(len(q_actual), np.nan)
         flanges = np.empty((len(q_actual), 3))
         points = np.empty((len(q_actual), 3))
+        rotations = np.empty((len(q_actual), 3, 3))
         model, data = self.statics_model, self.statics_data
         for row, q in enumerate(q_actual):
             data.qpos[:] = q
@@ -135,7 +138,8 @@ class Twin:
                 lengths[row] = data.ten_length[self._cable]
             flanges[row] = data.site_xpos[self._flange]
             points[row] = data.site_xpos[self._point]
-        return AtRest(q_actual, lengths, flanges, points)
+            rotations[row] = data.site_xmat[self._flange].reshape(3, 3)
+        return AtRest(q_actual, lengths, flanges, points, rotations)
 
     def lengths(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
         """Noise-free cable lengths, shape (m,), m, with the controller at q (m, n) rad."""

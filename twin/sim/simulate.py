@@ -12,6 +12,7 @@ in order from home), which backlash depends on.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -21,21 +22,20 @@ from numpy.typing import NDArray
 
 from twin.analysis.metrics import metrics
 from twin.arrays import Array
-from twin.calibration.start import tracker_start, with_fixed_points
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError
-from twin.geometry.rigid import angles
+from twin.geometry.kinematics import point_position
 from twin.io.atomic import write_atomic
 from twin.io.capture_file import write_capture
 from twin.io.measurements import write_measurements
 from twin.io.robot_file import robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
 from twin.kinds import KINDS
+from twin.kinds.bench import Visit
 from twin.model import Model
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.scenario.description import Scenario
-from twin.scenario.instrument import tracker_readings
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.physics import true_inertia
 from twin.sim.mujoco_twin import AtRest, Twin
@@ -70,14 +70,12 @@ class Simulation:
         port_nominal_m: The port the calibration is told, shape (3,), m.
         joint_errors: Joint-level errors, with the phases that were drawn.
         joint_sigma_rad: The joint jitter 1σ behind the repeatability, rad.
-        q_actual_rad: Where the joints really were, shape (m, n), rad.
-        true_length_m: Noise-free cable lengths, shape (m,), m; NaN without a cable.
+        rest: Where the arm really was at each pose: joints, cable lengths, measured point.
         measurements: Recorded joint angles and encoder readings, as written.
         outlier_rows: Rows that carry an outlier, shape (k,).
         rig: The true rig: every port, the measured point, the tracker frame, the fixed points.
         rig_told: The rig the calibration is told (ports and attachment as told, known
             distances; the tracker frame and fixed points are left to the calibration).
-        true_points_m: Where the measured point really was at each pose, base frame, (m, 3), m.
     """
 
     scenario: Scenario
@@ -89,13 +87,26 @@ class Simulation:
     port_nominal_m: Array | None
     joint_errors: JointErrors
     joint_sigma_rad: float
-    q_actual_rad: Array
-    true_length_m: Array
+    rest: AtRest
     measurements: Measurements
     outlier_rows: NDArray[np.intp]
     rig: Rig = field(default_factory=Rig)
     rig_told: Rig = field(default_factory=Rig)
-    true_points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
+
+    @property
+    def q_actual_rad(self) -> Array:
+        """Where the joints really were, shape (m, n), rad."""
+        return self.rest.q_rad
+
+    @property
+    def true_length_m(self) -> Array:
+        """Noise-free cable lengths, shape (m,), m; NaN without a cable."""
+        return self.rest.length_m
+
+    @property
+    def true_points_m(self) -> Array:
+        """Where the measured point really was at each pose, base frame, shape (m, 3), m."""
+        return self.rest.point_m
 
     @property
     def rig_told_pulled(self) -> Rig:
@@ -127,11 +138,9 @@ class Simulation:
         """
         data = self.measurements
         kind = KINDS.lookup(data.kind)
-        told = with_fixed_points(self.robot, self.rig_told, data) if data.kind == "point" \
-            else self.rig_told
-        nominal = Model(self.robot, told, kind, ())
-        if data.kind == "position":
-            nominal = tracker_start(nominal, data)
+        told, data = kind.prepare(self.robot, self.rig_told, data,
+                                  self.scenario.calibration.noise)
+        nominal = kind.align(Model(self.robot, told, kind, ()), data)
         rigid = Model(self.true_robot, self.rig, kind, ()).positions(np.zeros(0), data)
         shift = self.true_robot.flange_positions(self.q_actual_rad) \
             - self.true_robot.flange_positions(data.q_rad)
@@ -139,17 +148,9 @@ class Simulation:
             "nominal_rmse_mm": float(m_to_mm(metrics(nominal.residuals(np.zeros(0), data))
                                              .rmse)),
             "non_geometric_mm": float(m_to_mm(np.sqrt(np.mean(
-                self._non_geometric(rigid) ** 2)))),
+                kind.deviation(self.rest, rigid, self.rig, data) ** 2)))),
             "flange_shift_mm": float(m_to_mm(np.sqrt(np.mean(np.sum(shift**2, axis=1))))),
         }
-
-    def _non_geometric(self, rigid_points_m: Array) -> Array:
-        """Noise-free reading minus the rigid true model's, per residual row, m."""
-        if self.measurements.kind != "length":
-            return np.asarray(self.true_points_m - rigid_points_m, dtype=np.float64).ravel()
-        ports = self.rig.ports_m[self.measurements.port_index]
-        return np.asarray(self.true_length_m - np.linalg.norm(rigid_points_m - ports, axis=1),
-                          dtype=np.float64)
 
     @property
     def joint_unknowns(self) -> dict[str, list[Any]]:
@@ -187,7 +188,6 @@ class Simulation:
         errors = self.joint_errors
         arcsec = float(rad_to_deg(1.0)) * ARCSEC_PER_DEG
         rig, told = self.rig, self.rig_told
-        tracker = rig.base_in_tracker
         document: dict[str, Any] = {
             "scenario": self.scenario.name,
             "seed": self.seed,
@@ -205,9 +205,7 @@ class Simulation:
                                       in zip(told.port_names, told.ports_m, strict=True)}
         document["attachment_mm"] = m_to_mm(rig.attachment_m).tolist()
         document["attachment_told_mm"] = m_to_mm(told.attachment_m).tolist()
-        if self.measurements.kind == "position":
-            document["tracker_pose"] = [*m_to_mm(tracker[:3, 3]).tolist(),
-                                        *rad_to_deg(angles(tracker[:3, :3])).tolist()]
+        document.update(self.scenario.instrument.setup.truth(rig))
         if rig.point_names:
             document["points_mm"] = {name: m_to_mm(point).tolist() for name, point
                                      in zip(rig.point_names, rig.points_m, strict=True)}
@@ -237,7 +235,8 @@ def _inertia(robot: RobotModel) -> dict[str, Any]:
 
 
 def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
-    """Simulate one capture of a scenario.
+    """Simulate one capture of a scenario: the truth drawn here, the readings made by the
+    scenario's instrument (:meth:`twin.kinds.bench.Setup.capture`) on the twin.
 
     Args:
         scenario: What to simulate.
@@ -249,59 +248,78 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
     seed = scenario.seed if seed is None else int(seed)
     rng = np.random.default_rng(seed)
     n = scenario.robot.n_joints
-    instrument = scenario.instrument
+    setup = scenario.instrument.setup
     delta = scenario.perturbation.draw(rng)
     true_robot = scenario.robot.perturbed(delta.ravel())
-    names = instrument.station_names or ("port",)
-    ports = instrument.stations_m if instrument.station_names \
-        else np.zeros((0, 3)) if scenario.port_m is None else scenario.port_m[None]
-    told_ports = np.array([port + rng.normal(0.0, 1.0, 3) * scenario.port_error_m
-                           for port in ports]).reshape(-1, 3)
-    if scenario.port_told_m is not None:
-        told_ports = scenario.port_told_m[None]
+    rig, rig_told = setup.rigs(rng)
     phases = rng.uniform(0.0, 2.0 * np.pi, n)
     true_robot = true_inertia(true_robot, scenario.physics.mass_error, rng)
     joint_errors = scenario.joint_errors or JointErrors.none(n)
     if scenario.draw_phases:
         joint_errors = replace(joint_errors, phase_rad=phases)
-    kind = instrument.kind
-    rig = Rig(ports, names if len(ports) else (), instrument.attachment_m,
-              base_in_tracker=instrument.base_in_tracker, point_names=instrument.point_names,
-              points_m=instrument.points_m)
-    rig_told = Rig(told_ports, rig.port_names, instrument.attachment_told_m,
-                   distances=instrument.distances)
-    twins = [Twin.build(true_robot, port, scenario.physics, joint_errors, instrument.attachment_m)
-             for port in (ports if kind == "length" else [None])]
-    station = np.zeros(0, dtype=np.intp)
-    if kind == "point":
-        q, point = touch_poses(true_robot, twins[0], rig.points_m, instrument.touches,
-                               scenario.constraints, instrument.sigma_m, rng)
-        rest = AtRest(q, np.full(len(q), np.nan), true_robot.flange_positions(q),
-                      Model(true_robot, rig, KINDS.lookup("point"), ()).positions(
-                          np.zeros(0), Measurements(q, point=point)))
-        return _simulation(scenario, seed, true_robot, delta, joint_errors, 0.0, rest,
-                           Measurements(q, point=point, point_names=rig.point_names),
-                           np.zeros(0, dtype=np.intp), rig, rig_told)
-    q, station = _poses(scenario, twins, rng)
-    joint_sigma = scenario.noise.joint_sigma_rad(true_robot, q)
-    jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
-    rests = [twin.at_rest(q[station == k] + jitter[station == k],
-                          approach_directions(q)[station == k]) for k, twin in enumerate(twins)]
-    rest = AtRest(*(np.concatenate(parts) for parts in zip(*rests, strict=True)))
-    if kind == "position":
-        readings = tracker_readings(rest.point_m, rig.base_in_tracker, instrument.sigma_m, rng)
-        return _simulation(scenario, seed, true_robot, delta, joint_errors, joint_sigma, rest,
-                           Measurements(scenario.noise.recorded(q), position_m=readings,
-                                        approach=approach_directions(q)),
-                           np.zeros(0, dtype=np.intp), rig, rig_told)
-    read = scenario.noise.read(rest.length_m, rng)
-    several = len(ports) > 1
-    data = Measurements(scenario.noise.recorded(q), read.length_m,
-                        port=station if several else None,
-                        port_names=rig.port_names if several else (),
-                        approach=approach_directions(q))
-    return _simulation(scenario, seed, true_robot, delta, joint_errors, joint_sigma, rest, data,
-                       read.outlier_rows, rig, rig_told)
+    captured = setup.capture(Bench(scenario, true_robot, joint_errors), rig, rng)
+    first = len(rig.ports_m) > 0
+    return Simulation(
+        scenario=scenario, seed=seed, robot=scenario.robot, true_robot=true_robot, delta=delta,
+        port_m=rig.ports_m[0] if first else None,
+        port_nominal_m=rig_told.ports_m[0] if first else None,
+        joint_errors=joint_errors, joint_sigma_rad=captured.joint_sigma_rad,
+        rest=captured.rest, measurements=captured.measurements,
+        outlier_rows=captured.outlier_rows, rig=rig, rig_told=rig_told)
+
+
+class Bench:
+    """The MuJoCo twin as an instrument measures on it (:class:`twin.kinds.bench.Bench`): the
+    true robot with its joint errors and physics, the scenario's poses and encoder noise.
+
+    Attributes:
+        scenario: What is simulated.
+        robot: The true robot.
+        joint_errors: Its joint-level errors, with the phases that were drawn.
+    """
+
+    def __init__(self, scenario: Scenario, robot: RobotModel, joint_errors: JointErrors) -> None:
+        self.scenario = scenario
+        self.robot = robot
+        self.joint_errors = joint_errors
+
+    def _twin(self, port_m: Array | None) -> Twin:
+        return Twin.build(self.robot, port_m, self.scenario.physics, self.joint_errors,
+                          self.scenario.instrument.attachment_m)
+
+    def visit(self, stations_m: Sequence[Array | None], rng: np.random.Generator) -> Visit:
+        """Poses station after station (:func:`_poses`), the joint jitter, the arm at rest, the
+        angles as recorded (:meth:`twin.scenario.noise.NoiseModel.recorded`)."""
+        twins = [self._twin(port) for port in stations_m]
+        q, station = _poses(self.scenario, twins, rng)
+        joint_sigma = self.scenario.noise.joint_sigma_rad(self.robot, q)
+        jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
+        rests = [twin.at_rest(q[station == k] + jitter[station == k],
+                              approach_directions(q)[station == k])
+                 for k, twin in enumerate(twins)]
+        rest = AtRest(*(np.concatenate(parts) for parts in zip(*rests, strict=True)))
+        return Visit(self.scenario.noise.recorded(q), station, rest, joint_sigma,
+                     approach_directions(q))
+
+    def touch(self, places_m: Array, touches: int, sigma_m: Array, rng: np.random.Generator
+              ) -> tuple[Array, NDArray[np.intp]]:
+        """:func:`twin.sim.touches.touch_poses` on a twin without a cable."""
+        return touch_poses(self.robot, self._twin(None), places_m, touches,
+                           self.scenario.constraints, sigma_m, rng)
+
+    def rigid(self, q_rad: Array) -> AtRest:
+        """The true robot's rigid model at q: no joint errors, no cable."""
+        point = point_position(self.robot.structure, self.robot.dh, q_rad,
+                               self.scenario.instrument.attachment_m)
+        flange = self.robot.flange_transforms(q_rad)
+        return AtRest(q_rad, np.full(len(q_rad), np.nan), flange[:, :3, 3], point,
+                      flange[:, :3, :3])
+
+    def read_lengths(self, length_m: Array, rng: np.random.Generator
+                     ) -> tuple[Array, NDArray[np.intp]]:
+        """The scenario's encoder noise (:meth:`twin.scenario.noise.NoiseModel.read`)."""
+        read = self.scenario.noise.read(length_m, rng)
+        return read.length_m, read.outlier_rows
 
 
 def _poses(scenario: Scenario, twins: list[Twin], rng: np.random.Generator
@@ -328,22 +346,6 @@ def _poses(scenario: Scenario, twins: list[Twin], rng: np.random.Generator
     return np.concatenate(drawn), station
 
 
-def _simulation(scenario: Scenario, seed: int, true_robot: RobotModel, delta: Array,
-                joint_errors: JointErrors, joint_sigma: float, rest: AtRest,
-                measurements: Measurements, outliers: NDArray[np.intp], rig: Rig,
-                rig_told: Rig) -> Simulation:
-    first = len(rig.ports_m) > 0
-    return Simulation(
-        scenario=scenario, seed=seed, robot=scenario.robot, true_robot=true_robot, delta=delta,
-        port_m=rig.ports_m[0] if first else None,
-        port_nominal_m=rig_told.ports_m[0] if first else None,
-        joint_errors=joint_errors, joint_sigma_rad=joint_sigma, q_actual_rad=rest.q_rad,
-        true_length_m=rest.length_m, measurements=measurements, outlier_rows=outliers,
-        rig=rig, rig_told=rig_told,
-        true_points_m=rest.point_m,
-    )
-
-
 def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
     """Write measurements.csv, robot.toml (and robot.urdf for a robot read from a URDF),
     truth.json and capture.toml (last), each atomically.
@@ -357,10 +359,8 @@ def write_simulation(out_dir: str | Path, sim: Simulation) -> Path:
         write_atomic(out / name, text)
     write_truth(out / TRUTH_FILE, sim.truth)
     scenario = sim.scenario
-    noise = {"sigma_mm": float(m_to_mm(scenario.noise.sigma_m)),
-             "resolution_mm": float(m_to_mm(scenario.noise.resolution_m))} \
-        if sim.measurements.kind == "length" \
-        else {"sigma_mm": float(m_to_mm(np.sqrt(np.mean(scenario.instrument.sigma_m**2))))}
+    noise = scenario.instrument.setup.noise_mm(scenario.noise.sigma_m,
+                                               scenario.noise.resolution_m)
     noise["repeatability_mm"] = float(m_to_mm(scenario.noise.repeatability_m))
     write_capture(out / CAPTURE_FILE, robot=ROBOT_FILE, rig=sim.rig_told_pulled,
                   measurements=MEASUREMENTS_FILE, truth=TRUTH_FILE,

@@ -48,7 +48,9 @@ from twin.calibration.pipeline import calibrate_many
 from twin.calibration.result import CalibrationResult
 from twin.dataset import approach_directions
 from twin.geometry.kinematics import for_bulk_work
-from twin.geometry.rigid import angles
+from twin.geometry.rigid import angles, log_rotation
+from twin.kinds.plane import plane_corrections, plane_part
+from twin.kinds.pose import pose_part
 from twin.model import Model
 from twin.robot import random_poses
 from twin.scenario import Scenario
@@ -88,7 +90,8 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
     hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
     the port's correction and the offset (of the robot's errors, those the calibration did not
-    fix)."""
+    fix); the rig's other unknowns (attachment, instrument frame, fixed points, tool rotation,
+    planes) as the corrections of the model's start."""
     x = np.zeros(model.n_params)
     n = sim.robot.n_joints
     robot_errors = {
@@ -114,6 +117,11 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
         x[model.slice("base")] = np.r_[true[:3, 3] - turn @ start[:3, 3], angles(turn)]
     if model.has("points"):
         x[model.slice("points")] = (sim.rig.points_m - rig.points_m).ravel()
+    if model.has("tool"):
+        turn = pose_part(rig).tool_rotation.T @ pose_part(sim.rig).tool_rotation
+        x[model.slice("tool")] = log_rotation(turn)
+    if model.has("planes"):
+        x[model.slice("planes")] = plane_corrections(plane_part(rig), plane_part(sim.rig))
     return x
 
 
@@ -129,9 +137,8 @@ def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
     n = sim.robot.n_joints
     dl_dq = jacobian[:, 3 * n : 4 * n]  # the θ slot of the table, first in x
     jitter = sim.joint_sigma_rad**2 * float(np.mean(np.sum(dl_dq**2, axis=1)))
-    if sim.measurements.kind != "length":  # tracker noise or seating error, per axis
-        return float(np.sqrt(np.mean(sim.scenario.instrument.sigma_m**2) + jitter))
-    return float(np.sqrt(noise.sigma_m**2 + noise.resolution_m**2 / 12.0 + jitter))
+    instrument = sim.scenario.instrument.setup.instrument_sigma_m(noise.encoder_sigma_m)
+    return float(np.sqrt(instrument**2 + jitter))
 
 
 def row_sigma_m(sim: Simulation, jacobian: Array, sigma_m: float) -> Array | None:

@@ -25,7 +25,7 @@ GROUPS: Registry[Factory] = Registry("error group", {
         ("dh", "dh"), ("transmission", "transmission"), ("backlash", "backlash"),
         ("compliance", "compliance"), ("link_compliance", "link_compliance"), ("port", "port"),
         ("offset", "offset"), ("attachment", "attachment"), ("base", "tracker"),
-        ("points", "points"))})
+        ("points", "points"), ("tool", "tool"), ("planes", "planes"))})
 """Every unknown group, by name, in the order x lays them out; a group's module is imported when
 it is first made (the names alone need no numpy: the command line's help lists them)."""
 ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")

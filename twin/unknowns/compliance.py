@@ -32,7 +32,7 @@ import numpy as np
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.statics import joint_torques
-from twin.rig import Rig
+from twin.rig import PORT_LABELS, Rig
 from twin.robot import RobotModel
 from twin.units import COMPLIANCE_UNIT, LINEAR_COMPLIANCE_UNIT
 from twin.unknowns.group import Array, Group, Stage, cached
@@ -60,7 +60,7 @@ def cable_forces(robot: RobotModel, rig: Rig, data: Measurements) -> Array:
         return np.zeros((len(data), 3))
     flange = robot.flange_transforms(data.q_rad)
     at = flange[:, :3, :3] @ rig.attachment_m + flange[:, :3, 3]
-    towards = rig.ports_m[data.port_index] - at
+    towards = rig.ports_m[data.index(PORT_LABELS)] - at
     return rig.tension_n * towards / np.linalg.norm(towards, axis=-1, keepdims=True)
 
 

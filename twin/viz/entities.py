@@ -36,6 +36,11 @@ EXACT = "exact"
 """Leaf under ``parameters/<source>/`` holding the exact values as float64 scalars, SI."""
 
 
+def world(leaf: str) -> str:
+    """What a measurement kind draws, e.g. ``world/port``, ``world/cable``, ``world/measured``."""
+    return f"{WORLD}/{leaf}"
+
+
 def robot(label: str) -> str:
     """Links of one robot, e.g. ``world/robot/nominal``, ``world/robot/identified/lm``."""
     return f"world/robot/{label}"

@@ -14,7 +14,8 @@ from numpy.typing import NDArray
 from twin.analysis.uncertainty import rms_distance
 from twin.calibration.result import CalibrationResult
 from twin.dataset import Measurements
-from twin.report.display import POSITION_DECIMALS, mm
+from twin.kinds import KINDS
+from twin.report.display import mm
 from twin.report.text import describe_rig, format_comparison, format_result
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -118,11 +119,7 @@ def scene_markdown(robot: RobotModel, measurements: Measurements, rig: Rig,
     """
     parts = [f"# Measurements of {robot.name}",
              f"{len(measurements)} poses, {describe_rig(rig, measurements)}."]
-    if measurements.kind == "length":
-        lengths = measurements.lengths
-        parts[-1] = parts[-1][:-1] + (
-            f", cable lengths {mm(lengths.min(), POSITION_DECIMALS, unit=False)} … "
-            f"{mm(lengths.max(), POSITION_DECIMALS)}.")
+    parts[-1] = parts[-1][:-1] + KINDS.lookup(measurements.kind).summary(measurements) + "."
     if truth_delta is not None:
         rms = rms_distance(robot.flange_positions(measurements.q_rad),
                            robot.perturbed(truth_delta).flange_positions(measurements.q_rad))

@@ -1,4 +1,5 @@
-"""The 3D scene under ``world/``: robots in every measured pose, the encoder port, the cable.
+"""The 3D scene under ``world/``: robots in every measured pose, and what was measured (the
+encoder port and the cable, the measured points…: each measurement kind draws its own).
 
 Positions are logged in metres in the robot base frame (z up), one row per pose on the ``pose``
 timeline; the link polylines are the frame origins 0..n of the core's FK
@@ -7,15 +8,16 @@ timeline; the link polylines are the frame origins 0..n of the core's FK
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike, NDArray
 
+from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.geometry.kinematics import frames
-from twin.report.display import POSITION_DECIMALS, mm, xyz_mm
+from twin.kinds import KINDS
 from twin.rig import Rig
 from twin.robot import RobotModel
 from twin.viz import entities
@@ -26,12 +28,13 @@ TRUE_COLOR = (40, 170, 80)
 METHOD_COLORS = ((230, 120, 20), (30, 120, 220), (200, 40, 160), (220, 200, 30), (20, 190, 190),
                  (140, 80, 220), (200, 60, 50), (110, 160, 40), (90, 90, 200), (160, 110, 60))
 """Identified models, in the order the methods ran."""
-CABLE_COLOR = (240, 220, 60)
-PORT_COLOR = (255, 80, 80)
+READING_COLOR = (240, 220, 60)
+"""What was measured at each pose: a cable, a measured point."""
+ANCHOR_COLOR = (255, 80, 80)
+"""The rig's fixed parts: ports, fixed points."""
 LINK_RADIUS_UI = -4.0
 """Negative radii are in UI points: the links keep their width at any zoom."""
-CABLE_RADIUS_UI = -1.0
-PORT_RADIUS_M = 0.012
+LINE_RADIUS_UI = -1.0
 
 TOOL_OFFSET_M = 1e-9
 """A tool frame farther than this from the last joint frame gets its own polyline point, m."""
@@ -83,69 +86,53 @@ def log_robots(
         )
 
 
-def log_port_and_cable(
-    writer: Writer, port_m: ArrayLike, flange_m: ArrayLike, length_m: ArrayLike,
-    port_names: tuple[str, ...] = ("port",), port_index: ArrayLike | None = None,
-) -> None:
-    """The ports (``world/port``) and, per pose, the cable from its port to the measured point.
+class SceneCanvas:
+    """The Rerun scene as a measurement kind draws on it (:class:`twin.kinds.base.Canvas`):
+    the rig's fixed parts once under ``world/<leaf>`` in red, a point or segment per pose on
+    the pose timeline in yellow."""
 
-    Args:
-        writer: Where to log.
-        port_m: Encoder port(s) in the base frame, shape (3,) or (k, 3), m.
-        flange_m: Points the cable runs to (flange or eyelet), shape (m, 3), m.
-        length_m: Measured cable lengths, shape (m,), m, shown as each cable's label in mm.
-        port_names: Each port's name, length k.
-        port_index: Each pose's port, shape (m,); port 0 if None.
-    """
-    ports = np.asarray(port_m, dtype=np.float64).reshape(-1, 3)
-    flange_m = np.asarray(flange_m, dtype=np.float64)
-    poses = np.arange(flange_m.shape[0])
-    index = np.zeros(poses.size, dtype=np.intp) if port_index is None \
-        else np.asarray(port_index, dtype=np.intp)
-    writer.once(entities.PORT, rr.Points3D(ports, radii=PORT_RADIUS_M, colors=PORT_COLOR,
-                                           labels=list(port_names)))
-    strips = np.stack([ports[index], flange_m], axis=1)  # (m, 2, 3)
-    writer.series(
-        entities.CABLE, entities.POSE_TIMELINE, poses,
-        rr.LineStrips3D.columns(
-            strips=strips.astype(np.float32),
-            colors=_colors(CABLE_COLOR, poses.size),
-            radii=np.full(poses.size, CABLE_RADIUS_UI, dtype=np.float32),
-            labels=[f"L = {mm(v, POSITION_DECIMALS)}" for v in np.ravel(length_m)],
-        ),
-    )
+    def __init__(self, writer: Writer) -> None:
+        self.writer = writer
 
+    def anchors(self, leaf: str, points_m: Array, labels: Sequence[str], radius_m: float
+                ) -> None:
+        """Fixed parts of the rig (ports, fixed points), logged once."""
+        self.writer.once(entities.world(leaf),
+                         rr.Points3D(np.asarray(points_m, dtype=np.float64).reshape(-1, 3),
+                                     radii=radius_m, colors=ANCHOR_COLOR, labels=list(labels)))
 
-def log_measured_points(writer: Writer, points_m: ArrayLike, labels: list[str]) -> None:
-    """Per pose, the measured point (tracker target, ball) in the base frame,
-    ``world/measured``.
+    def marks(self, leaf: str, points_m: Array, labels: Sequence[str], radius_m: float) -> None:
+        """A point per pose (a tracker target, a ball)."""
+        points = np.asarray(points_m, dtype=np.float64)
+        poses = np.arange(points.shape[0])
+        self.writer.series(
+            entities.world(leaf), entities.POSE_TIMELINE, poses,
+            rr.Points3D.columns(positions=points.astype(np.float32),
+                                colors=_colors(READING_COLOR, poses.size),
+                                radii=np.full(poses.size, radius_m, dtype=np.float32),
+                                labels=list(labels)),
+        )
 
-    Args:
-        writer: Where to log.
-        points_m: The points, shape (m, 3), m.
-        labels: A label per pose (the reading, or the fixed point's name).
-    """
-    points = np.asarray(points_m, dtype=np.float64)
-    poses = np.arange(points.shape[0])
-    writer.series(
-        entities.MEASURED, entities.POSE_TIMELINE, poses,
-        rr.Points3D.columns(positions=points.astype(np.float32),
-                            colors=_colors(CABLE_COLOR, poses.size),
-                            radii=np.full(poses.size, PORT_RADIUS_M / 2, dtype=np.float32),
-                            labels=labels),
-    )
-
-
-def log_fixed_points(writer: Writer, points_m: ArrayLike, names: tuple[str, ...]) -> None:
-    """The fixed points (identified or true), ``world/fixed_points``."""
-    writer.once(entities.FIXED_POINTS, rr.Points3D(np.asarray(points_m, dtype=np.float64),
-                                                   radii=PORT_RADIUS_M / 2, colors=PORT_COLOR,
-                                                   labels=list(names)))
+    def lines(self, leaf: str, starts_m: Array, ends_m: Array, labels: Sequence[str]) -> None:
+        """A segment per pose (the cable from its port)."""
+        strips = np.stack([np.asarray(starts_m, dtype=np.float64),
+                           np.asarray(ends_m, dtype=np.float64)], axis=1)  # (m, 2, 3)
+        poses = np.arange(strips.shape[0])
+        self.writer.series(
+            entities.world(leaf), entities.POSE_TIMELINE, poses,
+            rr.LineStrips3D.columns(
+                strips=strips.astype(np.float32),
+                colors=_colors(READING_COLOR, poses.size),
+                radii=np.full(poses.size, LINE_RADIUS_UI, dtype=np.float32),
+                labels=list(labels),
+            ),
+        )
 
 
 def log_measurement(writer: Writer, rig: Rig, measurements: Measurements,
                     points_m: ArrayLike) -> None:
-    """What was measured at every pose: the cable from its port to the measured point, or the
+    """What was measured at every pose, as the measurement kind draws it
+    (:meth:`twin.kinds.base.Kind.draw`): the cable from its port to the measured point, or the
     measured point itself (tracker positions, fixed points, with the fixed points).
 
     Args:
@@ -154,20 +141,8 @@ def log_measurement(writer: Writer, rig: Rig, measurements: Measurements,
         measurements: The poses and readings.
         points_m: Where the measured point is drawn at each pose, shape (m, 3), m.
     """
-    if measurements.kind == "length":
-        log_port_and_cable(writer, rig.ports_m, points_m, measurements.lengths,
-                           rig.port_names, measurements.port_index)
-        return
-    if measurements.kind == "position":
-        assert measurements.position_m is not None
-        labels = [xyz_mm(position) for position in measurements.position_m]
-    else:
-        assert measurements.point is not None
-        names = rig.point_names or measurements.point_names
-        labels = [names[j] if j < len(names) else str(j) for j in measurements.point]
-        if rig.point_names:
-            log_fixed_points(writer, rig.points_m, rig.point_names)
-    log_measured_points(writer, points_m, labels)
+    KINDS.lookup(measurements.kind).draw(SceneCanvas(writer), rig, measurements,
+                                         np.asarray(points_m, dtype=np.float64))
 
 
 def log_scene(

@@ -21,16 +21,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.io.importers.base import Imported, StillRule, outside_limits
 from twin.io.importers.still import still_windows
+from twin.kinds import KINDS, Kind
 from twin.robot import RobotModel
+from twin.units import m_to_mm
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
-READINGS = {"std_msgs/msg/Float64": "length", "geometry_msgs/msg/PointStamped": "position",
-            "geometry_msgs/msg/PoseStamped": "position"}
-"""Measurement message types and the kind each gives."""
+READINGS = {message: kind for kind in KINDS.values() for message in kind.messages}
+"""Measurement message types and the kind each gives (:attr:`twin.kinds.base.Kind.messages`)."""
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
@@ -136,7 +136,7 @@ def read_bag(path: str | Path, robot: RobotModel, rule: StillRule, *,
 
 def _poses(source: Path, robot: RobotModel, rule: StillRule, t_s: NDArray[np.float64],
            q_rad: NDArray[np.float64], stamps: NDArray[np.float64],
-           values: NDArray[np.float64], kind: str, topic: str, dropped: list[str]) -> Imported:
+           values: NDArray[np.float64], kind: Kind, topic: str, dropped: list[str]) -> Imported:
     """One pose per still window that has readings and lies within the joint limits."""
     q_rows, readings = [], []
     for window in still_windows(t_s, q_rad, rule.tol_rad, rule.min_s):
@@ -155,7 +155,10 @@ def _poses(source: Path, robot: RobotModel, rule: StillRule, t_s: NDArray[np.flo
         raise InputError(f"no pose (joints still for {rule.min_s:g} s within "
                          f"{np.rad2deg(rule.tol_rad):g} deg, with a {topic} reading)",
                          "at least one", source=source)
-    q = np.array(q_rows)
-    if kind == "length":
-        return Imported(Measurements(q, np.array(readings)[:, 0]), dropped)
-    return Imported(Measurements(q, position_m=np.array(readings)), dropped)
+    read_mm = m_to_mm(np.array(readings))
+    try:
+        return Imported(kind.from_columns(
+            np.array(q_rows), {column: read_mm[:, k] for k, column in enumerate(kind.columns)},
+            {}, list(range(1, len(q_rows) + 1)), None), dropped)
+    except InputError as exc:
+        raise exc.at(source) from None

@@ -3,15 +3,17 @@ told (a prismatic joint's values in the length unit), joint columns named as the
 (a URDF's, or ``q1..qN``), headerless files, one file per fixed point.
 
 - **With a header**: the joint columns are the robot's joint names (``panda_joint1``…) or
-  ``q1..qN``; the reading is a ``length`` column, ``x,y,z`` columns or a ``point`` column (the
-  name of the fixed place); without any, the file is one fixed point. Other columns are ignored.
+  ``q1..qN``; the reading is a measurement kind's columns (:attr:`twin.kinds.base.Kind.columns`:
+  a ``length`` column, ``x,y,z`` columns…) or its label column (a ``point`` column: the name of
+  the fixed place); without any, the file is one fixed point (the first kind that reads a label
+  alone). Other columns are ignored.
 - **Headerless** (``headerless``): each row is the n joints, then nothing (the file is one fixed
-  point), a length, or x, y, z — the same count on every row.
+  point), a length, or x, y, z — the same count on every row (the kind with as many columns).
 - A file that is a fixed point is named by its path below the inputs' common folder, without
   its suffix (``front/hole_0``), or by its stem when it is the only file.
 
-A row that is not numbers, has the wrong number of fields, or lies outside the joint limits is
-left out and reported with the reason.
+A row that is not numbers, has the wrong number of fields, lies outside the joint limits, or has
+a reading its kind refuses is left out and reported with the reason.
 """
 
 from __future__ import annotations
@@ -27,13 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.choices import ANGLE_UNITS, LENGTH_UNITS
-from twin.dataset import Measurements
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.importers.base import Imported, outside_limits
-from twin.io.measurements import LENGTH_COLUMN, POINT_COLUMN, POSITION_COLUMNS, joint_columns
+from twin.io.measurements import joint_columns
 from twin.io.paths import read_text
+from twin.kinds import KINDS, Kind
 from twin.robot import RobotModel
-from twin.units import LENGTH_FACTORS, MAX_LENGTH_M, deg_to_rad
+from twin.units import LENGTH_FACTORS, deg_to_rad, mm_to_m
 
 WHAT = "a CSV of joint angles and readings"
 
@@ -46,9 +48,16 @@ def _rows(path: Path) -> list[tuple[int, list[str]]]:
             if fields and any(f.strip() for f in fields) and not fields[0].lstrip().startswith("#")]
 
 
+def _labelled() -> Kind:
+    """The kind of a file without reading columns: the first that reads a label alone (the
+    file is one fixed point)."""
+    return next(kind for kind in KINDS.values() if not kind.columns and kind.labels)
+
+
 def _layout(header: list[str], robot: RobotModel, path: Path, line: int
-            ) -> tuple[list[int], list[int], int | None]:
-    """Column indices of the joints and the numeric reading, and of the point label."""
+            ) -> tuple[list[int], Kind, list[int], int | None]:
+    """Column indices of the joints, the kind, the indices of its numeric columns and of its
+    label."""
     for names in (list(robot.joint_names), list(joint_columns(robot.n_joints))):
         if all(name in header for name in names):
             joints = [header.index(name) for name in names]
@@ -58,11 +67,15 @@ def _layout(header: list[str], robot: RobotModel, path: Path, line: int
                          f"{','.join(robot.joint_names)} or "
                          f"{','.join(joint_columns(robot.n_joints))}", source=path,
                          where=f"line {line}")
-    if LENGTH_COLUMN in header:
-        return joints, [header.index(LENGTH_COLUMN)], None
-    if all(c in header for c in POSITION_COLUMNS):
-        return joints, [header.index(c) for c in POSITION_COLUMNS], None
-    return joints, [], header.index(POINT_COLUMN) if POINT_COLUMN in header else None
+    numeric = sorted((kind for kind in KINDS.values()
+                      if kind.columns and all(c in header for c in kind.columns)),
+                     key=lambda kind: -len(kind.columns))
+    if numeric:
+        return joints, numeric[0], [header.index(c) for c in numeric[0].columns], None
+    for kind in KINDS.values():
+        if not kind.columns and kind.labels and kind.labels[0] in header:
+            return joints, kind, [], header.index(kind.labels[0])
+    return joints, _labelled(), [], None
 
 
 def point_names(paths: Sequence[Path]) -> list[str]:
@@ -81,31 +94,54 @@ def _number(text: str) -> float:
 
 
 class _File:
-    """The rows of one file kept, as q (rad), readings (m) and point labels."""
+    """The rows of one file kept, as q (rad), readings (the kind's file units) and labels."""
 
-    def __init__(self) -> None:
+    def __init__(self, kind: Kind) -> None:
+        self.kind = kind
         self.q: list[NDArray[np.float64]] = []
         self.values: list[list[float]] = []
         self.labels: list[str] = []
+        self.lines: list[int] = []
+
+
+def _headerless(rows: list[tuple[int, list[str]]], n: int, path: Path) -> Kind:
+    """The kind of headerless rows: the one with as many columns as the fields after the
+    joints."""
+    width = len(rows[0][1]) - n
+    found = [kind for kind in KINDS.values() if len(kind.columns) == width
+             and (kind.columns or kind.labels)]
+    if not found:
+        texts = ", ".join(",".join(kind.columns) for kind in KINDS.values() if kind.columns)
+        raise InputError(f"{len(rows[0][1])} fields on line {rows[0][0]}", f"{n} joints, "
+                         f"then nothing or one of {texts}", source=path)
+    return found[0]
+
+
+def _refused(kind: Kind, q: NDArray[np.float64], values: list[float], line: int) -> str:
+    """Why the kind refuses a row's reading, or ""."""
+    try:
+        kind.from_columns(q[None], {c: np.array([v]) for c, v in zip(kind.columns, values,
+                                                                   strict=True)},
+                          {label: ["row"] for label in kind.labels}, [line], None)
+    except InputError as exc:
+        return f"{exc.found}, expected {exc.expected}"
+    return ""
 
 
 def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
-               length_factor: float, name: str, dropped: list[str]) -> tuple[_File, int]:
-    """A file's kept rows and its reading's width (0: a fixed point)."""
+               to_mm: float, name: str, dropped: list[str]) -> _File:
+    """A file's kept rows, readings in mm."""
     rows = _rows(path)
     if not rows:
         raise InputError("an empty file", "rows of joint angles", source=path)
     n = robot.n_joints
     if headerless:
-        width = len(rows[0][1]) - n
-        joints, reading, label = list(range(n)), list(range(n, n + max(width, 0))), None
-        if width not in (0, 1, 3):
-            raise InputError(f"{len(rows[0][1])} fields on line {rows[0][0]}", f"{n} joints, "
-                             f"then nothing, a length or x,y,z", source=path)
+        kind = _headerless(rows, n, path)
+        joints, reading, label = list(range(n)), list(range(n, n + len(kind.columns))), None
     else:
-        joints, reading, label = _layout(rows[0][1], robot, path, rows[0][0])
+        joints, kind, reading, label = _layout(rows[0][1], robot, path, rows[0][0])
         rows = rows[1:]
-    kept = _File()
+    kept = _File(kind)
     fields_expected = None if not headerless else n + len(reading)
     for line, fields in rows:
         where = f"{path}: line {line}"
@@ -114,23 +150,23 @@ def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
             continue
         try:
             q = np.array([_number(fields[j]) for j in joints])
-            values = [_number(fields[j]) * length_factor for j in reading]
+            values = [_number(fields[j]) * (1.0 if column in kind.unitless else to_mm)
+                      for j, column in zip(reading, kind.columns, strict=True)]
         except (ValueError, IndexError):
             dropped.append(f"{where}: a field that is not a finite number: dropped")
             continue
         if angle_unit == "deg":
             q = np.where(robot.prismatic, q, deg_to_rad(q))
-        q = np.where(robot.prismatic, q * length_factor, q)
-        reason = outside_limits(q, robot) or (
-            f"a length that is not in (0, {MAX_LENGTH_M:g}] m" if len(values) == 1
-            and not 0 < values[0] <= MAX_LENGTH_M else "")
+        q = np.where(robot.prismatic, mm_to_m(q * to_mm), q)
+        reason = outside_limits(q, robot) or _refused(kind, q, values, line)
         if reason:
             dropped.append(f"{where}: {reason}: dropped")
             continue
         kept.q.append(q)
         kept.values.append(values)
         kept.labels.append(fields[label] if label is not None else name)
-    return kept, len(reading) if label is None else -1
+        kept.lines.append(line)
+    return kept
 
 
 def read_csv_files(paths: Sequence[str | Path], robot: RobotModel, *, angle_unit: str,
@@ -148,23 +184,23 @@ def read_csv_files(paths: Sequence[str | Path], robot: RobotModel, *, angle_unit
                                  source="--length-unit")
     files = [Path(p) for p in paths]
     dropped: list[str] = []
-    parts = [_read_file(path, robot, headerless, angle_unit, LENGTH_FACTORS[length_unit], name,
-                        dropped) for path, name in zip(files, point_names(files), strict=True)]
-    widths = {width for _, width in parts}
-    if len(widths) != 1:
-        raise InputError("files with different readings (lengths, points, fixed points)",
-                         "one kind of reading in every file", source=", ".join(map(str, files)))
-    width = widths.pop()
-    q = [row for part, _ in parts for row in part.q]
+    parts = [_read_file(path, robot, headerless, angle_unit,
+                        LENGTH_FACTORS[length_unit] / LENGTH_FACTORS["mm"], name, dropped)
+             for path, name in zip(files, point_names(files), strict=True)]
+    kinds = {part.kind.name for part in parts}
+    if len(kinds) != 1:
+        raise InputError("files with different readings (" + ", ".join(
+            kind.what for kind in KINDS.values()) + ")", "one kind of reading in every file",
+                         source=", ".join(map(str, files)))
+    kind = parts[0].kind
+    q = [row for part in parts for row in part.q]
     if not q:
         raise InputError("no row kept", "at least one row of joint angles within the limits",
                          source=", ".join(map(str, files)))
-    values = np.array([v for part, _ in parts for v in part.values], dtype=np.float64)
-    if width == 1:
-        return Imported(Measurements(np.array(q), values[:, 0]), dropped)
-    if width == 3:
-        return Imported(Measurements(np.array(q), position_m=values), dropped)
-    labels = [label for part, _ in parts for label in part.labels]
-    names = tuple(dict.fromkeys(labels))
-    return Imported(Measurements(np.array(q), point=np.array([names.index(x) for x in labels]),
-                                 point_names=names), dropped)
+    values = np.array([v for part in parts for v in part.values],
+                      dtype=np.float64).reshape(len(q), -1)
+    labels = [label for part in parts for label in part.labels]
+    return Imported(kind.from_columns(
+        np.array(q), {column: values[:, k] for k, column in enumerate(kind.columns)},
+        {name: labels for name in kind.labels}, [line for part in parts for line in part.lines],
+        None), dropped)
