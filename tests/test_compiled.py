@@ -124,3 +124,12 @@ def test_distances_equal_the_written_out_lengths(anchored: str,
         np.testing.assert_array_equal(fast, lengths(batch - anchor))
         np.testing.assert_array_equal(reference, lengths(batch - anchor))
         assert fast.shape == batch.shape[:-1]
+
+
+def test_distances_of_no_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No rows (a calibration that trains on every pose has no validation poses) give no
+    distances on either path."""
+    for shape in ((0, 3), (7, 0, 3)):
+        fast, reference = _both(monkeypatch, lambda shape=shape: kinematics.distances(
+            np.zeros(shape), np.zeros((0, 3))))
+        assert fast.shape == reference.shape == shape[:-1]

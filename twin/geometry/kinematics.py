@@ -459,7 +459,7 @@ def distances(points_m: ArrayLike, anchors_m: ArrayLike) -> Array:
     anchors = np.asarray(anchors_m, dtype=np.float64)
     batch = points.shape[:-2]
     compiled = _compiled()
-    if compiled is None or points.ndim < 2 or points.shape[-1] != 3 \
+    if compiled is None or points.ndim < 2 or points.shape[-1] != 3 or points.size == 0 \
             or anchors.shape not in (points.shape[-2:], points.shape):
         return lengths(points - anchors)
     out = compiled.distances(np.ascontiguousarray(points.reshape(-1, *points.shape[-2:])),
