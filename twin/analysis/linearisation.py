@@ -30,8 +30,12 @@ from twin.dataset import Measurements
 from twin.model import Model
 
 KEPT = 8
-"""Linearisations (and chain Jacobians) kept: a calibration and a study trial come back to
-the same three or four points — the start, the answer, the truth."""
+"""Linearisations kept: a calibration and a study trial come back to the same three or four
+points — the start, the answer, the truth."""
+KEPT_CHAINS = 2
+"""Chain Jacobians kept: the unobservable motions and the uncertainty read the flange's one
+after the other, at the answer over the same workspace; over thousands of workspace poses each
+weighs megabytes."""
 
 Kept = TypeVar("Kept")
 
@@ -71,13 +75,14 @@ def _key(x: Array, data: Measurements, *extra: object) -> tuple[object, ...]:
 
 
 def _kept(store: list[tuple[weakref.ref[Model], tuple[object, ...], Kept]], model: Model,
-          key: tuple[object, ...], make: Callable[[], Kept]) -> Kept:
-    """The value kept in ``store`` for (model, key), else ``make()`` kept there."""
+          key: tuple[object, ...], make: Callable[[], Kept], size: int) -> Kept:
+    """The value kept in ``store`` for (model, key), else ``make()`` kept there with the last
+    ``size - 1`` others."""
     for model_ref, kept_key, value in store:
         if model_ref() is model and kept_key == key:
             return value
     value = make()
-    store[:] = [*store[-(KEPT - 1):], (weakref.ref(model), key, value)]
+    store[:] = [*store[len(store) - size + 1:], (weakref.ref(model), key, value)]
     return value
 
 
@@ -104,7 +109,7 @@ def linearise(model: Model, x: ArrayLike, data: Measurements,
         return Linearisation(residuals, jacobian, triangle)
 
     return _kept(_LINEARISED, model, _key(x, data, None if weight is None else
-                                          weight.tobytes()), make)
+                                          weight.tobytes()), make, KEPT)
 
 
 def chain_jacobian(model: Model, x: ArrayLike, data: Measurements, *, measured: bool) -> Array:
@@ -119,7 +124,7 @@ def chain_jacobian(model: Model, x: ArrayLike, data: Measurements, *, measured: 
         _read_only(jacobian)
         return jacobian
 
-    return _kept(_CHAINS, model, _key(x, data, measured), make)
+    return _kept(_CHAINS, model, _key(x, data, measured), make, KEPT_CHAINS)
 
 
 _LINEARISED: list[tuple[weakref.ref[Model], tuple[object, ...], Linearisation]] = []
