@@ -334,6 +334,13 @@ def for_bulk_work() -> None:
     _compiled.cache_clear()
 
 
+def takes_compiled() -> bool:
+    """Whether this process takes the compiled kernels (extra ``fast``): the one switch of
+    :data:`KERNEL_VARIABLE` and :func:`for_bulk_work`, which the swarms' compiled B-spline step
+    (:mod:`twin.solvers.compiled`) follows too."""
+    return _compiled() is not None
+
+
 @cache
 def _compiled() -> Any:
     """The compiled kernel's module, or None (numba not installed, ``TWIN_KERNEL=numpy``, or

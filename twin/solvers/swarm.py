@@ -8,7 +8,9 @@
 - :func:`interpolating_curve` / :func:`interpolated_points`: the B-spline step of BIPSO
   (eqs. 19–27): one cubic curve in R^p through the particles in index order, chord-length
   parameters from full-vector distances normalised to [0, 1] (eqs. 20–22), interpolated with
-  :func:`scipy.interpolate.make_interp_spline` and sampled at M evenly spaced parameters.
+  :func:`scipy.interpolate.make_interp_spline` and sampled at M evenly spaced parameters (with
+  the extra ``fast``, in a study's workers, the same curve drawn by a compiled kernel:
+  :mod:`twin.solvers.compiled`).
 - :func:`run_population`: the loop. Each iteration a method proposes K ≥ N candidates, all are
   evaluated in ONE batched call, the best N are kept (:func:`best_in_slots`: velocities and
   personal bests stay with their slots), personal and global bests are updated elitistically, and
@@ -34,6 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from twin.arrays import Array
+from twin.geometry.kinematics import takes_compiled
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Tracker
 from twin.stopping import Budget, StopReason, stalled
@@ -142,11 +145,17 @@ def _even(m: int) -> Array:
 def interpolated_points(x: Array, m: int) -> Array:
     """M points of the curve at evenly spaced parameters in [0, 1] (eq. 27), shape (M, p).
 
-    If all particles coincide the curve is that point.
+    If all particles coincide the curve is that point. Where the compiled kernels are taken
+    (:func:`twin.geometry.kinematics.takes_compiled`) a cubic curve is drawn by
+    :func:`twin.solvers.compiled.curve_points`, the same curve to round-off.
     """
     t, kept = chord_parameters(x)
     if t.size < 2:
         return np.repeat(kept[:1], m, axis=0)
+    if t.size > SPLINE_DEGREE and takes_compiled():
+        from twin.solvers.compiled import curve_points
+
+        return np.asarray(curve_points(t, kept, _even(m)), dtype=np.float64)
     return np.asarray(_curve(t, kept)(_even(m)), dtype=np.float64)
 
 
