@@ -80,7 +80,8 @@ def test_the_cli_finds_an_unknown_port_and_refuses_poses_on_a_plane(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`--port unknown --estimate-port` calibrates and says where the port came from (report
     and JSON); poses turning joint 1 alone (their points on one circle) cannot place a port:
-    exit 2, one line; `--port unknown` without --estimate-port: exit 2, one line."""
+    exit 2, one line; `--port unknown` without --estimate-port: exit 2, one line; a
+    capture.toml's `port_mm = "unknown"` is the flag's."""
     sim = simulate(load_scenario(SCENARIO))
     data = tmp_path / "lengths.csv"
     write_measurements(data, sim.measurements, sim.robot)
@@ -100,3 +101,8 @@ def test_the_cli_finds_an_unknown_port_and_refuses_poses_on_a_plane(
     assert main(["calibrate", str(data), "--port", "front=unknown"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--estimate-port" in err and len(err.splitlines()) == 1, err
+    capture = tmp_path / "capture.toml"
+    robot = SCENARIO.parents[1] / "models" / "irb120.toml"
+    capture.write_text(f'robot = "{robot}"\nport_mm = "unknown"\nmeasurements = "lengths.csv"\n')
+    assert main(["calibrate", str(capture), "--estimate-port"]) == 0
+    assert "nobody measured it: started from the lengths" in capsys.readouterr().out
