@@ -31,6 +31,8 @@ from twin.robot import RobotModel
 from twin.units import (
     FILE_DEG_DECIMALS,
     FILE_MM_DECIMALS,
+    MICRO,
+    RESULT_COMPLIANCE_DECIMALS,
     RESULT_MM_DECIMALS,
     dh_rows_rounded,
     m_to_mm,
@@ -52,6 +54,11 @@ MASS_DECIMALS = 3
 
 def _mm(values_m: ArrayLike) -> list[float]:
     return rounded(m_to_mm(values_m), RESULT_MM_DECIMALS)
+
+
+def _ppm(values: ArrayLike) -> list[float]:
+    """Scale errors given in m/m, in ppm, as results keep them (1e-4 ppm)."""
+    return rounded(np.asarray(values, dtype=np.float64) * MICRO, RESULT_COMPLIANCE_DECIMALS)
 
 
 def _metrics_mm(m: Metrics) -> dict[str, float]:
@@ -124,6 +131,9 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         if model.has("offset"):
             fields["sigma"]["offset"] = _finite_or_none(
                 _mm(model.block(uncertainty.sigma, "offset")))[0]
+        if model.has("scale"):
+            fields["sigma"]["scale_ppm"] = _finite_or_none(
+                _ppm(model.block(uncertainty.sigma, "scale")))[0]
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
         if result.workspace is not None:
@@ -318,6 +328,8 @@ def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
         document["port"] = _mm(result.port_m)
     if result.model.has("offset"):
         document["offset"] = _mm(result.offset_m)[0]
+    if result.model.has("scale"):
+        document["scale_ppm"] = _ppm(result.scale)[0]
     if result.model.has("attachment"):
         document["attachment"] = _mm(result.attachment_m)
     if result.model.has("base"):
