@@ -179,6 +179,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     tension = getattr(args, "cable_tension", None)
     flags = frozenset(flag for flag, name in (("--port", "port"), ("--distance", "distance"),
                                               ("--angle", "angle"),
+                                              ("--sigma-deg", "sigma_deg"),
                                               ("--attachment", "attachment"),
                                               ("--loss-scale", "loss_scale"),
                                               ("--bounds", "bounds"), ("--prior", "prior"),

@@ -289,15 +289,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     q_file = table.values
     if robot is not None:
         check_joint_limits(q_file, table.lines, robot, path)
-    turning = np.ones(n, dtype=bool) if robot is None else ~robot.prismatic
-    angles = q_file[:, turning]
-    if len(table.lines) >= 3 and angles.size and np.all(np.abs(angles) <= 2 * math.pi) \
-            and np.any(angles != 0):
-        warnings.warn(
-            f"{path}: every joint angle is within ±2π; the columns {joints[0]}..{joints[-1]} are "
-            "read as degrees — convert them if they are radians",
-            UnitWarning, stacklevel=2,
-        )
+    _warn_radians(q_file, robot, joints, path)
     q_rad = joints_from_file(q_file, _prismatic(robot))
     approach = _approach(table, n, path)
     _refuse_other_labels(table, kind, path)
@@ -305,6 +297,52 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
         return kind.from_columns(q_rad, table.optional, table.labels, table.lines, approach)
     except InputError as exc:
         raise exc.at(path) from None
+
+
+RADIAN_SPAN_FRACTION = 0.05
+"""A joint column in degrees that spans less than this fraction of the joint's range in
+degrees, while every value would fit its limits read as radians, looks like radians."""
+MIN_VARYING_DEG = 1e-6
+"""A column whose values spread by less than this (deg) is a fixed joint: it says nothing of
+its unit."""
+
+
+def _warn_radians(q_file: NDArray[np.float64], robot: RobotModel | None,
+                  joints: tuple[str, ...], path: str | Path) -> None:
+    """Warn (:class:`UnitWarning`) naming the columns that look like radians read as degrees:
+    of the revolute columns that vary, those spanning less than
+    :data:`RADIAN_SPAN_FRACTION` of their joint's range in degrees with every value inside
+    the joint's limits read as radians — when they are at least half of the varying columns
+    (one narrow column is a joint the capture barely moved, half of them a unit). Per column,
+    so that one joint wound past 2π, or a fixed joint, does not hide the others.
+
+    Args:
+        q_file: joint values as the file writes them, shape (N, n), deg (mm for a prismatic
+            joint, never checked here).
+        robot: the robot measured (its limits), or None (±360° for every joint).
+    """
+    if q_file.shape[0] < 3:
+        return
+    n = q_file.shape[1]
+    if robot is None:
+        lower_rad, upper_rad = np.full(n, -2 * math.pi), np.full(n, 2 * math.pi)
+        turning = np.ones(n, dtype=bool)
+    else:
+        lower_rad, upper_rad, turning = robot.lower_rad, robot.upper_rad, ~robot.prismatic
+    span = np.ptp(q_file, axis=0)
+    varying = turning & (span > MIN_VARYING_DEG)
+    range_deg = np.degrees(upper_rad - lower_rad)
+    inside_as_rad = np.all((q_file >= lower_rad) & (q_file <= upper_rad), axis=0)
+    narrow = varying & inside_as_rad & (span < RADIAN_SPAN_FRACTION * range_deg)
+    if np.count_nonzero(narrow) and 2 * np.count_nonzero(narrow) >= np.count_nonzero(varying):
+        names = ", ".join(name for name, flag in zip(joints, narrow, strict=True) if flag)
+        warnings.warn(
+            f"{path}: the columns {names} span less than "
+            f"{RADIAN_SPAN_FRACTION:.0%} of their joints' ranges and fit the limits as "
+            "radians; they are read as degrees — if they are radians, convert the file with "
+            "`twin import --angle-unit rad`",
+            UnitWarning, stacklevel=3,
+        )
 
 
 def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
