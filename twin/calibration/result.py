@@ -13,6 +13,7 @@ from twin.analysis.gauge import Gauge
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import Misfit
+from twin.analysis.steps import Step
 from twin.analysis.uncertainty import CalibrationUncertainty
 from twin.analysis.unseen import Unseen
 from twin.analysis.workspace import Workspace
@@ -64,6 +65,10 @@ class CalibrationResult:
             when the joints' noise entered them (errors in variables); None otherwise.
         workspace: Where the accuracy is stated: poses within the joint ranges of the
             training poses (:mod:`twin.analysis.workspace`).
+        steps: Where the identified model's residuals, over every row of the measurements
+            in their order, jump by more than the noise allows (:mod:`twin.analysis.steps`):
+            a re-hooked cable, a re-zeroed encoder, a new session; empty when none (or for
+            kinds of several rows per pose).
     """
 
     robot: RobotModel
@@ -86,6 +91,7 @@ class CalibrationResult:
     noise: NoiseEstimate | None = None
     row_sigma: Array | None = None
     workspace: Workspace | None = None
+    steps: tuple[Step, ...] = ()
 
     @property
     def validated(self) -> bool:
@@ -184,9 +190,16 @@ class CalibrationResult:
 
     @property
     def offset_m(self) -> float:
-        """Identified cable-length offset, m (0 unless estimated)."""
-        return float(self.model.block(self.solver.x, "offset")[0]) if self.model.has("offset") \
-            else 0.0
+        """Identified cable-length offset, m (0 unless estimated; the first session's with
+        several: :attr:`offsets_m`)."""
+        return float(self.offsets_m[0]) if self.model.has("offset") else 0.0
+
+    @property
+    def offsets_m(self) -> Array:
+        """Identified cable-length offset of each capture session (one without sessions),
+        shape (s,), m; empty unless estimated."""
+        return np.asarray(self.model.block(self.solver.x, "offset"), dtype=np.float64) \
+            if self.model.has("offset") else np.zeros(0)
 
     @property
     def scale(self) -> float:

@@ -242,6 +242,11 @@ def _each_pair_once(pairs: list[tuple[str, str, str]], what: str, source: str | 
                                  where=f"{where}[{index}]" if where else None)
 
 
+UNKNOWN_PORT = "unknown"
+"""What a port's coordinates say of a port nobody measured (``--port unknown``,
+``--port front=unknown``): the calibration finds it from the data."""
+
+
 def parse_named_port(value: str, source: str | Path, where: str
                      ) -> tuple[str | None, NDArray[np.float64]]:
     """``NAME=X,Y,Z`` (a named port) or ``X,Y,Z`` (the one port), mm, to (name, port in m)."""
@@ -251,6 +256,15 @@ def parse_named_port(value: str, source: str | Path, where: str
     if not name.strip():
         raise InputError(f"{value!r}", "NAME=X,Y,Z in mm, or X,Y,Z", source=source, where=where)
     return name.strip(), parse_port_mm(coordinates, source, where)
+
+
+def parse_told_port(value: str, source: str | Path, where: str
+                    ) -> tuple[str | None, NDArray[np.float64] | None]:
+    """:func:`parse_named_port`, or :data:`UNKNOWN_PORT` for X,Y,Z: (name, None)."""
+    name, equals, coordinates = value.rpartition("=")
+    if coordinates.strip() == UNKNOWN_PORT and (not equals or name.strip()):
+        return name.strip() or None, None
+    return parse_named_port(value, source, where)
 
 
 def _parse_rig(document: Table) -> Rig:

@@ -15,9 +15,12 @@ A kind whose columns hold another's (a pose's ``x,y,z`` and its orientation) is 
 with all of them holds.
 
 Optional ``approach1..approachN`` (+1 / −1): the direction each joint last moved in before the
-reading, which backlash depends on. Other columns are ignored; ``#`` lines are comments. Every
-problem is reported as one :class:`~twin.errors.InputError` naming the file, the line and
-column, what was found and what was expected.
+reading, which backlash depends on. Optional ``session``, beside any kind's columns: a label
+(any text of 1 to 64 characters) naming the capture session of each row — cable lengths get an
+encoder zero per session (:mod:`twin.kinds.length`), ``--cv-by session`` holds each out.
+Other columns are ignored; ``#`` lines are comments. Every problem is reported as one
+:class:`~twin.errors.InputError` naming the file, the line and column, what was found and what
+was expected.
 """
 
 from __future__ import annotations
@@ -33,12 +36,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.dataset import Measurements
+from twin.dataset import Labels, Measurements
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
 from twin.io.table import shown
 from twin.kinds import KINDS, Kind
+from twin.rig import SESSION_LABELS
 from twin.robot import RobotModel
 from twin.units import joint_file_units, joints_from_file, joints_to_file
 
@@ -280,8 +284,9 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     what = (f"a measurement CSV ({joint_units_said(n, robot)} and "
             + ", ".join(texts[:-1]) + f" or {texts[-1]})")
     numeric = tuple(dict.fromkeys(name for kind in KINDS.values() for name in kind.columns))
-    labels = tuple(dict.fromkeys(name for kind in KINDS.values()
-                                 for name in (*kind.optional_labels, *kind.labels)))
+    labels = tuple(dict.fromkeys([*(name for kind in KINDS.values()
+                                    for name in (*kind.optional_labels, *kind.labels)),
+                                  SESSION_LABELS]))
     table = read_columns(path, joints, what, optional=(*numeric, *approach_columns(n)),
                          labels=labels, stdin=stdin)
     _refuse_extra_joints(table, n, path)
@@ -294,9 +299,16 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     approach = _approach(table, n, path)
     _refuse_other_labels(table, kind, path)
     try:
-        return kind.from_columns(q_rad, table.optional, table.labels, table.lines, approach)
+        measurements = kind.from_columns(q_rad, table.optional, table.labels, table.lines,
+                                         approach)
     except InputError as exc:
         raise exc.at(path) from None
+    if SESSION_LABELS not in table.labels:
+        return measurements
+    return Measurements(measurements.q_rad, measurements.kind, measurements.values,
+                        {**measurements.labels,
+                         SESSION_LABELS: Labels.of(table.labels[SESSION_LABELS])},
+                        measurements.approach)
 
 
 RADIAN_SPAN_FRACTION = 0.05
@@ -469,6 +481,9 @@ def format_measurements(measurements: Measurements, robot: RobotModel | None = N
     readings = KINDS.lookup(measurements.kind).to_columns(measurements)
     header += [name for name, _ in readings]
     extra = [cells for _, cells in readings]
+    if SESSION_LABELS in measurements.labels:
+        header.append(SESSION_LABELS)
+        extra.append(measurements.labels[SESSION_LABELS].per_row("session"))
     if measurements.approach is not None:
         header += list(approach_columns(n))
         extra += [[f"{int(v):+d}" for v in measurements.approach[:, k]] for k in range(n)]
