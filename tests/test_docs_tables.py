@@ -18,7 +18,7 @@ EXPECTED = {
     "robots.md": {"parametrisation"},
     "measurements.md": {"rigs", "stations", "limits", "noise-inputs", "pose-table",
                         "pose-transcript", "plane-table", "plane-transcript", "unknown-port",
-                        "sessions"},
+                        "sessions", "scale-table", "scale-transcript"},
     "twin.md": {"paper-rig", "demo-transcript"},
     "identifiability.md": {"unknown-sets", "held", "bench-design", "twin-check",
                            "identify-transcript"},

@@ -32,6 +32,8 @@ from twin.robot import RobotModel
 from twin.units import (
     FILE_DEG_DECIMALS,
     FILE_MM_DECIMALS,
+    MICRO,
+    RESULT_COMPLIANCE_DECIMALS,
     RESULT_MM_DECIMALS,
     dh_rows_rounded,
     m_to_mm,
@@ -53,6 +55,11 @@ MASS_DECIMALS = 3
 
 def _mm(values_m: ArrayLike) -> list[float]:
     return rounded(m_to_mm(values_m), RESULT_MM_DECIMALS)
+
+
+def _ppm(values: ArrayLike) -> list[float]:
+    """Scale errors given in m/m, in ppm, as results keep them (1e-4 ppm)."""
+    return rounded(np.asarray(values, dtype=np.float64) * MICRO, RESULT_COMPLIANCE_DECIMALS)
 
 
 def _metrics_mm(m: Metrics) -> dict[str, float]:
@@ -127,6 +134,9 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
             fields["sigma"]["offset"] = sigma_offsets[0]
             if model.rig.sessions:
                 fields["sigma"]["offsets"] = sigma_offsets
+        if model.has("scale"):
+            fields["sigma"]["scale_ppm"] = _finite_or_none(
+                _ppm(model.block(uncertainty.sigma, "scale")))[0]
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
         if result.workspace is not None:
@@ -336,6 +346,8 @@ def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
         if result.model.rig.sessions:
             document["offsets"] = dict(zip(result.model.rig.sessions,
                                            _mm(result.offsets_m), strict=True))
+    if result.model.has("scale"):
+        document["scale_ppm"] = _ppm(result.scale)[0]
     if result.model.has("attachment"):
         document["attachment"] = _mm(result.attachment_m)
     if result.model.has("base"):

@@ -31,6 +31,7 @@ from twin.report.display import (
     mm,
     percent,
     plain,
+    ppm,
     seconds,
     slot,
     xyz_mm,
@@ -212,6 +213,17 @@ def describe_rig(rig: Rig, measurements: Measurements) -> str:
     return text
 
 
+def _scale_text(result: CalibrationResult) -> str:
+    """``+98.7 ppm ± 3.1 ppm (1σ)``, or the value with why it has no σ (the data cannot see it:
+    held at the start)."""
+    sigma = np.nan if result.uncertainty is None else float(
+        result.model.block(result.uncertainty.sigma, "scale")[0])
+    if np.isfinite(sigma):
+        return f"{ppm(result.scale)} ± {ppm(sigma, sign=False)} (1σ)"
+    return (f"{ppm(result.scale)} (not identifiable from these data: held; a told port pins "
+            "the scale, an estimated one trades with it)")
+
+
 def format_rig(result: CalibrationResult) -> list[str]:
     """The rig's identified unknowns: ports, offset, attachment, tracker frame, fixed points."""
     model, lines = result.model, []
@@ -227,6 +239,8 @@ def format_rig(result: CalibrationResult) -> list[str]:
                   for name, value in zip(model.rig.sessions, result.offsets_m, strict=True)]
     elif model.has("offset"):
         lines.append(f"  identified length offset: {mm(result.offset_m)}")
+    if model.has("scale"):
+        lines.append(f"  identified encoder scale: {_scale_text(result)}")
     if model.has("attachment"):
         lines.append(f"  identified attachment (flange frame): {xyz_mm(result.attachment_m)}")
     if model.has("base"):
