@@ -166,8 +166,9 @@ def workspace_to_dict(workspace: Workspace, prismatic: NDArray[np.bool_] | None 
 def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     """The ``unknowns`` JSON object: everything needed to rebuild the identified model
     (:func:`twin.io.identified.load_result`) — the measurement kind, the unknown groups, the rig
-    the calibration was told, and every unknown's value, unit, σ (null: not identifiable) and
-    whether it ended on a bound of the search box."""
+    the calibration was told, and every unknown's value, unit, σ (null: not identifiable),
+    whether it ended on a bound of the search box and whether it lies in a direction held at
+    the nominal (its value then the hold's split, not a measurement)."""
     model = result.model
     values, labels = to_display(result.solver.x, model.units)
     sigma = to_display(result.uncertainty.sigma, model.units)[0] \
@@ -176,6 +177,7 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     weight = model.prior_weight()
     prior = to_display(1.0 / np.where(weight > 0, weight, np.inf), model.units)[0]
     held, decided = set(result.at_bounds), set(result.prior_decided)
+    split = result.unseen.held(model.names) if result.unseen is not None else frozenset()
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
@@ -187,7 +189,8 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
              "sigma": sigma[k] if math.isfinite(sigma[k]) else None,
              "lower": lower[k], "upper": upper[k],
              "prior_sigma": prior[k] if weight[k] > 0 else None,
-             "at_bound": name in held, "prior_decided": name in decided}
+             "at_bound": name in held, "prior_decided": name in decided,
+             "held": name in split}
             for group in model.groups
             for k, name in zip(range(model.n_params)[model.slice(group.name)], group.names,
                                strict=True)

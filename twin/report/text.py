@@ -388,16 +388,34 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
     lines += ["", f"Identified {errors} errors"
               + (" (and the truth)" if truth_delta is not None else ""),
               *format_parametrisation(result.robot), header]
+    held = _held_entries(result)
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
         for k, (key, lengths) in enumerate(zip(DH_KEYS, is_length, strict=True)):
             row += slot(result.delta[k, i], lengths[i],
-                        width=max(14, len(slot_label(key, lengths)) + 2))
+                        width=max(14, len(slot_label(key, lengths)) + 2) - 1)
+            row += HELD_MARK if held[k, i] else " "
             if truth_delta is not None:
                 row += slot(truth_delta[k, i], lengths[i], width=10)
         lines.append(row)
+    if held.any():
+        lines.append(f"  {HELD_MARK} seen only in a combination, or not at all: the value is "
+                     "the hold's minimum-norm split of what the data saw, not a measurement")
     lines += format_joint_groups(result)
     return "\n".join(lines)
+
+
+HELD_MARK = "~"
+"""Marks a table entry the data saw only in a combination, or not at all."""
+
+
+def _held_entries(result: CalibrationResult) -> NDArray[np.bool_]:
+    """Which entries of the table, shape (4, n), lie in a held direction
+    (:meth:`twin.analysis.unseen.Unseen.held`)."""
+    n = result.robot.n_joints
+    held = result.unseen.held(result.model.names) if result.unseen is not None else frozenset()
+    names = result.robot.structure.parameter_names
+    return np.array([name in held for name in names], dtype=bool).reshape(4, n)
 
 
 def _poses_line(result: CalibrationResult, cross_validated: bool) -> str:
