@@ -30,7 +30,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import gammaincinv
 
 from twin.dataset import Measurements
@@ -102,6 +102,16 @@ def chi2_quantile(level: float, dof: int) -> float:
     return float(2.0 * gammaincinv(dof / 2.0, level))
 
 
+def same_poses(data: Measurements) -> NDArray[np.intp]:
+    """Which rows repeat a pose: an index per row, shape (m,), equal for rows with the same
+    joint angles (within :data:`REPEAT_RTOL_RAD`) and labels (port, fixed point…)."""
+    keys = np.round(data.q_rad / REPEAT_RTOL_RAD).astype(np.int64)
+    for labels in data.labels.values():
+        keys = np.column_stack([keys, labels.indices])
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    return np.asarray(np.ravel(group), dtype=np.intp)
+
+
 def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
                  ) -> tuple[float, int] | None:
     """The noise measured by repeat readings: pooled standard deviation of the residuals of
@@ -116,11 +126,7 @@ def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
     """
     m = len(data)
     r = np.asarray(residuals_m, dtype=np.float64)[: rows_per_pose * m].reshape(m, rows_per_pose)
-    keys = np.round(data.q_rad / REPEAT_RTOL_RAD).astype(np.int64)
-    for labels in data.labels.values():
-        keys = np.column_stack([keys, labels.indices])
-    _, group = np.unique(keys, axis=0, return_inverse=True)
-    group = np.ravel(group)
+    group = same_poses(data)
     counts = np.bincount(group)
     dof = int(np.sum(counts[counts > 1] - 1)) * rows_per_pose
     if dof == 0:

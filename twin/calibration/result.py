@@ -9,6 +9,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.drift import Drift
 from twin.analysis.gauge import Gauge
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
@@ -64,6 +65,9 @@ class CalibrationResult:
             when the joints' noise entered them (errors in variables); None otherwise.
         workspace: Where the accuracy is stated: poses within the joint ranges of the
             training poses (:mod:`twin.analysis.workspace`).
+        drift: The test of the reference pose's readings against time
+            (:mod:`twin.analysis.drift`; its series' rows are the measurements'), or None
+            without reference rows.
     """
 
     robot: RobotModel
@@ -86,6 +90,7 @@ class CalibrationResult:
     noise: NoiseEstimate | None = None
     row_sigma: Array | None = None
     workspace: Workspace | None = None
+    drift: Drift | None = None
 
     @property
     def validated(self) -> bool:

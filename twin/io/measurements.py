@@ -15,9 +15,13 @@ A kind whose columns hold another's (a pose's ``x,y,z`` and its orientation) is 
 with all of them holds.
 
 Optional ``approach1..approachN`` (+1 / −1): the direction each joint last moved in before the
-reading, which backlash depends on. Other columns are ignored; ``#`` lines are comments. Every
-problem is reported as one :class:`~twin.errors.InputError` naming the file, the line and
-column, what was found and what was expected.
+reading, which backlash depends on. Optional per-row columns beside any kind's readings
+(:data:`twin.dataset.ROW_COLUMNS`): ``t_s`` (s since the capture started, >= 0),
+``temperature_c`` (°C, within :data:`twin.dataset.TEMPERATURE_RANGE_C`) and ``reference``
+(1 on a reference pose revisited during the capture, else 0), which the drift test reads.
+Other columns are ignored; ``#`` lines are comments. Every problem is reported as one
+:class:`~twin.errors.InputError` naming the file, the line and column, what was found and what
+was expected.
 """
 
 from __future__ import annotations
@@ -27,13 +31,21 @@ import io
 import math
 import re
 import warnings
+from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.dataset import Measurements
+from twin.dataset import (
+    REFERENCE,
+    ROW_COLUMNS,
+    TEMPERATURE,
+    TEMPERATURE_RANGE_C,
+    TIME,
+    Measurements,
+)
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
@@ -282,7 +294,8 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     numeric = tuple(dict.fromkeys(name for kind in KINDS.values() for name in kind.columns))
     labels = tuple(dict.fromkeys(name for kind in KINDS.values()
                                  for name in (*kind.optional_labels, *kind.labels)))
-    table = read_columns(path, joints, what, optional=(*numeric, *approach_columns(n)),
+    table = read_columns(path, joints, what,
+                         optional=(*numeric, *approach_columns(n), *ROW_COLUMNS),
                          labels=labels, stdin=stdin)
     _refuse_extra_joints(table, n, path)
     kind = _which_kind(table, joints, path)
@@ -302,9 +315,37 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     approach = _approach(table, n, path)
     _refuse_other_labels(table, kind, path)
     try:
-        return kind.from_columns(q_rad, table.optional, table.labels, table.lines, approach)
+        measurements = kind.from_columns(q_rad, table.optional, table.labels, table.lines,
+                                         approach)
     except InputError as exc:
         raise exc.at(path) from None
+    rows = _row_columns(table, path)
+    return replace(measurements, values={**measurements.values, **rows}) if rows \
+        else measurements
+
+
+def _row_columns(table: Columns, path: str | Path) -> dict[str, NDArray[np.float64]]:
+    """The per-row columns the file has (:data:`twin.dataset.ROW_COLUMNS`), each checked: a
+    time >= 0 s, a temperature within :data:`TEMPERATURE_RANGE_C`, a reference flag 0 or 1."""
+    low, high = TEMPERATURE_RANGE_C
+    checks = {
+        TIME: (lambda v: v >= 0.0, "a time >= 0 s since the capture started"),
+        TEMPERATURE: (lambda v: (v >= low) & (v <= high),
+                      f"a temperature in °C within [{low:g}, {high:g}]"),
+        REFERENCE: (lambda v: np.isin(v, (0.0, 1.0)),
+                    "1 on a reference pose revisited during the capture, else 0"),
+    }
+    rows = {}
+    for name, (valid, expected) in checks.items():
+        if name not in table.optional:
+            continue
+        values = table.optional[name]
+        bad = np.flatnonzero(~valid(values))
+        if bad.size:
+            raise InputError(f"{values[bad[0]]:g}", expected, source=path,
+                             where=f"line {table.lines[bad[0]]}, column {name}")
+        rows[name] = values
+    return rows
 
 
 def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
@@ -431,6 +472,11 @@ def format_measurements(measurements: Measurements, robot: RobotModel | None = N
     readings = KINDS.lookup(measurements.kind).to_columns(measurements)
     header += [name for name, _ in readings]
     extra = [cells for _, cells in readings]
+    for name in ROW_COLUMNS:
+        if name in measurements.values:
+            header.append(name)
+            extra.append([str(int(v)) if name == REFERENCE else repr(float(v))
+                          for v in measurements.values[name]])
     if measurements.approach is not None:
         header += list(approach_columns(n))
         extra += [[f"{int(v):+d}" for v in measurements.approach[:, k]] for k in range(n)]

@@ -128,6 +128,12 @@ def seconds(value_s: float, decimals: int = DURATION_DECIMALS) -> str:
     return f"{plain(value_s, decimals)} s"
 
 
+def elapsed(value: float, timed: bool = True) -> str:
+    """A span of a capture: ``3600 s`` (whole seconds), or ``12 rows`` when the rows carry no
+    time and their order stands for it."""
+    return f"{plain(value, 0)} s" if timed else f"{plain(value, 0)} rows"
+
+
 def slot(value_si: float, is_length: bool, decimals: int | None = None, *,
          width: int = 0) -> str:
     """An entry of a D-H (or Hayati) table given in SI, in its row's unit without it: mm for

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.drift import MIN_READINGS, Drift
 from twin.analysis.identifiability import WEAK_RTOL, Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
@@ -26,6 +27,7 @@ from twin.report.display import (
     SIGNIFICANT,
     deg,
     deg_values,
+    elapsed,
     in_unit,
     joint_level,
     mm,
@@ -267,6 +269,8 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
                      f"{mm(misfit.rmse_m, significant=SIGNIFICANT)} against a noise of "
                      f"{mm(misfit.noise_m, significant=SIGNIFICANT)} ({misfit.describe()}): "
                      f"{misfit.readings()}{likely}")
+    if result.drift is not None:
+        lines += format_drift(result.drift)
     if result.loss.robust:
         rows = result.rejected_rows
         shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
@@ -280,6 +284,29 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
         lines.append("  motions of the flange the data cannot see: " + gauge.describe()
                      + ("; pin them with " + " or ".join(gauge.pins) if gauge.pins else ""))
     return lines
+
+
+def format_drift(drift: Drift) -> list[str]:
+    """The drift test's line (:mod:`twin.analysis.drift`): the reference readings, how far
+    the most drifting one moved and its spread, the test, and what a drift means."""
+    if not drift.series:
+        return [f"  drift: {drift.references} reference row(s), no reference pose read "
+                f"{MIN_READINGS} times at different times: not tested"]
+    worst = max(drift.series, key=lambda series: float(np.max(np.abs(series.z))))
+    row = int(np.argmax(np.abs(worst.z)))
+    readings = sum(series.rows.size for series in drift.series)
+    span = max(float(np.ptp(series.time_s)) for series in drift.series)
+    verdict = "DRIFT beyond the noise: the rig or the arm changed during the capture (a " \
+        "warm-up: record temperature_c and fit --errors thermal)" if drift.drift \
+        else "no drift beyond the noise"
+    return [f"  drift: {len(drift.series)} reference pose(s), {readings} readings over "
+            f"{elapsed(span, drift.timed)}; the most drifting moved "
+            f"{mm(worst.drift_m[row], significant=SIGNIFICANT, sign=True)} (spread "
+            f"{mm(worst.spread_m, significant=SIGNIFICANT)}), slope z "
+            f"{plain(drift.statistic, significant=3)} against "
+            f"{plain(drift.threshold, significant=3)} (two-sided, p {plain(ALPHA)} over "
+            f"{drift.tests} slope(s); noise {mm(drift.noise_m, significant=SIGNIFICANT)}, "
+            f"{drift.noise_source}): {verdict}"]
 
 
 def format_truth(truth: TruthErrors, point: bool = True,
