@@ -84,10 +84,11 @@ def test_calibrate_json_carries_identifiability_and_sigma(
     assert document["identifiability_identified"]["at"] == "identified"
     sigma = document["sigma"]
     assert set(sigma) == {"a", "d", "alpha", "theta"}
-    # alpha6 never moves the flange centre: held entirely, it has no σ; the other unseen
-    # directions are combinations, and each unknown in them has the σ of the held estimate.
-    assert sigma["alpha"][5] is None
-    assert sum(v is None for values in sigma.values() for v in values) == 1
+    # alpha6 never moves the flange centre, and theta6 only as weakly as these data cannot
+    # tell it from zero: held entirely, they have no σ; the other unseen directions are
+    # combinations, and each unknown in them has the σ of the held estimate.
+    assert sigma["alpha"][5] is None and sigma["theta"][5] is None
+    assert sum(v is None for values in sigma.values() for v in values) == 2
     # Joint 5's a, d, alpha, theta are seen only weakly (a5+theta5, d5-alpha5): about 1 mm, 1°.
     assert all(0 < v < 2.0 for values in sigma.values() for v in values if v is not None)
     assert 0.005 < document["noise_sigma"] < 0.02

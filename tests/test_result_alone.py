@@ -97,3 +97,41 @@ def test_unseen_directions_leave_at_the_nominal(tmp_path: Path) -> None:
     assert main(["export", str(tmp_path / "r.json"), "--format", "dh", "--out",
                  str(tmp_path / "id.toml")]) == 0
     assert abs(load_robot(tmp_path / "id.toml").dh[3, 5]) < 1e-9
+
+
+def _orientation_error_deg(robot: RobotModel, truth: RobotModel, q: np.ndarray) -> float:
+    """RMS angle between two robots' flange frames over poses q (k, n), degrees."""
+    from scipy.spatial.transform import Rotation
+
+    relative = np.swapaxes(robot.flange_transforms(q)[:, :3, :3], -1, -2) \
+        @ truth.flange_transforms(q)[:, :3, :3]
+    return float(np.degrees(np.sqrt(np.mean(Rotation.from_matrix(relative).magnitude() ** 2))))
+
+
+def test_what_the_data_cannot_tell_from_zero_stays_at_the_nominal() -> None:
+    """Small errors (as the README's example, where LM put θ6 at −0.66° ± 0.51°, the truth
+    +0.05°): the weak directions (θ6 through a6 of 0.2 mm; d5 − α5 and a5 + θ5 of the wrist) the
+    data cannot tell from zero are held, and the flange frame turns far less from the truth's
+    than the method's own answer's (the truth the referee); a large θ6 the data do see (5°
+    through a6 of 4 mm) is kept and recovered."""
+    robot = default_robot()
+    rng = np.random.default_rng(4)
+    q_ws = random_poses(robot, 1000, np.random.default_rng(9))
+    for theta6_deg, a6_mm in ((0.05, 0.2), (5.0, 4.0)):
+        delta = np.zeros((4, 6))
+        delta[0, :5] = np.array([0.3, -0.4, 0.5, 0.2, -0.3]) * 1e-3
+        delta[1, :5] = np.array([0.2, -0.3, 0.4, 0.1, 0.2]) * 1e-3
+        delta[2, :5] = np.deg2rad([0.05, -0.08, 0.1, -0.06, 0.07])
+        delta[3, :5] = np.deg2rad([0.04, 0.06, -0.05, 0.08, -0.03])
+        delta[0, 5], delta[3, 5] = a6_mm * 1e-3, np.deg2rad(theta6_deg)
+        truth = robot.perturbed(delta)
+        data = synthesize(truth, random_poses(robot, 120, rng), PORT_M, 1e-5, rng)
+        result = calibrate(robot, data, PORT_M)
+        identified = robot.perturbed(result.delta)
+        if theta6_deg < 1:
+            assert result.held is not None and abs(result.delta[3, 5]) < 1e-9
+            own = robot.perturbed(result.model.table(result.held.method_x) - robot.dh)
+            assert _orientation_error_deg(identified, truth, q_ws) \
+                < 0.5 * _orientation_error_deg(own, truth, q_ws)
+        else:
+            assert result.delta[3, 5] == pytest.approx(delta[3, 5], abs=np.deg2rad(0.2))

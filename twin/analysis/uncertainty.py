@@ -64,7 +64,10 @@ def held_unseen(model: Model, x: ArrayLike, data: Measurements, sigma_m: float,
                 row_weight: ArrayLike | None = None) -> Unseen:
     """What the poses of ``data`` cannot see at x with noise ``sigma_m`` (m; of a row scaled
     by ``row_weight`` when given), in the unknowns scaled by how far each may move
-    (:meth:`twin.model.Model.scale`): what a calibration of such data holds."""
+    (:meth:`twin.model.Model.scale`): what a calibration of such data holds whatever the values
+    (the bound of every direction the data see, weak ones included: holding the weak ones a
+    fit cannot tell from zero, :mod:`twin.analysis.unseen`, trades their variance for a bias
+    the bound does not count)."""
     nominal = measurement_identifiability(model, np.zeros(model.n_params), data)
     return unseen_directions(model, x, data, sigma_m, model.scale(), nominal, row_weight)
 

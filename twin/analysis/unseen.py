@@ -28,11 +28,20 @@ geometry lets the data see it after all: it is held when, at the identified unkn
   :data:`HELD_SIGMA` half-ranges of the box (or σ of its prior): the box or the prior, not the
   data, would decide it (θ6 when a6 is a fraction of a millimetre and the model misses
   something). The test reads the data alone (the priors' rows left out), so that a prior never
-  makes a direction look seen; rows of unequal noise count by their weights.
+  makes a direction look seen; rows of unequal noise count by their weights; or
+- it is *weak* there — seen below :data:`~twin.analysis.identifiability.WEAK_RTOL` of the
+  best-seen direction, as the identifiability report counts weak directions — and the answer's
+  value along it, from the start, is within :data:`SIGNIFICANT_SIGMAS` of its σ, and the values
+  of all such directions together within their χ² quantile at the same level: the data see
+  them, but too weakly to tell their values from zero. Only the identified geometry's second-order
+  effects make such a direction visible at all (θ6 through a6 of a fraction of a millimetre),
+  and an estimate of −0.66° ± 0.51° (truth +0.05°) would turn a tool more than holding does
+  (the README's example: tool orientation 0.80° RMS against 0.35° held).
 
 So θ6 of the paper's rig stays at exactly 0, while a large true error that makes a candidate
-visible (a6 of 5 mm in the bounds regime) keeps it free, and noise-free data hold only what no
-reading moves. Directions exactly unseen at the identified unknowns are always held.
+visible (a6 of 5 mm in the bounds regime, θ6 of several degrees) keeps it free, and noise-free
+data hold only what no reading moves. Directions exactly unseen at the identified unknowns are
+always held.
 
 The same subspace bounds the accuracy: the Cramér–Rao bound of an estimator held at the start
 along N is ``σ² P (Pᵀ JᵀJ P)⁻¹ Pᵀ`` with P = S Q, Q the orthonormal complement of N in z —
@@ -48,7 +57,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.analysis.identifiability import RANK_RTOL, Identifiability, name_direction
+from twin.analysis.identifiability import (
+    RANK_RTOL,
+    WEAK_RTOL,
+    Identifiability,
+    name_direction,
+)
+from twin.analysis.misfit import chi2_quantile
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import Model
@@ -57,6 +72,11 @@ from twin.unknowns import Stage
 RIG_WEIGHT = 1e3
 """How much wider the hold's norm counts the rig's unknowns than their search box: their
 deviations cost a millionth of the robot's, so the rig absorbs what trades with it."""
+SIGNIFICANT_SIGMAS = 3.0
+"""A weak candidate is kept where the answer's value along it is this many of its σ from the
+start or more (a two-sided test at :data:`SIGNIFICANCE_LEVEL`)."""
+SIGNIFICANCE_LEVEL = 0.0027
+"""The level of the tests that tell a weak direction's value from zero: 3σ of a normal."""
 HELD_SIGMA = 1.0
 """A direction whose Cramér–Rao σ exceeds this many half-ranges of the box is held at the
 start: the box, not the data, would decide it."""
@@ -149,7 +169,8 @@ def _column_units(jacobian: Array, scale: Array) -> Array:
 
 def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: float,
                       scale: ArrayLike, nominal: Identifiability,
-                      row_weight: ArrayLike | None = None) -> Unseen:
+                      row_weight: ArrayLike | None = None, start: ArrayLike | None = None
+                      ) -> Unseen:
     """What ``data`` cannot see at the unknowns x (module docstring).
 
     Args:
@@ -165,6 +186,8 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
         row_weight: σ / σ_i of each row of ``data`` (M,), when the rows' noise differs (errors
             in variables, :class:`twin.problem.Problem`); ``noise_m`` is then that of a
             scaled row.
+        start: Where the fit started (the nominal), shape (p,): a candidate whose value from
+            it is within :data:`SIGNIFICANT_SIGMAS` of its σ is held too; None: no such test.
     """
     scale = np.asarray(scale, dtype=np.float64)
     weight = np.where(rig_unknowns(model), RIG_WEIGHT, 1.0) * scale
@@ -184,6 +207,12 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
     sigma = np.sqrt(np.maximum(np.einsum("pk,pq,qk->k", candidates, covariance, candidates),
                                0.0))
     held = (outside < INSIDE_TOL) | (sigma > HELD_SIGMA) | ~np.isfinite(sigma)
+    if start is not None and noise_m > 0:
+        # Weak: seen below WEAK_RTOL of the best-seen direction (σ·s_max/σ̂ is the inverse of
+        # its relative sensitivity), as the identifiability report counts weak directions.
+        weak = ~held & (sigma * s[0] > noise_m / WEAK_RTOL)
+        held |= _indistinct(candidates, covariance, weak,
+                            (np.asarray(x, np.float64) - np.asarray(start, np.float64)) / scale)
     # A held candidate adds to the exact null space only what lies outside it: a candidate
     # inside it (to INSIDE_TOL) would add its round-off, normalised into a random direction.
     new = held & (outside >= INSIDE_TOL)
@@ -204,6 +233,35 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
                   float(noise_m), tuple(labels[weak]), np.asarray(sigma[weak], dtype=np.float64))
 
 
+def _indistinct(candidates: Array, covariance: Array, weak: NDArray[np.bool_], offset: Array
+                ) -> NDArray[np.bool_]:
+    """Which weak candidates (k,) the answer does not tell from the start: each within
+    :data:`SIGNIFICANT_SIGMAS` of its σ, and all of those together within the χ² quantile of
+    the same level — so that several weak directions that each look like noise but together
+    carry a real effect (the compliances of link-by-link masses) are kept.
+
+    Args:
+        candidates: Unit candidate directions in the bound-scaled unknowns, shape (p, k).
+        covariance: Cramér–Rao covariance of the bound-scaled unknowns, shape (p, p).
+        weak: Which candidates are weakly seen, shape (k,).
+        offset: The answer minus the start, bound-scaled, shape (p,).
+    """
+    if not np.any(weak):
+        return np.zeros(weak.shape, dtype=bool)
+    coordinates = np.linalg.pinv(candidates)
+    value = coordinates @ offset
+    value_covariance = coordinates @ covariance @ coordinates.T
+    sigma = np.sqrt(np.maximum(np.diag(value_covariance), 0.0))
+    rows = np.flatnonzero(weak & (np.abs(value) < SIGNIFICANT_SIGMAS * sigma))
+    if not rows.size:
+        return np.zeros(weak.shape, dtype=bool)
+    chosen = value[rows]
+    statistic = float(chosen @ np.linalg.pinv(value_covariance[np.ix_(rows, rows)]) @ chosen)
+    indistinct = np.zeros(weak.shape, dtype=bool)
+    indistinct[rows] = statistic < chi2_quantile(1 - SIGNIFICANCE_LEVEL, rows.size)
+    return indistinct
+
+
 def _extra_names(basis: Array, named: Array, jacobian: Array, scale: Array,
                  names: tuple[str, ...]) -> tuple[str, ...]:
     """Names of the unseen directions beyond the named candidates (exact null directions of
@@ -220,4 +278,5 @@ def _extra_names(basis: Array, named: Array, jacobian: Array, scale: Array,
     return _sparse_names(rest, _column_units(jacobian, scale), names)
 
 
-__all__ = ["HELD_SIGMA", "RIG_WEIGHT", "WEAK_SIGMA", "Unseen", "rig_unknowns", "unseen_directions"]
+__all__ = ["HELD_SIGMA", "RIG_WEIGHT", "SIGNIFICANT_SIGMAS", "WEAK_SIGMA", "Unseen",
+           "rig_unknowns", "unseen_directions"]

@@ -29,10 +29,12 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import Identifiability
+from twin.analysis.misfit import chi2_quantile
 from twin.analysis.uncertainty import residual_sigma
-from twin.analysis.unseen import Unseen, unseen_directions
+from twin.analysis.unseen import SIGNIFICANCE_LEVEL, Unseen, unseen_directions
 from twin.arrays import Array
 from twin.problem import Problem
+from twin.report.display import mm2
 
 POLISH_ITERATIONS = 3
 """Gauss–Newton steps of the polish: the residuals it restores are a second-order change."""
@@ -101,6 +103,38 @@ def _bic(f_m2: float, rows: int, rank: int) -> float:
     return rows * math.log(max(f_m2, 1e-300)) + rank * math.log(rows)
 
 
+def rows_chi2(f_change_m2: float, rows: int, noise_m: float) -> float:
+    """A change of the training objective f (the mean over ``rows`` rows) as χ²: m Δf / σ²."""
+    return rows * f_change_m2 / noise_m**2
+
+
+def _unseen(problem: Problem, x: Array, noise: float, nominal: Identifiability,
+            start: Array | None) -> Unseen:
+    """What the training poses cannot see at x (and the weak directions x does not tell from
+    the start, when ``start`` is given)."""
+    return unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal,
+                             problem.train_weight, start)
+
+
+def _hold(problem: Problem, x: Array, target: Array, unseen: Unseen, noise: float,
+          nominal: Identifiability, start: Array | None) -> Array:
+    """x held at the start along ``unseen`` (what :func:`_unseen` gives at x), and restored to
+    the method's residuals ``target`` within the seen directions."""
+    held, along = x, unseen
+    # Where the data trade unknowns nonlinearly (an eyelet's turn about the flange axis for
+    # θ6), the unseen directions turn with x: hold, restore, and look again, until nothing is
+    # left along the unseen directions of the point reached.
+    for _ in range(HOLD_ITERATIONS):
+        if not along.basis.shape[1] \
+                or np.max(np.abs(along.along(held - problem.x0))) <= HOLD_ATOL:
+            break
+        held = np.clip(problem.x0 + along.remove(held - problem.x0), problem.lower,
+                       problem.upper)
+        held = _polish(problem, held, target, along.seen_x)
+        along = _unseen(problem, held, noise, nominal, start)
+    return held
+
+
 def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
     """The method's answer ``x`` (p,) held at the start along the unseen directions, or the
     start itself when the answer does not beat it (module docstring).
@@ -118,26 +152,26 @@ def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
     # The noise of the rows the loss keeps: outliers a robust loss rejects are not noise.
     kept = target[~problem.loss.rejected(target)] if problem.loss.robust else target
     noise = residual_sigma(kept, rank) if kept.size > rank else 0.0
-    unseen = unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal,
-                               problem.train_weight)
-    moved = unseen.along(x - start)
-    held, along = x, unseen
-    # Where the data trade unknowns nonlinearly (an eyelet's turn about the flange axis for
-    # θ6), the unseen directions turn with x: hold, restore, and look again, until nothing is
-    # left along the unseen directions of the point reached.
-    for _ in range(HOLD_ITERATIONS):
-        if not along.basis.shape[1] or np.max(np.abs(along.along(held - start))) <= HOLD_ATOL:
-            break
-        held = np.clip(start + along.remove(held - start), problem.lower, problem.upper)
-        held = _polish(problem, held, target, along.seen_x)
-        along = unseen_directions(problem.model, held, problem.train, noise, problem.scale,
-                                  nominal, problem.train_weight)
+    unseen = _unseen(problem, x, noise, nominal, None)
+    held = _hold(problem, x, target, unseen, noise, nominal, None)
     _, f_held = _objective(problem, held)
+    weak_unseen = _unseen(problem, x, noise, nominal, start)
+    extra = weak_unseen.basis.shape[1] - unseen.basis.shape[1]
+    if extra > 0 and noise > 0:
+        # Holding the weak directions too is taken only if the data cannot tell: the fit it
+        # costs is within what that many directions fitted to noise would give (a likelihood
+        # ratio at the tests' level).
+        weak_held = _hold(problem, x, target, weak_unseen, noise, nominal, start)
+        _, f_weak = _objective(problem, weak_held)
+        if rows_chi2(f_weak - f_held, target.size, noise) \
+                < chi2_quantile(1 - SIGNIFICANCE_LEVEL, extra):
+            unseen, held, f_held = weak_unseen, weak_held, f_weak
+    moved = unseen.along(x - start)
     _, f_start = _objective(problem, start)
     rows = target.size
     if _bic(f_start, rows, 0) <= _bic(f_held, rows, rank):
-        reason = (f"the answer's training objective ({f_held:.4g} m²) does not beat the start's "
-                  f"({f_start:.4g} m²) by more than fitting {rank} combinations to noise would "
+        reason = (f"the answer's training objective ({mm2(f_held)}) does not beat the start's "
+                  f"({mm2(f_start)}) by more than fitting {rank} combinations to noise would "
                   "(BIC)")
         return Held(np.array(start), unseen, x, moved, f_method, f_start, reason)
     return Held(held, unseen, x, moved, f_method, f_held, "")

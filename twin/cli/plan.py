@@ -224,16 +224,14 @@ def _sampler(args: argparse.Namespace) -> SamplerFactory:
 
 
 def _model(args: argparse.Namespace, robot: RobotModel, rig: Rig) -> Model:
-    """The model the calibration will fit, as the flags say."""
+    """The model the calibration will fit, as the flags say (read as `twin calibrate` reads
+    them)."""
     from twin.calibration.settings import CalibrationSettings
     from twin.calibration.setup import make_model
+    from twin.cli.inputs import settings_from_flags
+    from twin.units import mm_to_m
 
-    estimate = (*(["port"] if args.estimate_port else []),
-                *(["offset"] if args.estimate_offset else []))
-    try:
-        settings = CalibrationSettings(errors=args.errors, estimate=estimate)
-    except InputError as exc:
-        raise exc.at("--errors", where="") from None
+    settings = settings_from_flags(args, CalibrationSettings(), float(mm_to_m(args.sigma)), 0.0)
     return make_model(robot, rig, settings=settings)
 
 

@@ -231,6 +231,18 @@ def check_bounds(delta: NDArray[np.float64], path: Path, where: str,
                          f"δ{key}{joint + 1})", source=path, where=f"{where}delta.{key}")
 
 
+def _robot_and_table(entry: dict[str, Any], where: str, robot: RobotModel | None, path: Path
+                     ) -> tuple[RobotModel, NDArray[np.float64]]:
+    """The nominal robot a result is for (:func:`result_robot`, checked against ``robot`` for a
+    result written before twin kept the robot) and its D-H errors as written, shape (4, n)."""
+    nominal, older = result_robot(entry, robot, path, where)
+    delta = parse_dh_rows(entry.get("delta"), nominal.n_joints, path, f"{where}delta", "delta",
+                          nominal.is_length)
+    if older:
+        check_result_robot(entry, nominal, path, where)
+    return nominal, delta
+
+
 def load_result_delta(
     path: str | Path, robot: RobotModel | None = None, method: str | None = None
 ) -> NDArray[np.float64]:
@@ -254,11 +266,7 @@ def load_result_delta(
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
     if isinstance(entry.get("unknowns"), dict):  # checked against the box it records
         return load_result(path, robot, method).delta
-    robot, older = result_robot(entry, robot, path, where)
-    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
-                          robot.is_length)
-    if older:
-        check_result_robot(entry, robot, path, where)
+    robot, delta = _robot_and_table(entry, where, robot, path)
     check_bounds(delta, path, where, robot.is_length)
     return delta
 
@@ -528,13 +536,9 @@ def load_result(path: str | Path, robot: RobotModel | None = None, method: str |
     """
     path = Path(path)
     entry, where = _pick(read_json(path, RESULT_FILE), path, method)
-    robot, older = result_robot(entry, robot, path, where)
     # The D-H errors are written twice (``delta`` for people, the ``dh`` unknowns for the
     # model): checked as export checks them, then held to agree.
-    delta = parse_dh_rows(entry.get("delta"), robot.n_joints, path, f"{where}delta", "delta",
-                          robot.is_length)
-    if older:
-        check_result_robot(entry, robot, path, where)
+    robot, delta = _robot_and_table(entry, where, robot, path)
     unknowns = entry.get("unknowns")
     if not isinstance(unknowns, dict) or not isinstance(unknowns.get("parameters"), list):
         raise InputError("no 'unknowns'", "a result written by this version of twin calibrate",

@@ -77,6 +77,12 @@ def mm(value_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
     return f"{text} mm" if unit else text
 
 
+def mm2(value_m2: float, significant: int = SIGNIFICANT) -> str:
+    """A squared length (an objective f, the mean squared residual) given in m², in mm²:
+    ``6.84e-06 mm²``."""
+    return f"{plain(float(value_m2) * float(m_to_mm(1.0)) ** 2, significant=significant)} mm²"
+
+
 def mm_values(values_m: ArrayLike, decimals: int = LENGTH_DECIMALS, *,
               significant: int | None = None, separator: str = ", ") -> str:
     """Lengths given in m, in mm, joined by ``separator`` and without the unit:
