@@ -54,7 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_input_flags(
         parser, input_help="MEASUREMENTS.csv (- for standard input) or capture.toml",
         errors_help="the robot's error groups to identify, comma-separated: "
-        + ", ".join(ERRORS) + " (compliance or link_compliance); or auto: fit dh, then add "
+        + ", ".join(ERRORS) + " (compliance or link_compliance; thermal needs a temperature_c "
+        "column); or auto: fit dh, then add "
         "compliance, backlash, transmission one at a time, then all with link_compliance, and "
         "keep the lowest BIC (default: the capture's, else dh)", auto=True,
         tension_help="the cable's pull towards the port in newtons (the encoder's spring "

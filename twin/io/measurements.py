@@ -423,23 +423,25 @@ class Poses(NamedTuple):
     """The ``approach1..approachN`` columns (±1), shape (N, n), or None when absent."""
     lines: list[int]
     """Each pose's line in the file."""
+    temperature_c: NDArray[np.float64] | None = None
+    """The ``temperature_c`` column (°C), shape (N,), or None when absent."""
 
 
 def load_poses(path: str | Path, robot: RobotModel, what: str, *, stdin: bool = False
                ) -> Poses:
     """Read joint values (``q1..qN`` in degrees, mm for a prismatic joint, checked against the
-    limits) and, when the file has them, the ``approach1..approachN`` columns; other columns are
-    ignored.
+    limits) and, when the file has them, the ``approach1..approachN`` and ``temperature_c``
+    columns; other columns are ignored.
 
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
     n = robot.n_joints
-    table = read_columns(path, joint_columns(n), what, optional=approach_columns(n),
-                         stdin=stdin)
+    table = read_columns(path, joint_columns(n), what,
+                         optional=(*approach_columns(n), TEMPERATURE), stdin=stdin)
     check_joint_limits(table.values, table.lines, robot, path)
     return Poses(joints_from_file(table.values, robot.prismatic), _approach(table, n, path),
-                 table.lines)
+                 table.lines, _row_columns(table, path).get(TEMPERATURE))
 
 
 def check_joint_limits(

@@ -226,6 +226,8 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
                                "angle_deg": float(np.degrees(a.angle_rad))} for a in rig.angles]
     if rig.part is not None:
         document[kind.name] = kind.part_document(rig.part)
+    if rig.temperature_ref_c is not None:
+        document["temperature_ref_c"] = rig.temperature_ref_c
     return document
 
 

@@ -297,7 +297,7 @@ def format_drift(drift: Drift) -> list[str]:
     readings = sum(series.rows.size for series in drift.series)
     span = max(float(np.ptp(series.time_s)) for series in drift.series)
     verdict = "DRIFT beyond the noise: the rig or the arm changed during the capture (a " \
-        "warm-up: record temperature_c and fit --errors thermal)" if drift.drift \
+        "warm-up: with a temperature_c per row, --errors thermal models it)" if drift.drift \
         else "no drift beyond the noise"
     return [f"  drift: {len(drift.series)} reference pose(s), {readings} readings over "
             f"{elapsed(span, drift.timed)}; the most drifting moved "
@@ -381,6 +381,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
                 row += slot(truth_delta[k, i], lengths[i], width=10)
         lines.append(row)
     lines += format_joint_groups(result)
+    lines += format_thermal(result)
     return "\n".join(lines)
 
 
@@ -440,6 +441,35 @@ def format_joint_groups(result: CalibrationResult) -> list[str]:
         if joints.size:
             lines += ["", title, *_joint_table(model, result.solver.x, sigma, present, columns,
                                                joints)]
+    return lines
+
+
+def format_thermal(result: CalibrationResult) -> list[str]:
+    """The identified growth of each link per kelvin (µm/K), one row per joint, each with its
+    σ (— where the data do not see it, — for an entry that does not grow), and the reference
+    temperature the D-H lengths hold at; empty without thermal unknowns."""
+    model = result.model
+    if not model.has("thermal") or model.rig.temperature_ref_c is None:
+        return []
+    group, where = model.group("thermal"), model.slice("thermal")
+    sigma = result.uncertainty.sigma[where] if result.uncertainty is not None \
+        else np.full(group.size, np.nan)
+    values, label = joint_level(result.solver.x[where], group.units[0])
+    deviations, _ = joint_level(sigma, group.units[0])
+    found = dict(zip(group.names, zip(values, deviations, strict=True), strict=True))
+    lines = ["", f"Identified thermal growth (the D-H lengths above are at "
+             f"{plain(model.rig.temperature_ref_c, 2)} °C, the data's mean temperature)",
+             "  joint" + "".join(f"{f'{slot} [{label}]':>16}{'±σ':>8}"
+                                 for slot in ("k_a", "k_d"))]
+    for i, slots in enumerate(model.robot.structure.slot_names):
+        row = f"  {i + 1:>5}"
+        for name in slots[:2]:
+            value, deviation = found.get(f"k_{name}{i + 1}", (np.nan, np.nan))
+            row += (plain(value, JOINT_DECIMALS, width=16) if np.isfinite(value)
+                    else f"{'—':>16}")
+            row += plain(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation) \
+                else f"{'—':>8}"
+        lines.append(row)
     return lines
 
 

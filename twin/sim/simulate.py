@@ -224,6 +224,12 @@ class Simulation:
             "inertia": _inertia(self.true_robot),
             "joint_unknowns": self.joint_unknowns,
             "outlier_rows": self.outlier_rows.tolist(),
+            **({} if self.scenario.thermal is None else {"thermal": {
+                "start_c": self.scenario.thermal.start_c,
+                "ramp_k": self.scenario.thermal.ramp_k,
+                "a_um_per_k": (self.scenario.thermal.expansion_m_per_k[0] * 1e6).tolist(),
+                "d_um_per_k": (self.scenario.thermal.expansion_m_per_k[1] * 1e6).tolist(),
+                "delta_at": "start_c: the table grows from there"}}),
             "train_fraction": self.scenario.calibration.train_fraction,
             "effects": self.effects,
         }

@@ -89,13 +89,21 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     """The unknowns x a perfect calibration returns, shape (p,), SI: the D-H errors, the
     transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
     hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
-    the port's correction and the offset (of the robot's errors, those the calibration did not
+    the links' growth per kelvin (and the table at the reference temperature), the port's
+    correction and the offset (of the robot's errors, those the calibration did not
     fix); the rig's other unknowns (attachment, instrument frame, fixed points, tool rotation,
     planes) as the corrections of the model's start."""
     x = np.zeros(model.n_params)
     n = sim.robot.n_joints
+    thermal, reference = sim.scenario.thermal, model.rig.temperature_ref_c
+    # With thermal unknowns the table is the links' at the reference temperature.
+    grown = thermal.growth(reference) if thermal is not None and reference is not None \
+        and model.has("thermal") else np.zeros_like(sim.delta)
+    lengths = sim.robot.structure.is_length[:2].ravel()
     robot_errors = {
-        "dh": lambda: sim.delta.ravel(),
+        "dh": lambda: (sim.delta + grown).ravel(),
+        "thermal": lambda: np.zeros(int(lengths.sum())) if thermal is None
+        else thermal.expansion_m_per_k.ravel()[lengths],
         "transmission": lambda: transmission_unknowns(
             sim.robot, np.nan_to_num(sim.joint_errors.coefficients()), np.zeros(n)),
         "backlash": lambda: 0.5 * sim.joint_errors.backlash_rad,
