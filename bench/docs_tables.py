@@ -1237,6 +1237,11 @@ def main() -> None:
                             "plane-table": plane_table,
                             "drift-table": drift_table,
                             "thermal-table": thermal_table,
+                            "thermal-transcript": lambda: transcript(
+                                ["calibrate out/thermal/capture.toml --errors dh,thermal "
+                                 "--json out/thermal/thermal.json",
+                                 "predict --identified out/thermal/thermal.json --joints "
+                                 "out/thermal/measurements.csv --out out/thermal/predicted.csv"]),
                             "drift-transcript": lambda: transcript(
                                 ["simulate scenarios/thermal_irb120.toml --out out/thermal",
                                  "calibrate out/thermal/capture.toml --json "
