@@ -862,7 +862,7 @@ def _thermal_trial(scenario: Scenario, trial: int) -> dict[str, Any]:
     result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told, method="lm",
                        settings=settings, seed=trial)
     rigid = calibrate(sim.robot, sim.measurements, rig=sim.rig_told, method="lm",
-                      settings=scenario.calibration, seed=trial)
+                      settings=replace(settings, errors=("dh",)), seed=trial)
     model, train = result.model, sim.measurements.subset(result.train_rows)
     x_true = true_unknowns(sim, model)
     covariance = cramer_rao_covariance(model, x_true, train,
@@ -1238,13 +1238,13 @@ def main() -> None:
                             "drift-table": drift_table,
                             "thermal-table": thermal_table,
                             "thermal-transcript": lambda: transcript(
-                                ["calibrate out/thermal/capture.toml --errors dh,thermal "
-                                 "--json out/thermal/thermal.json",
+                                ["calibrate out/thermal/capture.toml --json "
+                                 "out/thermal/thermal.json",
                                  "predict --identified out/thermal/thermal.json --joints "
                                  "out/thermal/measurements.csv --out out/thermal/predicted.csv"]),
                             "drift-transcript": lambda: transcript(
                                 ["simulate scenarios/thermal_irb120.toml --out out/thermal",
-                                 "calibrate out/thermal/capture.toml --json "
+                                 "calibrate out/thermal/capture.toml --errors dh --json "
                                  "out/thermal/result.json --drift-figure out/thermal/drift.png"],
                                 head=22),
                             "plane-transcript": lambda: transcript(

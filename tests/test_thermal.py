@@ -221,7 +221,7 @@ def test_thermal_runs_through_the_command_line(tmp_path: Path,
     read = np.genfromtxt(out / "measurements.csv", delimiter=",", names=True)["length"]
     sigma_mm = 0.01
     assert np.sqrt(np.mean((predicted - read) ** 2)) < 1.5 * sigma_mm
-    assert main(["calibrate", str(out / "capture.toml"), "--json",
+    assert main(["calibrate", str(out / "capture.toml"), "--errors", "dh", "--json",
                  str(out / "rigid.json")]) == 0
     assert main(["predict", "--identified", str(out / "rigid.json"), "--joints",
                  str(out / "measurements.csv"), "--out", str(out / "rigid.csv")]) == 0
