@@ -27,8 +27,9 @@ def _tracker_csv(irb120: RobotModel, folder: Path) -> Path:
 
 def test_flags_for_other_data(irb120: RobotModel, csv_path: Path, tmp_path: Path,
                               refusals: Refusals) -> None:
-    """--port with tracker positions, --distance with cable lengths, --loss-scale without a
-    robust loss, --tolerance without --baseline: each refused, naming the flag."""
+    """--port with tracker positions, --distance with cable lengths, --sigma-deg without
+    orientations, --loss-scale without a robust loss, --tolerance without --baseline: each
+    refused, naming the flag."""
     tracker = _tracker_csv(irb120, tmp_path)
     refusals.cli(["calibrate", tracker, "--port", "600,-400,100"], [tracker],
                  "--port: found --port with position measurements, expected --port only with "
@@ -38,6 +39,9 @@ def test_flags_for_other_data(irb120: RobotModel, csv_path: Path, tmp_path: Path
     refusals.cli(["calibrate", csv_path, "--port", "600,-400,100", "--angle", "a,b=90"],
                  [csv_path], "--angle: found --angle with length measurements, expected --angle "
                  "only with touches of planes")
+    refusals.cli(["calibrate", tracker, "--sigma-deg", "0.01"], [tracker],
+                 "--sigma-deg: found --sigma-deg with position measurements, expected "
+                 "--sigma-deg only with 6-D poses")
     refusals.cli(["calibrate", csv_path, "--port", "600,-400,100", "--loss-scale", "0.03"],
                  [csv_path], "--loss-scale: found --loss-scale with the linear loss")
     scenario = Path(__file__).resolve().parents[1] / "scenarios" / "geometric_irb120.toml"

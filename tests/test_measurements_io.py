@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -75,12 +76,39 @@ def test_joint_outside_limits(irb120: RobotModel, tmp_path: Path) -> None:
         load_measurements(path, irb120)
 
 
-def test_radians_in_degree_columns_warn(tmp_path: Path) -> None:
-    """Angles that all fit within ±2π look like radians: a warning, not an error."""
+def _rows(q: np.ndarray) -> str:
+    return HEADER + "".join(",".join(f"{v:.6f}" for v in row) + ",800\n" for row in q)
+
+
+def test_radians_in_degree_columns_warn(tmp_path: Path, irb120: RobotModel) -> None:
+    """Joint columns written in radians are named, per column: the IRB 120's q6 wound to
+    6.9 rad (beyond 2π, inside its ±400° limits) is one of them with the robot's limits, and
+    without a robot (±2π) it does not hide q1..q5; the hint names the converter."""
+    rng = np.random.default_rng(4)
+    q = rng.uniform(0.9 * irb120.lower_rad, 0.9 * irb120.upper_rad, (20, 6))
+    q[0, 5] = 0.99 * irb120.upper_rad[5]
+    assert q[0, 5] > 2 * np.pi
     path = tmp_path / "m.csv"
-    path.write_text(HEADER + "0.1,0.5,-1.2,0.3,1.5,-2.0,800\n" * 4)
-    with pytest.warns(UnitWarning, match="radians"):
+    path.write_text(_rows(q))
+    with pytest.warns(UnitWarning, match=r"the columns q1, q2, q3, q4, q5, q6 span .* "
+                                         r"--angle-unit rad"):
+        load_measurements(path, irb120)
+    with pytest.warns(UnitWarning, match=r"the columns q1, q2, q3, q4, q5 span"):
         load_measurements(path)
+
+
+def test_degrees_with_narrow_joints_do_not_warn(tmp_path: Path, irb120: RobotModel) -> None:
+    """Degrees with one or two joints barely moved (a wrist held within ±2°, a fixed q6)
+    read without a unit warning: a narrow joint is not a unit."""
+    rng = np.random.default_rng(5)
+    q_deg = np.rad2deg(rng.uniform(0.9 * irb120.lower_rad, 0.9 * irb120.upper_rad, (20, 6)))
+    q_deg[:, 4] = rng.uniform(-2.0, 2.0, 20)
+    q_deg[:, 5] = 0.0
+    path = tmp_path / "m.csv"
+    path.write_text(_rows(q_deg))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnitWarning)
+        load_measurements(path, irb120)
 
 
 @pytest.mark.parametrize("kind", ["length", "length+ports", "position", "point"])

@@ -5,7 +5,8 @@ known (used as it is) or an unknown group whose correction is identified with th
 errors (:mod:`twin.unknowns`):
 
 - cable ports (:mod:`twin.kinds.length`): group ``port``, for the ports named in
-  ``estimated_ports``;
+  ``estimated_ports``; a port nobody measured (``unknown_ports``) is started from the data;
+- the encoder's zero (group ``offset``), one per capture session (``sessions``);
 - the measured point on the tool (cable eyelet, tracker target, ball): group ``attachment``;
 - the laser tracker's frame (:mod:`twin.kinds.position`): group ``base``;
 - fixed places the tool point was brought to, and known distances between them
@@ -26,6 +27,10 @@ from twin.choices import MAX_TENSION_N
 PORT_LABELS = "port"
 """The measurement labels (:attr:`twin.dataset.Measurements.labels`) whose indices say which of
 :attr:`Rig.ports_m` each row's cable ran from (port 0 without them)."""
+
+SESSION_LABELS = "session"
+"""The measurement labels (and file column) naming each row's capture session
+(:attr:`Rig.sessions`)."""
 
 
 def _origin() -> Array:
@@ -84,6 +89,12 @@ class Rig:
             touch the robot.
         estimated_ports: The ports whose position the ``port`` group corrects; every port when
             empty.
+        unknown_ports: The ports nobody measured: their rows of ``ports_m`` are placeholders
+            until the calibration starts them from the data (multilateration,
+            :meth:`twin.kinds.length.Length.start`), then starts; the ``port`` group searches
+            them without the told port's box.
+        sessions: The capture sessions of the data (a ``session`` column), each with its own
+            encoder zero (group ``offset``, one per session); empty: one session.
         base_in_tracker: Where the robot base frame sits in the tracker's frame, shape (4, 4), m:
             ``p_tracker = base_in_tracker · p_base``; the identity by default.
         point_names: A name per fixed point, length f.
@@ -101,6 +112,8 @@ class Rig:
     attachment_m: Array = field(default_factory=_origin)
     tension_n: float = 0.0
     estimated_ports: tuple[str, ...] = ()
+    unknown_ports: tuple[str, ...] = ()
+    sessions: tuple[str, ...] = ()
     base_in_tracker: Array = field(default_factory=_identity)
     point_names: tuple[str, ...] = ()
     points_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
@@ -128,6 +141,16 @@ class Rig:
             raise ValueError(f"estimated_ports {estimated!r}: expected distinct names among "
                              + ", ".join(names))
         object.__setattr__(self, "estimated_ports", estimated)
+        unknown_ports = tuple(self.unknown_ports)
+        if any(name not in names for name in unknown_ports) \
+                or len(set(unknown_ports)) != len(unknown_ports):
+            raise ValueError(f"unknown_ports {unknown_ports!r}: expected distinct names among "
+                             + ", ".join(names))
+        object.__setattr__(self, "unknown_ports", unknown_ports)
+        sessions = tuple(str(name) for name in self.sessions)
+        if len(set(sessions)) != len(sessions):
+            raise ValueError(f"sessions {sessions!r}: expected distinct names")
+        object.__setattr__(self, "sessions", sessions)
         object.__setattr__(self, "attachment_m",
                            frozen_array(self.attachment_m, (3,), "attachment_m"))
         if not (np.isfinite(self.tension_n) and 0.0 <= self.tension_n <= MAX_TENSION_N):

@@ -27,6 +27,7 @@ from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
 from twin.analysis.metrics import Metrics, metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
+from twin.analysis.steps import Step, find_steps
 from twin.analysis.uncertainty import calibration_uncertainty
 from twin.analysis.workspace import data_workspace
 from twin.arrays import Array
@@ -116,6 +117,24 @@ def _drift(split: SplitProblem) -> Drift | None:
                                        for series in drift.series))
 
 
+def _steps(split: SplitProblem, problem: Problem, x: Array) -> tuple[Step, ...]:
+    """The steps of the residuals over every row of the measurements, in their order (the
+    training and the split's validation rows; a separate file's are not among them), for kinds
+    of one row per pose."""
+    if problem.model.kind.rows_per_pose != 1:
+        return ()
+    parts = [(split.train_rows, problem.train)]
+    if not split.held_out:
+        parts.append((split.validation_rows, problem.validation))
+    residuals = np.zeros(sum(len(rows) for rows, _ in parts))
+    jacobian = np.zeros((residuals.size, problem.model.n_params))
+    for rows, data in parts:
+        if len(rows):
+            r, j = problem.model.jacobian(x, data)
+            residuals[rows], jacobian[rows] = r[: len(rows)], j[: len(rows)]
+    return find_steps(residuals, problem.sigma_m, jacobian)
+
+
 def _metrics(problem: Problem, x: Array) -> dict[str, Metrics]:
     """``before`` (the start on the validation poses, or on the training poses when there are
     none), ``train`` and, when there are validation poses, ``validation``
@@ -195,6 +214,7 @@ def solve_many(
             workspace=workspace,
             row_sigma=problem.row_sigma(problem.train) if problem.in_variables else None,
             drift=drift,
+            steps=_steps(split, problem, solved.x),
         )
         if on_result is not None:
             on_result(results[solver.name])

@@ -14,6 +14,7 @@ from twin.analysis.gauge import Gauge
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import Misfit
+from twin.analysis.steps import Step
 from twin.analysis.uncertainty import CalibrationUncertainty
 from twin.analysis.unseen import Unseen
 from twin.analysis.workspace import Workspace
@@ -68,6 +69,10 @@ class CalibrationResult:
         drift: The test of the reference pose's readings against time
             (:mod:`twin.analysis.drift`; its series' rows are the measurements'), or None
             without reference rows.
+        steps: Where the identified model's residuals, over every row of the measurements
+            in their order, jump by more than the noise allows (:mod:`twin.analysis.steps`):
+            a re-hooked cable, a re-zeroed encoder, a new session; empty when none (or for
+            kinds of several rows per pose).
     """
 
     robot: RobotModel
@@ -91,6 +96,7 @@ class CalibrationResult:
     row_sigma: Array | None = None
     workspace: Workspace | None = None
     drift: Drift | None = None
+    steps: tuple[Step, ...] = ()
 
     @property
     def validated(self) -> bool:
@@ -189,9 +195,16 @@ class CalibrationResult:
 
     @property
     def offset_m(self) -> float:
-        """Identified cable-length offset, m (0 unless estimated)."""
-        return float(self.model.block(self.solver.x, "offset")[0]) if self.model.has("offset") \
-            else 0.0
+        """Identified cable-length offset, m (0 unless estimated; the first session's with
+        several: :attr:`offsets_m`)."""
+        return float(self.offsets_m[0]) if self.model.has("offset") else 0.0
+
+    @property
+    def offsets_m(self) -> Array:
+        """Identified cable-length offset of each capture session (one without sessions),
+        shape (s,), m; empty unless estimated."""
+        return np.asarray(self.model.block(self.solver.x, "offset"), dtype=np.float64) \
+            if self.model.has("offset") else np.zeros(0)
 
 
 PRIOR_DECIDED = float(np.sqrt(0.5))

@@ -41,8 +41,9 @@ def make_model(robot: RobotModel, rig: Rig, kind: str = DEFAULT_KIND,
         kind: The measurement kind (:data:`twin.kinds.KINDS`).
         settings: Which groups to identify.
 
-    Some kinds always identify a group (fixed-point data their fixed points, group ``points``:
-    :attr:`twin.kinds.base.Kind.implied`). The settings' bounds, priors and fixed parameters
+    Some kinds always identify a group (fixed-point data their fixed points, group ``points``;
+    cable lengths of several sessions their zeros, group ``offset``:
+    :meth:`twin.kinds.base.Kind.implied_by`). The settings' bounds, priors and fixed parameters
     apply to the groups (:func:`twin.unknowns.limits.restrict`).
 
     Raises:
@@ -50,7 +51,7 @@ def make_model(robot: RobotModel, rig: Rig, kind: str = DEFAULT_KIND,
             unit (``where``: ``bounds``, ``priors``, ``fix``).
     """
     measured = KINDS.lookup(kind)
-    names = [*settings.groups, *measured.implied]
+    names = list(dict.fromkeys([*settings.groups, *measured.implied_by(rig)]))
     groups = restrict(make_groups(names, robot, rig), settings.bounds, settings.priors,
                       settings.fix)
     return Model(robot, rig, measured, groups)

@@ -415,7 +415,9 @@ def add_rig_flags(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--port", action="append", metavar="[NAME=]X,Y,Z",
                         help="encoder port in mm, robot base frame; NAME=X,Y,Z, repeated, for "
                         "an encoder moved between ports (the CSV's port column names each "
-                        "row's)")
+                        "row's); 'unknown' for X,Y,Z: nobody measured it, found from the "
+                        "lengths (multilateration, then searched within ±2 m; needs "
+                        "--estimate-port)")
     parser.add_argument("--estimate-port", action="append", nargs="?", const=ALL_PORTS,
                         metavar="NAME", help="also identify a correction of the ports (of the "
                         "named one, repeated for several; the others stay as measured)")

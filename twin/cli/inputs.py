@@ -61,22 +61,27 @@ def _flag_rig(args: argparse.Namespace, base: Rig) -> Rig:
     from twin.io.capture_file import (
         parse_angles,
         parse_distances,
-        parse_named_port,
         parse_port_mm,
+        parse_told_port,
     )
 
     rig = base
     ports = getattr(args, "port", None)
     if ports:
-        parsed = [parse_named_port(value, "--port", "") for value in ports]
+        parsed = [parse_told_port(value, "--port", "") for value in ports]
         named = [name for name, _ in parsed if name is not None]
         if len(named) != len(parsed) and len(parsed) > 1:
             raise InputError(f"{len(parsed)} ports, {len(parsed) - len(named)} without a name",
                              "one X,Y,Z, or NAME=X,Y,Z for every port", source="--port")
         if len(set(named)) != len(named):
             raise InputError("a port name twice", "distinct NAME=X,Y,Z", source="--port")
-        rig = replace(rig, ports_m=np.stack([port for _, port in parsed]),
-                      port_names=tuple(named) if named else ("port",), estimated_ports=())
+        names = tuple(named) if named else ("port",)
+        rig = replace(rig, ports_m=np.stack([np.zeros(3) if port is None else port
+                                             for _, port in parsed]),
+                      port_names=names, estimated_ports=(),
+                      unknown_ports=tuple(name for name, (_, port) in zip(names, parsed,
+                                                                           strict=True)
+                                          if port is None))
     if getattr(args, "attachment", None) is not None:
         rig = replace(rig, attachment_m=parse_port_mm(args.attachment, "--attachment", ""))
     if getattr(args, "distance", None):
@@ -179,6 +184,7 @@ def resolve_inputs(args: argparse.Namespace) -> Inputs:
     tension = getattr(args, "cable_tension", None)
     flags = frozenset(flag for flag, name in (("--port", "port"), ("--distance", "distance"),
                                               ("--angle", "angle"),
+                                              ("--sigma-deg", "sigma_deg"),
                                               ("--attachment", "attachment"),
                                               ("--loss-scale", "loss_scale"),
                                               ("--bounds", "bounds"), ("--prior", "prior"),

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -166,20 +167,27 @@ def load_capture(path: str | Path) -> Capture:
         table, capture.reading_sigma_m, sigma_rad=capture.angle_sigma_rad))
 
 
+def _parse_pair(value: object, valid: Callable[[float], bool], expected: str,
+                source: str | Path, where: str) -> tuple[str, str, float]:
+    """``"A,B=NUMBER"``: two different names and a number ``valid`` accepts, as written."""
+    text = value if isinstance(value, str) else ""
+    names, _, number = text.partition("=")
+    first, _, second = (name.strip() for name in names.partition(","))
+    try:
+        size = float(number)
+    except ValueError:
+        size = math.nan
+    if not (first and second and first != second and math.isfinite(size) and valid(size)):
+        raise InputError(f"{value!r}", expected, source=source, where=where)
+    return first, second, size
+
+
 def parse_distance(value: object, source: str | Path, where: str) -> Distance:
     """``"A,B=MM"``: a known distance between the fixed points A and B, mm, to SI."""
-    text = value if isinstance(value, str) else ""
-    names, _, length = text.partition("=")
-    first, _, second = names.partition(",")
-    try:
-        length_mm = float(length)
-    except ValueError:
-        length_mm = math.nan
-    if not (first.strip() and second.strip() and first.strip() != second.strip()
-            and math.isfinite(length_mm) and 0 < length_mm <= m_to_mm(MAX_LENGTH_M)):
-        raise InputError(f"{value!r}", "A,B=MM: two different point names and a distance in "
-                         "mm > 0", source=source, where=where)
-    return Distance(first.strip(), second.strip(), float(mm_to_m(length_mm)))
+    first, second, length_mm = _parse_pair(
+        value, lambda size: 0 < size <= float(m_to_mm(MAX_LENGTH_M)),
+        "A,B=MM: two different point names and a distance in mm > 0", source, where)
+    return Distance(first, second, float(mm_to_m(length_mm)))
 
 
 def parse_distances(values: list[Any], source: str | Path, where: str = ""
@@ -201,19 +209,11 @@ def parse_distances(values: list[Any], source: str | Path, where: str = ""
 
 def parse_angle(value: object, source: str | Path, where: str) -> Angle:
     """``"A,B=DEG"``: a known angle between the planes A and B, degrees, to SI."""
-    text = value if isinstance(value, str) else ""
-    names, _, size = text.partition("=")
-    first, _, second = names.partition(",")
-    try:
-        angle_deg = float(size)
-    except ValueError:
-        angle_deg = math.nan
-    if not (first.strip() and second.strip() and first.strip() != second.strip()
-            and 1 <= angle_deg <= 179):
-        raise InputError(f"{value!r}", "A,B=DEG: two different plane names and the angle "
-                         "between their normals, 1 to 179 degrees (parallel planes: a distance)",
-                         source=source, where=where)
-    return Angle(first.strip(), second.strip(), float(deg_to_rad(angle_deg)))
+    first, second, angle_deg = _parse_pair(
+        value, lambda size: 1 <= size <= 179, "A,B=DEG: two different plane names and the "
+        "angle between their normals, 1 to 179 degrees (parallel planes: a distance)",
+        source, where)
+    return Angle(first, second, float(deg_to_rad(angle_deg)))
 
 
 def parse_angles(values: list[Any], source: str | Path, where: str = "") -> tuple[Angle, ...]:
@@ -242,6 +242,11 @@ def _each_pair_once(pairs: list[tuple[str, str, str]], what: str, source: str | 
                                  where=f"{where}[{index}]" if where else None)
 
 
+UNKNOWN_PORT = "unknown"
+"""What a port's coordinates say of a port nobody measured (``--port unknown``,
+``--port front=unknown``): the calibration finds it from the data."""
+
+
 def parse_named_port(value: str, source: str | Path, where: str
                      ) -> tuple[str | None, NDArray[np.float64]]:
     """``NAME=X,Y,Z`` (a named port) or ``X,Y,Z`` (the one port), mm, to (name, port in m)."""
@@ -251,6 +256,15 @@ def parse_named_port(value: str, source: str | Path, where: str
     if not name.strip():
         raise InputError(f"{value!r}", "NAME=X,Y,Z in mm, or X,Y,Z", source=source, where=where)
     return name.strip(), parse_port_mm(coordinates, source, where)
+
+
+def parse_told_port(value: str, source: str | Path, where: str
+                    ) -> tuple[str | None, NDArray[np.float64] | None]:
+    """:func:`parse_named_port`, or :data:`UNKNOWN_PORT` for X,Y,Z: (name, None)."""
+    name, equals, coordinates = value.rpartition("=")
+    if coordinates.strip() == UNKNOWN_PORT and (not equals or name.strip()):
+        return name.strip() or None, None
+    return parse_named_port(value, source, where)
 
 
 def _parse_rig(document: Table) -> Rig:

@@ -385,6 +385,10 @@ def _rig(document: Any, kind: Kind, path: Path, where: str) -> Rig:
         return Rig(np.reshape(ports, (-1, 3)), tuple(names), attachment,
                    tension_n=float(tension),
                    estimated_ports=tuple(str(name) for name in estimated),
+                   unknown_ports=tuple(str(name) for name in _names(document, "unknown_ports",
+                                                                    path, here)),
+                   sessions=tuple(str(name) for name in _names(document, "sessions", path,
+                                                               here)),
                    base_in_tracker=np.reshape(exact, (4, 4)),
                    point_names=tuple(str(name) for name in points),
                    points_m=np.reshape([parse_port_mm(value, path, f"{here}.points.{name}")
@@ -396,6 +400,14 @@ def _rig(document: Any, kind: Kind, path: Path, where: str) -> Rig:
     except ValueError as exc:
         raise InputError(str(exc), "the rig of a result written by this version of twin "
                          "calibrate", source=path, where=here) from None
+
+
+def _names(document: dict[str, Any], key: str, path: Path, where: str) -> list[Any]:
+    """A rig's list of names (``sessions``…), empty when absent."""
+    names = document.get(key, [])
+    if not isinstance(names, list):
+        raise InputError(f"{names!r}", "a list of names", source=path, where=f"{where}.{key}")
+    return names
 
 
 def _part(document: Any, kind: Kind, path: Path, where: str) -> Part | None:

@@ -15,10 +15,13 @@ A kind whose columns hold another's (a pose's ``x,y,z`` and its orientation) is 
 with all of them holds.
 
 Optional ``approach1..approachN`` (+1 / −1): the direction each joint last moved in before the
-reading, which backlash depends on. Optional per-row columns beside any kind's readings
-(:data:`twin.dataset.ROW_COLUMNS`): ``t_s`` (s since the capture started, >= 0),
-``temperature_c`` (°C, within :data:`twin.dataset.TEMPERATURE_RANGE_C`) and ``reference``
-(1 on a reference pose revisited during the capture, else 0), which the drift test reads.
+reading, which backlash depends on. Optional ``session``, beside any kind's columns: a label
+(any text of 1 to 64 characters) naming the capture session of each row — cable lengths get an
+encoder zero per session (:mod:`twin.kinds.length`), ``--cv-by session`` holds each out.
+Optional per-row columns beside any kind's readings (:data:`twin.dataset.ROW_COLUMNS`):
+``t_s`` (s since the capture started, >= 0), ``temperature_c`` (°C, within
+:data:`twin.dataset.TEMPERATURE_RANGE_C`) and ``reference`` (1 on a reference pose revisited
+during the capture, else 0), which the drift test reads.
 Other columns are ignored; ``#`` lines are comments. Every problem is reported as one
 :class:`~twin.errors.InputError` naming the file, the line and column, what was found and what
 was expected.
@@ -31,7 +34,6 @@ import io
 import math
 import re
 import warnings
-from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -44,6 +46,7 @@ from twin.dataset import (
     TEMPERATURE,
     TEMPERATURE_RANGE_C,
     TIME,
+    Labels,
     Measurements,
 )
 from twin.errors import InputError
@@ -51,6 +54,7 @@ from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
 from twin.io.table import shown
 from twin.kinds import KINDS, Kind
+from twin.rig import SESSION_LABELS
 from twin.robot import RobotModel
 from twin.units import joint_file_units, joints_from_file, joints_to_file
 
@@ -292,8 +296,9 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     what = (f"a measurement CSV ({joint_units_said(n, robot)} and "
             + ", ".join(texts[:-1]) + f" or {texts[-1]})")
     numeric = tuple(dict.fromkeys(name for kind in KINDS.values() for name in kind.columns))
-    labels = tuple(dict.fromkeys(name for kind in KINDS.values()
-                                 for name in (*kind.optional_labels, *kind.labels)))
+    labels = tuple(dict.fromkeys([*(name for kind in KINDS.values()
+                                    for name in (*kind.optional_labels, *kind.labels)),
+                                  SESSION_LABELS]))
     table = read_columns(path, joints, what,
                          optional=(*numeric, *approach_columns(n), *ROW_COLUMNS),
                          labels=labels, stdin=stdin)
@@ -302,15 +307,7 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     q_file = table.values
     if robot is not None:
         check_joint_limits(q_file, table.lines, robot, path)
-    turning = np.ones(n, dtype=bool) if robot is None else ~robot.prismatic
-    angles = q_file[:, turning]
-    if len(table.lines) >= 3 and angles.size and np.all(np.abs(angles) <= 2 * math.pi) \
-            and np.any(angles != 0):
-        warnings.warn(
-            f"{path}: every joint angle is within ±2π; the columns {joints[0]}..{joints[-1]} are "
-            "read as degrees — convert them if they are radians",
-            UnitWarning, stacklevel=2,
-        )
+    _warn_radians(q_file, robot, joints, path)
     q_rad = joints_from_file(q_file, _prismatic(robot))
     approach = _approach(table, n, path)
     _refuse_other_labels(table, kind, path)
@@ -320,8 +317,13 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     except InputError as exc:
         raise exc.at(path) from None
     rows = _row_columns(table, path)
-    return replace(measurements, values={**measurements.values, **rows}) if rows \
-        else measurements
+    named = dict(measurements.labels)
+    if SESSION_LABELS in table.labels:
+        named[SESSION_LABELS] = Labels.of(table.labels[SESSION_LABELS])
+    if not rows and len(named) == len(measurements.labels):
+        return measurements
+    return Measurements(measurements.q_rad, measurements.kind, {**measurements.values, **rows},
+                        named, measurements.approach)
 
 
 def _row_columns(table: Columns, path: str | Path) -> dict[str, NDArray[np.float64]]:
@@ -346,6 +348,52 @@ def _row_columns(table: Columns, path: str | Path) -> dict[str, NDArray[np.float
                              where=f"line {table.lines[bad[0]]}, column {name}")
         rows[name] = values
     return rows
+
+
+RADIAN_SPAN_FRACTION = 0.05
+"""A joint column in degrees that spans less than this fraction of the joint's range in
+degrees, while every value would fit its limits read as radians, looks like radians."""
+MIN_VARYING_DEG = 1e-6
+"""A column whose values spread by less than this (deg) is a fixed joint: it says nothing of
+its unit."""
+
+
+def _warn_radians(q_file: NDArray[np.float64], robot: RobotModel | None,
+                  joints: tuple[str, ...], path: str | Path) -> None:
+    """Warn (:class:`UnitWarning`) naming the columns that look like radians read as degrees:
+    of the revolute columns that vary, those spanning less than
+    :data:`RADIAN_SPAN_FRACTION` of their joint's range in degrees with every value inside
+    the joint's limits read as radians — when they are at least half of the varying columns
+    (one narrow column is a joint the capture barely moved, half of them a unit). Per column,
+    so that one joint wound past 2π, or a fixed joint, does not hide the others.
+
+    Args:
+        q_file: joint values as the file writes them, shape (N, n), deg (mm for a prismatic
+            joint, never checked here).
+        robot: the robot measured (its limits), or None (±360° for every joint).
+    """
+    if q_file.shape[0] < 3:
+        return
+    n = q_file.shape[1]
+    if robot is None:
+        lower_rad, upper_rad = np.full(n, -2 * math.pi), np.full(n, 2 * math.pi)
+        turning = np.ones(n, dtype=bool)
+    else:
+        lower_rad, upper_rad, turning = robot.lower_rad, robot.upper_rad, ~robot.prismatic
+    span = np.ptp(q_file, axis=0)
+    varying = turning & (span > MIN_VARYING_DEG)
+    range_deg = np.degrees(upper_rad - lower_rad)
+    inside_as_rad = np.all((q_file >= lower_rad) & (q_file <= upper_rad), axis=0)
+    narrow = varying & inside_as_rad & (span < RADIAN_SPAN_FRACTION * range_deg)
+    if np.count_nonzero(narrow) and 2 * np.count_nonzero(narrow) >= np.count_nonzero(varying):
+        names = ", ".join(name for name, flag in zip(joints, narrow, strict=True) if flag)
+        warnings.warn(
+            f"{path}: the columns {names} span less than "
+            f"{RADIAN_SPAN_FRACTION:.0%} of their joints' ranges and fit the limits as "
+            "radians; they are read as degrees — if they are radians, convert the file with "
+            "`twin import --angle-unit rad`",
+            UnitWarning, stacklevel=3,
+        )
 
 
 def _refuse_extra_joints(table: Columns, n: int, path: str | Path) -> None:
@@ -474,6 +522,9 @@ def format_measurements(measurements: Measurements, robot: RobotModel | None = N
     readings = KINDS.lookup(measurements.kind).to_columns(measurements)
     header += [name for name, _ in readings]
     extra = [cells for _, cells in readings]
+    if SESSION_LABELS in measurements.labels:
+        header.append(SESSION_LABELS)
+        extra.append(measurements.labels[SESSION_LABELS].per_row("session"))
     for name in ROW_COLUMNS:
         if name in measurements.values:
             header.append(name)

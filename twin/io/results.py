@@ -19,6 +19,7 @@ from twin.analysis.drift import Drift
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
+from twin.analysis.steps import ALPHA as STEP_ALPHA
 from twin.analysis.workspace import Workspace
 from twin.calibration.crossval import CrossValidation
 from twin.calibration.result import CalibrationResult
@@ -123,8 +124,10 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
         if model.has("port"):
             fields["sigma"]["port"] = _finite_or_none(_mm(model.block(uncertainty.sigma, "port")))
         if model.has("offset"):
-            fields["sigma"]["offset"] = _finite_or_none(
-                _mm(model.block(uncertainty.sigma, "offset")))[0]
+            sigma_offsets = _finite_or_none(_mm(model.block(uncertainty.sigma, "offset")))
+            fields["sigma"]["offset"] = sigma_offsets[0]
+            if model.rig.sessions:
+                fields["sigma"]["offsets"] = sigma_offsets
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
         if result.workspace is not None:
@@ -212,6 +215,10 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
     }
     if rig.estimated_ports:
         document["estimated_ports"] = list(rig.estimated_ports)
+    if rig.unknown_ports:
+        document["unknown_ports"] = list(rig.unknown_ports)  # "ports": their starts from the data
+    if rig.sessions:
+        document["sessions"] = list(rig.sessions)
     if kind.in_instrument_frame:
         document["base_in_tracker"] = {"exact": rig.base_in_tracker.ravel().tolist(),
                                        "pose": pose_to_list(rig.base_in_tracker)}
@@ -291,12 +298,20 @@ def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict
             "dof": misfit.dof,
             "threshold": significant(misfit.threshold),
             "causes": [cause.describe() for cause in causes],
+            "steps_found": bool(result.steps),
         }
     if result.drift is not None:
         document["drift"] = drift_to_dict(result.drift)
     document["loss"] = {"name": result.loss.name,
                         "scale": _mm(result.loss.scale_m)[0] if result.loss.robust else None}
     document["rejected_rows"] = result.rejected_rows.tolist()
+    document["steps"] = {
+        "test": "a step regressor beside the model's Jacobian and a line in the row order, its "
+                f"z beyond the normal quantile of {STEP_ALPHA:g} over all places (Bonferroni)",
+        "found": [{"row": step.row, "reading_jump": _mm(-step.size_m)[0],
+                   "z": significant(abs(step.z))} for step in result.steps],
+        "rows": "0-based data rows in the file's order: the first after the jump; reading_jump "
+                "in mm, the readings' level after less before against the model"}
     held, unseen = result.held, result.unseen
     if held is not None and unseen is not None:
         document["held_at_nominal"] = {
@@ -349,6 +364,9 @@ def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
         document["port"] = _mm(result.port_m)
     if result.model.has("offset"):
         document["offset"] = _mm(result.offset_m)[0]
+        if result.model.rig.sessions:
+            document["offsets"] = dict(zip(result.model.rig.sessions,
+                                           _mm(result.offsets_m), strict=True))
     if result.model.has("attachment"):
         document["attachment"] = _mm(result.attachment_m)
     if result.model.has("base"):

@@ -257,6 +257,12 @@ class Kind(ABC):
         """
         return rig, data
 
+    def implied_by(self, rig: Rig) -> tuple[str, ...]:
+        """The groups identified whenever data of this kind are fitted with this rig (the
+        prepared one): :attr:`implied`, and what the rig's data bring (a zero per capture
+        session of cable lengths)."""
+        return self.implied
+
     def start(self, model: Model, train: Measurements) -> Model:
         """The model with its rig started from the training data where the settings leave it
         unknown (a tracker frame at a rigid fit)."""

@@ -1,17 +1,24 @@
 """Cable lengths: the drawstring encoder reads the distance from its port to the measured point.
 
 For a row whose cable runs from port P_j, ``r = ‖p − (P_j + δP_j)‖ + c − L`` (paper eq. 1 with
-the optional port correction δP of group ``port`` and length offset c of group ``offset``).
+the optional port correction δP of group ``port`` and length offset c of group ``offset``; with
+capture sessions, c_s of the row's session s).
 
 Readings: ``length_m`` (m,), m, and, when the encoder was moved between ports, the labels
 ``port`` naming each row's port. In a file: a ``length`` column (mm) and an optional ``port``
-column.
+column; any kind's file may name each row's capture ``session`` (:data:`SESSION`), which gives
+cable lengths one encoder zero per session.
+
+A port nobody measured (``--port unknown``: :attr:`twin.rig.Rig.unknown_ports`) is started by
+multilateration (:mod:`twin.geometry.multilateration`) from the nominal model's measured
+points and the training lengths of its rows, the sessions' zeros estimated with it when the
+offset is.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -21,6 +28,7 @@ from twin.arrays import Array, frozen_array, lengths
 from twin.dataset import Labels, Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import Structure, point_position
+from twin.geometry.multilateration import multilaterate
 from twin.kinds.base import (
     ANCHOR_RADIUS_M,
     Canvas,
@@ -32,7 +40,7 @@ from twin.kinds.base import (
 )
 from twin.kinds.bench import Bench, Captured, Fields
 from twin.report.display import POSITION_DECIMALS, mm, xyz_mm
-from twin.rig import PORT_LABELS, Rig
+from twin.rig import PORT_LABELS, SESSION_LABELS, Rig
 from twin.robot import RobotModel
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
 
@@ -43,6 +51,8 @@ LENGTH = "length_m"
 """The readings: cable lengths, shape (m,), m."""
 PORT = PORT_LABELS
 """The labels of each row's port (absent with one port)."""
+SESSION = SESSION_LABELS
+"""The labels of each row's capture session (absent with one session)."""
 COLUMN = "length"
 """The file column of a length, mm."""
 PORT_IN_METRES_MM = 5.0
@@ -117,6 +127,70 @@ def match_ports(measurements: Measurements, rig: Rig) -> Measurements:
     return measurements
 
 
+def match_sessions(measurements: Measurements, rig: Rig) -> tuple[Rig, Measurements]:
+    """The rig with the data's capture sessions (when it has none yet) and the data with each
+    row's session as an index into the rig's.
+
+    Raises:
+        InputError: for a session the rig (its training data) does not have.
+    """
+    names = measurements.names(SESSION)
+    if not names:
+        return rig, measurements
+    if not rig.sessions:
+        return replace(rig, sessions=names), measurements
+    unknown = [name for name in names if name not in rig.sessions]
+    if unknown:
+        raise InputError(f"session {unknown[0]!r} in the measurements",
+                         "one of the training data's sessions: " + ", ".join(rig.sessions))
+    matched = np.array([rig.sessions.index(name) for name in names])
+    return rig, Measurements(measurements.q_rad, measurements.kind, measurements.values,
+                             {**measurements.labels, SESSION: Labels(
+                                 rig.sessions, matched[measurements.index(SESSION)])},
+                             measurements.approach)
+
+
+def start_ports(model: Model, train: Measurements) -> Model:
+    """The model with each port nobody measured at the point its training rows' lengths
+    place it, from the nominal model's measured points (multilateration; the sessions' zeros
+    found with it when the offset is estimated).
+
+    Raises:
+        InputError: when the port is not estimated, or its rows' points are too few or lie on
+            one plane (the port's mirror image through it fits as well).
+    """
+    rig = model.rig
+    if not rig.unknown_ports:
+        return model
+    if not model.has("port"):
+        raise InputError(f"the port {rig.unknown_ports[0]!r} unknown without --estimate-port",
+                         "--estimate-port: a port nobody measured is found from the data")
+    points = point_position(model.robot.structure, model.robot.dh, train.q_rad,
+                            rig.attachment_m)
+    ports = np.array(rig.ports_m)
+    for name in rig.unknown_ports:
+        j = rig.port_names.index(name)
+        rows = train.index(PORT) == j
+        needed = 4 + (len(rig.sessions) or 1) * model.has("offset")
+        found = multilaterate(points[rows], train.value(LENGTH)[rows],
+                              offsets=train.index(SESSION)[rows] if model.has("offset")
+                              else None) if rows.sum() >= needed + 1 else None
+        if found is None or not found.determined:
+            raise InputError(f"{int(rows.sum())} training poses from the port {name!r}"
+                             + ("" if found is None else " whose measured points lie on "
+                                "one plane"), f"at least {needed + 1} poses whose measured "
+                             "points span 3-D (not on one plane) to find a port nobody "
+                             "measured (or its position as --port)")
+        ports[j] = found.point_m
+    return replace(model, rig=replace(rig, ports_m=ports))
+
+
+def _sessions(offsets: Array, data: Measurements) -> NDArray[np.intp]:
+    """Each row's index into the offsets (..., s): its session's, or the one offset of a model
+    fitted without sessions."""
+    return data.index(SESSION) if offsets.shape[-1] > 1 else np.zeros(len(data), dtype=np.intp)
+
+
 class Length(Kind):
     """Cable lengths (:mod:`twin.kinds.length`)."""
 
@@ -155,7 +229,7 @@ class Length(Kind):
         """r = ‖p − port‖ + offset − L, shape (..., m), m."""
         length = lengths(at.position_m - self._ports(values, data, rig))
         if "offset" in values:
-            length = length + values["offset"][..., :1]
+            length = length + values["offset"][..., _sessions(values["offset"], data)]
         return np.asarray(length - data.value(LENGTH), dtype=np.float64)
 
     def measure(self, at: Measured, values: Mapping[str, Array], template: Measurements,
@@ -178,8 +252,9 @@ class Length(Kind):
             columns[np.arange(len(data)), data.index(PORT)] = -u
             by_group["port"] = columns[:, rig.estimated_port_index].reshape(len(data), -1)
         if "offset" in values:
-            distance = distance + values["offset"][0]
-            by_group["offset"] = np.ones((len(data), 1))
+            session = _sessions(values["offset"], data)
+            distance = distance + values["offset"][session]
+            by_group["offset"] = np.eye(len(values["offset"]))[session]
         return KindJacobian(distance - data.value(LENGTH), u[:, None, :], by_group)
 
     def pivot(self, rig: Rig) -> Array | None:
@@ -189,15 +264,26 @@ class Length(Kind):
 
     def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
                 ) -> tuple[Rig, Measurements]:
-        """The rows' ports matched to the rig's (:func:`match_ports`).
+        """The rows' ports matched to the rig's (:func:`match_ports`), their sessions too
+        (:func:`match_sessions`).
 
         Raises:
-            InputError: without a port, or for a port the rig does not have.
+            InputError: without a port, or for a port or session the rig does not have.
         """
         if not len(rig.ports_m):
             raise InputError("no --port", "the encoder port as --port X,Y,Z in mm (or "
-                             "NAME=X,Y,Z per port, or a capture.toml as INPUT)")
-        return rig, match_ports(data, rig)
+                             "NAME=X,Y,Z per port, --port unknown to find it from the data, "
+                             "or a capture.toml as INPUT)")
+        return match_sessions(match_ports(data, rig), rig)
+
+    def implied_by(self, rig: Rig) -> tuple[str, ...]:
+        """The sessions' encoder zeros (group ``offset``) when the data have several sessions:
+        a re-hooked cable or a re-zeroed encoder shifts every length after it."""
+        return ("offset",) if len(rig.sessions) > 1 else ()
+
+    def start(self, model: Model, train: Measurements) -> Model:
+        """Ports nobody measured started from the training lengths (:func:`start_ports`)."""
+        return start_ports(model, train)
 
     def units_ratio(self, data: Measurements, nominal: Array) -> float | None:
         """The median reading over the nominal model's median length."""
@@ -207,9 +293,10 @@ class Length(Kind):
 
     def unit_hint(self, rig: Rig, data: Measurements) -> str | None:
         """Ports within ±5 mm beside lengths of hundreds of mm: given in metres, likely."""
-        if not len(rig.ports_m):
+        told = [j for j, name in enumerate(rig.port_names) if name not in rig.unknown_ports]
+        if not told:
             return None
-        small = np.all(np.abs(m_to_mm(rig.ports_m)) <= PORT_IN_METRES_MM)
+        small = np.all(np.abs(m_to_mm(rig.ports_m[told])) <= PORT_IN_METRES_MM)
         if small and float(np.median(data.value(LENGTH))) > 20 * float(mm_to_m(
                 PORT_IN_METRES_MM)):
             return (f"every port coordinate is within ±{PORT_IN_METRES_MM:g} mm while the "
@@ -253,10 +340,16 @@ class Length(Kind):
         return [(COLUMN, m_to_mm(predicted[LENGTH]))] if LENGTH in predicted else []
 
     def describe(self, rig: Rig, data: Measurements) -> str:
-        """``port (600.000, -400.000, 100.000) mm`` or ``2 ports (front, left)``."""
-        if len(rig.ports_m) == 1:
-            return f"port {xyz_mm(rig.ports_m[0])}"
-        return f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
+        """``port (600.000, -400.000, 100.000) mm`` or ``2 ports (front, left)``, the ports
+        nobody measured said (``, port front unknown: started from the data``), the sessions
+        counted."""
+        text = f"port {xyz_mm(rig.ports_m[0])}" if len(rig.ports_m) == 1 \
+            else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
+        if rig.unknown_ports:
+            text += (f", port {', '.join(rig.unknown_ports)} unknown: started from the data "
+                     "(multilateration)")
+        return text + (f", {len(rig.sessions)} sessions (an encoder zero each)"
+                       if len(rig.sessions) > 1 else "")
 
     def summary(self, data: Measurements) -> str:
         """``, cable lengths 512.300 … 1203.400 mm``."""

@@ -175,6 +175,7 @@ class Pose(Kind):
     prediction_note = (" (the tool's orientation in the base frame; then the tool frame in the "
                        "instrument's, mm and unit quaternions)")
     measurement_keys = (*TARGET_KEYS, "sigma_deg", "tool_rpy_deg")
+    flags = (("--sigma-deg", "6-D poses (the noise of an orientation)"),)
     point_rows = (0, 1, 2)
     beyond_noun = "orientations"
 

@@ -221,8 +221,13 @@ def format_rig(result: CalibrationResult) -> list[str]:
         rig = model.rig
         for j in rig.estimated_port_index:
             name = "" if len(rig.ports_m) == 1 else f" {rig.port_names[j]}"
-            lines.append(f"  identified port{name}: {xyz_mm(result.ports_m[j])}")
-    if model.has("offset"):
+            started = " (nobody measured it: started from the lengths by multilateration, " \
+                f"at {xyz_mm(rig.ports_m[j])})" if rig.port_names[j] in rig.unknown_ports else ""
+            lines.append(f"  identified port{name}: {xyz_mm(result.ports_m[j])}{started}")
+    if model.has("offset") and model.rig.sessions:
+        lines += [f"  identified length offset, session {name}: {mm(value)}"
+                  for name, value in zip(model.rig.sessions, result.offsets_m, strict=True)]
+    elif model.has("offset"):
         lines.append(f"  identified length offset: {mm(result.offset_m)}")
     if model.has("attachment"):
         lines.append(f"  identified attachment (flange frame): {xyz_mm(result.attachment_m)}")
@@ -265,10 +270,13 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
     if misfit is not None and misfit.misfit:
         likely = "; likely causes: " + ", ".join(cause.describe() for cause in causes) \
             if causes else ""
+        stepped = f"; the residuals step at data row(s) {_step_rows(result)} (below)" \
+            if result.steps else ""
         lines.append(f"  MISFIT: the model does not fit these data — training RMSE "
                      f"{mm(misfit.rmse_m, significant=SIGNIFICANT)} against a noise of "
                      f"{mm(misfit.noise_m, significant=SIGNIFICANT)} ({misfit.describe()}): "
-                     f"{misfit.readings()}{likely}")
+                     f"{misfit.readings()}{likely}{stepped}")
+    lines += format_steps(result)
     if result.drift is not None:
         lines += format_drift(result.drift)
     if result.loss.robust:
@@ -307,6 +315,27 @@ def format_drift(drift: Drift) -> list[str]:
             f"{plain(drift.threshold, significant=3)} (two-sided, p {plain(ALPHA)} over "
             f"{drift.tests} slope(s); noise {mm(drift.noise_m, significant=SIGNIFICANT)}, "
             f"{drift.noise_source}): {verdict}"]
+
+
+def _step_rows(result: CalibrationResult) -> str:
+    return ", ".join(str(step.row) for step in result.steps[:MAX_ROWS_SHOWN]) \
+        + (", …" if len(result.steps) > MAX_ROWS_SHOWN else "")
+
+
+def format_steps(result: CalibrationResult) -> list[str]:
+    """The rows where the residuals jump by more than the noise allows
+    (:mod:`twin.analysis.steps`), with what to do about it; nothing when none."""
+    if not result.steps:
+        return []
+    jumps = ", ".join(f"row {step.row} by {mm(-step.size_m, sign=True)} (z {abs(step.z):.1f})"
+                      for step in result.steps[:MAX_ROWS_SHOWN])
+    remedy = "one encoder zero each is fitted already: the jump is within a session" \
+        if len(result.model.rig.sessions) > 1 else "a session column (the label of each " \
+        "row's session) gives each session its own encoder zero"
+    return [f"  STEPS: the readings jump against the model at {len(result.steps)} place(s) "
+            f"(0-based data rows, in the file's order; the level after less the level before, "
+            f"in units of the noise as z): {jumps} — a "
+            f"re-hooked cable, a re-zeroed encoder, a new session? {remedy}"]
 
 
 def format_truth(truth: TruthErrors, point: bool = True,
