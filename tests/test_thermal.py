@@ -234,3 +234,16 @@ def load_measurements_of(out: Path) -> Measurements:
     from twin.io.robot_file import load_robot
 
     return load_measurements(out / "measurements.csv", load_robot(out / "robot.toml"))
+
+
+def test_thermal_of_poses_is_refused(tmp_path: Path, refusals: Refusals) -> None:
+    """6-D poses read the flange's orientation, which the growth does not reach yet: one line,
+    exit 2, not a fit that leaves their orientation rows rigid."""
+    out = tmp_path / "pose"
+    assert main(["simulate", str(SCENARIO.parent / "pose_irb120.toml"), "--out", str(out)]) == 0
+    lines = (out / "measurements.csv").read_text().splitlines()
+    path = tmp_path / "warm.csv"
+    path.write_text("\n".join([lines[0] + ",temperature_c",
+                               *(line + ",21.5" for line in lines[1:])]) + "\n")
+    refusals.cli(["calibrate", path, "--errors", "dh,thermal", "--estimate-base"], [path],
+                 "--errors thermal with 6-D poses")
