@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from twin.arrays import lengths
 from twin.choices import MAX_JOINTS
 from twin.geometry import kinematics
 from twin.geometry.kinematics import (
@@ -106,3 +107,29 @@ def test_shapes_beyond_the_kernel_take_the_numpy_path() -> None:
     q = np.zeros((3, 7, 6))
     assert kinematics._compiled_inputs(structure, np.zeros((4, 6)), turns(q), None) is None
     assert point_position(structure, np.zeros((4, 6)), q).shape == (3, 7, 3)
+
+
+@pytest.mark.parametrize("anchored", ["per row", "per table and row"])
+def test_distances_equal_the_written_out_lengths(anchored: str,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """A length kind's distances from the compiled pass equal twin.arrays.lengths of the
+    differences bit for bit, on a batch of tables and on one; the numpy path is that."""
+    rng = np.random.default_rng(5)
+    points = rng.normal(scale=0.8, size=(7, 30, 3))
+    anchors = rng.normal(scale=0.8, size=(30, 3) if anchored == "per row" else (7, 30, 3))
+    for batch, anchor in ((points, anchors), (points[2], anchors if anchors.ndim == 2
+                                              else anchors[2])):
+        fast, reference = _both(monkeypatch, lambda batch=batch, anchor=anchor:
+                                kinematics.distances(batch, anchor))
+        np.testing.assert_array_equal(fast, lengths(batch - anchor))
+        np.testing.assert_array_equal(reference, lengths(batch - anchor))
+        assert fast.shape == batch.shape[:-1]
+
+
+def test_distances_of_no_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No rows (a calibration that trains on every pose has no validation poses) give no
+    distances on either path."""
+    for shape in ((0, 3), (7, 0, 3)):
+        fast, reference = _both(monkeypatch, lambda shape=shape: kinematics.distances(
+            np.zeros(shape), np.zeros((0, 3))))
+        assert fast.shape == reference.shape == shape[:-1]

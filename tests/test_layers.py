@@ -28,8 +28,8 @@ ADAPTERS = {
     "twin.viz.blueprint", "twin.viz.writer",
     # pyserial, minimalmodbus: the encoder drivers.
     "twin.hardware.encoders.ascii", "twin.hardware.encoders.modbus",
-    # numba: the compiled kernel (the numpy path runs without it).
-    "twin.geometry.compiled",
+    # numba: the compiled kernels (the numpy and scipy paths run without them).
+    "twin.geometry.compiled", "twin.solvers.compiled",
 }
 """Modules that import an adapter's library by design."""
 TOP = {"twin.study.trial", "twin.study.runner", "twin.study.check", "twin.study.junit",

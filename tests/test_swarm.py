@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from twin.calibration.setup import make_model
+from twin.geometry import kinematics
+from twin.geometry.kinematics import KERNEL_VARIABLE
 from twin.io.robot_file import default_robot
 from twin.kinds.length import length_measurements
 from twin.problem import Problem
@@ -53,7 +55,21 @@ def test_duplicate_particles_are_dropped_and_the_curve_still_interpolates() -> N
     np.testing.assert_allclose(curve(t), kept, rtol=0, atol=1e-15)
 
 
-def test_interpolated_points_run_from_the_first_to_the_last_particle() -> None:
+@pytest.fixture
+def kernel(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch):  # type: ignore[no-untyped-def]
+    """The kernels taken for the test: ``numpy`` (scipy's spline) or ``numba`` (compiled)."""
+    if request.param == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setenv(KERNEL_VARIABLE, request.param)
+    kinematics._compiled.cache_clear()
+    assert kinematics.takes_compiled() == (request.param == "numba")
+    yield request.param
+    monkeypatch.delenv(KERNEL_VARIABLE)
+    kinematics._compiled.cache_clear()
+
+
+@pytest.mark.parametrize("kernel", ["numpy"], indirect=True)
+def test_interpolated_points_run_from_the_first_to_the_last_particle(kernel: str) -> None:
     """M points at evenly spaced t in [0, 1]: the ends are the first and last particles."""
     x = _particles()
     points = interpolated_points(x, 100)
@@ -61,6 +77,40 @@ def test_interpolated_points_run_from_the_first_to_the_last_particle() -> None:
     np.testing.assert_allclose(points[[0, -1]], x[[0, -1]], rtol=0, atol=1e-15)
     _, curve = interpolating_curve(x)
     np.testing.assert_allclose(points, curve(np.linspace(0.0, 1.0, 100)), rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("count", [4, 5, 7, 100])
+def test_the_compiled_curve_is_scipys(count: int) -> None:
+    """The compiled step (:mod:`twin.solvers.compiled`) draws scipy's cubic not-a-knot B-spline
+    to round-off, at evenly spaced and at the particles' own parameters, with chords of very
+    different lengths (particles spread over four orders of magnitude)."""
+    pytest.importorskip("numba")
+    from scipy.interpolate import make_interp_spline
+
+    from twin.solvers.compiled import curve_points
+
+    rng = np.random.default_rng(count)
+    for p in (1, 24):
+        x = rng.normal(size=(count, p)) * 10.0 ** rng.uniform(-4, 0, (count, 1))
+        t, kept = chord_parameters(x)
+        curve = make_interp_spline(t, kept, k=3, axis=0)
+        for at in (np.linspace(0.0, 1.0, 100), t):
+            np.testing.assert_allclose(curve_points(t, kept, at), curve(at), rtol=0,
+                                       atol=1e-12 * np.max(np.abs(kept)))
+
+
+@pytest.mark.parametrize("kernel", ["numba"], indirect=True)
+def test_interpolated_points_on_the_compiled_kernel(kernel: str) -> None:
+    """A study's workers draw the curve on the compiled kernel: the points scipy's curve gives,
+    to round-off; fewer than four distinct particles still go to scipy (a lower degree)."""
+    x = _particles()
+    points = interpolated_points(x, 100)
+    _, curve = interpolating_curve(x)
+    np.testing.assert_allclose(points, curve(np.linspace(0.0, 1.0, 100)), rtol=0,
+                               atol=1e-13 * np.max(np.abs(x)))
+    few = _particles(3)
+    np.testing.assert_array_equal(interpolated_points(few, 9),
+                                  interpolating_curve(few)[1](np.linspace(0.0, 1.0, 9)))
 
 
 def test_a_collapsed_swarm_interpolates_to_its_single_point() -> None:
@@ -125,3 +175,71 @@ def test_a_swarm_never_returns_worse_than_its_start(iterations: int | None) -> N
             if result.held.kept_start:
                 assert np.array_equal(result.x, np.zeros(result.model.n_params))
                 assert "returned the start" in format_result(result)
+
+
+def _plain_bipso(problem: Problem, center: np.ndarray, iterations: int,
+                 rng: np.random.Generator) -> tuple[np.ndarray, list[float]]:
+    """BIPSO as method-notes §4 reads, one candidate at a time: eq. 18's move, the cubic
+    B-spline through the moved particles by chord length (scipy's make_interp_spline with its
+    checks), M evenly spaced points on it, the best N of the pool kept in their slots, elitist
+    bests. Returns G_best and its f after each iteration (the start first)."""
+    from scipy.interpolate import make_interp_spline
+
+    n, m, c = 100, 100, 1.49618
+    lower, upper = problem.lower, problem.upper
+    vmax = 0.2 * (upper - lower)
+
+    def objective(points: np.ndarray) -> np.ndarray:
+        return np.array([problem.cost(problem.residuals(point)) for point in points])
+
+    x = initial_swarm(problem, center, n, rng)
+    v = np.zeros_like(x)
+    best_x, best_f = x.copy(), objective(x)
+    history = [float(best_f.min())]
+    for k in range(iterations):
+        omega = 0.9 - 0.5 * k / (iterations - 1)
+        r1, r2 = rng.random((2, *x.shape))
+        g = best_x[np.argmin(best_f)]
+        v = np.clip(omega * v + c * r1 * (best_x - x) + c * r2 * (g - x), -vmax, vmax)
+        moved = np.clip(x + v, lower, upper)
+        chords = np.linalg.norm(np.diff(moved, axis=0), axis=1)
+        t = np.concatenate([[0.0], np.cumsum(chords)]) / np.sum(chords)
+        points = make_interp_spline(t, moved, k=3)(np.linspace(0.0, 1.0, m))
+        pool = np.clip(np.vstack([moved, points]), lower, upper)
+        f = objective(pool)
+        order = np.argsort(f, kind="stable")[:n]
+        x, fx = pool[:n].copy(), f[:n].copy()
+        freed = [slot for slot in range(n) if slot not in order]
+        x[freed], fx[freed] = pool[order[order >= n]], f[order[order >= n]]
+        improved = fx < best_f
+        best_x[improved], best_f[improved] = x[improved], fx[improved]
+        history.append(float(best_f.min()))
+    return best_x[np.argmin(best_f)], history
+
+
+@pytest.mark.parametrize("kernel", ["numpy", "numba"], indirect=True)
+def test_bipso_takes_the_particles_a_plain_reading_takes(kernel: str) -> None:
+    """The batched swarm (every candidate of an iteration in one call, on either kernel —
+    numpy and scipy's spline, or the compiled positions and curve — the spline built once per
+    iteration) moves the same particles as the plain loop of the method on the same seed:
+    G_best and its f per iteration equal to round-off."""
+    from twin.solvers.base import Tracker
+    from twin.solvers.bipso import bipso
+    from twin.stopping import Budget
+
+    robot = default_robot()
+    rng = np.random.default_rng(11)
+    model = make_model(robot, Rig.cable(np.array([0.6, -0.4, 0.1])))
+    truth = rng.uniform(-1.0, 1.0, model.n_params) * model.radius
+    q = rng.uniform(-1.5, 1.5, (40, 6))
+    problem = Problem(model, model.measure(truth, q[:30]), model.measure(truth, q[30:]))
+    center = 0.5 * truth
+    iterations = 5
+    budget = Budget(max_iterations=iterations, stall_iterations=0)
+    tracker = Tracker(problem, "bipso")
+    outcome = bipso(tracker, center, budget, np.random.default_rng(3))
+    expected_x, expected_f = _plain_bipso(problem, center, iterations, np.random.default_rng(3))
+    np.testing.assert_allclose([record.f_m2 for record in tracker.history], expected_f,
+                               rtol=1e-9, atol=0)
+    np.testing.assert_allclose(outcome.x, expected_x, rtol=1e-9, atol=1e-15)
+    assert expected_f[-1] < expected_f[0]

@@ -134,7 +134,10 @@ class Problem:
     def data_residuals(self, x: ArrayLike) -> Array:
         """The training rows scaled to the noise σ, r_i σ / σ_i, for unknowns (..., p): shape
         (..., M), m."""
-        return self.model.residuals(x, self.train) * self._train_weight
+        rows = self.model.residuals(x, self.train)
+        # σ / σ_i is exactly 1 on every row when the joints are exact: a swarm's batch of
+        # candidates skips multiplying by it.
+        return rows * self._train_weight if self.in_variables else rows
 
     def data_jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
         """:meth:`data_residuals` (M,) and their Jacobian (M, p) at one x (p,)."""
@@ -149,6 +152,8 @@ class Problem:
     def residuals(self, x: ArrayLike) -> Array:
         """The objective's rows before the loss, for unknowns (..., p): the scaled training rows,
         then the prior rows σ x_j / σ_p,j; shape (..., M + P), m."""
+        if not self._prior.size:
+            return self.data_residuals(x)
         return np.concatenate([self.data_residuals(x), self._prior_residuals(x)], axis=-1)
 
     def jacobian(self, x: ArrayLike) -> tuple[Array, Array]:

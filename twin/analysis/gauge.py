@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from twin.analysis.linearisation import chain_jacobian
 from twin.arrays import Array
 from twin.geometry.kinematics import flange_transform
 from twin.model import Model
@@ -123,8 +124,9 @@ class Gauge(NamedTuple):
     """Unobservable motions no candidate explains, as fields over the points, shape (3k, u)."""
     points_m: Array
     """The predicted points the motions were found at, shape (k, 3), m."""
-    flange_rotations: Array
-    """The flange's rotation at each of those poses, shape (k, 3, 3)."""
+    flange_rotations: Array | None
+    """The flange's rotation at each of those poses, shape (k, 3, 3); None when no motion
+    moves the points (nothing to turn them by)."""
     origin_m: Array
     """Frame 0's origin, shape (3,), m."""
     axes: Array
@@ -220,24 +222,25 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     """
     x = np.asarray(x, dtype=np.float64)
     data = model.poses(q_rad)
-    jacobian = model.position_jacobian(x, data) if measured else model.flange_jacobian(x, data)
     points = model.positions(x, data) if measured else model.flange_positions(x, data)
-    table = model.table(x)
-    rotations = flange_transform(model.robot.structure, table, model.joints(x, data))[..., :3, :3]
     base = model.robot.structure.base
     origin, axes = base[:3, 3], base[:3, :3]
     port = model.kind.pivot(model.rig)
-    gauge = Gauge((), np.zeros((points.size, 0)), points, rotations, origin, axes,
-                  model.point(x), port)
+    gauge = Gauge((), np.zeros((points.size, 0)), points, None, origin, axes, model.point(x),
+                  port)
     null = np.asarray(null_space, dtype=np.float64)
     if not null.shape[1]:
         return gauge
+    jacobian = chain_jacobian(model, x, data, measured=measured)
     moves = (jacobian @ null).reshape(points.size, -1)
     largest = float(np.max(np.linalg.norm(jacobian.reshape(points.size, -1), axis=0)))
     u, s, _ = np.linalg.svd(moves, full_matrices=False)
     span = u[:, s > MOVES_RTOL * largest]
     if not span.shape[1]:
         return gauge
+    rotations = flange_transform(model.robot.structure, model.table(x),
+                                 model.joints(x, data))[..., :3, :3]
+    gauge = gauge._replace(flange_rotations=rotations)
     named: list[Motion] = []
     fields: list[Array] = []
     for motion in MOTIONS:
@@ -279,7 +282,9 @@ def _moved(gauge: Gauge, parameters: Array) -> Array:
         else:
             flange_shift += value * np.asarray(motion.direction)
     turned = (points - origin) @ Rotation.from_rotvec(rotation_vector).as_matrix().T
-    moved = origin + (1.0 + scale) * turned + shift + gauge.flange_rotations @ flange_shift
+    moved = origin + (1.0 + scale) * turned + shift
+    if gauge.flange_rotations is not None:
+        moved = moved + gauge.flange_rotations @ flange_shift
     if gauge.port_m is not None and np.any(about_port):
         port = gauge.port_m
         moved = port + (moved - port) @ Rotation.from_rotvec(about_port).as_matrix().T
@@ -297,11 +302,12 @@ def gauge_free_rms(gauge: Gauge, true_points_m: ArrayLike) -> float:
     """
     truth = np.asarray(true_points_m, dtype=np.float64)
     count = len(gauge.motions) + gauge.unnamed.shape[1]
+    if not count:
+        return float(np.sqrt(np.mean(np.sum((gauge.points_m - truth) ** 2, axis=1))))
 
     def distances(parameters: Array) -> Array:
         return np.asarray((_moved(gauge, parameters) - truth).ravel(), dtype=np.float64)
 
-    best = least_squares(distances, np.zeros(count), method="lm", xtol=1e-15, ftol=1e-15) \
-        if count else None
-    difference = distances(best.x if best is not None else np.zeros(0))
+    best = least_squares(distances, np.zeros(count), method="lm", xtol=1e-15, ftol=1e-15)
+    difference = distances(best.x)
     return float(np.sqrt(np.mean(np.sum(difference.reshape(truth.shape) ** 2, axis=1))))

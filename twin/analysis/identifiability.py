@@ -41,6 +41,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.linearisation import fingerprint, linearise
 from twin.arrays import Array
 from twin.dataset import Measurements
 from twin.model import NULL_RTOL, Model
@@ -168,6 +169,7 @@ def identifiability(
     names: tuple[str, ...] | list[str],
     rtol: float = RANK_RTOL,
     prefer: Sequence[int] = (),
+    triangle: ArrayLike | None = None,
 ) -> Identifiability:
     """Rank, condition, base parameters and named null directions of a Jacobian.
 
@@ -176,6 +178,8 @@ def identifiability(
         names: Names of the p unknowns.
         rtol: Relative singular-value cutoff of the rank.
         prefer: Unknowns to try first as base parameters; the rest follow in the order of x.
+        triangle: The R factor of ``jacobian`` (:mod:`twin.analysis.linearisation`), shape
+            (min(m, p), p), when it is already known: not factorised again.
 
     Returns:
         The :class:`Identifiability` of the measurement set at the geometry J was computed at.
@@ -188,8 +192,10 @@ def identifiability(
     norms = np.linalg.norm(J, axis=0)
     visible = np.flatnonzero(norms > COLUMN_RTOL * np.max(norms))
     scaled = J[:, visible] / norms[visible]
-    # R has J's Gram matrix, so every rank decision below can work on it instead of J.
-    R = np.asarray(np.linalg.qr(scaled, mode="r"), dtype=np.float64)
+    # R has J's Gram matrix, so every rank decision below can work on it instead of J (the
+    # scaled J's R is J's with the same columns scaled).
+    R = np.asarray(np.linalg.qr(scaled, mode="r"), dtype=np.float64) if triangle is None \
+        else np.asarray(triangle, dtype=np.float64)[:, visible] / norms[visible]
     _, singular_values, vt = np.linalg.svd(R)
     threshold = rtol * singular_values[0]
     rank = int(np.sum(singular_values > threshold))
@@ -257,17 +263,19 @@ def measurement_identifiability(
     bounded to ±5 mm, is the one held.
     """
     x = np.asarray(x, dtype=np.float64)
-    key = (x.tobytes(), float(rtol))
-    for model_ref, data_ref, kept_key, kept in _KEPT:
-        if model_ref() is model and data_ref() is data and kept_key == key:
+    key = (x.tobytes(), fingerprint(data), float(rtol))
+    for model_ref, kept_key, kept in _KEPT:
+        if model_ref() is model and kept_key == key:
             return kept
-    _, jacobian = model.identifiable_jacobian(x, data)
+    linearised = linearise(model, x, data)
     prefer = [index for group in model.groups
               if group.stage in (Stage.MEASUREMENT, Stage.POINT)
               for index in range(model.n_params)[model.slice(group.name)]]
-    found = identifiability(jacobian, model.names, rtol, prefer=prefer)
-    found = found._replace(beyond_points=seen_beyond_points(model, jacobian, found, rtol))
-    _KEPT[:] = [*_KEPT[-(KEPT - 1):], (weakref.ref(model), weakref.ref(data), key, found)]
+    found = identifiability(linearised.jacobian, model.names, rtol, prefer=prefer,
+                            triangle=linearised.triangle)
+    found = found._replace(beyond_points=seen_beyond_points(model, linearised.jacobian, found,
+                                                            rtol))
+    _KEPT[:] = [*_KEPT[-(KEPT - 1):], (weakref.ref(model), key, found)]
     return found
 
 
@@ -303,9 +311,10 @@ def seen_beyond_points(model: Model, jacobian: Array, whole: Identifiability,
 KEPT = 8
 """Identifiabilities :func:`measurement_identifiability` keeps: a calibration asks for the same
 one (the start's, on the training poses) from the hold, the uncertainty and the checks after
-it; they are read-only values of immutable inputs, recognised by identity and held weakly."""
-_KEPT: list[tuple[weakref.ref[Model], weakref.ref[Measurements], tuple[bytes, float],
-                  Identifiability]] = []
+it, and a study trial again on the same poses; they are read-only values of immutable inputs,
+recognised by the model's identity and the poses' content
+(:func:`twin.analysis.linearisation.fingerprint`), the model held weakly."""
+_KEPT: list[tuple[weakref.ref[Model], tuple[bytes, bytes, float], Identifiability]] = []
 
 
 def spread_rank(model: Model, robot: RobotModel, rng: np.random.Generator,

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.analysis.identifiability import RANK_RTOL, measurement_identifiability
+from twin.analysis.linearisation import chain_jacobian, linearise
 from twin.analysis.unseen import Unseen, unseen_directions
 from twin.arrays import Array
 from twin.dataset import Measurements
@@ -50,7 +51,8 @@ def seen_covariance(jacobian: ArrayLike, seen_x: ArrayLike, sigma_m: float) -> A
     directions, shape (p, p), in m² / rad² units of x.
 
     Args:
-        jacobian: Jacobian ∂r/∂x, shape (m, p).
+        jacobian: Jacobian ∂r/∂x, shape (m, p), or any matrix with the same JᵀJ (its R factor,
+            :class:`twin.analysis.linearisation.Linearisation`).
         seen_x: The seen directions P in the units of x, shape (p, q)
             (:attr:`twin.analysis.unseen.Unseen.seen_x`).
         sigma_m: Noise 1σ of a reading, m.
@@ -152,11 +154,9 @@ def cramer_rao_covariance(model: Model, x_true: ArrayLike, data: Measurements, s
                           row_sigma_m: ArrayLike | None = None) -> Array:
     """The Cramér–Rao covariance of the combinations the poses identify at that noise (the
     others every calibration holds), shape (p, p); arguments as :func:`cramer_rao_rms`."""
-    _, jacobian = model.identifiable_jacobian(x_true, data)
     weight = None if row_sigma_m is None else sigma_m / np.asarray(row_sigma_m, dtype=np.float64)
-    if weight is not None:
-        jacobian = jacobian * weight[:, None]
-    return seen_covariance(jacobian, held_unseen(model, x_true, data, sigma_m, weight).seen_x,
+    triangle = linearise(model, x_true, data, weight).triangle
+    return seen_covariance(triangle, held_unseen(model, x_true, data, sigma_m, weight).seen_x,
                            sigma_m)
 
 
@@ -244,15 +244,14 @@ def calibration_uncertainty(
             in variables): the rows are scaled by it, and σ̂ is that of a scaled row.
     """
     x = np.asarray(x, dtype=np.float64)
-    residuals, jacobian = model.identifiable_jacobian(x, train)
-    if row_weight is not None:
-        weight = np.asarray(row_weight, dtype=np.float64)
-        residuals, jacobian = residuals * weight, jacobian * weight[:, None]
-    noise = residual_sigma(residuals, rank)
+    linearised = linearise(model, x, train, row_weight)
+    noise = residual_sigma(linearised.residuals, rank)
     prior = model.prior_weight()
+    # J's R factor in place of J: the same JᵀJ, a p-row matrix to factorise.
+    triangle = linearised.triangle
     covariance = seen_covariance(
-        np.concatenate([jacobian / noise, np.diag(prior)[prior > 0]]), unseen.seen_x, 1.0) \
-        if noise > 0 else seen_covariance(jacobian, unseen.seen_x, 0.0)
+        np.concatenate([triangle / noise, np.diag(prior)[prior > 0]]), unseen.seen_x, 1.0) \
+        if noise > 0 else seen_covariance(triangle, unseen.seen_x, 0.0)
     held = np.linalg.norm(unseen.seen, axis=1) < HELD_ROW_TOL
     sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     poses = model.poses(q_workspace_rad)
@@ -260,6 +259,8 @@ def calibration_uncertainty(
         noise_sigma_m=noise,
         covariance=covariance,
         sigma=np.where(held, np.nan, sigma),
-        flange_rms_m=predicted_flange_rms(model.flange_jacobian(x, poses), covariance),
-        point_rms_m=predicted_flange_rms(model.position_jacobian(x, poses), covariance),
+        flange_rms_m=predicted_flange_rms(chain_jacobian(model, x, poses, measured=False),
+                                          covariance),
+        point_rms_m=predicted_flange_rms(chain_jacobian(model, x, poses, measured=True),
+                                         covariance),
     )

@@ -63,6 +63,7 @@ from twin.analysis.identifiability import (
     Identifiability,
     name_direction,
 )
+from twin.analysis.linearisation import linearise
 from twin.analysis.misfit import chi2_quantile
 from twin.arrays import Array
 from twin.dataset import Measurements
@@ -191,11 +192,10 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
     """
     scale = np.asarray(scale, dtype=np.float64)
     weight = np.where(rig_unknowns(model), RIG_WEIGHT, 1.0) * scale
-    _, jacobian = model.identifiable_jacobian(np.asarray(x, dtype=np.float64), data)
-    if row_weight is not None:
-        jacobian = jacobian * np.asarray(row_weight, dtype=np.float64)[:, None]
-    scaled = jacobian * scale
-    _, s, vt = np.linalg.svd(scaled, full_matrices=True)
+    linearised = linearise(model, x, data, row_weight)
+    jacobian = linearised.jacobian
+    # The scaled J's singular values and right vectors are its R factor's, scaled alike.
+    _, s, vt = np.linalg.svd(linearised.triangle * scale, full_matrices=True)
     s = np.concatenate([s, np.zeros(scale.size - s.size)])
     exact = vt[s <= RANK_RTOL * max(s[0], 1e-300)].T
     keep = s > RANK_RTOL * max(s[0], 1e-300)

@@ -30,7 +30,7 @@ def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m:
             ) -> tuple[Array, Array]:
     """cos and sin of every rotation's angle for table k at every pose, shape (motions, m)
     each (a translation's rows unset); a revolute joint's is q + θ, the others the table's (the
-    same at every pose)."""
+    same at every pose): what the Jacobian's directions turn by on their way out."""
     motions = plan.shape[0]
     cos = np.empty((motions, m))
     sin = np.empty((motions, m))
@@ -52,10 +52,16 @@ def _angles(table: Array, plan: Array, cq: Array, sq: Array, k: int, kq: int, m:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _carry(table: Array, plan: Array, cos: Array, sin: Array, slides: Array, k: int, kq: int,
+def _carry(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, k: int, kq: int,
            start: Array, kp: int, p: Array, before: Array, keep: bool) -> None:
     """Carry the point from the flange to the base for table k into ``p`` (3, m); with
-    ``keep``, the point in the frame before each rotation into ``before`` (motions, 3, m)."""
+    ``keep``, the point in the frame before each rotation into ``before`` (motions, 3, m).
+
+    Each rotation's cosine and sine are made where they are used: a rotation the poses do not
+    drive turns every pose by the same two numbers, a revolute joint's turn by q + θ from the
+    poses' cos q, sin q (the angle sum, as :func:`_angles`). Written to arrays of m copies
+    first (as the Jacobian's way out needs them), they took two thirds of a swarm's
+    positions."""
     m = p.shape[1]
     for axis in range(3):
         for i in range(m):
@@ -72,18 +78,28 @@ def _carry(table: Array, plan: Array, cos: Array, sin: Array, slides: Array, k: 
                 p[axis, i] += value
             continue
         ja, jb = (axis + 1) % 3, (axis + 2) % 3
-        for i in range(m):
-            c, s = cos[index, i], sin[index, i]
-            pa, pb = p[ja, i], p[jb, i]
-            p[ja, i] = c * pa - s * pb
-            p[jb, i] = s * pa + c * pb
+        c, s = math.cos(table[k, slot, joint]), math.sin(table[k, slot, joint])
+        if plan[index, 4]:
+            for i in range(m):
+                ci = cq[joint, kq, i] * c - sq[joint, kq, i] * s
+                si = sq[joint, kq, i] * c + cq[joint, kq, i] * s
+                pa, pb = p[ja, i], p[jb, i]
+                p[ja, i] = ci * pa - si * pb
+                p[jb, i] = si * pa + ci * pb
+        else:
+            for i in range(m):
+                pa, pb = p[ja, i], p[jb, i]
+                p[ja, i] = c * pa - s * pb
+                p[jb, i] = s * pa + c * pb
         if keep:
             for row in range(3):
                 for i in range(m):
                     before[index, row, i] = p[row, i]
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+# Inlined where it is called (numba's IR): as a call it took a third of the positions' time,
+# its output possibly sharing memory with p for all the compiler could tell.
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _to_base(base: Array, p: Array, out: Array, k: int) -> None:
     """out[k] = the points p (3, m) in the base frame, (m, 3)."""
     for i in range(p.shape[1]):
@@ -116,8 +132,7 @@ def positions(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, st
     unused = np.empty((0, 3, m))
     for k in range(tables):
         kq, kp = min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1)
-        cos, sin = _angles(table, plan, cq, sq, k, kq, m)
-        _carry(table, plan, cos, sin, slides, k, kq, start, kp, p, unused, False)
+        _carry(table, plan, cq, sq, slides, k, kq, start, kp, p, unused, False)
         _to_base(base, p, out, k)
     return out
 
@@ -148,8 +163,8 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, sta
     for k in range(tables):
         kq, kp, kw = (min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1),
                       min(k, directions.shape[0] - 1))
+        _carry(table, plan, cq, sq, slides, k, kq, start, kp, p, before, True)
         cos, sin = _angles(table, plan, cq, sq, k, kq, m)
-        _carry(table, plan, cos, sin, slides, k, kq, start, kp, p, before, True)
         _to_base(base, p, position, k)
         for direction in range(r):
             for i in range(m):
@@ -178,3 +193,29 @@ def jacobian(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, sta
                                                       + tool[1, row] * w[1, i]
                                                       + tool[2, row] * w[2, i])
     return position, columns, rotation
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def distances(points: Array, anchors: Array) -> Array:
+    """‖point − anchor‖ of every row in one pass, written as :func:`twin.arrays.lengths` is
+    (the same numbers bit for bit).
+
+    Args:
+        points: Points, shape (K, m, 3), m.
+        anchors: The anchor of each row, shape (1 or K, m, 3), m.
+
+    Returns:
+        Shape (K, m), m.
+    """
+    tables, m = points.shape[0], points.shape[1]
+    out = np.empty((tables, m))
+    for k in range(tables):
+        ka = min(k, anchors.shape[0] - 1)
+        for i in range(m):
+            x = points[k, i, 0] - anchors[ka, i, 0]
+            y = points[k, i, 1] - anchors[ka, i, 1]
+            z = points[k, i, 2] - anchors[ka, i, 2]
+            out[k, i] = x * x + y * y + z * z
+        for i in range(m):  # apart, where the compiler vectorises it: half the time
+            out[k, i] = math.sqrt(out[k, i])
+    return out

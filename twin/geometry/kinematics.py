@@ -44,7 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array, frozen_array
+from twin.arrays import Array, frozen_array, lengths
 
 PARAMETRISATIONS = ("dh", "mdh", "hayati")
 """Per-joint parametrisations, see the module docstring."""
@@ -334,6 +334,13 @@ def for_bulk_work() -> None:
     _compiled.cache_clear()
 
 
+def takes_compiled() -> bool:
+    """Whether this process takes the compiled kernels (extra ``fast``): the one switch of
+    :data:`KERNEL_VARIABLE` and :func:`for_bulk_work`, which the swarms' compiled B-spline step
+    (:mod:`twin.solvers.compiled`) follows too."""
+    return _compiled() is not None
+
+
 @cache
 def _compiled() -> Any:
     """The compiled kernel's module, or None (numba not installed, ``TWIN_KERNEL=numpy``, or
@@ -441,6 +448,30 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns
     position = np.stack(np.broadcast_arrays(*p), axis=-1)
     rotation, translation = structure.base[:3, :3], structure.base[:3, 3]
     return np.asarray(position @ rotation.T + translation, dtype=np.float64)
+
+
+def distances(points_m: ArrayLike, anchors_m: ArrayLike) -> Array:
+    """The distance of each point from its anchor, ‖p − a‖ over the last axis.
+
+    Args:
+        points_m: Points, shape (..., m, 3), m.
+        anchors_m: The anchor of each row, shape (m, 3) or the points' (..., m, 3), m.
+
+    Returns:
+        Shape (..., m), m: :func:`twin.arrays.lengths` of the differences, bit for bit; in one
+        pass of the compiled kernel where it is taken (a swarm's batch of candidates: no
+        (..., m, 3) temporaries).
+    """
+    points = np.asarray(points_m, dtype=np.float64)
+    anchors = np.asarray(anchors_m, dtype=np.float64)
+    batch = points.shape[:-2]
+    compiled = _compiled()
+    if compiled is None or points.ndim < 2 or points.shape[-1] != 3 or points.size == 0 \
+            or anchors.shape not in (points.shape[-2:], points.shape):
+        return lengths(points - anchors)
+    out = compiled.distances(np.ascontiguousarray(points.reshape(-1, *points.shape[-2:])),
+                             np.ascontiguousarray(anchors.reshape(-1, *points.shape[-2:])))
+    return np.asarray(out.reshape(*batch, -1))
 
 
 _Moved = tuple[int, int, bool, Array, Array]

@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array, frozen_array, lengths
 from twin.dataset import Labels, Measurements
 from twin.errors import InputError
-from twin.geometry.kinematics import Structure, point_position
+from twin.geometry.kinematics import Structure, distances, point_position
 from twin.geometry.multilateration import multilaterate
 from twin.kinds.base import (
     ANCHOR_RADIUS_M,
@@ -227,7 +227,7 @@ class Length(Kind):
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = ‖p − port‖ + offset − L, shape (..., m), m."""
-        length = lengths(at.position_m - self._ports(values, data, rig))
+        length = distances(at.position_m, self._ports(values, data, rig))
         if "offset" in values:
             length = length + values["offset"][..., _sessions(values["offset"], data)]
         return np.asarray(length - data.value(LENGTH), dtype=np.float64)

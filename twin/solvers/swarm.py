@@ -8,7 +8,9 @@
 - :func:`interpolating_curve` / :func:`interpolated_points`: the B-spline step of BIPSO
   (eqs. 19–27): one cubic curve in R^p through the particles in index order, chord-length
   parameters from full-vector distances normalised to [0, 1] (eqs. 20–22), interpolated with
-  :func:`scipy.interpolate.make_interp_spline` and sampled at M evenly spaced parameters.
+  :func:`scipy.interpolate.make_interp_spline` and sampled at M evenly spaced parameters (with
+  the extra ``fast``, in a study's workers, the same curve drawn by a compiled kernel:
+  :mod:`twin.solvers.compiled`).
 - :func:`run_population`: the loop. Each iteration a method proposes K ≥ N candidates, all are
   evaluated in ONE batched call, the best N are kept (:func:`best_in_slots`: velocities and
   personal bests stay with their slots), personal and global bests are updated elitistically, and
@@ -28,11 +30,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.arrays import Array
+from twin.geometry.kinematics import takes_compiled
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Tracker
 from twin.stopping import Budget, StopReason, stalled
@@ -106,31 +110,53 @@ def chord_parameters(x: Array) -> tuple[Array, Array]:
     return t, x[keep]
 
 
+def _curve(t: Array, kept: Array) -> BSpline:
+    """The cubic B-spline with curve(t) = kept, for t of :func:`chord_parameters` (≥ 2 values);
+    its degree drops below 3 only when fewer than 4 distinct consecutive particles remain."""
+    # Imported here: scipy.interpolate takes about half a second to import, and every command
+    # that loads the solver registry would pay it; only the swarm methods need it.
+    from scipy.interpolate import make_interp_spline
+
+    # One call for all p dimensions; the particles are finite (clipped to the box), so the
+    # finiteness checks, a tenth of the call, are skipped.
+    return make_interp_spline(t, kept, k=min(SPLINE_DEGREE, t.size - 1), axis=0,
+                              check_finite=False)
+
+
 def interpolating_curve(x: Array) -> tuple[Array, BSpline]:
     """The cubic B-spline through the particles (eqs. 23–26): ``(t, curve)``, curve(t) = kept x.
 
     Degree drops below 3 only when fewer than 4 distinct consecutive particles remain.
     """
-    # Imported here: scipy.interpolate takes about half a second to import, and every command
-    # that loads the solver registry would pay it; only the swarm methods need it.
-    from scipy.interpolate import make_interp_spline
-
     t, kept = chord_parameters(x)
     if t.size < 2:
         raise ValueError("the B-spline needs at least two distinct particles")
-    return t, make_interp_spline(t, kept, k=min(SPLINE_DEGREE, t.size - 1), axis=0)
+    return t, _curve(t, kept)
+
+
+@cache
+def _even(m: int) -> Array:
+    """M evenly spaced parameters in [0, 1], shape (M,) (read-only: one array per M)."""
+    t = np.linspace(0.0, 1.0, m)
+    t.setflags(write=False)
+    return t
 
 
 def interpolated_points(x: Array, m: int) -> Array:
     """M points of the curve at evenly spaced parameters in [0, 1] (eq. 27), shape (M, p).
 
-    If all particles coincide the curve is that point.
+    If all particles coincide the curve is that point. Where the compiled kernels are taken
+    (:func:`twin.geometry.kinematics.takes_compiled`) a cubic curve is drawn by
+    :func:`twin.solvers.compiled.curve_points`, the same curve to round-off.
     """
     t, kept = chord_parameters(x)
     if t.size < 2:
         return np.repeat(kept[:1], m, axis=0)
-    _, curve = interpolating_curve(x)
-    return np.asarray(curve(np.linspace(0.0, 1.0, m)), dtype=np.float64)
+    if t.size > SPLINE_DEGREE and takes_compiled():
+        from twin.solvers.compiled import curve_points
+
+        return np.asarray(curve_points(t, kept, _even(m)), dtype=np.float64)
+    return np.asarray(_curve(t, kept)(_even(m)), dtype=np.float64)
 
 
 @dataclass
@@ -180,7 +206,9 @@ def best_in_slots(candidates: Array, f: Array, n: int) -> tuple[Array, Array]:
     """
     chosen = np.argsort(f, kind="stable")[:n]
     newcomers = chosen[chosen >= n]
-    freed = np.setdiff1d(np.arange(n), chosen)
+    survives = np.zeros(n, dtype=bool)
+    survives[chosen[chosen < n]] = True
+    freed = np.flatnonzero(~survives)  # in index order
     x, fx = candidates[:n].copy(), f[:n].copy()
     x[freed], fx[freed] = candidates[newcomers], f[newcomers]
     return x, fx
@@ -238,13 +266,14 @@ def particle_swarm(
     pooled with the N moved particles and the best N are kept.
     """
     problem = tracker.problem
-    vmax = VELOCITY_FRACTION * (problem.upper - problem.lower)
+    lower, upper = problem.lower, problem.upper
+    vmax = VELOCITY_FRACTION * (upper - lower)
     iterations = budget.max_iterations
 
     def move(swarm: Swarm, k: int) -> Array:
         swarm.v = pso_velocity(swarm.x, swarm.v, swarm.best_x, swarm.g_x,
                                inertia(k, iterations), vmax, rng)
-        moved = np.clip(swarm.x + swarm.v, problem.lower, problem.upper)
+        moved = np.clip(swarm.x + swarm.v, lower, upper)
         if n_interpolated == 0:
             return moved
         return np.concatenate([moved, interpolated_points(moved, n_interpolated)])
