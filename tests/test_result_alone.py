@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import Refusals
+from scipy.linalg import null_space
 
 from twin.calibration.pipeline import calibrate
 from twin.cli import main
@@ -17,6 +18,7 @@ from twin.io.identified import load_result
 from twin.io.measurements import write_measurements
 from twin.io.results import result_to_dict, write_json
 from twin.io.robot_file import default_robot, load_robot, robot_digest, robot_to_toml
+from twin.report.text import format_result
 from twin.robot import RobotModel, random_poses
 from twin.synthetic import synthesize
 from twin.units import m_to_mm
@@ -97,6 +99,22 @@ def test_unseen_directions_leave_at_the_nominal(tmp_path: Path) -> None:
     assert main(["export", str(tmp_path / "r.json"), "--format", "dh", "--out",
                  str(tmp_path / "id.toml")]) == 0
     assert abs(load_robot(tmp_path / "id.toml").dh[3, 5]) < 1e-9
+    # Referee of the "held" marks: scipy's null space of the Jacobian at the nominal, scaled
+    # by the hold's weights; an unknown more than 1% in it is seen only in a combination.
+    model, unseen = result.model, result.unseen
+    assert unseen is not None
+    _, jacobian = model.jacobian(np.zeros(model.n_params), data.subset(result.train_rows))
+    null = null_space(jacobian * unseen.scale, rcond=1e-8)
+    referee = {name for name, part in zip(model.names, np.sum(null**2, axis=1), strict=True)
+               if part > 0.01}
+    assert {"alpha6", "theta6", "a5", "theta5"} <= referee
+    held = {entry["name"] for entry in document["unknowns"]["parameters"] if entry["held"]}
+    assert held == referee
+    rows = format_result(result).split("Identified D-H errors")[1].splitlines()[2:8]
+    marked = {f"{key}{joint}" for joint, row in enumerate(rows, start=1)
+              for key, cell in zip(("a", "d", "alpha", "theta"), row.split()[1:], strict=True)
+              if cell.endswith("~")}
+    assert marked == referee
 
 
 def _orientation_error_deg(robot: RobotModel, truth: RobotModel, q: np.ndarray) -> float:

@@ -52,7 +52,7 @@ MAX_TENSION_N = 1000.0
 """Largest cable tension accepted, N: drawstring springs pull a few newtons; a kilonewton would
 bend an IRB 120 rather than load it."""
 QUANTITY_UNITS = ("mm", "m", "deg", "rad", "arcsec", "urad/Nm", "µrad/(N·m)", "um/N", "µm/N",
-                  "um/m", "µm/m")
+                  "um/m", "µm/m", "ppm")
 """The units a value typed with its number may carry (``--bounds a2=20mm``;
 :data:`twin.units.QUANTITY_UNITS` converts them)."""
 MIN_FOLDS = 2

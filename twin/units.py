@@ -168,7 +168,8 @@ LINEAR_COMPLIANCE_UNIT = "m/N"
 THERMAL_UNIT = "m/K"
 """SI unit of a link's thermal growth: length change per kelvin."""
 SCALE_UNIT = "m/m"
-"""SI unit of a prismatic joint's scale (lead) error: travel error per travel."""
+"""SI unit of a scale error: a prismatic joint's lead error (travel error per travel), an
+encoder's gain error (length error per length; reports show it in ppm, the same µm/m)."""
 MICRO = 1e6
 RESULT_COMPLIANCE_DECIMALS = 4
 """Results: compliances to 1e-4 µrad/(N·m), far below what a calibration resolves (~0.1)."""
@@ -199,6 +200,7 @@ QUANTITY_UNITS: dict[str, tuple[str, float]] = {  # keyed as twin.choices.QUANTI
     "um/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO), "µm/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO),
     "um/m": (SCALE_UNIT, 1.0 / MICRO), "µm/m": (SCALE_UNIT, 1.0 / MICRO),
     "um/K": (THERMAL_UNIT, 1.0 / MICRO), "µm/K": (THERMAL_UNIT, 1.0 / MICRO),
+    "ppm": (SCALE_UNIT, 1.0 / MICRO),
 }
 """The units a value typed with its number may carry (``--bounds a2=20mm``, ``dh=0.5deg``):
 for each, the SI unit of the unknowns it applies to and the factor to it."""

@@ -88,6 +88,10 @@ WEAK_SIGMA = 0.1
 """A kept direction whose σ exceeds this many half-ranges of the box is reported as weakly
 seen."""
 
+HELD_SHARE = 0.01
+"""An unknown with more than this share of it in the held subspace (a squared row norm of
+its orthonormal basis) is not measured alone: reports and result files mark it."""
+
 
 class Unseen(NamedTuple):
     """The directions of the unknowns the data cannot see (module docstring)."""
@@ -106,6 +110,14 @@ class Unseen(NamedTuple):
     """The weakly seen directions, named."""
     weak_sigma: Array = np.zeros(0)
     """Their Cramér–Rao σ, in half-ranges of the box, shape (w,)."""
+
+    def held(self, names: tuple[str, ...]) -> frozenset[str]:
+        """The unknowns (of ``names``, the model's, length p) more than :data:`HELD_SHARE` of
+        which lies in the held subspace (the squared row norm of N: 0 seen alone, 1 not seen
+        at all): their values are the hold's minimum-norm split of what the data saw."""
+        share = np.sum(self.basis**2, axis=1)
+        return frozenset(name for name, part in zip(names, share, strict=True)
+                         if part > HELD_SHARE)
 
     @property
     def seen(self) -> Array:

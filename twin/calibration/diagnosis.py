@@ -2,12 +2,13 @@
 (:mod:`twin.analysis.misfit`).
 
 Each cause the data could reveal is tried by refitting: the rig's unknowns the calibration left
-out (the port, the attachment point, the tracker frame, the length offset) are added one at a
-time and the problem solved again with LM from the first fit, and outliers by a Huber fit
-(scale 3 σ) whose RMSE is taken over the rows it keeps; a cause whose refit brings the training
-RMSE within :data:`twin.analysis.misfit.FAR` times the noise is *likely*, and the refit's RMSE is
-quoted. Causes no refit can test follow: units (readings whose scale is far from the nominal
-model's) and the robot model (joint-level errors, another model file).
+out (the port, the attachment point, the tracker frame, the length offset, the encoder's
+scale) are added one at a time and the problem solved again with LM from the first fit, and
+outliers by a Huber fit (scale 3 σ) whose RMSE is taken over the rows it keeps; a cause whose
+refit brings the training RMSE within :data:`twin.analysis.misfit.FAR` times the noise is
+*likely*, and the refit's RMSE is quoted. Causes no refit can test follow: units (readings whose
+scale is far from the nominal model's) and the robot model (joint-level errors, another model
+file).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ REFITS = {
     "attachment": ("the attachment point", "--estimate-attachment"),
     "base": ("the tracker frame", "--estimate-base"),
     "offset": ("the cable's length offset", "--estimate-offset"),
+    "scale": ("the encoder's scale", "--estimate-scale"),
 }
 """Unknown groups a refit tries: what they stand for and the flag that adds them."""
 OUTLIER_SHARE = 0.2

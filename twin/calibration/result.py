@@ -206,6 +206,13 @@ class CalibrationResult:
         return np.asarray(self.model.block(self.solver.x, "offset"), dtype=np.float64) \
             if self.model.has("offset") else np.zeros(0)
 
+    @property
+    def scale(self) -> float:
+        """Identified encoder scale error, m/m (0 unless estimated): the length kind's gain
+        ``1 + scale`` on every modelled length (:mod:`twin.unknowns.scale`)."""
+        return float(self.model.block(self.solver.x, "scale")[0]) if self.model.has("scale") \
+            else 0.0
+
 
 PRIOR_DECIDED = float(np.sqrt(0.5))
 """An unknown with a posterior σ above this share of its prior's σ was decided by the prior: the

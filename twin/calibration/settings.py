@@ -38,8 +38,8 @@ MAX_JOINT_SIGMA_RAD = math.radians(10.0)
 TRAIN_FRACTION = 0.8
 """Share of the poses used for identification (paper: 80 / 20); 1 trains on every pose."""
 RIG_UNKNOWNS = {"port": "--estimate-port", "offset": "--estimate-offset",
-                "attachment": "--estimate-attachment", "base": "--estimate-base",
-                "tool": "--estimate-tool"}
+                "scale": "--estimate-scale", "attachment": "--estimate-attachment",
+                "base": "--estimate-base", "tool": "--estimate-tool"}
 """The rig's unknown groups a calibration may add, and the flag that asks for each."""
 TOOL_ORIGIN = {"tool": "attachment"}
 """A rig unknown that brings another with it: the tool frame (6-D) is its rotation (group

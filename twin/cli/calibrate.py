@@ -67,6 +67,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_seed(parser, "seed of the split and of the method", default=0)
     parser.add_argument("--estimate-offset", action="store_true",
                         help="also identify an unknown cable-length offset")
+    parser.add_argument("--estimate-scale", action="store_true",
+                        help="also identify the encoder's scale error (a gain on every length, "
+                        "shown in ppm; the port must then be told, not estimated, for the data "
+                        "to see it)")
     parser.add_argument("--sigma", type=sigma_or_auto, metavar="MM|auto",
                         help="the instrument's noise 1σ in mm: the filters' measurement noise "
                         "and the misfit test's reference (default: the capture's [encoder] "

@@ -26,7 +26,9 @@ DESCRIPTION = (
     "the identified robot as a model TOML (dh: mm and degrees, usable with --robot), a "
     "URDF (ROS, Pinocchio; link 'flange'), an MJCF (MuJoCo; site 'flange'), a UR robot's "
     "kinematics file in ur_calibration's layout (ur-calibration; --base keeps the hash and "
-    "comments of the robot's own), or xacro properties a description includes (xacro)."
+    "comments of the robot's own), or xacro properties a description includes (xacro). "
+    "The rig's unknowns (ports, length offset, the encoder's scale) are the instrument's, "
+    "not the robot's: robot files leave them out."
 )
 
 

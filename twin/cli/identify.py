@@ -45,6 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "calibrate's)")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="treat the cable-length offset as unknown too")
+    parser.add_argument("--estimate-scale", action="store_true",
+                        help="treat the encoder's scale (a gain on every length, ppm) as "
+                        "unknown too")
     parser.add_argument("--sigma", type=sigma_mm, metavar="MM",
                         help="the instrument's noise 1σ in mm, for the Cramér–Rao bound and the "
                         "misfit test (default: the capture's [encoder] sigma_mm with its "

@@ -134,8 +134,8 @@ def settings_from_flags(args: argparse.Namespace, base: CalibrationSettings,
     from twin.units import deg_to_rad, mm_to_m
 
     flagged = {"estimate_port": "port", "estimate_offset": "offset",
-               "estimate_attachment": "attachment", "estimate_base": "base",
-               "estimate_tool": "tool"}
+               "estimate_scale": "scale", "estimate_attachment": "attachment",
+               "estimate_base": "base", "estimate_tool": "tool"}
     estimate = {*base.estimate, *(name for flag, name in flagged.items()
                                   if getattr(args, flag, None))}
     errors = getattr(args, "errors", None)

@@ -73,6 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="plan for a calibration that also identifies the port")
     parser.add_argument("--estimate-offset", action="store_true",
                         help="plan for a calibration that also identifies a length offset")
+    parser.add_argument("--estimate-scale", action="store_true",
+                        help="plan for a calibration that also identifies the encoder's scale")
     add_error_groups(parser, "the robot's error groups the calibration will fit, "
                      "comma-separated: " + ", ".join(ERRORS) + " (default: dh)", default=("dh",))
     add_cable_tension(parser, "the cable's pull, N, which loads the joints for the compliance "

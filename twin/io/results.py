@@ -33,6 +33,8 @@ from twin.robot import RobotModel
 from twin.units import (
     FILE_DEG_DECIMALS,
     FILE_MM_DECIMALS,
+    MICRO,
+    RESULT_COMPLIANCE_DECIMALS,
     RESULT_MM_DECIMALS,
     dh_rows_rounded,
     m_to_mm,
@@ -54,6 +56,11 @@ MASS_DECIMALS = 3
 
 def _mm(values_m: ArrayLike) -> list[float]:
     return rounded(m_to_mm(values_m), RESULT_MM_DECIMALS)
+
+
+def _ppm(values: ArrayLike) -> list[float]:
+    """Scale errors given in m/m, in ppm, as results keep them (1e-4 ppm)."""
+    return rounded(np.asarray(values, dtype=np.float64) * MICRO, RESULT_COMPLIANCE_DECIMALS)
 
 
 def _metrics_mm(m: Metrics) -> dict[str, float]:
@@ -128,6 +135,9 @@ def _uncertainty_fields(result: CalibrationResult) -> dict[str, Any]:
             fields["sigma"]["offset"] = sigma_offsets[0]
             if model.rig.sessions:
                 fields["sigma"]["offsets"] = sigma_offsets
+        if model.has("scale"):
+            fields["sigma"]["scale_ppm"] = _finite_or_none(
+                _ppm(model.block(uncertainty.sigma, "scale")))[0]
         fields["noise_sigma"] = _mm(uncertainty.noise_sigma_m)[0]
         fields["predicted_flange_rms"] = _mm(uncertainty.flange_rms_m)[0]
         if result.workspace is not None:
@@ -157,8 +167,9 @@ def workspace_to_dict(workspace: Workspace, prismatic: NDArray[np.bool_] | None 
 def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     """The ``unknowns`` JSON object: everything needed to rebuild the identified model
     (:func:`twin.io.identified.load_result`) — the measurement kind, the unknown groups, the rig
-    the calibration was told, and every unknown's value, unit, σ (null: not identifiable) and
-    whether it ended on a bound of the search box."""
+    the calibration was told, and every unknown's value, unit, σ (null: not identifiable),
+    whether it ended on a bound of the search box and whether it lies in a direction held at
+    the nominal (its value then the hold's split, not a measurement)."""
     model = result.model
     values, labels = to_display(result.solver.x, model.units)
     sigma = to_display(result.uncertainty.sigma, model.units)[0] \
@@ -167,6 +178,7 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
     weight = model.prior_weight()
     prior = to_display(1.0 / np.where(weight > 0, weight, np.inf), model.units)[0]
     held, decided = set(result.at_bounds), set(result.prior_decided)
+    split = result.unseen.held(model.names) if result.unseen is not None else frozenset()
     return {
         "kind": model.kind.name,
         "groups": [group.name for group in model.groups],
@@ -178,7 +190,8 @@ def unknowns_to_dict(result: CalibrationResult) -> dict[str, Any]:
              "sigma": sigma[k] if math.isfinite(sigma[k]) else None,
              "lower": lower[k], "upper": upper[k],
              "prior_sigma": prior[k] if weight[k] > 0 else None,
-             "at_bound": name in held, "prior_decided": name in decided}
+             "at_bound": name in held, "prior_decided": name in decided,
+             "held": name in split}
             for group in model.groups
             for k, name in zip(range(model.n_params)[model.slice(group.name)], group.names,
                                strict=True)
@@ -367,6 +380,8 @@ def result_to_dict(result: CalibrationResult, *, causes: Sequence[Cause] = (),
         if result.model.rig.sessions:
             document["offsets"] = dict(zip(result.model.rig.sessions,
                                            _mm(result.offsets_m), strict=True))
+    if result.model.has("scale"):
+        document["scale_ppm"] = _ppm(result.scale)[0]
     if result.model.has("attachment"):
         document["attachment"] = _mm(result.attachment_m)
     if result.model.has("base"):

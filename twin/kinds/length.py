@@ -1,8 +1,12 @@
 """Cable lengths: the drawstring encoder reads the distance from its port to the measured point.
 
-For a row whose cable runs from port P_j, ``r = ‖p − (P_j + δP_j)‖ + c − L`` (paper eq. 1 with
-the optional port correction δP of group ``port`` and length offset c of group ``offset``; with
-capture sessions, c_s of the row's session s).
+For a row whose cable runs from port P_j, ``r = (1 + s) · ‖p − (P_j + δP_j)‖ + c − L`` (paper
+eq. 1 with the optional port correction δP of group ``port``, length offset c of group
+``offset`` — with capture sessions, the c of the row's session — and encoder scale s of group
+``scale``). The scale multiplies the modelled distance, not the reading: the residual stays
+reading minus model, in the reading's units, so that its noise is the encoder's σ whatever s is
+(dividing the reading by 1 + s would scale the noise with it); the encoder's zero c is counted
+in the reading's units, after the gain.
 
 Readings: ``length_m`` (m,), m, and, when the encoder was moved between ports, the labels
 ``port`` naming each row's port. In a file: a ``length`` column (mm) and an optional ``port``
@@ -197,7 +201,7 @@ class Length(Kind):
     name = "length"
     what = "cable lengths"
     rows_per_pose = 1
-    groups = ("port", "offset")
+    groups = ("port", "offset", "scale")
     columns = (COLUMN,)
     optional_labels = (PORT,)
     columns_text = "length (mm)"
@@ -226,8 +230,10 @@ class Length(Kind):
 
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
-        """r = ‖p − port‖ + offset − L, shape (..., m), m."""
+        """r = (1 + scale) · ‖p − port‖ + offset − L, shape (..., m), m."""
         length = distances(at.position_m, self._ports(values, data, rig))
+        if "scale" in values:
+            length = length * (1.0 + values["scale"][..., :1])
         if "offset" in values:
             length = length + values["offset"][..., _sessions(values["offset"], data)]
         return np.asarray(length - data.value(LENGTH), dtype=np.float64)
@@ -241,12 +247,16 @@ class Length(Kind):
 
     def jacobian(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                  rig: Rig) -> KindJacobian:
-        """∂r/∂p = u, the unit vector from the port to the point; ∂r/∂δP_j = −u on the rows
-        of estimated port j; ∂r/∂c = 1."""
+        """∂r/∂p = (1 + s) u, u the unit vector from the port to the point; ∂r/∂δP_j = −(1 + s) u
+        on the rows of estimated port j; ∂r/∂s = ‖p − port‖; ∂r/∂c = 1."""
         difference = at.position_m - self._ports(values, data, rig)
         distance = lengths(difference)
         u = difference / distance[:, None]
         by_group: dict[str, Array] = {}
+        if "scale" in values:
+            by_group["scale"] = distance[:, None]
+            gain = 1.0 + values["scale"][0]
+            distance, u = gain * distance, gain * u
         if "port" in values:
             columns = np.zeros((len(data), len(rig.ports_m), 3))
             columns[np.arange(len(data)), data.index(PORT)] = -u

@@ -1,5 +1,5 @@
 """How every number a user reads is shown: lengths in mm, angles in degrees (joint-level errors
-in arc-seconds), compliances in µrad/(N·m), shares in percent.
+in arc-seconds), compliances in µrad/(N·m), an encoder's scale in ppm, shares in percent.
 
 :mod:`twin.units` converts between SI and the units people read; this module turns an SI value
 into the text a report, a table, a prompt or a message shows, so that how a quantity reads is
@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.units import (
     DISPLAY_UNITS,
+    MICRO,
     joint_file_units,
     joints_to_file,
     m_to_mm,
@@ -48,6 +49,8 @@ RATIO_DECIMALS = 2
 """A ratio of two figures (an error against its bound)."""
 DURATION_DECIMALS = 3
 """A duration, s: 1 ms."""
+PPM_DECIMALS = 1
+"""A scale error (gain) in parts per million: 0.1 ppm, 0.1 µm over a metre of cable."""
 SIGNIFICANT = 4
 """Significant digits of a figure whose size is not known beforehand."""
 AS_GIVEN = 6
@@ -138,6 +141,11 @@ def elapsed(value: float, timed: bool = True) -> str:
     """A span of a capture: ``3600 s`` (whole seconds), or ``12 rows`` when the rows carry no
     time and their order stands for it."""
     return f"{plain(value, 0)} s" if timed else f"{plain(value, 0)} rows"
+
+
+def ppm(fraction: float, decimals: int = PPM_DECIMALS, *, sign: bool = True) -> str:
+    """A scale error given as a fraction (m/m), in parts per million: ``+98.7 ppm``."""
+    return f"{plain(float(fraction) * MICRO, decimals, sign=sign)} ppm"
 
 
 def slot(value_si: float, is_length: bool, decimals: int | None = None, *,

@@ -33,6 +33,7 @@ from twin.report.display import (
     mm,
     percent,
     plain,
+    ppm,
     seconds,
     slot,
     xyz_mm,
@@ -214,6 +215,17 @@ def describe_rig(rig: Rig, measurements: Measurements) -> str:
     return text
 
 
+def _scale_text(result: CalibrationResult) -> str:
+    """``+98.7 ppm ± 3.1 ppm (1σ)``, or the value with why it has no σ (the data cannot see it:
+    held at the start)."""
+    sigma = np.nan if result.uncertainty is None else float(
+        result.model.block(result.uncertainty.sigma, "scale")[0])
+    if np.isfinite(sigma):
+        return f"{ppm(result.scale)} ± {ppm(sigma, sign=False)} (1σ)"
+    return (f"{ppm(result.scale)} (not identifiable from these data: held; a told port pins "
+            "the scale, an estimated one trades with it)")
+
+
 def format_rig(result: CalibrationResult) -> list[str]:
     """The rig's identified unknowns: ports, offset, attachment, tracker frame, fixed points."""
     model, lines = result.model, []
@@ -229,6 +241,8 @@ def format_rig(result: CalibrationResult) -> list[str]:
                   for name, value in zip(model.rig.sessions, result.offsets_m, strict=True)]
     elif model.has("offset"):
         lines.append(f"  identified length offset: {mm(result.offset_m)}")
+    if model.has("scale"):
+        lines.append(f"  identified encoder scale: {_scale_text(result)}")
     if model.has("attachment"):
         lines.append(f"  identified attachment (flange frame): {xyz_mm(result.attachment_m)}")
     if model.has("base"):
@@ -401,17 +415,35 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
     lines += ["", f"Identified {errors} errors"
               + (" (and the truth)" if truth_delta is not None else ""),
               *format_parametrisation(result.robot), header]
+    held = _held_entries(result)
     for i in range(result.robot.n_joints):
         row = f"  {i + 1:>5}"
         for k, (key, lengths) in enumerate(zip(DH_KEYS, is_length, strict=True)):
             row += slot(result.delta[k, i], lengths[i],
-                        width=max(14, len(slot_label(key, lengths)) + 2))
+                        width=max(14, len(slot_label(key, lengths)) + 2) - 1)
+            row += HELD_MARK if held[k, i] else " "
             if truth_delta is not None:
                 row += slot(truth_delta[k, i], lengths[i], width=10)
         lines.append(row)
+    if held.any():
+        lines.append(f"  {HELD_MARK} seen only in a combination, or not at all: the value is "
+                     "the hold's minimum-norm split of what the data saw, not a measurement")
     lines += format_joint_groups(result)
     lines += format_thermal(result)
     return "\n".join(lines)
+
+
+HELD_MARK = "~"
+"""Marks a table entry the data saw only in a combination, or not at all."""
+
+
+def _held_entries(result: CalibrationResult) -> NDArray[np.bool_]:
+    """Which entries of the table, shape (4, n), lie in a held direction
+    (:meth:`twin.analysis.unseen.Unseen.held`)."""
+    n = result.robot.n_joints
+    held = result.unseen.held(result.model.names) if result.unseen is not None else frozenset()
+    names = result.robot.structure.parameter_names
+    return np.array([name in held for name in names], dtype=bool).reshape(4, n)
 
 
 def _poses_line(result: CalibrationResult, cross_validated: bool) -> str:

@@ -1,8 +1,10 @@
 """Measurement noise of the drawstring encoder and the arm's repeatability.
 
-The encoder reads ``round((L + c + e + o) / res) · res`` with L the true length, c an unknown
-constant offset (the encoder's zero), e ~ N(0, σ²), o an outlier (with probability ``rate``,
-a random sign times U(0.5, 1.5) · ``outlier``, else 0), res the resolution.
+The encoder reads ``round(((1 + s) L + c + e + o) / res) · res`` with L the true length, s its
+scale error (a drum or a count per millimetre off by s: every extension reads that much too
+long), c an unknown constant offset (the encoder's zero), e ~ N(0, σ²), o an outlier (with
+probability ``rate``, a random sign times U(0.5, 1.5) · ``outlier``, else 0), res the
+resolution.
 
 Repeatability is the arm's: each pose's joints land N(0, σ_q²) off their target, with one σ_q
 for all joints chosen so that the RMS flange displacement over the poses is ``repeatability``.
@@ -23,7 +25,8 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array
 from twin.geometry.kinematics import point_jacobian
 from twin.robot import RobotModel
-from twin.units import m_to_mm, rad_to_deg
+from twin.units import MICRO, m_to_mm, rad_to_deg
+from twin.unknowns.scale import BOUND as MAX_SCALE
 
 
 class Readings(NamedTuple):
@@ -46,6 +49,8 @@ class NoiseModel:
         outlier_rate: Probability of an outlier per reading, in [0, 1].
         outlier_m: Typical outlier size, m.
         offset_m: Constant length offset the calibration is not told, m.
+        scale: The encoder's scale error s the calibration is not told, m/m (1e-4: 100 ppm),
+            within ±:data:`MAX_SCALE`.
         joint_resolution_rad: The resolution the joint angles are recorded to, one for every
             joint or one per joint, rad (empty or 0: exact); a prismatic joint's travel is
             recorded exactly (its entry 0, :func:`twin.scenario.reader` sees to it).
@@ -57,6 +62,7 @@ class NoiseModel:
     outlier_rate: float = 0.0
     outlier_m: float = 0.0
     offset_m: float = 0.0
+    scale: float = 0.0
     joint_resolution_rad: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
@@ -68,6 +74,9 @@ class NoiseModel:
             raise ValueError(f"outlier_rate: expected [0, 1], got {self.outlier_rate}")
         if not np.isfinite(self.offset_m):
             raise ValueError("offset_m: expected a finite value")
+        if not (np.isfinite(self.scale) and abs(self.scale) <= MAX_SCALE):
+            raise ValueError(f"scale: expected a finite value within ±{MAX_SCALE:g}, got "
+                             f"{self.scale}")
         resolution = tuple(float(v) for v in np.ravel(self.joint_resolution_rad))
         if not all(np.isfinite(v) and v >= 0 for v in resolution):
             raise ValueError("joint_resolution_rad: expected finite values >= 0")
@@ -101,7 +110,8 @@ class NoiseModel:
     def read(self, length_m: ArrayLike, rng: np.random.Generator) -> Readings:
         """Encoder readings of true lengths (draws noise, then outliers, from ``rng``)."""
         true = np.asarray(length_m, dtype=np.float64)
-        reading = true + self.offset_m + rng.normal(0.0, 1.0, true.shape) * self.sigma_m
+        reading = ((1.0 + self.scale) * true + self.offset_m
+                   + rng.normal(0.0, 1.0, true.shape) * self.sigma_m)
         is_outlier = rng.random(true.shape) < self.outlier_rate
         size = rng.uniform(0.5, 1.5, true.shape) * rng.choice([-1.0, 1.0], true.shape)
         reading = reading + np.where(is_outlier, size * self.outlier_m, 0.0)
@@ -118,5 +128,6 @@ class NoiseModel:
             "outlier_rate": self.outlier_rate,
             "outlier_mm": float(m_to_mm(self.outlier_m)),
             "offset_mm": float(m_to_mm(self.offset_m)),
+            "scale_ppm": self.scale * MICRO,
             "joint_resolution_deg": rad_to_deg(self.joint_resolution_rad).tolist(),
         }

@@ -57,6 +57,8 @@ joint errors), paths relative to the scenario file::
     outlier_rate = 0.0                     # share of readings with a gross error
     outlier_mm = 0.0                       # its typical size (random sign, ×U(0.5, 1.5))
     offset_mm = 0.0                        # unknown constant offset of the readings
+    scale_ppm = 0.0                        # the encoder's scale error: it reads (1 + s) times
+                                           # the cable's length, s in ppm (within ±5000)
 
     [joints]                               # joint-level errors (see twin.scenario.joint_errors)
     repeatability_mm = 0.0                 # RMS flange jitter from the joints
@@ -82,6 +84,7 @@ joint errors), paths relative to the scenario file::
     train_fraction = 0.8
     estimate_port = false
     estimate_offset = false
+    estimate_scale = false                 # the encoder's scale (with the port told)
     estimate_attachment = false
     estimate_base = false                  # tracker frame (started at a rigid fit)
     loss = "linear"                        # or "huber", "soft_l1", "cauchy" (twin.loss)
@@ -126,9 +129,10 @@ from twin.scenario.noise import NoiseModel
 from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation
 from twin.scenario.physics import Physics
 from twin.scenario.thermal import Thermal
-from twin.units import ARCSEC_PER_DEG, deg_to_rad, mm_to_m, rad_to_deg
+from twin.units import ARCSEC_PER_DEG, MICRO, deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import make_groups
 from twin.unknowns.limits import group_box
+from twin.unknowns.scale import BOUND as MAX_SCALE
 
 _KIND_TABLES = {table: keys for kind in KINDS.values() for table, keys in kind.scenario_tables}
 """The tables of one kind alone (a fixed-point scenario's ``[fixture]``…)."""
@@ -144,7 +148,7 @@ _TABLES = {
     "perturbation": ("distribution", "a_mm", "d_mm", "beta_deg", "alpha_deg", "theta_deg"),
     "poses": ("count", "plan", "min_flange_height_mm", "cable_clearance_mm"),
     "encoder": ("range_mm", "sigma_mm", "resolution_mm", "outlier_rate", "outlier_mm",
-                "offset_mm"),
+                "offset_mm", "scale_ppm"),
     "joints": ("repeatability_mm", "resolution_deg", "transmission_arcsec",
                "transmission_harmonic", "transmission_phase_deg", "backlash_arcsec"),
     "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"),
@@ -357,9 +361,9 @@ def _constraints(poses: Table, cable_range: Array) -> PoseConstraints:
 
 
 def _noise(encoder: Table, joints: Table, robot: RobotModel) -> NoiseModel:
-    """The reading's noise: ``[encoder]``'s σ, resolution, outliers and offset, the robot's
-    repeatability and the resolution its joint angles are recorded to (``[joints]``; an angle's:
-    a prismatic joint's travel is recorded exactly)."""
+    """The reading's noise: ``[encoder]``'s σ, resolution, outliers, offset and scale, the
+    robot's repeatability and the resolution its joint angles are recorded to (``[joints]``; an
+    angle's: a prismatic joint's travel is recorded exactly)."""
     resolution = deg_to_rad(joints.vector("resolution_deg", robot.n_joints, per_joint=True,
                                           minimum=0.0, default=0.0))
     return NoiseModel(
@@ -371,7 +375,15 @@ def _noise(encoder: Table, joints: Table, robot: RobotModel) -> NoiseModel:
         outlier_rate=encoder.number("outlier_rate", 0.0, minimum=0.0, maximum=1.0),
         outlier_m=float(mm_to_m(encoder.number("outlier_mm", 0.0, minimum=0.0))),
         offset_m=float(mm_to_m(encoder.number("offset_mm", 0.0))),
+        scale=_scale(encoder),
     )
+
+
+def _scale(encoder: Table) -> float:
+    """``[encoder] scale_ppm``, within the calibration's search bound, as a fraction (m/m)."""
+    largest_ppm = MAX_SCALE * MICRO
+    return encoder.number("scale_ppm", 0.0, minimum=-largest_ppm, maximum=largest_ppm,
+                          expected=f"a scale error in ppm within ±{largest_ppm:g}") / MICRO
 
 
 def _instrument(tables: dict[str, Table]) -> Instrument:

@@ -114,6 +114,8 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
         x[model.slice("port")] = (sim.rig.ports_m[index] - rig.ports_m[index]).ravel()
     if model.has("offset"):
         x[model.slice("offset")] = sim.scenario.noise.offset_m
+    if model.has("scale"):
+        x[model.slice("scale")] = sim.scenario.noise.scale
     if model.has("attachment"):
         x[model.slice("attachment")] = sim.rig.attachment_m - rig.attachment_m
     if model.has("base"):
