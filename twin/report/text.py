@@ -518,19 +518,24 @@ def format_thermal(result: CalibrationResult) -> list[str]:
     values, label = joint_level(result.solver.x[where], group.units[0])
     deviations, _ = joint_level(sigma, group.units[0])
     found = dict(zip(group.names, zip(values, deviations, strict=True), strict=True))
+    held = result.unseen.held(model.names) if result.unseen is not None else frozenset()
     lines = ["", f"Identified thermal growth (the D-H lengths above are at "
              f"{plain(model.rig.temperature_ref_c, 2)} °C, the data's mean temperature)",
-             "  joint" + "".join(f"{f'{slot} [{label}]':>16}{'±σ':>8}"
+             "  joint" + "".join(f"{f'{slot} [{label}]':>16} {'±σ':>8}"
                                  for slot in ("k_a", "k_d"))]
     for i, slots in enumerate(model.robot.structure.slot_names):
         row = f"  {i + 1:>5}"
         for name in slots[:2]:
-            value, deviation = found.get(f"k_{name}{i + 1}", (np.nan, np.nan))
+            key = f"k_{name}{i + 1}"
+            value, deviation = found.get(key, (np.nan, np.nan))
             row += (plain(value, JOINT_DECIMALS, width=16) if np.isfinite(value)
-                    else f"{'—':>16}")
+                    else f"{'—':>16}") + (HELD_MARK if key in held else " ")
             row += plain(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation) \
                 else f"{'—':>8}"
         lines.append(row)
+    if held & set(group.names):
+        lines.append(f"  {HELD_MARK} seen only in a combination, or not at all (held at the "
+                     "hold's minimum-norm split)")
     return lines
 
 
