@@ -106,8 +106,8 @@ def main() -> None:
         print(f"settled poses/s over ASCII (k = 5, 0.01 mm): {pose_rate:.0f}/s, "
               f"{per_pose:.1f} readings per pose")
         plain, durable = append_s(folder, False), append_s(folder, True)
-        print(f"append per row ({ROWS} rows, {os.statvfs(folder).f_bsize} B blocks, in "
-              f"{folder.parent}): plain {plain * 1e6:.1f} µs, O_APPEND + fsync "
+        print(f"append per row ({ROWS} rows, {os.statvfs(folder).f_bsize} B blocks, beside "
+              "the repository): plain {plain * 1e6:.1f} µs, O_APPEND + fsync "
               f"{durable * 1e6:.1f} µs, ratio {durable / plain:.1f}")
         print(f"fsync share of one settled ASCII pose: "
               f"{durable / (durable + 1 / pose_rate) * 100:.1f} %")

@@ -1458,6 +1458,10 @@ def main() -> None:
         blocks["studies.md"]["bench-study"] = lambda: bench_output("bench_study.py")
         blocks["studies.md"]["bench-speed"] = lambda: bench_output("bench_speed.py")
         blocks["identifiability.md"]["bench-design"] = lambda: bench_output("bench_design.py")
+        blocks.setdefault("compensation.md", {})["bench-kinematics"] = lambda: bench_output(
+            "bench_kinematics.py")
+        blocks.setdefault("hardware.md", {})["bench-capture"] = lambda: bench_output(
+            "bench_capture.py")
     known = [block for generated in blocks.values() for block in generated]
     wanted = set(args.only or known)
     if not wanted <= set(known):

@@ -82,10 +82,12 @@ def test_a_robot_given_must_be_the_results(tmp_path: Path, refusals: Refusals) -
     assert not (tmp_path / "b.toml").exists()
 
 
-def test_unseen_directions_leave_at_the_nominal(tmp_path: Path) -> None:
+def test_unseen_directions_leave_at_the_nominal(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
     """A cable at the flange centre with a known port cannot see α6 and θ6: however the truth
     has them, the result file says 0 to 1e-9 rad (1e-6 degree is the file's rounding), and so
-    does every format exported from it."""
+    does every format exported from it, with a warning naming them; the table's entries in a
+    held direction are marked, the JSON's say so."""
     robot = default_robot()
     rng = np.random.default_rng(3)
     delta = np.zeros((4, 6))
@@ -99,6 +101,8 @@ def test_unseen_directions_leave_at_the_nominal(tmp_path: Path) -> None:
     assert main(["export", str(tmp_path / "r.json"), "--format", "dh", "--out",
                  str(tmp_path / "id.toml")]) == 0
     assert abs(load_robot(tmp_path / "id.toml").dh[3, 5]) < 1e-9
+    warned = capsys.readouterr().err
+    assert "the data did not see alpha6, theta6" in warned and "held at the nominal" in warned
     # Referee of the "held" marks: scipy's null space of the Jacobian at the nominal, scaled
     # by the hold's weights; an unknown more than 1% in it is seen only in a combination.
     model, unseen = result.model, result.unseen

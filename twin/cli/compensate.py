@@ -125,7 +125,6 @@ def run(args: argparse.Namespace) -> int:
                          source=missing)
     model, x, _ = load_result(args.identified, given_robot(args), args.method)
     robot = model.robot
-    warn_result_cautions(args.identified, args.method, "the compensated program")
     if args.cable_tension is not None:
         model, x = model.with_rig(replace(model.rig, tension_n=args.cable_tension), x)
     rng = np.random.default_rng(args.seed or 0)
@@ -142,6 +141,8 @@ def run(args: argparse.Namespace) -> int:
         ordered = compensate_program_rows(model, x, robot, q_nominal, program.approach)
     else:
         ordered, q_nominal = _targets(args, robot, model, x, rng)
+    # After every input is checked: a refusal stays one line.
+    warn_result_cautions(args.identified, args.method, "the compensated program")
     write_corrected(args.out, ordered, robot)
     print(_summary(ordered, q_nominal, robot))
     print(f"wrote {args.out}")
@@ -200,6 +201,7 @@ def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray
     from twin.cli.frames import RAPID_SUFFIXES, parse_frames
     from twin.compensation.poses import controller_tool0
     from twin.io.atomic import write_atomic
+    from twin.io.identified import warn_result_cautions
     from twin.io.rapid import ENCODING, read_module
     from twin.io.rapid_filter import filter_module, format_filter_rows
 
@@ -210,6 +212,7 @@ def _rapid(args: argparse.Namespace, robot: RobotModel, model: Model, x: NDArray
     tool0 = _tool0(args, robot) if args.tool0_in_flange is not None \
         or controller_tool0(robot) is not None else None
     filtered = filter_module(module, model, x, robot, tool0, parse_frames(args), rng)
+    warn_result_cautions(args.identified, args.method, "the compensated module")
     write_atomic(args.out, filtered.text.encode(ENCODING))
     print(format_filter_rows(filtered.rows))
     print(f"wrote {args.out}")

@@ -64,7 +64,6 @@ def run(args: argparse.Namespace) -> int:
     if args.base is not None and args.format_name != "ur-calibration":
         raise InputError(f"--base with --format {args.format_name}",
                          "it with --format ur-calibration", source="--base")
-    warn_result_cautions(args.result, args.method, f"the {args.format_name} file")
     identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
     if args.base is not None:
         from twin.export.ur_calibration import export_with_base
@@ -73,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
                                 str(args.base))
     else:
         text = export_text(identified, args.format_name)
+    # After every input is checked: a refusal stays one line.
+    warn_result_cautions(args.result, args.method, f"the {args.format_name} file")
     write_atomic(args.out, text)
     print(f"wrote {args.out} ({args.format_name}, {identified.name})")
     if args.format_name == "xacro":

@@ -58,7 +58,6 @@ def run(args: argparse.Namespace) -> int:
 
     identified = load_result(args.identified, given_robot(args), args.method)
     robot = identified.robot
-    warn_result_cautions(args.identified, args.method, "the prediction")
     port_m = None if args.port is None else parse_port_mm(args.port, "--port", "")
     poses = load_poses(args.joints, robot,
                        f"a pose CSV ({joint_units_said(robot.n_joints, robot)})", stdin=True)
@@ -67,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
                              temperature_c=poses.temperature_c)
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=args.joints) from None
+    # After every input is checked: a refusal stays one line.
+    warn_result_cautions(args.identified, args.method, "the prediction", frames=False)
     write_prediction(args.out, poses.q_rad, poses.approach, prediction, robot)
     model = identified.model
     estimated = model.has("attachment")

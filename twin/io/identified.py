@@ -285,13 +285,17 @@ def result_groups(path: str | Path, method: str | None = None) -> tuple[str, ...
     return tuple(str(g) for g in groups) if isinstance(groups, list) else ()
 
 
-def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None:
+def warn_result_cautions(path: str | Path, method: str | None, use: str, *,
+                         frames: bool = True) -> None:
     """Warn (:class:`ResultWarning`) before ``use`` (``"exporting"``, ``"compensating"``…) a
     result whose data could not see some motions of the flange (``unobservable.motions``: the
-    identified model is placed along them by its start, not by the data), with unknowns a bound
+    identified model is placed along them by its start, not by the data), with directions held
+    at the nominal (``held_at_nominal``, named), with unknowns a bound
     of the search box decided (``at_bounds``, named) or a prior decided (``prior_decided``,
     named), or whose model did not fit its data (``misfit``). Nothing for a result written
-    before they were recorded.
+    before they were recorded. ``frames``: whether ``use`` carries the robot's frames (an
+    export, a compensation), which the held directions reach; a prediction of the measured
+    point is not moved by them.
 
     Raises:
         InputError: if the file is not a result, or ``method`` is missing or unknown.
@@ -309,6 +313,14 @@ def warn_result_cautions(path: str | Path, method: str | None, use: str) -> None
                       "identified model sits along them where the calibration started, not "
                       f"where the robot is, and {use} inherits that"
                       + (f"; pin them with {pin}" if pin else ""), ResultWarning, stacklevel=2)
+    held = entry.get("held_at_nominal")
+    directions = held.get("directions") if isinstance(held, dict) else None
+    if frames and isinstance(directions, list) and directions:
+        warnings.warn(f"{path}: the data did not see {', '.join(map(str, directions))}, held at "
+                      f"the nominal: {use} carries the nominal robot's values along them, so "
+                      "what depends on them (a tool away from the measured point, the flange's "
+                      "orientation) is as accurate as the nominal robot's, no more",
+                      ResultWarning, stacklevel=2)
     bounded = entry.get("at_bounds")
     if isinstance(bounded, list) and bounded:
         warnings.warn(f"{path}: the search box, not the data, decided "

@@ -176,6 +176,9 @@ class Kind(ABC):
     tracker target or a ball is always named)."""
     measurement_keys: ClassVar[tuple[str, ...]] = ()
     """The keys of a scenario's ``[measurement]`` table it reads, beside ``kind``."""
+    encoder_keys: ClassVar[tuple[str, ...]] = ()
+    """The keys of a scenario's ``[encoder]`` table that only its readings take (a cable
+    encoder's zero and scale); a scenario of another kind may not have them."""
     scenario_tables: ClassVar[tuple[tuple[str, tuple[str, ...]], ...]] = ()
     """The scenario tables it alone reads, each with its keys (``[fixture]`` of fixed points);
     a scenario of another kind may not have them."""

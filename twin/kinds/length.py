@@ -209,6 +209,7 @@ class Length(Kind):
     flags = (("--port", "cable lengths (a port per reading)"),)
     reading_noun = "lengths"
     on_flange = True
+    encoder_keys = ("offset_mm", "scale_ppm")
 
     @staticmethod
     def _ports(values: Mapping[str, Array], data: Measurements, rig: Rig) -> Array:

@@ -399,6 +399,12 @@ def _instrument(tables: dict[str, Table]) -> Instrument:
                                           f"[{table}] with {other.what} "
                                           f"(kind = \"{other.name}\") only")
     setup = kind.read_setup(tables)
+    encoder = tables["encoder"]
+    for other in KINDS.values():
+        for key in other.encoder_keys:
+            if encoder.has(key) and key not in kind.encoder_keys:
+                raise encoder.error(key, f"{key} with {kind.what}",
+                                    f"[encoder] {key} with {other.what} only")
     for key in measurement.values:
         if key != "kind" and key not in kind.measurement_keys:
             raise measurement.error(key, f"{key} with {kind.what}",
