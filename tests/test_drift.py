@@ -16,6 +16,7 @@ from scipy import stats
 
 from tests.conftest import Refusals
 from twin.analysis.drift import ALPHA, reference_drift
+from twin.analysis.misfit import repeat_sigma
 from twin.cli import main
 from twin.dataset import REFERENCE, TEMPERATURE, TIME, Measurements
 from twin.errors import InputError
@@ -116,6 +117,18 @@ def test_the_test_flags_a_drift_and_holds_its_level() -> None:
     assert sum(d is not None and d.drift for d in quiet) <= 2
 
 
+def test_revisits_of_a_reference_pose_are_not_repeat_readings() -> None:
+    """A reference pose revisited over an hour of 0.1 mm drift is no measure of the noise: the
+    misfit test keeps the stated σ (the revisits' spread, 3× it, would have passed a warm-up
+    off as noise); the same rows unflagged are repeats again."""
+    data = _series(1e-4 / 3600, seed=3)
+    residuals = data.value("length_m") - 0.8
+    assert repeat_sigma(data, residuals, 1) is None
+    unflagged = replace(data, values={**data.values, REFERENCE: np.zeros(len(data))})
+    spread = repeat_sigma(unflagged, residuals, 1)
+    assert spread is not None and spread[0] > 3e-5 and spread[1] == 11
+
+
 def test_no_reference_rows_no_test() -> None:
     """Without a reference column, or with too few readings, nothing is claimed."""
     data = _series(0.0, seed=0)
@@ -198,6 +211,10 @@ def test_calibrate_flags_a_warm_up_and_not_a_cold_capture(tmp_path: Path,
         verdicts[name] = (drift["drift"], drift["z"], drift["threshold"])
     assert verdicts["warm"][0] and verdicts["warm"][1] > 2 * verdicts["warm"][2]
     assert not verdicts["cold"][0]
+    # A rigid fit of the warm capture misses the growth: the misfit says so and names it.
+    assert main(["calibrate", str(tmp_path / "warm" / "capture.toml"), "--errors", "dh"]) == 0
+    report = capsys.readouterr().out
+    assert "MISFIT" in report and "growth with temperature (--errors dh,thermal)" in report
 
 
 def test_drift_figure_needs_reference_rows(tmp_path: Path, refusals: Refusals) -> None:

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import gammaincinv
 
-from twin.dataset import Measurements
+from twin.dataset import REFERENCE, Measurements
 from twin.report.display import SIGNIFICANT, mm
 
 ALPHA = 1e-3
@@ -116,7 +116,9 @@ def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
                  ) -> tuple[float, int] | None:
     """The noise measured by repeat readings: pooled standard deviation of the residuals of
     rows with the same joint angles (and labels: port, fixed point…), m, and its degrees of freedom;
-    None without repeats.
+    None without repeats. Rows flagged ``reference`` are left out: a reference pose is revisited
+    across the capture to see drift (:mod:`twin.analysis.drift`), so its spread holds the drift
+    and would pass a misfit off as noise.
 
     Args:
         data: The poses.
@@ -127,6 +129,10 @@ def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
     m = len(data)
     r = np.asarray(residuals_m, dtype=np.float64)[: rows_per_pose * m].reshape(m, rows_per_pose)
     group = same_poses(data)
+    if REFERENCE in data.values:
+        # A reference row repeats nothing: a group of its own.
+        revisit = np.flatnonzero(data.values[REFERENCE] > 0.5)
+        group[revisit] = group.max() + 1 + np.arange(revisit.size)
     counts = np.bincount(group)
     dof = int(np.sum(counts[counts > 1] - 1)) * rows_per_pose
     if dof == 0:
