@@ -83,8 +83,8 @@ def test_unknown_layout(irb120: RobotModel, port_m: np.ndarray) -> None:
     np.testing.assert_allclose(upper[12:24], np.deg2rad(8.0))
     np.testing.assert_array_equal(lower, -upper)
     assert list(GROUPS) == ["dh", "transmission", "backlash", "compliance", "link_compliance",
-                            "port", "offset", "scale", "attachment", "base", "points",
-                            "tool", "planes"]
+                            "thermal", "port", "offset", "scale", "attachment", "base",
+                            "points", "tool", "planes"]
 
 
 def test_batched_residuals(

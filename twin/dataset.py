@@ -27,6 +27,20 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 
+TIME = "t_s"
+"""The per-row column of each reading's time since the capture started, s."""
+TEMPERATURE = "temperature_c"
+"""The per-row column of the temperature at each reading (the arm's, or the cell's), °C."""
+TEMPERATURE_RANGE_C = (-50.0, 150.0)
+"""Temperatures a file may give, °C: beyond them an arm does not run (and 293 is a temperature
+in kelvin)."""
+REFERENCE = "reference"
+"""The per-row column that flags a reference pose revisited during the capture (1, else 0):
+what the drift test (:mod:`twin.analysis.drift`) reads."""
+ROW_COLUMNS = (TIME, TEMPERATURE, REFERENCE)
+"""The per-row columns any kind's measurements may carry beside their readings, in file
+order."""
+
 
 class Labels(NamedTuple):
     """A name per row out of a list: the port each cable ran from, the fixed point a ball sat
@@ -141,6 +155,19 @@ class Measurements:
             {name: Labels(labels.names, labels.indices[index])
              for name, labels in self.labels.items()},
             None if self.approach is None else self.approach[index])
+
+
+def joined(first: Measurements, second: Measurements) -> Measurements:
+    """The rows of two measurement sets of one kind, the first's then the second's: the
+    columns both have, the labels by the first's names (both index them: subsets of one set)."""
+    approach = None if first.approach is None or second.approach is None \
+        else np.concatenate([first.approach, second.approach])
+    return Measurements(
+        np.concatenate([first.q_rad, second.q_rad]), first.kind,
+        {name: np.concatenate([column, second.values[name]])
+         for name, column in first.values.items() if name in second.values},
+        {name: Labels(labels.names, np.concatenate([labels.indices, second.index(name)]))
+         for name, labels in first.labels.items()}, approach)
 
 
 def approach_directions(q_rad: ArrayLike, start_rad: ArrayLike | None = None) -> NDArray[np.int8]:

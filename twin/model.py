@@ -2,7 +2,8 @@
 
 For unknowns x (the blocks of its groups, :mod:`twin.unknowns`) and a pose q:
 
-1. the kinematic table is the nominal plus every ``table`` group's correction;
+1. the kinematic table is the nominal plus every ``table`` group's correction, and each row's
+   plus every ``rows`` group's for that row (a link's thermal growth: one table per row);
 2. the joints stand at q plus every ``joints`` group's correction (transmission error,
    backlash, compliance);
 3. the measured point sits at the rig's attachment plus every ``point`` group's correction, in
@@ -68,6 +69,7 @@ class Model:
     _joint_sums: Array = field(init=False, repr=False, compare=False)
     _joint_basis: Callable[[Measurements], Array] = field(init=False, repr=False, compare=False)
     _turns: Callable[[Measurements], Turns] = field(init=False, repr=False, compare=False)
+    _row_groups: tuple[Group, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         slices, start = {}, 0
@@ -98,6 +100,11 @@ class Model:
         # The measured joints never change during a fit: their cosines and sines are made once
         # per measurement set, and every evaluation on it reuses them.
         object.__setattr__(self, "_turns", cached(lambda data: turns(data.q_rad)))
+        rows = tuple(group for group in self.groups if group.stage == Stage.ROWS)
+        if rows and self.kind.reads_rotation:
+            raise ValueError(f"{', '.join(group.name for group in rows)}: not with "
+                             f"{self.kind.what}, which read the flange's orientation")
+        object.__setattr__(self, "_row_groups", rows)
 
     # --- the unknowns ---------------------------------------------------------------------
 
@@ -244,8 +251,50 @@ class Model:
     def positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The measured point in the base frame at every pose, shape (..., m, 3), m."""
         x = self._check(x)
-        return point_position(self.robot.structure, self.table(x), self._joint_turns(x, data),
-                              self.point(x))
+        return self._place(x, data, self.point(x))
+
+    def _kinematics(self, x: Array, data: Measurements) -> tuple[Array, Turns]:
+        """What the kinematics read: the table (..., 4, n) and the joints (..., m, n); with a
+        ``rows`` group, each row's own table (..., m, 4, n) and its joints as that table's one
+        pose (..., m, 1, n)."""
+        table, joints = self.table(x), self._joint_turns(x, data)
+        if not self._row_groups:
+            return table, joints
+        rows = table[..., None, :, :]
+        for group in self._row_groups:
+            assert group.linear is not None and group.basis is not None
+            change = (self.block(x, group.name)[..., None, :] * group.basis(data)) \
+                @ group.linear.T  # (..., m, 4n)
+            rows = rows + change.reshape(*change.shape[:-1], *self.robot.dh.shape)
+        return rows, Turns(joints.q_rad[..., None, :], joints.cos[..., None],
+                           joints.sin[..., None])
+
+    def _place(self, x: Array, data: Measurements, point_m: Array | None = None) -> Array:
+        """A point fixed to the flange (..., 3) or (3,), m, at every pose, (..., m, 3), m."""
+        table, joints = self._kinematics(x, data)
+        if not self._row_groups:
+            return point_position(self.robot.structure, table, joints, point_m)
+        point = None if point_m is None else np.asarray(point_m)[..., None, :]
+        return point_position(self.robot.structure, table, joints, point)[..., 0, :]
+
+    def _trace(self, x: Array, data: Measurements, point_m: Array | None
+               ) -> tuple[Array, Callable[[Array | None], PointJacobian]]:
+        """The point at every pose (m, 3), m, at one x, and how it moves along directions
+        (m, r, 3) or the base axes (None): :meth:`PointTrace.jacobian` of the row tables'
+        traces too."""
+        table, joints = self._kinematics(x, data)
+        if not self._row_groups:
+            trace = trace_point(self.robot.structure, table, joints, point_m)
+            return trace.position, trace.jacobian
+        point = None if point_m is None else point_m[None, :]
+        rows = trace_point(self.robot.structure, table, joints, point)
+
+        def moves(directions: Array | None) -> PointJacobian:
+            along = None if directions is None else directions[:, None]
+            jacobian = rows.jacobian(along)
+            return PointJacobian(*(part[:, 0] for part in jacobian))
+
+        return rows.position[:, 0], moves
 
     def _measurement_values(self, x: Array) -> dict[str, Array]:
         return {group.name: self.block(x, group.name) for group in self.groups
@@ -278,8 +327,12 @@ class Model:
                 **labels: ArrayLike | None) -> Measurements:
         """Noise-free measurements of this model's kind at unknowns x (p,) and poses q (m, n):
         what the model fits exactly (arguments as :meth:`poses`)."""
+        return self.read(x, self.poses(q_rad, approach, **labels))
+
+    def read(self, x: ArrayLike, template: Measurements) -> Measurements:
+        """Noise-free measurements of this model's kind at unknowns x (p,) on the rows of a
+        template (:meth:`poses`, with any per-row column the model reads: a temperature)."""
         x = self._check(x)
-        template = self.poses(q_rad, approach, **labels)
         return self.kind.measure(self.measured(x, template), self._measurement_values(x),
                                  template, self.rig)
 
@@ -292,17 +345,14 @@ class Model:
         # The flange's axes as the points one metre along them less its origin: the point
         # kernel (compiled where it can be) carries a swarm's tables at once, where a walk
         # of the whole frame would not.
-        table, joints = self.table(x), self._joint_turns(x, data)
-        structure = self.robot.structure
-        origin = point_position(structure, table, joints)
-        axes = [point_position(structure, table, joints, axis) - origin for axis in np.eye(3)]
+        origin = self._place(x, data)
+        axes = [self._place(x, data, axis) - origin for axis in np.eye(3)]
         return Measured(self.positions(x, data), np.stack(axes, axis=-1))
 
     def flange_positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The flange centre (not the measured point) at every pose, for unknowns x (..., p):
         shape (..., m, 3), m, base frame — where the identified model puts the flange."""
-        x = self._check(x)
-        return point_position(self.robot.structure, self.table(x), self._joint_turns(x, data))
+        return self._place(self._check(x), data)
 
     def flange_jacobian(self, x: ArrayLike, data: Measurements) -> Array:
         """∂(flange centre)/∂x at every pose, shape (m, 3, p), for unknowns x (p,): the table and
@@ -315,10 +365,9 @@ class Model:
         return self._chain_jacobian(self._check(x), data, measured=True)
 
     def _chain_jacobian(self, x: Array, data: Measurements, measured: bool) -> Array:
-        trace = trace_point(self.robot.structure, self.table(x), self._joint_turns(x, data),
-                            self.point(x) if measured else None)
+        _, moves = self._trace(x, data, self.point(x) if measured else None)
         jacobian = np.zeros((len(data), 3, self.n_params))
-        self._chain_rule(trace.jacobian(), data, measured, jacobian)
+        self._chain_rule(moves(None), data, measured, jacobian)
         return jacobian
 
     def _chain_rule(self, moves: PointJacobian, data: Measurements, measured: bool,
@@ -334,10 +383,12 @@ class Model:
                                              * self._joint_basis(data)[:, None, :])
         for group in self.groups:
             where = self.slice(group.name)
-            if group.stage == Stage.TABLE:
+            if group.stage in (Stage.TABLE, Stage.ROWS):
                 assert group.linear is not None
                 table = moves.table.reshape(m * rows, -1)
                 out[..., where] = (table @ group.linear).reshape(m, rows, -1)
+                if group.basis is not None:  # each row's share of the coefficient
+                    out[..., where] *= group.basis(data)[:, None, :]
             elif group.stage == Stage.POINT and measured:
                 assert group.linear is not None
                 point = moves.rotation.reshape(m * rows, 3)
@@ -384,17 +435,17 @@ class Model:
     def _moves(self, x: Array, data: Measurements) -> tuple[KindJacobian, PointJacobian]:
         """The kind's residuals and derivatives at one x, and how each pose's rows move with
         the table, the joints and the measured point (:meth:`_chain_rule` takes them to x)."""
-        table, joints = self.table(x), self._joint_turns(x, data)
-        trace = trace_point(self.robot.structure, table, joints, self.point(x))
+        position, trace = self._trace(x, data, self.point(x))
         flange = by_table = by_joint = None
         if self.kind.reads_rotation:
-            flange, by_table, by_joint = flange_turn_jacobian(self.robot.structure, table,
-                                                              joints.q_rad)
-        kind = self.kind.jacobian(Measured(trace.position, flange),
-                                  self._measurement_values(x), data, self.rig)
+            flange, by_table, by_joint = flange_turn_jacobian(self.robot.structure,
+                                                              self.table(x),
+                                                              self._joint_turns(x, data).q_rad)
+        kind = self.kind.jacobian(Measured(position, flange), self._measurement_values(x), data,
+                                  self.rig)
         # The kind's rows move with the point along ∂r/∂p: the point's derivatives are taken
         # along those directions alone (one row per pose for a length, not three).
-        moves = trace.jacobian(kind.by_position)
+        moves = trace(kind.by_position)
         if kind.by_rotation is not None and by_table is not None and by_joint is not None:
             # Rows that read the flange's orientation turn with it: ∂r/∂ω times the flange's
             # angular velocity per table entry and per joint rate.

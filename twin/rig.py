@@ -102,6 +102,9 @@ class Rig:
         distances: Known distances between named fixed points (or parallel planes).
         angles: Known angles between named planes.
         part: What the measurement kind keeps beyond these (:class:`Part`), or None.
+        temperature_ref_c: The temperature the thermal growth is counted from
+            (:mod:`twin.unknowns.thermal`: the mean of the measurements calibrated), °C; None
+            without thermal unknowns.
     """
 
     ports_m: Array = field(default_factory=lambda: np.zeros((0, 3)))
@@ -117,6 +120,7 @@ class Rig:
     distances: tuple[Distance, ...] = ()
     angles: tuple[Angle, ...] = ()
     part: Part | None = None
+    temperature_ref_c: float | None = None
 
     def places(self, group: str) -> tuple[str, ...]:
         """The named places of the kind's part a measurement-stage group corrects
@@ -179,6 +183,10 @@ class Rig:
                 raise ValueError(f"angle {angle}: expected two different planes and an angle "
                                  "between 0 and π")
         object.__setattr__(self, "angles", angles)
+        if self.temperature_ref_c is not None:
+            if not np.isfinite(self.temperature_ref_c):
+                raise ValueError("temperature_ref_c: expected a finite temperature, °C")
+            object.__setattr__(self, "temperature_ref_c", float(self.temperature_ref_c))
 
     @classmethod
     def cable(cls, port_m: ArrayLike, attachment_m: ArrayLike | None = None,

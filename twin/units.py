@@ -165,6 +165,8 @@ COMPLIANCE_UNIT = "rad/(N·m)"
 """SI unit of a joint compliance (deflection per torque, the inverse of a stiffness)."""
 LINEAR_COMPLIANCE_UNIT = "m/N"
 """SI unit of a prismatic joint's compliance (travel per axial force)."""
+THERMAL_UNIT = "m/K"
+"""SI unit of a link's thermal growth: length change per kelvin."""
 SCALE_UNIT = "m/m"
 """SI unit of a scale error: a prismatic joint's lead error (travel error per travel), an
 encoder's gain error (length error per length; reports show it in ppm, the same µm/m)."""
@@ -183,6 +185,8 @@ DISPLAY_UNITS: dict[str, tuple[str, float, int]] = {
     LINEAR_COMPLIANCE_UNIT: ("µm/N", MICRO, RESULT_COMPLIANCE_DECIMALS),
     # Ball screws and racks are some 10–100 µm per metre of travel off their lead.
     SCALE_UNIT: ("µm/m", MICRO, RESULT_COMPLIANCE_DECIMALS),
+    # An aluminium link of 0.3 m grows some 7 µm/K, a steel one 3.5.
+    THERMAL_UNIT: ("µm/K", MICRO, RESULT_COMPLIANCE_DECIMALS),
 }
 """For each SI unit an unknown may have: the unit people read, the factor to it, and the
 decimals a result keeps. An unknown group with a unit of its own adds it here."""
@@ -195,6 +199,7 @@ QUANTITY_UNITS: dict[str, tuple[str, float]] = {  # keyed as twin.choices.QUANTI
     "urad/Nm": (COMPLIANCE_UNIT, 1.0 / MICRO), "µrad/(N·m)": (COMPLIANCE_UNIT, 1.0 / MICRO),
     "um/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO), "µm/N": (LINEAR_COMPLIANCE_UNIT, 1.0 / MICRO),
     "um/m": (SCALE_UNIT, 1.0 / MICRO), "µm/m": (SCALE_UNIT, 1.0 / MICRO),
+    "um/K": (THERMAL_UNIT, 1.0 / MICRO), "µm/K": (THERMAL_UNIT, 1.0 / MICRO),
     "ppm": (SCALE_UNIT, 1.0 / MICRO),
 }
 """The units a value typed with its number may carry (``--bounds a2=20mm``, ``dh=0.5deg``):

@@ -30,10 +30,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import gammaincinv
 
-from twin.dataset import Measurements
+from twin.dataset import REFERENCE, Measurements
 from twin.report.display import SIGNIFICANT, mm
 
 ALPHA = 1e-3
@@ -102,11 +102,23 @@ def chi2_quantile(level: float, dof: int) -> float:
     return float(2.0 * gammaincinv(dof / 2.0, level))
 
 
+def same_poses(data: Measurements) -> NDArray[np.intp]:
+    """Which rows repeat a pose: an index per row, shape (m,), equal for rows with the same
+    joint angles (within :data:`REPEAT_RTOL_RAD`) and labels (port, fixed point…)."""
+    keys = np.round(data.q_rad / REPEAT_RTOL_RAD).astype(np.int64)
+    for labels in data.labels.values():
+        keys = np.column_stack([keys, labels.indices])
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    return np.asarray(np.ravel(group), dtype=np.intp)
+
+
 def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
                  ) -> tuple[float, int] | None:
     """The noise measured by repeat readings: pooled standard deviation of the residuals of
     rows with the same joint angles (and labels: port, fixed point…), m, and its degrees of freedom;
-    None without repeats.
+    None without repeats. Rows flagged ``reference`` are left out: a reference pose is revisited
+    across the capture to see drift (:mod:`twin.analysis.drift`), so its spread holds the drift
+    and would pass a misfit off as noise.
 
     Args:
         data: The poses.
@@ -116,11 +128,11 @@ def repeat_sigma(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int
     """
     m = len(data)
     r = np.asarray(residuals_m, dtype=np.float64)[: rows_per_pose * m].reshape(m, rows_per_pose)
-    keys = np.round(data.q_rad / REPEAT_RTOL_RAD).astype(np.int64)
-    for labels in data.labels.values():
-        keys = np.column_stack([keys, labels.indices])
-    _, group = np.unique(keys, axis=0, return_inverse=True)
-    group = np.ravel(group)
+    group = same_poses(data)
+    if REFERENCE in data.values:
+        # A reference row repeats nothing: a group of its own.
+        revisit = np.flatnonzero(data.values[REFERENCE] > 0.5)
+        group[revisit] = group.max() + 1 + np.arange(revisit.size)
     counts = np.bincount(group)
     dof = int(np.sum(counts[counts > 1] - 1)) * rows_per_pose
     if dof == 0:

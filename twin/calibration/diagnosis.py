@@ -22,6 +22,7 @@ from twin.analysis.misfit import FAR
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.setup import make_model
 from twin.choices import DEFAULT_SCALE_SIGMAS
+from twin.dataset import TEMPERATURE
 from twin.loss import Loss
 from twin.problem import Problem
 from twin.report.display import SIGNIFICANT, mm
@@ -136,5 +137,8 @@ def likely_causes(split: SplitProblem, result: CalibrationResult) -> tuple[Cause
     fixed = []
     if _units_suspect(problem):
         fixed.append(Cause("units", "lengths in mm, joint angles in degrees", None))
+    if TEMPERATURE in problem.train.values and "thermal" not in split.settings.errors:
+        fixed.append(Cause("the links' growth with temperature", "--errors "
+                           + ",".join((*split.settings.errors, "thermal")), None))
     fixed.append(Cause("the robot model", "joint-level errors, another model file", None))
     return (*likely, *fixed, *rest)

@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.drift import Drift, reference_drift
 from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
 from twin.analysis.metrics import Metrics, metrics
@@ -35,7 +36,7 @@ from twin.calibration.hold import Held, hold_unseen
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_problem
-from twin.dataset import Measurements
+from twin.dataset import Measurements, joined
 from twin.problem import Problem
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -96,6 +97,24 @@ def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_worksp
     gauge = unobservable_motions(problem.model, x, identified.null_space, q_workspace)
     weight = None if row_sigma is None else problem.sigma_m / row_sigma
     return misfit, rejected.astype(np.intp), kept, weight, gauge
+
+
+def _drift(split: SplitProblem) -> Drift | None:
+    """The drift test of the reference rows of the measurements (train and validation, in
+    their order) at the start's unknowns; None without reference rows."""
+    problem = split.problem
+    data, rows = problem.train, split.train_rows
+    if not split.held_out and len(problem.validation):
+        data = joined(data, problem.validation)
+        rows = np.concatenate([rows, split.validation_rows])
+    order = np.argsort(rows, kind="stable")
+    data = data.subset(order)
+    drift = reference_drift(data, problem.model.residuals(problem.x0, data),
+                            problem.model.kind.rows_per_pose, problem.sigma_m)
+    if drift is None:
+        return None
+    return drift._replace(series=tuple(series._replace(rows=rows[order][series.rows])
+                                       for series in drift.series))
 
 
 def _steps(split: SplitProblem, problem: Problem, x: Array) -> tuple[Step, ...]:
@@ -166,6 +185,7 @@ def solve_many(
                                           split.problem.train)
     workspace = data_workspace(split.problem.train.q_rad, np.random.default_rng(seed))
     q_workspace = workspace.q_rad
+    drift = _drift(split)
     results = {}
     for solver in solvers:
         problem, solved, held = _solve(solver, split.problem, split.settings.budget, seed,
@@ -193,6 +213,7 @@ def solve_many(
             noise=split.noise,
             workspace=workspace,
             row_sigma=problem.row_sigma(problem.train) if problem.in_variables else None,
+            drift=drift,
             steps=_steps(split, problem, solved.x),
         )
         if on_result is not None:

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike
 
 from twin.arrays import Array
 from twin.calibration.start import check_approach
+from twin.dataset import TEMPERATURE
 from twin.model import Model
 
 
@@ -59,7 +60,8 @@ class Prediction(NamedTuple):
 
 
 def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | None = None,
-            port_m: ArrayLike | None = None) -> Prediction:
+            port_m: ArrayLike | None = None, temperature_c: ArrayLike | None = None
+            ) -> Prediction:
     """The measured point (and cable length) an identified model predicts at poses.
 
     Args:
@@ -73,6 +75,8 @@ def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | N
             from it (no identified port correction or offset applies to a port one names), and
             the cable pulls towards it (compliance). None: the model's own single port, its
             identified correction and offset included.
+        temperature_c: The temperature at each pose, shape (m,), °C, for a model with thermal
+            growth (:mod:`twin.unknowns.thermal`); None: at the model's reference temperature.
 
     Raises:
         InputError: if the model has backlash and no approach directions are given.
@@ -88,6 +92,9 @@ def predict(identified: Identified, q_rad: ArrayLike, *, approach: ArrayLike | N
     q = np.asarray(q_rad, dtype=np.float64)
     check_approach(model, approach)
     poses = model.poses(q, approach=approach)
+    if temperature_c is not None:
+        poses = replace(poses, values={**poses.values, TEMPERATURE: np.broadcast_to(
+            np.asarray(temperature_c, dtype=np.float64), (len(q),))})
     position = model.positions(x, poses)
     return Prediction(np.asarray(position, dtype=np.float64), model.kind.name,
                       model.kind.predict(model, x, poses))

@@ -9,6 +9,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.drift import Drift
 from twin.analysis.gauge import Gauge
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
@@ -65,6 +66,9 @@ class CalibrationResult:
             when the joints' noise entered them (errors in variables); None otherwise.
         workspace: Where the accuracy is stated: poses within the joint ranges of the
             training poses (:mod:`twin.analysis.workspace`).
+        drift: The test of the reference pose's readings against time
+            (:mod:`twin.analysis.drift`; its series' rows are the measurements'), or None
+            without reference rows.
         steps: Where the identified model's residuals, over every row of the measurements
             in their order, jump by more than the noise allows (:mod:`twin.analysis.steps`):
             a re-hooked cable, a re-zeroed encoder, a new session; empty when none (or for
@@ -91,6 +95,7 @@ class CalibrationResult:
     noise: NoiseEstimate | None = None
     row_sigma: Array | None = None
     workspace: Workspace | None = None
+    drift: Drift | None = None
     steps: tuple[Step, ...] = ()
 
     @property

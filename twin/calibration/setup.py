@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -12,7 +14,7 @@ from twin.calibration.result import SplitProblem
 from twin.calibration.settings import RIG_UNKNOWNS, CalibrationSettings
 from twin.calibration.split import required_poses, split_rows
 from twin.calibration.start import check_approach
-from twin.dataset import Measurements
+from twin.dataset import TEMPERATURE, Measurements
 from twin.errors import InputError
 from twin.kinds import DEFAULT_KIND, KINDS
 from twin.kinds.base import Noise
@@ -83,7 +85,23 @@ def _prepared(robot: RobotModel, measurements: Measurements, setup: Rig,
     _check_unknowns(settings, measurements.kind)
     setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements,
                                                                    settings.noise)
+    if "thermal" in settings.errors:
+        kind = KINDS.lookup(measurements.kind)
+        if kind.reads_rotation:
+            raise InputError(f"--errors thermal with {kind.what}", "thermal growth with "
+                             "readings of a point (their orientation rows do not take it yet)")
+        _check_temperature(measurements, "")
+        if setup.temperature_ref_c is None:
+            setup = replace(setup, temperature_ref_c=float(np.mean(measurements.value(
+                TEMPERATURE))))
     return measurements, setup
+
+
+def _check_temperature(data: Measurements, where: str) -> None:
+    """Refuse thermal unknowns for measurements without a temperature per row."""
+    if TEMPERATURE not in data.values:
+        raise InputError(f"--errors thermal with measurements without a {TEMPERATURE} column",
+                         f"a {TEMPERATURE} column (°C) on every row", where=where or None)
 
 
 def _held_out(validation: Measurements, kind: str, model: Model, noise: Noise
@@ -103,6 +121,8 @@ def _held_out(validation: Measurements, kind: str, model: Model, noise: Noise
                             if implied else ""), where="validation")
     held_out = model.kind.prepare(model.robot, model.rig, validation, noise)[1]
     check_approach(model, held_out.approach)
+    if model.has("thermal"):
+        _check_temperature(held_out, "validation")
     return held_out
 
 

@@ -32,6 +32,9 @@ from twin.unknowns import ERRORS
 from twin.viz.options import add_rerun_flags
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
+    from twin.calibration.result import CalibrationResult
     from twin.cli.inputs import Inputs
     from twin.dataset import Measurements
 
@@ -51,7 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_input_flags(
         parser, input_help="MEASUREMENTS.csv (- for standard input) or capture.toml",
         errors_help="the robot's error groups to identify, comma-separated: "
-        + ", ".join(ERRORS) + " (compliance or link_compliance); or auto: fit dh, then add "
+        + ", ".join(ERRORS) + " (compliance or link_compliance; thermal needs a temperature_c "
+        "column); or auto: fit dh, then add "
         "compliance, backlash, transmission one at a time, then all with link_compliance, and "
         "keep the lowest BIC (default: the capture's, else dh)", auto=True,
         tension_help="the cable's pull towards the port in newtons (the encoder's spring "
@@ -105,6 +109,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_validation_flags(parser)
     add_limit_flags(parser)
     add_output(parser, "OUT.json", "write the result as JSON", flag="--json", required=False)
+    add_output(parser, "OUT.png", "draw the reference pose's readings against time (rows "
+               "flagged reference; the drift test's figure)", flag="--drift-figure",
+               required=False)
     add_rerun_flags(parser)
 
 
@@ -127,6 +134,8 @@ def run(args: argparse.Namespace) -> int:
     everything = args.method.strip().lower() == "all"
     methods = list(SOLVERS) if everything else [get_solver(args.method).name]
     measurements = load_measurements(measurements_path, robot, stdin=True)
+    if args.drift_figure:
+        _refuse_without_references(measurements, measurements_path)
     if args.errors == (AUTO_ERRORS,):
         if everything:
             raise InputError("--errors auto with --method all", "one method to compare the "
@@ -163,9 +172,38 @@ def run(args: argparse.Namespace) -> int:
             document = {"methods": {name: result_to_dict(r) for name, r in results.items()}}
         if args.json:
             write_json(args.json, document)
+        if args.drift_figure:
+            _draw_drift(args.drift_figure, next(iter(results.values())), measurements_path)
         if live is not None:
             live.finish(results)
     return 0
+
+
+def _refuse_without_references(data: Measurements, source: object) -> None:
+    """Refuse ``--drift-figure`` before any work for data with too few reference rows."""
+    import numpy as np
+
+    from twin.analysis.drift import MIN_READINGS
+    from twin.dataset import REFERENCE
+
+    flagged = int(np.sum(data.values[REFERENCE] > 0.5)) if REFERENCE in data.values else 0
+    if flagged < MIN_READINGS:
+        raise InputError(f"{flagged} row(s) flagged reference",
+                         f"a reference column with {MIN_READINGS} or more rows at one pose "
+                         "flagged 1", source="--drift-figure", where=str(source))
+
+
+def _draw_drift(path: Path, result: CalibrationResult, source: object) -> None:
+    """Write the drift test's figure; refuse data whose reference rows make no series."""
+    from twin.analysis.drift import MIN_READINGS
+    from twin.io.png import save_png
+    from twin.report.plots import drift_figure
+
+    if result.drift is None or not result.drift.series:
+        raise InputError("no reference pose read at different times", f"one pose flagged "
+                         f"reference {MIN_READINGS} or more times", source="--drift-figure",
+                         where=str(source))
+    save_png(drift_figure(result.drift, f"reference pose readings, {source}"), path)
 
 
 def _run_auto(args: argparse.Namespace, inputs: Inputs, measurements: Measurements) -> int:

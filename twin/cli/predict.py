@@ -25,8 +25,9 @@ DESCRIPTION = (
     "transmission error, backlash for the row's approach, compliance at the pose), and "
     "the cable length in mm when --port is given or the result has one port, and "
     "tracker_x,tracker_y,tracker_z in mm in the tracker frame when the result is of "
-    "tracker positions. Compare it with anything else: a tracker, another capture, the "
-    "twin's truth."
+    "tracker positions; with thermal growth, at each row's temperature_c (°C; the "
+    "result's reference temperature without one). Compare it with anything else: a "
+    "tracker, another capture, the twin's truth."
 )
 
 
@@ -61,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     poses = load_poses(args.joints, robot,
                        f"a pose CSV ({joint_units_said(robot.n_joints, robot)})", stdin=True)
     try:
-        prediction = predict(identified, poses.q_rad, approach=poses.approach, port_m=port_m)
+        prediction = predict(identified, poses.q_rad, approach=poses.approach, port_m=port_m,
+                             temperature_c=poses.temperature_c)
     except InputError as exc:
         raise InputError(exc.found, exc.expected, source=args.joints) from None
     # After every input is checked: a refusal stays one line.
@@ -76,5 +78,11 @@ def run(args: argparse.Namespace) -> int:
     extra = f", {','.join(columns)}{model.kind.prediction_note}" if columns else ""
     print(f"{len(poses.q_rad)} poses: x,y,z (mm, base frame) of the {point}{extra}, by the "
           f"{identified.method} model ({groups})")
+    reference = model.rig.temperature_ref_c
+    if model.has("thermal") and reference is not None:
+        print(f"  the links grown to each row's temperature_c from {reference:.2f} °C"
+              if poses.temperature_c is not None else
+              f"  at the reference temperature {reference:.2f} °C: {args.joints} has no "
+              "temperature_c column")
     print(f"wrote {args.out}")
     return 0

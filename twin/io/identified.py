@@ -383,6 +383,11 @@ def _rig(document: Any, kind: Kind, path: Path, where: str) -> Rig:
                                            and not isinstance(v, bool) for v in exact):
         raise InputError("a rig that is not one twin writes", "the rig of a result written by "
                          "this version of twin calibrate", source=path, where=here)
+    reference = document.get("temperature_ref_c")
+    if reference is not None and (isinstance(reference, bool)
+                                  or not isinstance(reference, int | float)):
+        raise InputError(f"{reference!r}", "the reference temperature in °C",
+                         source=path, where=f"{here}.temperature_ref_c")
     tension = document.get("tension_n", 0.0)
     if isinstance(tension, bool) or not isinstance(tension, int | float) \
             or not 0.0 <= tension <= MAX_TENSION_N:
@@ -402,7 +407,8 @@ def _rig(document: Any, kind: Kind, path: Path, where: str) -> Rig:
                                         for name, value in points.items()], (-1, 3)),
                    distances=tuple(_distance(value, path, f"{here}.distances")
                                    for value in distances),
-                   part=_part(document.get(kind.name), kind, path, f"{here}.{kind.name}"))
+                   part=_part(document.get(kind.name), kind, path, f"{here}.{kind.name}"),
+                   temperature_ref_c=None if reference is None else float(reference))
     except ValueError as exc:
         raise InputError(str(exc), "the rig of a result written by this version of twin "
                          "calibrate", source=path, where=here) from None

@@ -18,6 +18,10 @@ Optional ``approach1..approachN`` (+1 / −1): the direction each joint last mov
 reading, which backlash depends on. Optional ``session``, beside any kind's columns: a label
 (any text of 1 to 64 characters) naming the capture session of each row — cable lengths get an
 encoder zero per session (:mod:`twin.kinds.length`), ``--cv-by session`` holds each out.
+Optional per-row columns beside any kind's readings (:data:`twin.dataset.ROW_COLUMNS`):
+``t_s`` (s since the capture started, >= 0), ``temperature_c`` (°C, within
+:data:`twin.dataset.TEMPERATURE_RANGE_C`) and ``reference`` (1 on a reference pose revisited
+during the capture, else 0), which the drift test reads.
 Other columns are ignored; ``#`` lines are comments. Every problem is reported as one
 :class:`~twin.errors.InputError` naming the file, the line and column, what was found and what
 was expected.
@@ -36,7 +40,15 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.dataset import Labels, Measurements
+from twin.dataset import (
+    REFERENCE,
+    ROW_COLUMNS,
+    TEMPERATURE,
+    TEMPERATURE_RANGE_C,
+    TIME,
+    Labels,
+    Measurements,
+)
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.paths import MAX_LINE_CHARS, read_text
@@ -287,7 +299,8 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
     labels = tuple(dict.fromkeys([*(name for kind in KINDS.values()
                                     for name in (*kind.optional_labels, *kind.labels)),
                                   SESSION_LABELS]))
-    table = read_columns(path, joints, what, optional=(*numeric, *approach_columns(n)),
+    table = read_columns(path, joints, what,
+                         optional=(*numeric, *approach_columns(n), *ROW_COLUMNS),
                          labels=labels, stdin=stdin)
     _refuse_extra_joints(table, n, path)
     kind = _which_kind(table, joints, path)
@@ -303,12 +316,38 @@ def load_measurements(path: str | Path, robot: RobotModel | None = None, *,
                                          approach)
     except InputError as exc:
         raise exc.at(path) from None
-    if SESSION_LABELS not in table.labels:
+    rows = _row_columns(table, path)
+    named = dict(measurements.labels)
+    if SESSION_LABELS in table.labels:
+        named[SESSION_LABELS] = Labels.of(table.labels[SESSION_LABELS])
+    if not rows and len(named) == len(measurements.labels):
         return measurements
-    return Measurements(measurements.q_rad, measurements.kind, measurements.values,
-                        {**measurements.labels,
-                         SESSION_LABELS: Labels.of(table.labels[SESSION_LABELS])},
-                        measurements.approach)
+    return Measurements(measurements.q_rad, measurements.kind, {**measurements.values, **rows},
+                        named, measurements.approach)
+
+
+def _row_columns(table: Columns, path: str | Path) -> dict[str, NDArray[np.float64]]:
+    """The per-row columns the file has (:data:`twin.dataset.ROW_COLUMNS`), each checked: a
+    time >= 0 s, a temperature within :data:`TEMPERATURE_RANGE_C`, a reference flag 0 or 1."""
+    low, high = TEMPERATURE_RANGE_C
+    checks = {
+        TIME: (lambda v: v >= 0.0, "a time >= 0 s since the capture started"),
+        TEMPERATURE: (lambda v: (v >= low) & (v <= high),
+                      f"a temperature in °C within [{low:g}, {high:g}]"),
+        REFERENCE: (lambda v: np.isin(v, (0.0, 1.0)),
+                    "1 on a reference pose revisited during the capture, else 0"),
+    }
+    rows = {}
+    for name, (valid, expected) in checks.items():
+        if name not in table.optional:
+            continue
+        values = table.optional[name]
+        bad = np.flatnonzero(~valid(values))
+        if bad.size:
+            raise InputError(f"{values[bad[0]]:g}", expected, source=path,
+                             where=f"line {table.lines[bad[0]]}, column {name}")
+        rows[name] = values
+    return rows
 
 
 RADIAN_SPAN_FRACTION = 0.05
@@ -432,23 +471,25 @@ class Poses(NamedTuple):
     """The ``approach1..approachN`` columns (±1), shape (N, n), or None when absent."""
     lines: list[int]
     """Each pose's line in the file."""
+    temperature_c: NDArray[np.float64] | None = None
+    """The ``temperature_c`` column (°C), shape (N,), or None when absent."""
 
 
 def load_poses(path: str | Path, robot: RobotModel, what: str, *, stdin: bool = False
                ) -> Poses:
     """Read joint values (``q1..qN`` in degrees, mm for a prismatic joint, checked against the
-    limits) and, when the file has them, the ``approach1..approachN`` columns; other columns are
-    ignored.
+    limits) and, when the file has them, the ``approach1..approachN`` and ``temperature_c``
+    columns; other columns are ignored.
 
     Raises:
         InputError: on any problem with the file, naming line and column.
     """
     n = robot.n_joints
-    table = read_columns(path, joint_columns(n), what, optional=approach_columns(n),
-                         stdin=stdin)
+    table = read_columns(path, joint_columns(n), what,
+                         optional=(*approach_columns(n), TEMPERATURE), stdin=stdin)
     check_joint_limits(table.values, table.lines, robot, path)
     return Poses(joints_from_file(table.values, robot.prismatic), _approach(table, n, path),
-                 table.lines)
+                 table.lines, _row_columns(table, path).get(TEMPERATURE))
 
 
 def check_joint_limits(
@@ -484,6 +525,11 @@ def format_measurements(measurements: Measurements, robot: RobotModel | None = N
     if SESSION_LABELS in measurements.labels:
         header.append(SESSION_LABELS)
         extra.append(measurements.labels[SESSION_LABELS].per_row("session"))
+    for name in ROW_COLUMNS:
+        if name in measurements.values:
+            header.append(name)
+            extra.append([str(int(v)) if name == REFERENCE else repr(float(v))
+                          for v in measurements.values[name]])
     if measurements.approach is not None:
         header += list(approach_columns(n))
         extra += [[f"{int(v):+d}" for v in measurements.approach[:, k]] for k in range(n)]

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.drift import Drift
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
@@ -245,6 +246,8 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
                                "angle_deg": float(np.degrees(a.angle_rad))} for a in rig.angles]
     if rig.part is not None:
         document[kind.name] = kind.part_document(rig.part)
+    if rig.temperature_ref_c is not None:
+        document["temperature_ref_c"] = rig.temperature_ref_c
     return document
 
 
@@ -262,6 +265,32 @@ def noise_to_dict(result: CalibrationResult) -> dict[str, Any]:
         "row_sigma": None if row_sigma is None else dict(zip(
             ("min", "median", "max"), _mm(np.quantile(row_sigma, [0.0, 0.5, 1.0])),
             strict=True)),
+    }
+
+
+def drift_to_dict(drift: Drift) -> dict[str, Any]:
+    """The drift test (:mod:`twin.analysis.drift`): the verdict, the statistic and each
+    reference pose's readings (mm, less their mean) against time."""
+    unit = drift.time_unit
+    return {
+        "drift": drift.drift,
+        "test": "least-squares slope of each reference pose's readings on time: drift when the "
+                f"largest |z| exceeds the two-sided N(0,1) quantile of level {ALPHA:g} / tests",
+        "z": significant(drift.statistic),
+        "threshold": significant(drift.threshold) if drift.tests else None,
+        "tests": drift.tests,
+        "noise": _mm(drift.noise_m)[0],
+        "noise_source": drift.noise_source,
+        "time": "t_s" if drift.timed else "row order",
+        "reference_rows": drift.references,
+        "series": [{"rows": series.rows.tolist(),
+                    f"time_{unit}": series.time_s.tolist(),
+                    "readings": [_mm(row) for row in series.reading_m],
+                    f"slope_per_{unit}": [significant(value) for value
+                                          in m_to_mm(series.slope_m_per_s)],
+                    "z": [significant(value) for value in series.z],
+                    "moved": _mm(series.drift_m),
+                    "spread": _mm(series.spread_m)[0]} for series in drift.series],
     }
 
 
@@ -284,6 +313,8 @@ def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict
             "causes": [cause.describe() for cause in causes],
             "steps_found": bool(result.steps),
         }
+    if result.drift is not None:
+        document["drift"] = drift_to_dict(result.drift)
     document["loss"] = {"name": result.loss.name,
                         "scale": _mm(result.loss.scale_m)[0] if result.loss.robust else None}
     document["rejected_rows"] = result.rejected_rows.tolist()

@@ -319,7 +319,7 @@ class Length(Kind):
         """The cable length, when the rig has one port."""
         if len(model.rig.ports_m) != 1:
             return {}
-        return {LENGTH: model.measure(x, poses.q_rad, approach=poses.approach).value(LENGTH)}
+        return {LENGTH: model.read(x, poses).value(LENGTH)}
 
     def from_columns(self, q_rad: Array, numbers: Mapping[str, Array],
                      labels: Mapping[str, list[str]], lines: Sequence[int],

@@ -264,7 +264,7 @@ class Pose(Kind):
     def predict(self, model: Model, x: Array, poses: Measurements) -> dict[str, Array]:
         """The tool frame's orientation in the base frame (``base_rotation``), and the tool
         frame in the instrument's: its origin and orientation."""
-        measured = model.measure(x, poses.q_rad, approach=poses.approach)
+        measured = model.read(x, poses)
         values = {name: model.block(x, name) for name in self.groups if model.has(name)}
         turn = np.swapaxes(_frame_rotation(values, model.rig), -1, -2) @ measured.value(ROTATION)
         return {BASE_ROTATION: turn, POSITION: measured.value(POSITION),

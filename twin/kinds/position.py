@@ -166,8 +166,7 @@ class Position(Kind):
 
     def predict(self, model: Model, x: Array, poses: Measurements) -> dict[str, Array]:
         """The point in the tracker frame (what the tracker reads)."""
-        return {POSITION: model.measure(x, poses.q_rad, approach=poses.approach)
-                .value(POSITION)}
+        return {POSITION: model.read(x, poses).value(POSITION)}
 
     def from_columns(self, q_rad: Array, numbers: Mapping[str, Array],
                      labels: Mapping[str, list[str]], lines: Sequence[int],

@@ -137,6 +137,12 @@ def seconds(value_s: float, decimals: int = DURATION_DECIMALS) -> str:
     return f"{plain(value_s, decimals)} s"
 
 
+def elapsed(value: float, timed: bool = True) -> str:
+    """A span of a capture: ``3600 s`` (whole seconds), or ``12 rows`` when the rows carry no
+    time and their order stands for it."""
+    return f"{plain(value, 0)} s" if timed else f"{plain(value, 0)} rows"
+
+
 def ppm(fraction: float, decimals: int = PPM_DECIMALS, *, sign: bool = True) -> str:
     """A scale error given as a fraction (m/m), in parts per million: ``+98.7 ppm``."""
     return f"{plain(float(fraction) * MICRO, decimals, sign=sign)} ppm"

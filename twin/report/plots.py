@@ -16,6 +16,7 @@ from twin.report.display import mm
 from twin.units import m_to_mm
 
 if TYPE_CHECKING:
+    from twin.analysis.drift import Drift
     from twin.compensation.check import CompensationCheck
 
 def pyplot() -> Any:
@@ -75,4 +76,38 @@ def accuracy_map(q2_rad: Array, q3_rad: Array, error_m: Array, title: str) -> An
     axes.set_xlabel("q3 [deg]")
     axes.set_ylabel("q2 [deg]")
     axes.set_title(title, fontsize=9)
+    return figure
+
+
+def drift_figure(drift: Drift, title: str) -> Any:
+    """The figure of each reference pose's readings against time (less their mean, mm), with
+    their least-squares line and the band of ±1σ of the noise the test used, one panel per
+    reference pose.
+
+    Args:
+        drift: The drift test (:mod:`twin.analysis.drift`), with at least one series.
+        title: The figure's title.
+    """
+    plt = pyplot()
+    count = len(drift.series)
+    figure, panels = plt.subplots(count, 1, figsize=(6.4, 2.6 + 1.6 * count), squeeze=False,
+                                  layout="constrained", sharex=True)
+    noise_mm = float(m_to_mm(drift.noise_m))
+    for k, (series, axes) in enumerate(zip(drift.series, panels[:, 0], strict=True)):
+        centred = series.time_s - series.time_s.mean()
+        axes.axhspan(-noise_mm, noise_mm, color="0.9", label=f"±σ {mm(drift.noise_m)}")
+        for c in range(series.reading_m.shape[1]):
+            label = f"row {c + 1}: z {series.z[c]:.3g}" if series.reading_m.shape[1] > 1 \
+                else f"z {series.z[c]:.3g}"
+            (line,) = axes.plot(series.time_s, m_to_mm(series.reading_m[:, c]), "o",
+                                label=label)
+            axes.plot(series.time_s, m_to_mm(centred * series.slope_m_per_s[c]), "-",
+                      color=line.get_color())
+        axes.set_ylabel(f"pose {k + 1}: reading\nless its mean [mm]", fontsize=8)
+        axes.legend(fontsize=7, loc="best")
+    panels[-1, 0].set_xlabel("time since the capture started [s]" if drift.timed
+                             else "row of the capture")
+    verdict = "drift beyond the noise" if drift.drift else "no drift beyond the noise"
+    figure.suptitle(f"{title}\n{verdict}: largest |z| {drift.statistic:.3g}, threshold "
+                    f"{drift.threshold:.3g}", fontsize=9)
     return figure

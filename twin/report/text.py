@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from twin.analysis.drift import MIN_READINGS, Drift
 from twin.analysis.identifiability import WEAK_RTOL, Identifiability
 from twin.analysis.metrics import Metrics
 from twin.analysis.misfit import ALPHA
@@ -26,6 +27,7 @@ from twin.report.display import (
     SIGNIFICANT,
     deg,
     deg_values,
+    elapsed,
     in_unit,
     joint_level,
     mm,
@@ -289,6 +291,8 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
                      f"{mm(misfit.noise_m, significant=SIGNIFICANT)} ({misfit.describe()}): "
                      f"{misfit.readings()}{likely}{stepped}")
     lines += format_steps(result)
+    if result.drift is not None:
+        lines += format_drift(result.drift)
     if result.loss.robust:
         rows = result.rejected_rows
         shown = ", ".join(str(row) for row in rows[:MAX_ROWS_SHOWN]) \
@@ -302,6 +306,29 @@ def format_fit(result: CalibrationResult, causes: Sequence[Cause] = ()) -> list[
         lines.append("  motions of the flange the data cannot see: " + gauge.describe()
                      + ("; pin them with " + " or ".join(gauge.pins) if gauge.pins else ""))
     return lines
+
+
+def format_drift(drift: Drift) -> list[str]:
+    """The drift test's line (:mod:`twin.analysis.drift`): the reference readings, how far
+    the most drifting one moved and its spread, the test, and what a drift means."""
+    if not drift.series:
+        return [f"  drift: {drift.references} reference row(s), no reference pose read "
+                f"{MIN_READINGS} times at different times: not tested"]
+    worst = max(drift.series, key=lambda series: float(np.max(np.abs(series.z))))
+    row = int(np.argmax(np.abs(worst.z)))
+    readings = sum(series.rows.size for series in drift.series)
+    span = max(float(np.ptp(series.time_s)) for series in drift.series)
+    verdict = "DRIFT beyond the noise: the rig or the arm changed during the capture (a " \
+        "warm-up: with a temperature_c per row, --errors thermal models it)" if drift.drift \
+        else "no drift beyond the noise"
+    return [f"  drift: {len(drift.series)} reference pose(s), {readings} readings over "
+            f"{elapsed(span, drift.timed)}; the most drifting moved "
+            f"{mm(worst.drift_m[row], significant=SIGNIFICANT, sign=True)} (spread "
+            f"{mm(worst.spread_m, significant=SIGNIFICANT)}), slope z "
+            f"{plain(drift.statistic, significant=3)} against "
+            f"{plain(drift.threshold, significant=3)} (two-sided, p {plain(ALPHA)} over "
+            f"{drift.tests} slope(s); noise {mm(drift.noise_m, significant=SIGNIFICANT)}, "
+            f"{drift.noise_source}): {verdict}"]
 
 
 def _step_rows(result: CalibrationResult) -> str:
@@ -402,6 +429,7 @@ def format_result(result: CalibrationResult, truth_delta: NDArray[np.float64] | 
         lines.append(f"  {HELD_MARK} seen only in a combination, or not at all: the value is "
                      "the hold's minimum-norm split of what the data saw, not a measurement")
     lines += format_joint_groups(result)
+    lines += format_thermal(result)
     return "\n".join(lines)
 
 
@@ -474,6 +502,40 @@ def format_joint_groups(result: CalibrationResult) -> list[str]:
         if joints.size:
             lines += ["", title, *_joint_table(model, result.solver.x, sigma, present, columns,
                                                joints)]
+    return lines
+
+
+def format_thermal(result: CalibrationResult) -> list[str]:
+    """The identified growth of each link per kelvin (µm/K), one row per joint, each with its
+    σ (— where the data do not see it, — for an entry that does not grow), and the reference
+    temperature the D-H lengths hold at; empty without thermal unknowns."""
+    model = result.model
+    if not model.has("thermal") or model.rig.temperature_ref_c is None:
+        return []
+    group, where = model.group("thermal"), model.slice("thermal")
+    sigma = result.uncertainty.sigma[where] if result.uncertainty is not None \
+        else np.full(group.size, np.nan)
+    values, label = joint_level(result.solver.x[where], group.units[0])
+    deviations, _ = joint_level(sigma, group.units[0])
+    found = dict(zip(group.names, zip(values, deviations, strict=True), strict=True))
+    held = result.unseen.held(model.names) if result.unseen is not None else frozenset()
+    lines = ["", f"Identified thermal growth (the D-H lengths above are at "
+             f"{plain(model.rig.temperature_ref_c, 2)} °C, the data's mean temperature)",
+             "  joint" + "".join(f"{f'{slot} [{label}]':>16} {'±σ':>8}"
+                                 for slot in ("k_a", "k_d"))]
+    for i, slots in enumerate(model.robot.structure.slot_names):
+        row = f"  {i + 1:>5}"
+        for name in slots[:2]:
+            key = f"k_{name}{i + 1}"
+            value, deviation = found.get(key, (np.nan, np.nan))
+            row += (plain(value, JOINT_DECIMALS, width=16) if np.isfinite(value)
+                    else f"{'—':>16}") + (HELD_MARK if key in held else " ")
+            row += plain(deviation, JOINT_DECIMALS, width=8) if np.isfinite(deviation) \
+                else f"{'—':>8}"
+        lines.append(row)
+    if held & set(group.names):
+        lines.append(f"  {HELD_MARK} seen only in a combination, or not at all (held at the "
+                     "hold's minimum-norm split)")
     return lines
 
 

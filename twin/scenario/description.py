@@ -20,6 +20,7 @@ from twin.scenario.joint_errors import JointErrors
 from twin.scenario.noise import NoiseModel
 from twin.scenario.perturbation import Perturbation
 from twin.scenario.physics import Physics
+from twin.scenario.thermal import Thermal
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,8 @@ class Scenario:
         physics: Servo stiffness, gravity and tension.
         calibration: How the data are calibrated (``[calibration]``); its noise is
             :attr:`reading_sigma_m`, what the scenario's instrument states.
+        thermal: A warm-up during the capture (``[thermal]``: the links grow with a
+            temperature ramp, reference poses revisited), or None.
         study: The ``[study]`` table as written, for twin.study.
         expect: The ``[expect]`` table as written, for twin.study.expect (`twin check`).
         source: The file, or None.
@@ -65,6 +68,7 @@ class Scenario:
     expect: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
+    thermal: Thermal | None = None
 
     @property
     def reading_sigma_m(self) -> float:
@@ -93,3 +97,5 @@ class Scenario:
             raise ValueError("pose_count: expected >= 1 (>= 0 with a plan)")
         if self.perturbation.scale.shape != (4, n):
             raise ValueError(f"perturbation scale: expected shape (4, {n})")
+        if self.thermal is not None and self.thermal.expansion_m_per_k.shape != (2, n):
+            raise ValueError(f"thermal expansion: expected shape (2, {n})")

@@ -113,6 +113,7 @@ import numpy as np
 from twin.arrays import Array
 from twin.calibration.settings import joint_noise
 from twin.choices import MAX_POSES, MAX_TENSION_N
+from twin.dataset import TEMPERATURE_RANGE_C
 from twin.io.calibration_table import KEYS, parse_calibration
 from twin.io.paths import read_toml
 from twin.io.robot_file import load_robot_or_default
@@ -127,6 +128,7 @@ from twin.scenario.joint_errors import JointErrors
 from twin.scenario.noise import NoiseModel
 from twin.scenario.perturbation import DISTRIBUTIONS, Perturbation
 from twin.scenario.physics import Physics
+from twin.scenario.thermal import Thermal
 from twin.units import ARCSEC_PER_DEG, MICRO, deg_to_rad, mm_to_m, rad_to_deg
 from twin.unknowns import make_groups
 from twin.unknowns.limits import group_box
@@ -136,7 +138,7 @@ _KIND_TABLES = {table: keys for kind in KINDS.values() for table, keys in kind.s
 """The tables of one kind alone (a fixed-point scenario's ``[fixture]``…)."""
 _TOP = ("name", "description", "seed", "robot", "robot_base_link", "robot_tip_link", "port",
         "cable", "measurement", *_KIND_TABLES, "perturbation", "poses", "encoder", "joints",
-        "physics", "calibration", "study", "expect")
+        "physics", "thermal", "calibration", "study", "expect")
 _TABLES = {
     "port": ("position_mm", "told_error_mm", "told_mm", "stations_mm"),
     "cable": ("attachment_mm", "told_attachment_mm"),
@@ -150,8 +152,14 @@ _TABLES = {
     "joints": ("repeatability_mm", "resolution_deg", "transmission_arcsec",
                "transmission_harmonic", "transmission_phase_deg", "backlash_arcsec"),
     "physics": ("compliance", "stiffness_nm_per_rad", "gravity", "tension_n", "mass_error"),
+    "thermal": ("start_c", "ramp_k", "seconds_per_pose", "a_um_per_k", "d_um_per_k",
+                "reference_every"),
     "calibration": KEYS,
 }
+MAX_EXPANSION_UM_PER_K = 1000.0
+"""Largest growth of a link per kelvin in a scenario, µm/K: a metre of aluminium grows 23."""
+MAX_RAMP_K = 100.0
+"""Largest temperature change over a capture in a scenario, K."""
 DEFAULT_RESOLUTION_MM = 0.004
 MAX_MASS_ERROR = 0.9
 """Largest ``[physics] mass_error``: a link may weigh a tenth of what its file says, not nothing."""
@@ -196,6 +204,7 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
         study=passed_through["study"],
         expect=passed_through["expect"],
         source=source,
+        thermal=_thermal(tables["thermal"], robot),
     )
     calibration = parse_calibration(tables["calibration"], scenario.reading_sigma_m,
                                     joint_noise((), scenario.noise.joint_resolution_rad),
@@ -204,6 +213,29 @@ def parse_scenario(document: dict[str, Any], source: Path) -> Scenario:
     box = (np.reshape(lower, robot.dh.shape), np.reshape(upper, robot.dh.shape))
     return replace(scenario, calibration=calibration,
                    perturbation=replace(perturbation, box=box))
+
+
+def _thermal(thermal: Table, robot: RobotModel) -> Thermal | None:
+    """``[thermal]``: the links' growth per kelvin (µm/K, one per joint or one for all), the
+    temperature ramp and the pace of the capture, the reference pose's revisits; None when the
+    table is absent."""
+    if not thermal.values:
+        return None
+    expansion = np.stack([thermal.vector(key, robot.n_joints, per_joint=True, default=0.0,
+                                         within=MAX_EXPANSION_UM_PER_K)
+                          for key in ("a_um_per_k", "d_um_per_k")])
+    angle = np.flatnonzero(~robot.is_length[1] & (np.abs(expansion[1]) > 0))
+    if angle.size:
+        raise thermal.error("d_um_per_k", f"a growth of joint {angle[0] + 1}, whose second "
+                            "slot is an angle (β of a Hayati joint)", "0 for that joint")
+    start = thermal.number("start_c", 20.0, minimum=TEMPERATURE_RANGE_C[0],
+                           maximum=TEMPERATURE_RANGE_C[1])
+    return Thermal(
+        expansion_m_per_k=expansion * 1e-6, start_c=start,
+        ramp_k=thermal.number("ramp_k", 0.0, minimum=-MAX_RAMP_K, maximum=MAX_RAMP_K),
+        seconds_per_pose=thermal.number("seconds_per_pose", 30.0, minimum=0.0,
+                                        strict_minimum=True),
+        reference_every=thermal.integer("reference_every", 0, minimum=0))
 
 
 def _robot(top: Table, folder: Path) -> RobotModel:

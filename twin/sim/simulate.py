@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from twin.analysis.metrics import metrics
 from twin.arrays import Array
-from twin.dataset import Measurements, approach_directions
+from twin.dataset import REFERENCE, TEMPERATURE, TIME, Measurements, approach_directions
 from twin.errors import InputError
 from twin.geometry.kinematics import point_position
 from twin.io.atomic import write_atomic
@@ -38,6 +38,7 @@ from twin.robot import RobotModel
 from twin.scenario.description import Scenario
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.physics import true_inertia
+from twin.scenario.thermal import REFERENCE_RTOL_RAD, Thermal
 from twin.sim.mujoco_twin import AtRest, Twin
 from twin.sim.poses import read_pose_plan, sample_poses
 from twin.sim.touches import touch_poses
@@ -223,6 +224,12 @@ class Simulation:
             "inertia": _inertia(self.true_robot),
             "joint_unknowns": self.joint_unknowns,
             "outlier_rows": self.outlier_rows.tolist(),
+            **({} if self.scenario.thermal is None else {"thermal": {
+                "start_c": self.scenario.thermal.start_c,
+                "ramp_k": self.scenario.thermal.ramp_k,
+                "a_um_per_k": (self.scenario.thermal.expansion_m_per_k[0] * 1e6).tolist(),
+                "d_um_per_k": (self.scenario.thermal.expansion_m_per_k[1] * 1e6).tolist(),
+                "delta_at": "start_c: the table grows from there"}}),
             "train_fraction": self.scenario.calibration.train_fraction,
             "effects": self.effects,
         }
@@ -257,15 +264,35 @@ def simulate(scenario: Scenario, seed: int | None = None) -> Simulation:
     joint_errors = scenario.joint_errors or JointErrors.none(n)
     if scenario.draw_phases:
         joint_errors = replace(joint_errors, phase_rad=phases)
+    if scenario.thermal is not None and setup.pose_count is not None:
+        raise InputError("a [thermal] warm-up with poses the instrument sets (touches)",
+                         "[thermal] with cable lengths, tracker positions or 6-D poses",
+                         source=scenario.source, where="[thermal]")
     captured = setup.capture(Bench(scenario, true_robot, joint_errors), rig, rng)
+    measurements = captured.measurements
+    if scenario.thermal is not None:
+        measurements = replace(measurements, values={**measurements.values,
+                                                     **_thermal_columns(scenario.thermal,
+                                                                        measurements)})
     first = len(rig.ports_m) > 0
     return Simulation(
         scenario=scenario, seed=seed, robot=scenario.robot, true_robot=true_robot, delta=delta,
         port_m=rig.ports_m[0] if first else None,
         port_nominal_m=rig_told.ports_m[0] if first else None,
         joint_errors=joint_errors, joint_sigma_rad=captured.joint_sigma_rad,
-        rest=captured.rest, measurements=captured.measurements,
+        rest=captured.rest, measurements=measurements,
         outlier_rows=captured.outlier_rows, rig=rig, rig_told=rig_told)
+
+
+def _thermal_columns(thermal: Thermal, data: Measurements) -> dict[str, Array]:
+    """Each row's time and temperature, and with revisits the reference flag: the rows at the
+    first pose's recorded angles."""
+    m = len(data)
+    columns = {TIME: thermal.times_s(m), TEMPERATURE: thermal.temperatures_c(m)}
+    if thermal.reference_every:
+        same = np.all(np.abs(data.q_rad - data.q_rad[0]) <= REFERENCE_RTOL_RAD, axis=1)
+        columns[REFERENCE] = same.astype(np.float64)
+    return columns
 
 
 class Bench:
@@ -283,23 +310,35 @@ class Bench:
         self.robot = robot
         self.joint_errors = joint_errors
 
-    def _twin(self, port_m: Array | None) -> Twin:
-        return Twin.build(self.robot, port_m, self.scenario.physics, self.joint_errors,
+    def _twin(self, port_m: Array | None, growth_m: Array | None = None) -> Twin:
+        robot = self.robot if growth_m is None else self.robot.perturbed(growth_m)
+        return Twin.build(robot, port_m, self.scenario.physics, self.joint_errors,
                           self.scenario.instrument.attachment_m)
 
     def visit(self, stations_m: Sequence[Array | None], rng: np.random.Generator) -> Visit:
-        """Poses station after station (:func:`_poses`), the joint jitter, the arm at rest, the
-        angles as recorded (:meth:`twin.scenario.noise.NoiseModel.recorded`)."""
+        """Poses station after station (:func:`_poses`; with a warm-up, the first revisited as
+        its ``[thermal]`` says), the joint jitter, the arm at rest, the angles as recorded
+        (:meth:`twin.scenario.noise.NoiseModel.recorded`)."""
         twins = [self._twin(port) for port in stations_m]
         q, station = _poses(self.scenario, twins, rng)
+        thermal = self.scenario.thermal
+        if thermal is not None:
+            order = thermal.visits(len(q))
+            q, station = q[order], station[order]
         joint_sigma = self.scenario.noise.joint_sigma_rad(self.robot, q)
         jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
-        rests = [twin.at_rest(q[station == k] + jitter[station == k],
-                              approach_directions(q)[station == k])
-                 for k, twin in enumerate(twins)]
+        approach = approach_directions(q)
+        if thermal is None:
+            rests = [twin.at_rest(q[station == k] + jitter[station == k], approach[station == k])
+                     for k, twin in enumerate(twins)]
+        else:
+            # The links grow during the capture: each row is measured on the MuJoCo model of
+            # the robot as warm as it was then.
+            rests = [self._twin(stations_m[station[k]], thermal.growth(temperature))
+                     .at_rest(q[k:k + 1] + jitter[k:k + 1], approach[k:k + 1])
+                     for k, temperature in enumerate(thermal.temperatures_c(len(q)))]
         rest = AtRest(*(np.concatenate(parts) for parts in zip(*rests, strict=True)))
-        return Visit(self.scenario.noise.recorded(q), station, rest, joint_sigma,
-                     approach_directions(q))
+        return Visit(self.scenario.noise.recorded(q), station, rest, joint_sigma, approach)
 
     def touch(self, places_m: Array, touches: int, sigma_m: Array, rng: np.random.Generator
               ) -> tuple[Array, NDArray[np.intp]]:

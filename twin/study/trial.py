@@ -46,13 +46,13 @@ from twin.arrays import Array
 from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
 from twin.calibration.result import CalibrationResult
-from twin.dataset import approach_directions
+from twin.dataset import TEMPERATURE, approach_directions
 from twin.geometry.kinematics import for_bulk_work
 from twin.geometry.rigid import angles, log_rotation
 from twin.kinds.plane import plane_corrections, plane_part
 from twin.kinds.pose import pose_part
 from twin.model import Model
-from twin.robot import random_poses
+from twin.robot import RobotModel, random_poses
 from twin.scenario import Scenario
 from twin.sim.mujoco_twin import Twin
 from twin.sim.simulate import Simulation, simulate
@@ -89,13 +89,18 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     """The unknowns x a perfect calibration returns, shape (p,), SI: the D-H errors, the
     transmission error in the model's harmonics (0 for a higher harmonic, which it cannot
     hold), half the lash, the compliances 1/k (with the file's masses, which the model uses),
-    the port's correction and the offset (of the robot's errors, those the calibration did not
-    fix); the rig's other unknowns (attachment, instrument frame, fixed points, tool rotation,
-    planes) as the corrections of the model's start."""
+    the links' growth per kelvin (the table at the reference temperature:
+    :func:`warm_robot`), the port's correction and the offset (of the robot's errors, those
+    the calibration did not fix); the rig's other unknowns (attachment, instrument frame,
+    fixed points, tool rotation, planes) as the corrections of the model's start."""
     x = np.zeros(model.n_params)
     n = sim.robot.n_joints
+    thermal = sim.scenario.thermal
+    lengths = sim.robot.structure.is_length[:2].ravel()
     robot_errors = {
-        "dh": lambda: sim.delta.ravel(),
+        "dh": lambda: (warm_robot(sim, model).dh - sim.robot.dh).ravel(),
+        "thermal": lambda: np.zeros(int(lengths.sum())) if thermal is None
+        else thermal.expansion_m_per_k.ravel()[lengths],
         "transmission": lambda: transmission_unknowns(
             sim.robot, np.nan_to_num(sim.joint_errors.coefficients()), np.zeros(n)),
         "backlash": lambda: 0.5 * sim.joint_errors.backlash_rad,
@@ -125,6 +130,20 @@ def true_unknowns(sim: Simulation, model: Model) -> Array:
     if model.has("planes"):
         x[model.slice("planes")] = plane_corrections(plane_part(rig), plane_part(sim.rig))
     return x
+
+
+def warm_robot(sim: Simulation, model: Model) -> RobotModel:
+    """The twin's true robot as warm as the model's table holds it: after a warm-up
+    (``[thermal]``) its links grown to the model's reference temperature, or to the capture's
+    mean temperature for a model without thermal growth (a rigid table fitted over the
+    warm-up is best at its middle); the true robot as it is without a warm-up."""
+    thermal = sim.scenario.thermal
+    if thermal is None:
+        return sim.true_robot
+    reference = model.rig.temperature_ref_c
+    if reference is None:
+        reference = float(np.mean(sim.measurements.value(TEMPERATURE)))
+    return sim.true_robot.perturbed(thermal.growth(reference))
 
 
 def noise_sigma_m(sim: Simulation, jacobian: Array) -> float:
@@ -169,11 +188,13 @@ def has_joint_groups(model: Model) -> bool:
     return any(group.stage == Stage.JOINTS for group in model.groups)
 
 
-def true_points(sim: Simulation, q_workspace: Array) -> tuple[Array, Array]:
+def true_points(sim: Simulation, q_workspace: Array, robot: RobotModel | None = None
+                ) -> tuple[Array, Array]:
     """Where the twin's flange centre and measured point really are at the workspace poses,
-    visited in order from home: MuJoCo at rest with joint errors and sag, shapes (k, 3), m."""
-    twin = Twin.build(sim.true_robot, sim.port_m, sim.scenario.physics, sim.joint_errors,
-                      sim.rig.attachment_m)
+    visited in order from home: MuJoCo at rest with joint errors and sag, shapes (k, 3), m;
+    of ``robot`` (the true robot by default: :func:`warm_robot` after a warm-up)."""
+    twin = Twin.build(sim.true_robot if robot is None else robot, sim.port_m,
+                      sim.scenario.physics, sim.joint_errors, sim.rig.attachment_m)
     rest = twin.at_rest(q_workspace, approach_directions(q_workspace))
     return rest.flange_m, rest.point_m
 
@@ -181,10 +202,12 @@ def true_points(sim: Simulation, q_workspace: Array) -> tuple[Array, Array]:
 def trial_truth(sim: Simulation, model: Model, q_workspace: Array) -> tuple[Array, Array]:
     """The truth a trial's model is held to at the workspace poses, flange centres and measured
     points (k, 3) each, m: the twin's physical robot for a model with joint-level errors, the
-    rigid true table for one without (whose flange is the table's by definition)."""
+    rigid true table for one without (whose flange is the table's by definition); after a
+    warm-up, the robot as warm as the model's table (:func:`warm_robot`)."""
+    robot = warm_robot(sim, model)
     if has_joint_groups(model):
-        return true_points(sim, q_workspace)
-    return rigid_truth(sim.true_robot, sim.rig.attachment_m, q_workspace)
+        return true_points(sim, q_workspace, robot)
+    return rigid_truth(robot, sim.rig.attachment_m, q_workspace)
 
 
 def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> TrialOutcome:

@@ -23,12 +23,13 @@ Factory = Callable[["RobotModel", "Rig"], "Group"]
 GROUPS: Registry[Factory] = Registry("error group", {
     name: Lazy(f"twin.unknowns.{module}:make") for name, module in (
         ("dh", "dh"), ("transmission", "transmission"), ("backlash", "backlash"),
-        ("compliance", "compliance"), ("link_compliance", "link_compliance"), ("port", "port"),
-        ("offset", "offset"), ("scale", "scale"), ("attachment", "attachment"),
-        ("base", "tracker"), ("points", "points"), ("tool", "tool"), ("planes", "planes"))})
+        ("compliance", "compliance"), ("link_compliance", "link_compliance"),
+        ("thermal", "thermal"), ("port", "port"), ("offset", "offset"), ("scale", "scale"),
+        ("attachment", "attachment"), ("base", "tracker"), ("points", "points"),
+        ("tool", "tool"), ("planes", "planes"))})
 """Every unknown group, by name, in the order x lays them out; a group's module is imported when
 it is first made (the names alone need no numpy: the command line's help lists them)."""
-ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance")
+ERRORS = ("dh", "transmission", "backlash", "compliance", "link_compliance", "thermal")
 """The robot's error groups, which a calibration chooses (``--errors``, ``[calibration] errors``);
 the rig's (port, offset, scale) come with the estimate flags."""
 

@@ -8,6 +8,9 @@ group acts at one stage of :class:`twin.model.Model`:
 - ``joints``: adds to the joint angles, linear in its coefficients, as transmission error,
   backlash and compliance are; each coefficient c moves one joint, ``joint[c]``:
   ``Δq_joint[c] += basis(data)[:, c] · x_c`` (a dense (m, n, p_g) basis would be mostly zeros);
+- ``rows``: adds to each row's kinematic table by how that row's conditions differ, ``Δtable_k
+  = linear @ (basis(data)[k] ⊙ x_g)`` (a link's growth per kelvin times the row's temperature
+  above the reference: :mod:`twin.unknowns.thermal`);
 - ``point``: moves the measured point in the flange frame, ``Δt = linear @ x_g``;
 - ``measurement``: enters the measurement kind's own equation (a port, a length offset, a
   tracker frame, a fixed point); the kind reads its block by the group's name.
@@ -35,6 +38,7 @@ class Stage(StrEnum):
     """Where in the measurement model a group acts."""
 
     TABLE = "table"
+    ROWS = "rows"
     JOINTS = "joints"
     POINT = "point"
     MEASUREMENT = "measurement"
@@ -54,9 +58,10 @@ class Group:
         upper: Upper bounds, shape (p_g,).
         radius: A typical size of each parameter's error, shape (p_g,): the spread of a
             swarm's first particles.
-        linear: ``table``: (4n, p_g), ``point``: (3, p_g); None at other stages.
+        linear: ``table`` and ``rows``: (4n, p_g), ``point``: (3, p_g); None at other stages.
         basis: ``joints``: ``basis(data) -> (m, p_g)``, how far each coefficient turns its
-            joint at each pose, rad per unit; None at other stages.
+            joint at each pose, rad per unit; ``rows``: how much of each coefficient each row's
+            table takes (a temperature difference, K); None at other stages.
         joint: ``joints``: the joint (0-based) each coefficient turns, length p_g; empty at
             other stages.
         needs_approach: Whether the basis reads the direction each joint approached its pose
@@ -100,12 +105,13 @@ class Group:
             raise ValueError(f"group {self.name}: lower bounds must be below upper bounds")
         if np.any(self.prior_weight < 0):
             raise ValueError(f"group {self.name}: a prior's weight 1/σ must be >= 0")
-        needs_linear = self.stage in (Stage.TABLE, Stage.POINT)
+        needs_linear = self.stage in (Stage.TABLE, Stage.ROWS, Stage.POINT)
         if needs_linear != (self.linear is not None):
-            raise ValueError(f"group {self.name}: a linear map goes with the table and point "
-                             "stages only")
-        if (self.stage == Stage.JOINTS) != (self.basis is not None):
-            raise ValueError(f"group {self.name}: a basis goes with the joints stage only")
+            raise ValueError(f"group {self.name}: a linear map goes with the table, rows and "
+                             "point stages only")
+        if (self.stage in (Stage.JOINTS, Stage.ROWS)) != (self.basis is not None):
+            raise ValueError(f"group {self.name}: a basis goes with the joints and rows stages "
+                             "only")
         if len(self.joint) != (p if self.stage == Stage.JOINTS else 0):
             raise ValueError(f"group {self.name}: a joints-stage group names the joint of each "
                              f"of its {p} parameters, other groups none")

@@ -44,14 +44,16 @@ from twin.units import (
     LINEAR_COMPLIANCE_UNIT,
     QUANTITY_UNITS,
     SCALE_UNIT,
+    THERMAL_UNIT,
 )
 from twin.unknowns.group import Group, Stage
 
 LARGEST = {"m": 10.0, "rad": math.pi, COMPLIANCE_UNIT: 1.0, LINEAR_COMPLIANCE_UNIT: 1.0,
-           SCALE_UNIT: 1.0}
-"""The widest bound or prior of each SI unit: 10 m, 180°, 1 rad/(N·m), 1 m/N, 1 m/m — beyond
-any real error; a wider one is a typo."""
-TYPED = {COMPLIANCE_UNIT: "urad/Nm", LINEAR_COMPLIANCE_UNIT: "um/N", SCALE_UNIT: "um/m"}
+           SCALE_UNIT: 1.0, THERMAL_UNIT: 1e-3}
+"""The widest bound or prior of each SI unit: 10 m, 180°, 1 rad/(N·m), 1 m/N, 1 m/m, 1 mm/K —
+beyond any real error; a wider one is a typo."""
+TYPED = {COMPLIANCE_UNIT: "urad/Nm", LINEAR_COMPLIANCE_UNIT: "um/N", SCALE_UNIT: "um/m",
+         THERMAL_UNIT: "um/K"}
 """How a rule's text writes the units whose display form is awkward to type."""
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _VALUE = re.compile(rf"^({_NUMBER})(?::({_NUMBER}))?\s*(\S+)$")
