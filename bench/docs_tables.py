@@ -1348,6 +1348,26 @@ def sessions_table() -> str:
         "capture names one with probability below 0.001 (the test's level).")
 
 
+MUKCA = "examples/panda_mukca"
+MUKCA_FILES = " ".join(f"{MUKCA}/data/{placement}/hole_{hole}.csv"
+                       for placement in ("front", "right", "back-high") for hole in (0, 1))
+MUKCA_CALIBRATE = ("calibrate out/panda_mukca/sessions.csv --robot models/panda/panda.urdf "
+                   "--attachment 0.0252,-0.0848,133.5283 --estimate-attachment "
+                   + " ".join(f"--distance {p}/hole_0,{p}/hole_1=50"
+                              for p in ("front", "right", "back-high")) + " --cv-by session")
+"""MUKCa's Panda calibrated with each fixture placement held out (examples/panda_mukca)."""
+MUKCA_LIMITS = ("", " --prior dh=1mm,dh=0.5deg", " --bounds dh=20mm,dh=10deg")
+"""The paper's box, a prior around the nominal, a wider box."""
+
+
+def mukca_transcript() -> str:
+    """`twin import --session-by folder` of MUKCa's six files, then leave-one-placement-out
+    calibrations with the paper's box, a prior and a wider box: the cross-validation tables."""
+    return transcript([f"import {MUKCA_FILES} --robot models/panda/panda.urdf --angle-unit rad "
+                       "--headerless --session-by folder --out out/panda_mukca/sessions.csv",
+                       *(MUKCA_CALIBRATE + limits for limits in MUKCA_LIMITS)], head=7)
+
+
 def noise_inputs_table() -> str:
     """Joint angles recorded to 0.1°: the rows weighted by their variance, alike, and σ from
     the data."""
@@ -1435,6 +1455,7 @@ def main() -> None:
                                 ["simulate scenarios/plane_irb120.toml --out out/plane",
                                  "calibrate out/plane/capture.toml --json out/plane/result.json"],
                                 head=26)},
+        f"../{MUKCA}/README.md": {"mukca-cv": mukca_transcript},
         "../README.md": {"readme-calibrate": lambda: transcript(
             ["calibrate examples/irb120_lm/measurements.csv --port 600,-400,100 --json "
              "out/result.json"], head=7)},

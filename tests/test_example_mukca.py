@@ -63,3 +63,52 @@ def test_the_readme_commands_by_hand_give_the_tables_last_row(
                     readme)
     assert before and after and row
     assert (f"{float(before[1]):.3f}", f"{float(after[1]):.3f}") == (row[1], row[2])
+
+
+def test_import_names_each_rows_placement_as_its_session(tmp_path: Path) -> None:
+    """`twin import --session-by folder` of the six files: a session per placement, every row
+    of a file in its folder's; `--session-by file` a session per socket file."""
+    from twin.io.measurements import load_measurements
+    from twin.io.robot_file import load_robot
+
+    robot = load_robot(EXAMPLE.parents[1] / "models" / "panda" / "panda.urdf")
+    files = [str(EXAMPLE / "data" / p / f"hole_{h}.csv")
+             for p in ("front", "right", "back-high") for h in (0, 1)]
+    for by, expected in (("folder", ("front", "right", "back-high")),
+                         ("file", tuple(f"{p}/hole_{h}" for p in ("front", "right", "back-high")
+                                        for h in (0, 1)))):
+        out = tmp_path / f"{by}.csv"
+        assert main(["import", *files, "--robot", str(EXAMPLE.parents[1] / "models" / "panda"
+                                                       / "panda.urdf"),
+                     "--angle-unit", "rad", "--headerless", "--session-by", by,
+                     "--out", str(out)]) == 0
+        data = load_measurements(out, robot)
+        assert data.names("session") == expected
+        points = [data.names("point")[j] for j in data.index("point")]
+        sessions = [data.names("session")[j] for j in data.index("session")]
+        cut = (lambda name: name.split("/")[0]) if by == "folder" else (lambda name: name)
+        assert sessions == [cut(point) for point in points]
+
+
+@pytest.mark.slow
+def test_the_cross_validation_block_is_what_its_command_prints(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The README's generated leave-one-placement-out block: its import and first calibrate
+    command, run as written (out/ moved under a temporary folder), print its fold table digit
+    for digit, and every held-out placement is scored far below the nominal model."""
+    readme = (EXAMPLE / "README.md").read_text(encoding="utf-8")
+    block = readme.split("<!-- BEGIN GENERATED mukca-cv -->", 1)[1].split(
+        "<!-- END GENERATED mukca-cv -->")[0]
+    assert re.search(r"Measured at commit `[0-9a-f]{7,}`", block)
+    monkeypatch.chdir(EXAMPLE.parents[1])
+    runs = block.split("$ twin ")[1:3]
+    for run in runs:
+        command = shlex.split(run.splitlines()[0].replace("out/", f"{tmp_path}/"))
+        assert main(command) == 0
+    printed = capsys.readouterr().out.splitlines()
+    table = [line for line in runs[1].splitlines()[1:7]]
+    assert printed[1:7] == table
+    for line in table[2:5]:
+        before, after = (float(v) for v in line.split()[2:4])
+        assert after < 0.15 * before

@@ -40,6 +40,9 @@ ANGLE_UNITS = ("rad", "deg")
 """Units of the joint angles of another tool's CSV (:mod:`twin.io.importers.csv_files`)."""
 LENGTH_UNITS = ("m", "mm")
 """Units of its lengths and positions."""
+SESSION_BY = ("folder", "file")
+"""What `twin import --session-by` names a row's session after: its file's folder, or its
+file."""
 DEFAULT_SPEED = "v100"
 """The speeddata of a RAPID plan's moves (:mod:`twin.io.rapid_plan`)."""
 DEFAULT_SETTLE_S = 0.5

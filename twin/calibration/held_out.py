@@ -28,9 +28,12 @@ REFIT_ITERATIONS = 10
 
 def held_out_only(model: Model, x: ArrayLike, train: Measurements, held_out: Measurements
                   ) -> Array:
-    """Which unknowns are the rig's, moved by held-out rows and by no training row, (p,) bool."""
+    """Which unknowns are the rig's, moved by held-out rows and by no training pose's row,
+    (p,) bool. A row of no pose does not count: a known distance between two sockets of the
+    held-out placement says how far apart they are, not where."""
     x = np.asarray(x, dtype=np.float64)
-    seen_train = np.linalg.norm(model.jacobian(x, train)[1], axis=0)
+    poses = model.kind.rows_per_pose * len(train)
+    seen_train = np.linalg.norm(model.jacobian(x, train)[1][:poses], axis=0)
     seen_held = np.linalg.norm(model.jacobian(x, held_out)[1], axis=0)
     largest = max(float(np.max(seen_train, initial=0.0)), float(np.max(seen_held, initial=0.0)))
     tolerance = SEEN_RTOL * largest

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from twin.choices import ANGLE_UNITS, LENGTH_UNITS
+from twin.choices import ANGLE_UNITS, LENGTH_UNITS, SESSION_BY
 from twin.cli.arguments import add_output, number
 from twin.io.paths import InputPath
 
@@ -35,6 +35,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--headerless", action="store_true",
                         help="CSV: no header; each row is the joints, then nothing (the file "
                         "is one fixed point), a length, or x,y,z")
+    parser.add_argument("--session-by", choices=SESSION_BY,
+                        help="CSV: a session column naming each row's file's folder below the "
+                        "inputs' common folder (folder: a fixture placement, a day) or its file "
+                        "(file): for --cv-by session, and one encoder zero per session of "
+                        "cable lengths")
     parser.add_argument("--joints-topic", metavar="TOPIC",
                         help="bag: the JointState topic (default: the bag's only one)")
     parser.add_argument("--reading-topic", metavar="TOPIC",
@@ -57,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     imported = import_files(args.inputs, robot, angle_unit=args.angle_unit,
                             length_unit=args.length_unit, headerless=args.headerless,
                             rule=StillRule(float(deg_to_rad(args.still_tol)), args.still_time),
-                            joints_topic=args.joints_topic, reading_topic=args.reading_topic)
+                            joints_topic=args.joints_topic, reading_topic=args.reading_topic,
+                            session_by=args.session_by)
     for line in imported.dropped:
         print(line)
     write_measurements(args.out, imported.measurements, robot)

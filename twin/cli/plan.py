@@ -119,12 +119,18 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from twin.design.planning import plan_for_ports, plan_for_stations
-    from twin.io.capture_file import parse_named_port
+    from twin.io.capture_file import UNKNOWN_PORT, parse_named_port
     from twin.rig import Rig
     from twin.units import mm_to_m
 
     robot = robot_from_flags(args)
     _check_module_flags(args, robot)
+    for value in args.port:
+        if value.partition("=")[2 if "=" in value else 0].strip() == UNKNOWN_PORT:
+            raise InputError(f"--port {value}", "the port's position X,Y,Z in mm: a plan "
+                             "chooses poses for where the cable runs, so it needs a guess "
+                             "(a tape measure's is enough; calibrate then takes --port unknown)",
+                             source="--port")
     parsed = [parse_named_port(value, "--port", "") for value in args.port]
     names = [name for name, _ in parsed if name is not None]
     sigma_m = float(mm_to_m(args.sigma))

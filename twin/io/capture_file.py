@@ -3,7 +3,8 @@
 Written by ``twin simulate`` and ``twin capture``; paths are relative to the capture file::
 
     robot = "robot.toml"              # model file of the nominal robot
-    port_mm = [600.0, 300.0, 0.0]     # encoder port, base frame, mm (cable lengths)
+    port_mm = [600.0, 300.0, 0.0]     # encoder port, base frame, mm (cable lengths);
+                                      # "unknown": nobody measured it (found from the data)
     measurements = "measurements.csv"
     truth = "truth.json"              # optional: the twin's ground truth
     [ports]                           # optional, instead of port_mm: several named ports (the
@@ -267,18 +268,23 @@ def parse_told_port(value: str, source: str | Path, where: str
     return parse_named_port(value, source, where)
 
 
+def _told_port(value: object, source: str | Path, where: str) -> NDArray[np.float64] | None:
+    """A port of the capture file, m, or None for :data:`UNKNOWN_PORT`."""
+    return None if value == UNKNOWN_PORT else parse_port_mm(value, source, where)
+
+
 def _parse_rig(document: Table) -> Rig:
     """The rig of ``port_mm`` or ``[ports]``, and ``[rig]``."""
     ports = document.table("ports", expected="a table of name = [x, y, z] in mm")
     if document.has("port_mm") and ports.values:
         raise document.error("port_mm", "both port_mm and [ports]", "one of them")
     names = tuple(str(name) for name in ports.values)
-    values = [parse_port_mm(value, document.source or "", ports.where(name))
+    values = [_told_port(value, document.source or "", ports.where(name))
               for name, value in ports.values.items()]
     if document.has("port_mm"):
         names = ("port",)
-        values = [parse_port_mm(document.values["port_mm"], document.source or "",
-                                document.where("port_mm"))]
+        values = [_told_port(document.values["port_mm"], document.source or "",
+                             document.where("port_mm"))]
     table = document.table("rig", allowed=_RIG_KEYS)
     attachment = parse_port_mm(table.values.get("attachment_mm", [0.0, 0.0, 0.0]),
                                document.source or "", table.where("attachment_mm"))
@@ -288,7 +294,10 @@ def _parse_rig(document: Table) -> Rig:
     angles = table.values.get("angles", [])
     if not isinstance(angles, list):
         raise table.error("angles", f"{angles!r}", 'a list of "A,B=DEG"')
-    return Rig(np.reshape(values, (-1, 3)), names, attachment,
+    return Rig(np.reshape([np.zeros(3) if value is None else value for value in values],
+                          (-1, 3)), names, attachment,
+               unknown_ports=tuple(name for name, value in zip(names, values, strict=True)
+                                   if value is None),
                distances=parse_distances(distances, document.source or "",
                                          table.where("distances")),
                angles=parse_angles(angles, document.source or "", table.where("angles")))

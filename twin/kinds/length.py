@@ -357,8 +357,9 @@ class Length(Kind):
         text = f"port {xyz_mm(rig.ports_m[0])}" if len(rig.ports_m) == 1 \
             else f"{len(rig.ports_m)} ports ({', '.join(rig.port_names)})"
         if rig.unknown_ports:
-            text += (f", port {', '.join(rig.unknown_ports)} unknown: started from the data "
-                     "(multilateration)")
+            named = "the port" if rig.unknown_ports == ("port",) \
+                else "port " + ", ".join(rig.unknown_ports)
+            text += f", {named} unknown: started from the data (multilateration)"
         return text + (f", {len(rig.sessions)} sessions (an encoder zero each)"
                        if len(rig.sessions) > 1 else "")
 

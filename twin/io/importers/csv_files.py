@@ -11,6 +11,10 @@ told (a prismatic joint's values in the length unit), joint columns named as the
   point), a length, or x, y, z — the same count on every row (the kind with as many columns).
 - A file that is a fixed point is named by its path below the inputs' common folder, without
   its suffix (``front/hole_0``), or by its stem when it is the only file.
+- With ``session_by`` every row gets a ``session`` label (:data:`twin.rig.SESSION_LABELS`): its
+  file's folder below the common folder (``folder``: ``front``, a fixture placement, a day's
+  recordings) or the file itself (``file``: ``front/hole_0``), for ``--cv-by session`` and,
+  with cable lengths, one encoder zero per session.
 
 A row that is not numbers, has the wrong number of fields, lies outside the joint limits, or has
 a reading its kind refuses is left out and reported with the reason.
@@ -23,17 +27,20 @@ import io
 import math
 import os
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from twin.choices import ANGLE_UNITS, LENGTH_UNITS
+from twin.choices import ANGLE_UNITS, LENGTH_UNITS, SESSION_BY
+from twin.dataset import Labels
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.importers.base import Imported, outside_limits
 from twin.io.measurements import joint_columns
 from twin.io.paths import read_text
 from twin.kinds import KINDS, Kind
+from twin.rig import SESSION_LABELS
 from twin.robot import RobotModel
 from twin.units import LENGTH_FACTORS, deg_to_rad, mm_to_m
 
@@ -84,6 +91,15 @@ def point_names(paths: Sequence[Path]) -> list[str]:
         return [paths[0].stem]
     common = Path(os.path.commonpath([p.resolve().parent for p in paths]))
     return [p.resolve().relative_to(common).with_suffix("").as_posix() for p in paths]
+
+
+def session_names(paths: Sequence[Path], by: str) -> list[str]:
+    """Each file's session: its folder below the common folder (``.`` for a file there) or its
+    path below it without suffix (:func:`point_names`)."""
+    names = point_names(paths)
+    if by == "file":
+        return names
+    return [name.rpartition("/")[0] or "." for name in names]
 
 
 def _number(text: str) -> float:
@@ -170,13 +186,17 @@ def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
 
 
 def read_csv_files(paths: Sequence[str | Path], robot: RobotModel, *, angle_unit: str,
-                   length_unit: str = "mm", headerless: bool = False) -> Imported:
-    """The poses of CSV files (see the module docstring).
+                   length_unit: str = "mm", headerless: bool = False,
+                   session_by: str | None = None) -> Imported:
+    """The poses of CSV files (see the module docstring); with ``session_by``
+    (:data:`twin.choices.SESSION_BY`) each row labelled with its session.
 
     Raises:
         InputError: for an unknown unit, a header without the robot's joints, files of
             different kinds of reading, or no row kept.
     """
+    if session_by is not None and session_by not in SESSION_BY:
+        raise UnknownChoiceError("session", session_by, SESSION_BY, source="--session-by")
     if angle_unit not in ANGLE_UNITS:
         raise UnknownChoiceError("angle unit", angle_unit, ANGLE_UNITS, source="--angle-unit")
     if length_unit not in LENGTH_UNITS:
@@ -200,7 +220,14 @@ def read_csv_files(paths: Sequence[str | Path], robot: RobotModel, *, angle_unit
     values = np.array([v for part in parts for v in part.values],
                       dtype=np.float64).reshape(len(q), -1)
     labels = [label for part in parts for label in part.labels]
-    return Imported(kind.from_columns(
+    measurements = kind.from_columns(
         np.array(q), {column: values[:, k] for k, column in enumerate(kind.columns)},
         {name: labels for name in kind.labels}, [line for part in parts for line in part.lines],
-        None), dropped)
+        None)
+    if session_by is None:
+        return Imported(measurements, dropped)
+    sessions = [name for part, name in zip(parts, session_names(files, session_by),
+                                           strict=True) for _ in part.q]
+    return Imported(replace(measurements, labels={**measurements.labels,
+                                                  SESSION_LABELS: Labels.of(sessions)}),
+                    dropped)
