@@ -404,8 +404,9 @@ def _one_port_torso(tmp_path: Path) -> Path:
 def test_a_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path, name: str) -> None:
     """The FR3 read from its URDF (7 joints), and the FR3 on its torso lift (8, the lift
     prismatic: its column in mm in the plan, the pose file and the journal), simulated: the
-    capture writes pose, q1..qN, length, t_s, reference, approach1..N rows at the twin's lengths, the URDF
-    beside the robot file, and the capture file reads back as the same robot."""
+    capture writes pose, q1..qN, length, t_s, reference, approach1..N rows at the twin's
+    lengths, the URDF beside the robot file, and the capture file reads back as the same
+    robot."""
     from twin.io.robot_file import load_robot
     from twin.scenario import load_scenario
     from twin.sim import Twin, simulate
