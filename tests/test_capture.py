@@ -8,6 +8,7 @@ Captures run in-process (the CLI's ``main``) unless they must be killed, then as
 from __future__ import annotations
 
 import io
+import json
 import os
 import signal
 import subprocess
@@ -21,7 +22,7 @@ import pytest
 
 from twin.calibration.pipeline import calibrate
 from twin.cli import main
-from twin.dataset import approach_directions
+from twin.dataset import REFERENCE, TIME, approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.capture_session import CAPTURE_COLUMNS, HEADER, check_folder, locked, recover
 from twin.hardware.robot_sources.file import FileRobot
@@ -48,8 +49,8 @@ resolution_mm = 0.001
 [joints]
 backlash_arcsec = 20.0
 """
-SIDES = ",+1,+1,+1,+1,+1,+1"
-"""The approach columns of a row written by hand."""
+SIDES = ",0.0,0,+1,+1,+1,+1,+1,+1"
+"""The t_s, reference and approach columns of a row written by hand."""
 SETTLE = ["--settle-k", "4", "--settle-tol", "0.03", "--settle-timeout", "5"]
 N_SHORT, N_LONG = 10, 32
 TWIN = [sys.executable, "-m", "twin"]
@@ -145,6 +146,18 @@ def wait_for_rows(out: Path, count: int, timeout_s: float = 60.0) -> None:
     while not ((out / "measurements.csv").exists() and len(rows(out)) >= count):
         assert time.monotonic() < deadline, f"fewer than {count} rows after {timeout_s} s"
         time.sleep(0.02)
+
+
+def times_s(out: Path) -> np.ndarray:
+    """The capture's t_s column, shape (rows,), s."""
+    return rows(out)[:, CAPTURE_COLUMNS.index(TIME)]
+
+
+def without_time(out: Path) -> list[list[str]]:
+    """The capture's measurement file as cells, its t_s column left out (a clock's reading)."""
+    k = CAPTURE_COLUMNS.index(TIME)
+    return [line.split(",")[:k] + line.split(",")[k + 1:]
+            for line in (out / "measurements.csv").read_text().splitlines()]
 
 
 def check_complete(out: Path, n: int, true_mm: np.ndarray) -> None:
@@ -274,6 +287,7 @@ def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
     whole, pieces = tmp_path / "whole", tmp_path / "pieces"
     assert main(capture_args(folder, device, whole, plan="plan_long.csv")) == 0
     args = capture_args(folder, device, pieces, plan="plan_long.csv")
+    kept: list[int] = []
     for stop_at, sig, code in ((8, signal.SIGKILL, -signal.SIGKILL),
                                (14, signal.SIGTERM, 143), (20, signal.SIGINT, 130)):
         process = subprocess.Popen([*TWIN, *args, "--settle-interval", "0.03"],
@@ -282,13 +296,18 @@ def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
         process.send_signal(sig)
         output, _ = process.communicate(timeout=30)
         assert process.returncode == code, output
-        assert len(rows(pieces)) < N_LONG
+        kept.append(len(rows(pieces)))
+        assert kept[-1] < N_LONG
         if sig != signal.SIGKILL:
             assert "interrupted at pose" in output and "run the same command again" in output
             assert not (pieces / ".lock").exists()
     assert main(args) == 0
     check_complete(pieces, N_LONG, true_lengths_mm)
-    assert (pieces / "measurements.csv").read_bytes() == (whole / "measurements.csv").read_bytes()
+    # Every cell but the clock's as one uninterrupted capture; the clock runs on across each
+    # stop and resume (a resumed capture that restarted at 0 would go back at a kept row).
+    assert without_time(pieces) == without_time(whole)
+    t_s = times_s(pieces)
+    assert t_s[0] == 0.0 and np.all(np.diff(t_s) > 0), (kept, t_s)
     results = []
     for out in (whole, pieces):
         capture = load_capture(out / "capture.toml")
@@ -385,8 +404,9 @@ def _one_port_torso(tmp_path: Path) -> Path:
 def test_a_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path, name: str) -> None:
     """The FR3 read from its URDF (7 joints), and the FR3 on its torso lift (8, the lift
     prismatic: its column in mm in the plan, the pose file and the journal), simulated: the
-    capture writes pose, q1..qN, length, approach1..N rows at the twin's lengths, the URDF
-    beside the robot file, and the capture file reads back as the same robot."""
+    capture writes pose, q1..qN, length, t_s, reference, approach1..N rows at the twin's
+    lengths, the URDF beside the robot file, and the capture file reads back as the same
+    robot."""
     from twin.io.robot_file import load_robot
     from twin.scenario import load_scenario
     from twin.sim import Twin, simulate
@@ -410,7 +430,7 @@ def test_a_urdf_arm_captures_with_the_virtual_encoder(tmp_path: Path, name: str)
                      "--settle-tol", "0.08", "--settle-k", "4"]) == 0
     finally:
         device.stop()
-    columns = ("pose", *(f"q{i}" for i in range(1, n + 1)), "length",
+    columns = ("pose", *(f"q{i}" for i in range(1, n + 1)), "length", "t_s", "reference",
                *(f"approach{i}" for i in range(1, n + 1)))
     assert (out / "measurements.csv").read_text().splitlines()[0] == ",".join(columns)
     table = read_table(out / "measurements.csv", columns, "")[0]
@@ -496,3 +516,78 @@ def test_capture_refuses_rig_flags_with_the_scenarios_rig(folder: Path, tmp_path
                  str(tmp_path / "run")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--attachment with --robot-source sim" in err
+
+
+PLAN_POSES, EVERY = 25, 5
+"""A plan of 25 poses (at least the 24 unknowns) revisiting its first after every 5 others."""
+
+
+def test_plan_revisits_its_first_pose_after_every_n(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """--reference-every 5: the first pose, then 5 others and a revisit, ..., a revisit at the
+    end (30 rows), each revisit flagged; the RAPID module visits the same 30 rows; a count
+    below 1 is refused naming the flag."""
+    plan = ["plan", "--port", "600,-400,100", "--poses", str(PLAN_POSES), "--candidates", "300",
+            "--joint-limits-only", "--reference-every", str(EVERY)]
+    assert main([*plan, "--out", str(tmp_path / "plan.csv")]) == 0
+    values, _ = read_table(tmp_path / "plan.csv", ("q1", "q2", "q3", "q4", "q5", "q6",
+                                                   REFERENCE), "")
+    q, flag = values[:, :6], values[:, 6]
+    assert np.flatnonzero(flag).tolist() == [0, 6, 12, 18, 24, 29]
+    assert np.all(q[flag == 1] == q[0])
+    assert len(np.unique(q[flag == 0], axis=0)) == PLAN_POSES - 1
+    assert not np.any(np.all(q[flag == 0] == q[0], axis=1))
+    assert "5 revisits of the first pose, 30 rows" in capsys.readouterr().out
+    assert main([*plan, "--out", str(tmp_path / "plan.mod")]) == 0
+    assert "jointtarget twin_poses{30} :=" in (tmp_path / "plan.mod").read_text()
+    for bad in ("0", "2.5", "x"):
+        assert main([*plan[:-2], "--reference-every", bad, "--out",
+                     str(tmp_path / "bad.csv")]) == 2
+        error = capsys.readouterr().err.strip()
+        assert "--reference-every" in error and "\n" not in error and "Traceback" not in error
+    assert not (tmp_path / "bad.csv").exists()
+
+
+@pytest.mark.slow
+def test_capture_of_a_plan_with_revisits_times_its_rows_and_tests_drift(
+        folder: Path, devices: dict[str, Device], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A capture of a plan with revisits writes each row's time (from 0, increasing) and the
+    plan's reference flags; `twin calibrate` runs the drift test on the reference pose's 6
+    readings and, the twin's rig being still, finds no drift; a capture killed after 7 rows
+    and resumed goes on counting from the kept rows' time."""
+    assert main(["plan", "--port", "600,-400,100", "--poses", str(PLAN_POSES), "--candidates",
+                 "300", "--joint-limits-only", "--reference-every", str(EVERY), "--out",
+                 str(folder / "plan_revisits.csv")]) == 0
+    flags = read_table(folder / "plan_revisits.csv", (REFERENCE,), "")[0][:, 0]
+    out = tmp_path / "run"
+    args = capture_args(folder, devices["ascii"], out, plan="plan_revisits.csv")
+    process = subprocess.Popen([*TWIN, *args, "--settle-interval", "0.03"],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wait_for_rows(out, 7)
+    process.send_signal(signal.SIGKILL)
+    process.communicate(timeout=30)
+    kept = times_s(out)
+    assert 7 <= len(kept) < len(flags)
+    capsys.readouterr()
+    assert main(args) == 0
+    table = rows(out)
+    t_s = table[:, CAPTURE_COLUMNS.index(TIME)]
+    assert len(table) == len(flags) == 30
+    np.testing.assert_array_equal(t_s[:len(kept)], kept)
+    assert t_s[0] == 0.0 and np.all(np.diff(t_s) > 0) and t_s[len(kept)] > kept[-1]
+    np.testing.assert_array_equal(table[:, CAPTURE_COLUMNS.index(REFERENCE)], flags)
+    capsys.readouterr()
+    result = tmp_path / "result.json"
+    assert main(["calibrate", str(out / "capture.toml"), "--json", str(result)]) == 0
+    report = capsys.readouterr().out
+    line = [line for line in report.splitlines() if line.strip().startswith("drift:")]
+    assert len(line) == 1 and "1 reference pose(s), 6 readings over" in line[0], report
+    assert line[0].endswith("no drift beyond the noise"), line[0]
+    drift = json.loads(result.read_text())["drift"]
+    assert drift["reference_rows"] == 6 and drift["tests"] == 1 and not drift["drift"]
+    (series,) = drift["series"]
+    assert sorted(series["rows"]) == np.flatnonzero(flags).tolist()
+    np.testing.assert_allclose(series["time_s"], np.sort(t_s[flags == 1]))
+    print(line[0], f"t_s {t_s[0]:g}..{t_s[-1]:g} s, {len(kept)} rows kept to {kept[-1]:g} s",
+          file=sys.stderr)

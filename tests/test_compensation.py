@@ -15,6 +15,7 @@ from twin.compensation.check import check_compensation
 from twin.compensation.ik import (
     STATUS_JOINT_LIMIT,
     STATUS_OK,
+    STATUS_SINGULAR,
     STATUS_UNREACHABLE,
     nominal_ik,
     solve_ik,
@@ -124,6 +125,25 @@ def test_a_correction_a_turn_away_is_at_the_joint_limit() -> None:
     solved = compensate_program(nominal, identified, q)
     assert solved.status.tolist() == [STATUS_JOINT_LIMIT, STATUS_OK]
     assert np.rad2deg(solved.q_rad[1] - q[1]) == pytest.approx([0, 1, 0, 0, 0, 0], abs=1e-6)
+
+
+def test_a_program_row_at_an_aligned_wrist_is_singular(irb120: RobotModel,
+                                                       true_robot: RobotModel) -> None:
+    """The same pose with the wrist 0.4° from aligned and 40° from it: the first needs q4 and
+    q6 turned degrees against each other (the smallest singular value of the scaled Jacobian,
+    from numpy's SVD, below 0.02 m/rad) and is flagged singular, not counted as corrected; the
+    second is corrected by a fraction of a degree."""
+    q = np.deg2rad([[20.0, 10.0, 15.0, 30.0, 0.4, -20.0],
+                    [20.0, 10.0, 15.0, 30.0, 40.0, -20.0]])
+    solved = compensate_program(irb120, true_robot, q)
+    assert solved.status.tolist() == [STATUS_SINGULAR, STATUS_OK]
+    assert not solved.ok[0]
+    change_deg = np.rad2deg(np.abs(solved.q_rad - q))
+    assert change_deg[0, 3] > 2.0 and change_deg[0, 5] > 2.0 and change_deg[1].max() < 1.0
+    _, jacobian = flange_jacobian(irb120.structure, irb120.dh, q)
+    jacobian[:, 3:] *= 0.3
+    smallest = np.linalg.svd(jacobian, compute_uv=False)[:, -1]
+    assert smallest[0] < 0.02 < smallest[1]
 
 
 def test_compensation_with_identified_model_reaches_identification_accuracy(

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import Refusals
 from scipy.optimize import least_squares
 
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
@@ -106,3 +107,13 @@ def test_the_cli_finds_an_unknown_port_and_refuses_poses_on_a_plane(
     capture.write_text(f'robot = "{robot}"\nport_mm = "unknown"\nmeasurements = "lengths.csv"\n')
     assert main(["calibrate", str(capture), "--estimate-port"]) == 0
     assert "nobody measured it: started from the lengths" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("port", ["unknown", "front=unknown"])
+def test_plan_needs_a_guess_of_the_port(tmp_path: Path, refusals: Refusals, port: str) -> None:
+    """A plan chooses poses for where the cable runs: `--port unknown` is refused in one line
+    saying a guess is needed (and that calibrate takes unknown), nothing written."""
+    out = tmp_path / "plan.csv"
+    refusals.cli(["plan", "--port", port, "--poses", "30", "--out", out], [],
+                 f"--port: found --port {port}, expected the port's position X,Y,Z in mm")
+    assert not out.exists()

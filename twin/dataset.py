@@ -42,6 +42,20 @@ ROW_COLUMNS = (TIME, TEMPERATURE, REFERENCE)
 order."""
 
 
+def reference_visits(count: int, every: int) -> NDArray[np.intp]:
+    """The order a capture of ``count`` poses visits them in when it revisits the first pose
+    (the reference) after every ``every`` of the others and at the end (``every`` 0: never):
+    indices into the poses, shape (≥ count,); the reference rows are those equal to 0."""
+    if every < 0:
+        raise ValueError(f"every: {every}, expected >= 0")
+    if not every or count < 2:
+        return np.arange(count, dtype=np.intp)
+    visits = [0]
+    for start in range(1, count, every):
+        visits += [*range(start, min(start + every, count)), 0]
+    return np.array(visits, dtype=np.intp)
+
+
 class Labels(NamedTuple):
     """A name per row out of a list: the port each cable ran from, the fixed point a ball sat
     in, the session a row was captured in."""

@@ -84,6 +84,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "by default they are poses the rig can measure: flange above the "
                         "floor, no collision, cable in range and clear of the links (the MuJoCo "
                         "twin's default constraints, per port)")
+    parser.add_argument("--reference-every", type=integer(1, MAX_POSES), default=None,
+                        metavar="N", help="after every N poses (and at the end) revisit the "
+                        "first, flagged in the plan's reference column, so that `twin "
+                        "calibrate` can test the capture for drift (default: no revisits)")
     add_output(parser, "plan.csv", "where to write the plan: a CSV, or with .mod a RAPID "
                "module that drives an ABB robot through it with a capture handshake "
                "(docs/compensation.md)")
@@ -115,12 +119,18 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from twin.design.planning import plan_for_ports, plan_for_stations
-    from twin.io.capture_file import parse_named_port
+    from twin.io.capture_file import UNKNOWN_PORT, parse_named_port
     from twin.rig import Rig
     from twin.units import mm_to_m
 
     robot = robot_from_flags(args)
     _check_module_flags(args, robot)
+    for value in args.port:
+        if value.partition("=")[2 if "=" in value else 0].strip() == UNKNOWN_PORT:
+            raise InputError(f"--port {value}", "the port's position X,Y,Z in mm: a plan "
+                             "chooses poses for where the cable runs, so it needs a guess "
+                             "(a tape measure's is enough; calibrate then takes --port unknown)",
+                             source="--port")
     parsed = [parse_named_port(value, "--port", "") for value in args.port]
     names = [name for name, _ in parsed if name is not None]
     sigma_m = float(mm_to_m(args.sigma))
@@ -193,6 +203,7 @@ def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float6
     """The plan, in a short visiting order from home, as a CSV or (.mod) as a RAPID module;
     the line that says the order's travel."""
     from twin.compensation.ik import home_pose
+    from twin.dataset import reference_visits
     from twin.design.order import visiting_order
     from twin.io.atomic import write_atomic
     from twin.io.pose_tables import write_plan
@@ -202,16 +213,21 @@ def _write(args: argparse.Namespace, robot: RobotModel, q_rad: NDArray[np.float6
     home = home_pose(robot) if options is None or options.home_rad is None \
         else options.home_rad
     visit = visiting_order(robot, q_rad, home, port)
-    q_rad = q_rad[visit.order]
-    port = None if port is None else port[visit.order]
+    # The revisits go into the order the robot travels: the reference is its first pose.
+    order = visit.order[reference_visits(len(visit.order), args.reference_every or 0)]
+    reference = None if args.reference_every is None else order == visit.order[0]
+    q_rad = q_rad[order]
+    port = None if port is None else port[order]
     if options is None:
-        write_plan(args.out, q_rad, robot, port_names, port)
+        write_plan(args.out, q_rad, robot, port_names, port, reference)
     else:
         write_atomic(args.out, plan_module(robot, q_rad, options, port_names, port))
     unit = "s at the rated joint speeds" if robot.velocity_rad_s is not None \
         else "rad of the joint that moves most"
+    revisits = "" if reference is None else (
+        f"; {int(reference.sum()) - 1} revisits of the first pose, {len(order)} rows")
     return (f"visiting order: a round trip from home of {visit.travel_s:.1f} {unit} (the "
-            f"design's order: {visit.given_s:.1f})")
+            f"design's order: {visit.given_s:.1f}){revisits}")
 
 
 def _sampler(args: argparse.Namespace) -> SamplerFactory:

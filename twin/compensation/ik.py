@@ -54,6 +54,7 @@ MAX_DAMPING = 1e8
 STATUS_OK = "ok"
 STATUS_UNREACHABLE = "unreachable"
 STATUS_JOINT_LIMIT = "joint_limit"
+STATUS_SINGULAR = "singular"
 
 NOMINAL_STARTS = (16, 256)
 """Joint-space starts per target in each round of :func:`nominal_ik`."""
@@ -76,6 +77,9 @@ class IKResult(NamedTuple):
         converged: Whether the error is within tolerance, shape (m,).
         within_limits: Whether q_rad is within the joint limits, shape (m,).
         iterations: Newton iterations run (the batch stops when every row is done).
+        regular: Whether the row is away from a singularity, shape (m,); None: not checked.
+            At a singularity a small correction swings joints far (a wrist some degrees from
+            aligned turns q4 and q6 by tens of degrees against each other).
     """
 
     q_rad: Array
@@ -84,19 +88,23 @@ class IKResult(NamedTuple):
     converged: NDArray[np.bool_]
     within_limits: NDArray[np.bool_]
     iterations: int
+    regular: NDArray[np.bool_] | None = None
 
     @property
     def status(self) -> NDArray[np.str_]:
-        """Per row ``ok``, ``unreachable`` or ``joint_limit``, shape (m,)."""
+        """Per row ``ok``, ``unreachable``, ``joint_limit`` or ``singular``, shape (m,)."""
+        regular = np.ones_like(self.converged) if self.regular is None else self.regular
         return np.where(
             ~self.converged, STATUS_UNREACHABLE,
-            np.where(self.within_limits, STATUS_OK, STATUS_JOINT_LIMIT),
+            np.where(~self.within_limits, STATUS_JOINT_LIMIT,
+                     np.where(regular, STATUS_OK, STATUS_SINGULAR)),
         )
 
     @property
     def ok(self) -> NDArray[np.bool_]:
-        """Converged and within limits, shape (m,)."""
-        return self.converged & self.within_limits
+        """Converged, within limits and away from a singularity, shape (m,)."""
+        ok = self.converged & self.within_limits
+        return ok if self.regular is None else ok & self.regular
 
 
 def home_pose(robot: RobotModel) -> Array:

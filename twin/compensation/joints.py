@@ -34,6 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 from twin.compensation.ik import FULL_POSE_JOINTS, IKResult, nominal_ik, solve_ik
+from twin.compensation.targets import MIN_DEXTERITY, dexterity
 from twin.dataset import approach_directions
 from twin.model import Model
 from twin.robot import RobotModel
@@ -83,7 +84,8 @@ def compensate_program(
         flange pose of the program; for an arm of fewer than :data:`FULL_POSE_JOINTS` joints,
         whose flange position does, with the rotation left reported in
         ``rotation_error_rad``. A row whose only angles within the limits lie a turn or more
-        from the program's on a joint is not within limits (``joint_limit``).
+        from the program's on a joint is not within limits (``joint_limit``); a row less than
+        :data:`~twin.compensation.targets.MIN_DEXTERITY` from a singularity is ``singular``.
     """
     q = np.asarray(q_program_rad, dtype=np.float64)
     base_T_target = nominal.flange_transforms(q)
@@ -101,7 +103,8 @@ def compensate_program(
     # UR joint at 359.4° corrected past its 360° limit, wrapped to 0.2°) would spin the joint a
     # turn on the way: the row is at its joint limit, not corrected.
     same_turn = np.all(np.abs(solved.q_rad - q) <= np.pi, axis=-1)
-    return solved._replace(within_limits=solved.within_limits & same_turn)
+    return solved._replace(within_limits=solved.within_limits & same_turn,
+                           regular=dexterity(nominal, q) >= MIN_DEXTERITY)
 
 
 def compensate_targets(

@@ -105,7 +105,7 @@ def capture_request(request: CaptureRequest,
     Raises:
         InputError: on a bad flag, file or combination; CaptureError on a fault mid-capture.
     """
-    from twin.io.measurements import load_plan
+    from twin.io.measurements import load_plan, load_plan_reference
 
     config = resolve(request.encoder)
     kind = get_source(request.source.spec)
@@ -124,6 +124,7 @@ def capture_request(request: CaptureRequest,
         robot, rig, calibration = _told_cell(request)
     check_joint_count(robot, request.scenario or request.robot or "the IRB 120")
     plan_q_rad, _ = load_plan(request.plan, robot)
+    reference = load_plan_reference(request.plan, robot)
     source_request = replace(request.source, plan_q_rad=plan_q_rad,
                              prismatic=tuple(bool(v) for v in robot.prismatic))
     files = kind.files(source_request) if kind.files is not None else {}
@@ -132,7 +133,7 @@ def capture_request(request: CaptureRequest,
         measured = capture_folder(request.out, request.plan, plan_q_rad, robot, rig, config,
                                   source, request.rule, calibration=calibration, truth=truth,
                                   source_files=files, reconnect_s=request.reconnect_s,
-                                  report=report)
+                                  report=report, reference=reference)
     finally:
         source.close()
     return CaptureOutcome(measured, len(plan_q_rad), request.out / MEASUREMENTS_NAME,

@@ -3,13 +3,16 @@
 Files in the output folder ``DIR``:
 
 - ``plan.csv`` — a copy of the plan; a resumed capture must bring the same plan.
-- ``measurements.csv`` — header ``pose,q1,…,qN,length,approach1,…,approachN`` (deg — mm for a
-  prismatic joint —, mm, ±1; N the robot's joints, 4 to 9),
+- ``measurements.csv`` — header ``pose,q1,…,qN,length,t_s,reference,approach1,…,approachN``
+  (deg — mm for a prismatic joint —, mm, s, 0/1, ±1; N the robot's joints, 4 to 9),
   one row per measured pose, appended as one whole line and ``fsync``-ed before the robot moves
   on (a journal, :mod:`twin.io.journal`). ``pose`` numbers the plan rows from 1; `twin
   calibrate` ignores it. ``approach`` is the direction each joint moved in to reach the pose:
   the capture goes through the plan in order, pose K from plan pose K − 1 (pose 1 from home),
-  also when it resumes — as the simulated robot does; backlash depends on it.
+  also when it resumes — as the simulated robot does; backlash depends on it. ``t_s`` is the
+  time of the reading since the capture's first (:class:`RowClock`), ``reference`` the plan's
+  flag of a revisit of its reference pose (`twin plan --reference-every`; 0 without one): what
+  `twin calibrate`'s drift test reads.
 - ``robot.toml`` (and ``robot.urdf`` for a robot read from a URDF), ``capture.toml`` — so that
   ``twin calibrate DIR/capture.toml`` needs nothing else (written atomically).
 - ``.lock`` — an exclusive ``flock`` held while a capture runs (:mod:`twin.io.lock`); the
@@ -37,7 +40,7 @@ from numpy.typing import NDArray
 
 from twin.calibration.settings import CalibrationSettings
 from twin.choices import MAX_JOINTS, MIN_JOINTS
-from twin.dataset import approach_directions
+from twin.dataset import REFERENCE, TIME, Measurements, approach_directions
 from twin.errors import InputError, TwinError
 from twin.hardware.encoders import EncoderConfig, open_encoder
 from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
@@ -72,8 +75,8 @@ def row_columns(n_joints: int) -> tuple[str, ...]:
 
 
 def capture_columns(n_joints: int) -> tuple[str, ...]:
-    """Every column of a capture's measurement file."""
-    return (*row_columns(n_joints), *approach_columns(n_joints))
+    """Every column of a capture's measurement file (as :func:`format_row` writes them)."""
+    return (*row_columns(n_joints), TIME, REFERENCE, *approach_columns(n_joints))
 
 
 def capture_header(n_joints: int) -> str:
@@ -93,18 +96,58 @@ CAPTURE_FILES = (MEASUREMENTS_NAME, PLAN_NAME, CAPTURE_NAME, ROBOT_NAME, "robot.
                  TRUTH_FILE)
 """What a capture folder holds (a robot read from a URDF: its reference and its URDF)."""
 KEPT_PREFIX = "kept-"
-JOURNAL = "a capture measurement CSV (pose, q1..qN, length, approach1..approachN)"
+JOURNAL = ("a capture measurement CSV (pose, q1..qN, length, t_s, reference, "
+           "approach1..approachN)")
 RECONNECT_POLL_S = 0.5
 """How often a lost port is tried again, s."""
 
 
 def format_row(pose: int, q_rad: NDArray[np.float64], length_m: float,
-               approach: NDArray[np.int8], robot: RobotModel | None = None) -> str:
+               approach: NDArray[np.int8], robot: RobotModel | None = None, *,
+               t_s: float = 0.0, reference: bool = False) -> str:
     """One line of the measurement file of ``robot`` (a prismatic joint's q in mm), with its
-    LF; ``approach`` (n,) the pose's sides."""
-    measured = length_measurements(q_rad[None, :], np.array([length_m]),
-                                   approach=approach[None, :])
+    LF; ``approach`` (n,) the pose's sides, ``t_s`` the reading's time since the capture's
+    first, s, ``reference`` whether the pose is a revisit of the plan's reference pose."""
+    length = length_measurements(q_rad[None, :], np.array([length_m]),
+                                 approach=approach[None, :])
+    rows = {TIME: np.array([t_s]), REFERENCE: np.array([float(reference)])}
+    measured = Measurements(length.q_rad, length.kind, {**length.values, **rows},
+                            length.labels, length.approach)
     return f"{pose},{format_measurements(measured, robot).splitlines()[1]}\n"
+
+
+class RowClock:
+    """Each row's ``t_s``: seconds since the capture's first reading.
+
+    Within one run the time comes from the monotonic clock (a step of the wall clock does not
+    move it). A resumed capture goes on from its journal: the last row's ``t_s`` plus the
+    wall-clock time since that row was appended (the journal's modification time, set by the
+    fsync-ed append), so the downtime between a kill and the resume counts — the arm cooled
+    or warmed in it, which is what the drift test looks for. Derived from the journal rather
+    than stored in its header: the header stays the plain CSV header every reader and the
+    resume's header check take, and nothing beside the rows has to be kept in step with them.
+    A wall-clock step across the downtime can only change that gap, clamped at 0: ``t_s``
+    never goes back.
+    """
+
+    def __init__(self, start_s: float = 0.0, zero: float | None = None) -> None:
+        self._start_s = start_s
+        self._zero = zero
+
+    @classmethod
+    def resumed(cls, path: Path, written_epoch_s: float) -> RowClock:
+        """The clock of a capture resumed on the journal ``path`` last appended to at
+        ``written_epoch_s`` (s since the epoch)."""
+        times = read_table(path, (TIME,), JOURNAL, journal=True)[0][:, 0]
+        gap_s = max(0.0, time.time() - written_epoch_s)
+        return cls(float(times.max()) + gap_s, time.monotonic())
+
+    def __call__(self) -> float:
+        """The time of a reading taken now, s (0 for a new capture's first)."""
+        now = time.monotonic()
+        if self._zero is None:
+            self._zero = now
+        return self._start_s + now - self._zero
 
 
 def journal(path: Path, n_joints: int) -> Journal:
@@ -315,6 +358,7 @@ def capture(
     reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
     nominal: RobotModel | None = None,
+    reference: NDArray[np.bool_] | None = None,
 ) -> int:
     """Measure every plan pose that has no row yet, appending each row durably.
 
@@ -329,6 +373,7 @@ def capture(
         report: Receives progress and fault lines.
         nominal: The robot measured (its prismatic joints' values are written in mm); every
             joint revolute if None.
+        reference: The plan's revisits of its reference pose, shape (N,); none if None.
 
     Returns:
         The number of poses measured by this call.
@@ -338,7 +383,11 @@ def capture(
         KeyboardInterrupt: on Ctrl-C, after reporting how to resume.
     """
     n_poses, n_joints = plan_q_rad.shape
+    # Taken before a torn line's repair rewrites the file.
+    written = measurements_path.stat().st_mtime if measurements_path.exists() else 0.0
     done, note = recover(measurements_path, n_poses, n_joints)
+    clock = RowClock.resumed(measurements_path, written) if done else RowClock()
+    flags = np.zeros(n_poses, dtype=bool) if reference is None else reference
     record = journal(measurements_path, n_joints)
     if note:
         report(note)
@@ -357,7 +406,7 @@ def capture(
             except TwinError as exc:
                 raise _stopped(exc, pose, done, n_poses) from None
             record.append(format_row(pose, q_reached, settled.length_m, approach[pose - 1],
-                                     nominal))
+                                     nominal, t_s=clock(), reference=bool(flags[pose - 1])))
             done.add(pose)
             try:
                 robot.recorded(pose, n_poses)
@@ -387,6 +436,7 @@ def capture_folder(
     source_files: Mapping[str, str] | None = None,
     reconnect_s: float | None = 5.0,
     report: Callable[[str], None] = print,
+    reference: NDArray[np.bool_] | None = None,
 ) -> int:
     """Measure a plan into a capture folder, resuming what is there: check the folder, lock it,
     open the encoder, copy the plan and write the robot, the robot source's files (named in a
@@ -409,6 +459,7 @@ def capture_folder(
         source_files: Files the robot source needs in the folder (name to text).
         reconnect_s: As in :func:`capture`.
         report: Receives progress and fault lines.
+        reference: As in :func:`capture`.
 
     Returns:
         The number of poses measured by this call.
@@ -431,7 +482,8 @@ def capture_folder(
                       truth=TRUTH_FILE if truth is not None else None,
                       encoder={"url": config.to_url()})
         return capture(plan_q_rad, folder / MEASUREMENTS_NAME, encoder, source, rule,
-                       reconnect_s=reconnect_s, report=report, nominal=robot)
+                       reconnect_s=reconnect_s, report=report, nominal=robot,
+                       reference=reference)
 
 
 def _stopped(exc: TwinError, pose: int, done: set[int], n_poses: int) -> TwinError:

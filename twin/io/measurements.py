@@ -462,6 +462,21 @@ def load_plan(
     return joints_from_file(q_file, _prismatic(robot)), lines
 
 
+def load_plan_reference(path: str | Path, robot: RobotModel, *, journal: bool = False
+                        ) -> NDArray[np.bool_]:
+    """The plan's ``reference`` column (1 on a revisit of the reference pose, `twin plan
+    --reference-every`), shape (N,); all False when the plan has none.
+
+    Raises:
+        InputError: for a value other than 0 or 1, naming line and column.
+    """
+    table = read_columns(path, joint_columns(robot.n_joints),
+                         f"a pose plan CSV ({joint_units_said(robot.n_joints, robot)})",
+                         optional=(REFERENCE,), journal=journal)
+    flags = _row_columns(table, path).get(REFERENCE)
+    return np.zeros(len(table.lines), dtype=bool) if flags is None else flags > 0.5
+
+
 class Poses(NamedTuple):
     """Joint angles to evaluate a model at, with the directions the joints came from."""
 

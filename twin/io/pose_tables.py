@@ -1,6 +1,7 @@
 """CSV tables of joint values twin writes, and the Cartesian targets it reads (degrees, mm):
 
-- a pose **plan** (`twin plan`): ``q1..qN`` (and ``port``, the station of each pose);
+- a pose **plan** (`twin plan`): ``q1..qN`` (and ``port``, the station of each pose;
+  ``reference``, 1 on the revisits of the first pose ``--reference-every`` asks for);
 - **corrected** commands (`twin compensate`): ``q1..qN`` (empty when unreachable), ``status``,
   ``error_mm`` (the remaining flange error) and, with backlash, ``approach1..N``;
 - **predictions** (`twin predict`): the poses as given, then ``x,y,z`` (mm, base frame) and
@@ -29,6 +30,7 @@ from twin.arrays import Array
 from twin.calibration.predict import Prediction
 from twin.compensation.ik import STATUS_UNREACHABLE
 from twin.compensation.joints import InOrder
+from twin.dataset import REFERENCE
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.measurements import approach_columns, joint_columns
@@ -129,12 +131,16 @@ def load_pose_targets(path: str | Path, *, stdin: bool = False) -> PoseTargets:
 
 
 def write_plan(path: str | Path, q_rad: Array, robot: RobotModel,
-               port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None) -> None:
-    """A pose plan of ``robot``: q1..qN (deg; mm for a prismatic joint) and, for an encoder
-    moved between stations, each pose's station (``port``: index into ``port_names``)."""
-    header = joint_columns(q_rad.shape[1]) + ((PORT,) if port is not None else ())
+               port_names: tuple[str, ...] = (), port: NDArray[np.intp] | None = None,
+               reference: NDArray[np.bool_] | None = None) -> None:
+    """A pose plan of ``robot``: q1..qN (deg; mm for a prismatic joint), for an encoder
+    moved between stations each pose's station (``port``: index into ``port_names``), and
+    with revisits of a reference pose the ``reference`` flag (shape (N,); 1 on its rows)."""
+    header = joint_columns(q_rad.shape[1]) + ((PORT,) if port is not None else ()) \
+        + ((REFERENCE,) if reference is not None else ())
     rows = [",".join(header)]
-    rows += [",".join([*values, *(() if port is None else (port_names[port[k]],))])
+    rows += [",".join([*values, *(() if port is None else (port_names[port[k]],)),
+                       *(() if reference is None else (str(int(reference[k])),))])
              for k, values in enumerate(_joint_values(q_rad, robot))]
     write_atomic(path, "\n".join(rows) + "\n")
 

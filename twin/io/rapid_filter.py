@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike
 
 from twin.arrays import Array
 from twin.compensation.configuration import configuration
-from twin.compensation.ik import STATUS_OK, STATUS_UNREACHABLE
+from twin.compensation.ik import STATUS_OK, STATUS_SINGULAR, STATUS_UNREACHABLE
 from twin.compensation.joints import compensate_pose_rows, compensate_program_rows
 from twin.compensation.poses import flange_targets, pose_matrices, pose_quaternions, tcp_targets
 from twin.errors import InputError
@@ -68,7 +68,6 @@ DEG_DECIMALS = 6
 BUILTIN_TOOL = "tool0"
 BUILTIN_WOBJ = "wobj0"
 STATUS_CORRECTED = "corrected"
-STATUS_SINGULAR = "singular"
 STATUS_UNKNOWN_FRAME = "unknown_frame"
 STATUS_UNSUPPORTED = "unsupported"
 

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array, frozen_array
+from twin.dataset import reference_visits
 
 REFERENCE_RTOL_RAD = 1e-12
 """Recorded angles this close (rad) to the first pose's mark a revisit of it."""
@@ -58,13 +59,7 @@ class Thermal:
         """The order a capture of ``count`` poses visits them in, with the first pose revisited
         after every ``reference_every`` (and at the end): indices into the poses, shape
         (≥ count,)."""
-        order = list(range(count))
-        if not self.reference_every or count < 2:
-            return np.array(order, dtype=np.intp)
-        visits = [0]
-        for start in range(1, count, self.reference_every):
-            visits += [*order[start:start + self.reference_every], 0]
-        return np.array(visits, dtype=np.intp)
+        return reference_visits(count, self.reference_every)
 
     def times_s(self, rows: int) -> Array:
         """Each row's time since the capture started, shape (rows,), s."""
