@@ -32,7 +32,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -201,11 +201,8 @@ def parse_distances(values: list[Any], source: str | Path, where: str = ""
         source: The file or flag they come from.
         where: Where the list is in the file (``[rig] distances``), or "" for a flag.
     """
-    distances = [parse_distance(value, source, f"{where}[{index}]" if where else "")
-                 for index, value in enumerate(values)]
-    _each_pair_once([(d.first, d.second, f"{float(m_to_mm(d.length_m)):g} mm")
-                     for d in distances], "points", source, where)
-    return tuple(distances)
+    return _parse_pairs(values, parse_distance, lambda d: f"{float(m_to_mm(d.length_m)):g} mm",
+                        "points", source, where)
 
 
 def parse_angle(value: object, source: str | Path, where: str) -> Angle:
@@ -225,22 +222,27 @@ def parse_angles(values: list[Any], source: str | Path, where: str = "") -> tupl
         source: The file or flag they come from.
         where: Where the list is in the file (``[rig] angles``), or "" for a flag.
     """
-    angles = [parse_angle(value, source, f"{where}[{index}]" if where else "")
-              for index, value in enumerate(values)]
-    _each_pair_once([(a.first, a.second, f"{math.degrees(a.angle_rad):g} deg")
-                     for a in angles], "planes", source, where)
-    return tuple(angles)
+    return _parse_pairs(values, parse_angle, lambda a: f"{math.degrees(a.angle_rad):g} deg",
+                        "planes", source, where)
 
 
-def _each_pair_once(pairs: list[tuple[str, str, str]], what: str, source: str | Path,
-                    where: str) -> None:
-    """Refuse a pair told twice: two answers to one question (A,B and B,A are one pair)."""
-    for index, (first, second, value) in enumerate(pairs):
-        for earlier_first, earlier_second, earlier in pairs[:index]:
-            if {earlier_first, earlier_second} == {first, second}:
-                raise InputError(f"{first},{second} a second time ({earlier}, then {value})",
-                                 f"each pair of {what} once", source=source,
-                                 where=f"{where}[{index}]" if where else None)
+_Pair = TypeVar("_Pair", Distance, Angle)
+
+
+def _parse_pairs(values: list[Any], parse: Callable[[object, str | Path, str], _Pair],
+                 shown: Callable[[_Pair], str], what: str, source: str | Path, where: str
+                 ) -> tuple[_Pair, ...]:
+    """Each ``"A,B=VALUE"`` parsed, each pair of ``what`` once: a pair told twice is two
+    answers to one question (A,B and B,A are one pair), refused naming both values."""
+    pairs = [parse(value, source, f"{where}[{index}]" if where else "")
+             for index, value in enumerate(values)]
+    for index, pair in enumerate(pairs):
+        for earlier in pairs[:index]:
+            if {earlier.first, earlier.second} == {pair.first, pair.second}:
+                raise InputError(f"{pair.first},{pair.second} a second time ({shown(earlier)}, "
+                                 f"then {shown(pair)})", f"each pair of {what} once",
+                                 source=source, where=f"{where}[{index}]" if where else None)
+    return tuple(pairs)
 
 
 UNKNOWN_PORT = "unknown"
