@@ -371,3 +371,24 @@ def test_filtering_refusals(calibrated: dict, tmp_path: Path, refusals: Refusals
     refusals.cli(["compensate", "--identified", mine, "--robot", renamed, "--rapid", good,
                   "--out", out], [good, mine], "--tool0-in-flange")
     assert not out.exists()
+
+
+def test_a_jointtarget_at_an_aligned_wrist_is_left_as_written(
+        calibrated: dict, capsys: pytest.CaptureFixture[str]) -> None:
+    """A jointtarget 0.4° from an aligned wrist is listed as singular and written exactly as it
+    was (its correction would turn q4 and q6 by degrees against each other); the same pose at
+    q5 = 40° is corrected."""
+    folder = calibrated["folder"]
+    source, out = folder / "wrist.mod", folder / "wrist_compensated.mod"
+    source.write_text("MODULE Wrist\n"
+                      f"  CONST jointtarget near := [[20,10,15,30,0.4,-20],{NO_AXES}];\n"
+                      f"  CONST jointtarget away := [[20,10,15,30,40,-20],{NO_AXES}];\n"
+                      "  PROC main()\n    MoveAbsJ near, v200, fine, tool0;\n"
+                      "    MoveAbsJ away, v200, fine, tool0;\n  ENDPROC\nENDMODULE\n")
+    capsys.readouterr()
+    assert main(["compensate", "--identified", str(folder / "result.json"), "--rapid",
+                 str(source), "--out", str(out)]) == 0
+    report = capsys.readouterr().out
+    assert re.search(r"near\b.*singular.*next to a singularity", report), report
+    before, after = read_targets(source.read_text()), read_targets(out.read_text())
+    assert after["near"] == before["near"] and after["away"] != before["away"]

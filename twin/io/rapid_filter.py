@@ -315,8 +315,11 @@ def _joint_rows(model: Model, x: ArrayLike, nominal: RobotModel, targets: list[T
                                   "its own angles are outside the robot's joint limits", 0.0))
             continue
         if solved.status[k] != STATUS_OK:
+            why = "it lies next to a singularity, where the correction would swing joints by " \
+                "degrees" if solved.status[k] == STATUS_SINGULAR \
+                else "the identified robot cannot be compensated there"
             rows.append(TargetRow(target.name, target.line, target.kind, str(solved.status[k]),
-                                  "the identified robot cannot be compensated there", 0.0))
+                                  why, 0.0))
             continue
         corrected = rad_to_deg(solved.q_rad[k])
         changes += _changed(literal.robax, corrected, DEG_DECIMALS)
