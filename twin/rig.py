@@ -16,7 +16,7 @@ errors (:mod:`twin.unknowns`):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -69,6 +69,11 @@ class Part(Protocol):
     def places(self, group: str) -> tuple[str, ...]:
         """The named places whose corrections the measurement-stage group ``group`` holds (the
         planes of group ``planes``), or () when this part sizes no such group."""
+        ...
+
+    def document(self) -> dict[str, Any]:
+        """The part as a result file keeps it: what rebuilds the fitted model exactly (its
+        kind's ``read_part`` reads it back)."""
         ...
 
 

@@ -245,7 +245,7 @@ def rig_to_dict(rig: Rig, kind: Kind) -> dict[str, Any]:
         document["angles"] = [{"planes": [a.first, a.second],
                                "angle_deg": float(np.degrees(a.angle_rad))} for a in rig.angles]
     if rig.part is not None:
-        document[kind.name] = kind.part_document(rig.part)
+        document[kind.name] = rig.part.document()
     if rig.temperature_ref_c is not None:
         document["temperature_ref_c"] = rig.temperature_ref_c
     return document

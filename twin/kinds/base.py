@@ -291,14 +291,9 @@ class Kind(ABC):
         name: what ``twin predict`` writes beside the measured point (none by default)."""
         return {}
 
-    def part_document(self, part: Part) -> dict[str, Any]:
-        """The kind's part of the rig (:attr:`twin.rig.Rig.part`) as a result file keeps it:
-        what rebuilds the fitted model exactly."""
-        raise NotImplementedError(f"{self.name} measurements keep no part in the rig")
-
     def read_part(self, document: Any) -> Part | None:
-        """The kind's part of the rig from a result file (:meth:`part_document`; None when the
-        file has none).
+        """The kind's part of the rig from a result file (:meth:`twin.rig.Part.document`; None
+        when the file has none).
 
         Raises:
             InputError: naming the key that is wrong (no source: the reader adds the file).

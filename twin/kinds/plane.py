@@ -124,6 +124,11 @@ class PlaneRig:
         """The planes, for group ``planes``."""
         return self.names if group == GROUP else ()
 
+    def document(self) -> dict[str, Any]:
+        """The planes the calibration started from: names, normals and offsets (m), exactly."""
+        return {"names": list(self.names), "normals": self.normals.tolist(),
+                "offsets_m": self.offsets_m.tolist()}
+
 
 def plane_part(rig: Rig) -> PlaneRig:
     """The rig's :class:`PlaneRig` (no plane when it has none)."""
@@ -348,14 +353,8 @@ class Plane(PlaceKind):
         _pairs(rig.angles, part, "angle")
         return replace(rig, part=part), data
 
-    def part_document(self, part: Part) -> dict[str, Any]:
-        """The planes the calibration started from: names, normals and offsets (m), exactly."""
-        assert isinstance(part, PlaneRig)
-        return {"names": list(part.names), "normals": part.normals.tolist(),
-                "offsets_m": part.offsets_m.tolist()}
-
     def read_part(self, document: Any) -> Part | None:
-        """:meth:`part_document` back.
+        """:meth:`PlaneRig.document` back.
 
         Raises:
             InputError: for planes that are not named unit normals and offsets.

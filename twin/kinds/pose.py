@@ -119,6 +119,13 @@ class PoseRig:
         """None: no group is sized by it."""
         return ()
 
+    def document(self) -> dict[str, Any]:
+        """The tool's rotation exactly (9 floats, flange_R_tool row by row) and as rx ry rz
+        (degrees, R = Rz Ry Rx), and the weight w of an orientation row, m/rad."""
+        return {"tool_rotation": self.tool_rotation.ravel().tolist(),
+                "tool_rpy_deg": rad_to_deg(angles(self.tool_rotation)).tolist(),
+                "weight_m_per_rad": self.weight_m_per_rad}
+
 
 def pose_part(rig: Rig) -> PoseRig:
     """The rig's :class:`PoseRig` (the flange's orientation and the default weight when it has
@@ -303,16 +310,8 @@ class Pose(Kind):
                 *((f"instrument_{name}", xyz[:, k]) for k, name in enumerate(COLUMNS)),
                 *((f"instrument_{name}", quaternion[:, k]) for k, name in enumerate(QUATERNION))]
 
-    def part_document(self, part: Part) -> dict[str, Any]:
-        """The tool's rotation exactly (9 floats, flange_R_tool row by row) and as rx ry rz
-        (degrees, R = Rz Ry Rx), and the weight w of an orientation row, m/rad."""
-        assert isinstance(part, PoseRig)
-        return {"tool_rotation": part.tool_rotation.ravel().tolist(),
-                "tool_rpy_deg": rad_to_deg(angles(part.tool_rotation)).tolist(),
-                "weight_m_per_rad": part.weight_m_per_rad}
-
     def read_part(self, document: Any) -> Part | None:
-        """:meth:`part_document` back.
+        """:meth:`PoseRig.document` back.
 
         Raises:
             InputError: for a rotation that is not 9 numbers of a rotation matrix, or a weight
