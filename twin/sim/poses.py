@@ -26,39 +26,57 @@ MAX_DRAWS_PER_POSE = 500
 """Give up when this many candidates per wanted pose were not enough."""
 
 
+Check = tuple[str, Callable[[Array], NDArray[np.bool_]]]
+"""A constraint's name and its test: ``failed(q (m, n) rad) -> (m,)``, True where it fails."""
+
+
+def _checks(constraints: PoseConstraints, twin: Twin) -> list[Check]:
+    """Every constraint in the order a report names them: the arithmetic ones first, then
+    MuJoCo's collision test and (with a cable) its ray cast."""
+    robot = twin.robot
+
+    def outside(q_rad: Array) -> NDArray[np.bool_]:
+        return ~np.all((robot.lower_rad <= q_rad) & (q_rad <= robot.upper_rad), axis=1)
+
+    def low(q_rad: Array) -> NDArray[np.bool_]:
+        return robot.flange_positions(q_rad)[:, 2] < constraints.min_flange_height_m
+
+    checks: list[Check] = [
+        ("outside the joint limits", outside),
+        (f"flange below {mm(constraints.min_flange_height_m, significant=AS_GIVEN)}", low)]
+    if twin.port_m is not None:
+        def out_of_range(q_rad: Array) -> NDArray[np.bool_]:
+            transforms = robot.flange_transforms(q_rad)
+            point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
+            length = np.linalg.norm(point - twin.port_m, axis=-1)
+            return (length < constraints.cable_min_m) | (length > constraints.cable_max_m)
+
+        checks.append(("cable length outside ["
+                       + mm_values([constraints.cable_min_m, constraints.cable_max_m],
+                                   significant=AS_GIVEN) + "] mm", out_of_range))
+    checks.append(("links in collision", twin.in_collision))
+    if twin.port_m is not None:
+        checks.append(("cable through a link",
+                       lambda q_rad: twin.cable_blocked(q_rad, constraints.cable_clearance_m)))
+    return checks
+
+
 def violations(constraints: PoseConstraints, twin: Twin, q_rad: Array
                ) -> list[tuple[str, NDArray[np.bool_]]]:
     """Each constraint's name and where it fails, each mask of shape (m,); the cable's only
     when the twin has one."""
-    flange = twin.robot.flange_positions(q_rad)
-    inside = (twin.robot.lower_rad <= q_rad) & (q_rad <= twin.robot.upper_rad)
-    found = [
-        ("outside the joint limits", ~np.all(inside, axis=1)),
-        (f"flange below {mm(constraints.min_flange_height_m, significant=AS_GIVEN)}",
-         flange[:, 2] < constraints.min_flange_height_m),
-        ("links in collision", twin.in_collision(q_rad)),
-    ]
-    if twin.port_m is None:
-        return found
-    transforms = twin.robot.flange_transforms(q_rad)
-    point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
-    length = np.linalg.norm(point - twin.port_m, axis=-1)
-    return [
-        *found[:2],
-        ("cable length outside ["
-         + mm_values([constraints.cable_min_m, constraints.cable_max_m], significant=AS_GIVEN)
-         + "] mm",
-         (length < constraints.cable_min_m) | (length > constraints.cable_max_m)),
-        found[2],
-        ("cable through a link", twin.cable_blocked(q_rad, constraints.cable_clearance_m)),
-    ]
+    return [(name, failed(q_rad)) for name, failed in _checks(constraints, twin)]
 
 
 def usable(constraints: PoseConstraints, twin: Twin, q_rad: Array) -> NDArray[np.bool_]:
-    """Mask of the usable poses, shape (m,)."""
+    """Mask of the usable poses, shape (m,): each constraint tested only on the poses that
+    passed the ones before it (MuJoCo's tests, a pose at a time, on the fewest)."""
     ok = np.ones(len(q_rad), dtype=bool)
-    for _, failed in violations(constraints, twin, q_rad):
-        ok &= ~failed
+    for _, failed in _checks(constraints, twin):
+        rows = np.flatnonzero(ok)
+        if not rows.size:
+            break
+        ok[rows] = ~failed(q_rad[rows])
     return ok
 
 
