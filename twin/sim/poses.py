@@ -44,18 +44,19 @@ def _checks(constraints: PoseConstraints, twin: Twin) -> list[Check]:
     checks: list[Check] = [
         ("outside the joint limits", outside),
         (f"flange below {mm(constraints.min_flange_height_m, significant=AS_GIVEN)}", low)]
-    if twin.port_m is not None:
+    port_m = twin.port_m
+    if port_m is not None:
         def out_of_range(q_rad: Array) -> NDArray[np.bool_]:
             transforms = robot.flange_transforms(q_rad)
             point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
-            length = np.linalg.norm(point - twin.port_m, axis=-1)
+            length = np.linalg.norm(point - port_m, axis=-1)
             return (length < constraints.cable_min_m) | (length > constraints.cable_max_m)
 
         checks.append(("cable length outside ["
                        + mm_values([constraints.cable_min_m, constraints.cable_max_m],
                                    significant=AS_GIVEN) + "] mm", out_of_range))
     checks.append(("links in collision", twin.in_collision))
-    if twin.port_m is not None:
+    if port_m is not None:
         checks.append(("cable through a link",
                        lambda q_rad: twin.cable_blocked(q_rad, constraints.cable_clearance_m)))
     return checks
