@@ -237,10 +237,10 @@ def study_cpu(trials: int, before: Path | None) -> None:
     _goal(f"CPU per trial in one process / at {BEFORE_COMMIT}", ratio, "<= 0.2", ratio <= 0.2)
 
 
-def study_scaling(trials: int, before: Path | None) -> None:
+def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
     """As `twin study` runs trials (a shell that does not pin BLAS): the workers' CPU per
-    trial on 1 and 2 local processes, this tree and the one before; trials per second of wall
-    time on 1 and 2 workers, local and Dask, the best of two runs each."""
+    trial on 1 and 2 local processes, this tree and the one before (when given); trials per
+    second of wall time on 1 and 2 workers, local and Dask, the best of ``repeats`` runs."""
     cpu: dict[str, float] = {}
     for label, tree in _trees(before):
         for workers in (1, 2):
@@ -257,11 +257,13 @@ def study_scaling(trials: int, before: Path | None) -> None:
     rates: dict[str, float] = {}
     for kind in ("local", "dask"):
         for workers in (1, 2):
-            runs = [_study(ROOT, f"{kind}{workers}", trials, pinned=False) for _ in range(2)]
+            runs = [_study(ROOT, f"{kind}{workers}", trials, pinned=False)
+                    for _ in range(repeats)]
             wall = min(run["wall_s"] for run in runs)
             rates[f"{kind}{workers}"] = trials / wall
             print(f"5. {kind}, {workers} worker(s): start + stop {runs[0]['overhead_s']:.1f} s, "
-                  f"{trials} trials in {wall:.2f} s (best of 2): {trials / wall:.1f} trials/s")
+                  f"{trials} trials in {wall:.2f} s (best of {repeats}): "
+                  f"{trials / wall:.1f} trials/s")
     for kind in ("local", "dask"):
         ratio = rates[f"{kind}2"] / rates[f"{kind}1"]
         _goal(f"{kind}: 2 workers / 1 worker, trials per second", ratio,
@@ -290,8 +292,8 @@ def main() -> None:
             before = _before_tree(Path(temporary))
             if "4" in args.parts:
                 study_cpu(1 if tiny else 40, before)
-            if "5" in args.parts:
-                study_scaling(2 if tiny else 160, before)
+            if "5" in args.parts:  # at the smoke size, part 4 alone runs the older tree
+                study_scaling(2 if tiny else 160, None if tiny else before, 1 if tiny else 2)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from twin.dataset import Measurements
+from twin.geometry import kinematics
 from twin.io.measurements import write_measurements
 from twin.io.robot_file import default_robot
 from twin.robot import RobotModel, random_poses
@@ -32,6 +33,19 @@ TRUE_DELTA = dh_rows_from_display(
     }
 )
 """A known perturbation, shape (4, 6), m and rad: about 1.3 mm RMSE on the cable."""
+
+
+@pytest.fixture(autouse=True)
+def _kernel_choice_restored() -> Any:
+    """Every test starts on the kernel a single command takes: a test that runs a study's
+    trials in this process declares bulk work (:func:`twin.geometry.kinematics.for_bulk_work`),
+    which would leave every later test of its worker on the compiled kernel, whose round-off
+    can move a fit on a flat valley (the MUKCa cross-validation block's fourth digit)."""
+    bulk = kinematics._BULK[0]
+    yield
+    if kinematics._BULK[0] != bulk:
+        kinematics._BULK[0] = bulk
+        kinematics._compiled.cache_clear()
 
 
 @pytest.fixture(scope="session")

@@ -140,10 +140,13 @@ def _settings(sim: Simulation, estimate: tuple[str, ...]) -> CalibrationSettings
 
 
 def _referee(model: Model, train: Measurements) -> np.ndarray:
-    """scipy's least_squares on the same training residuals, from the same start."""
+    """scipy's least_squares on the same training residuals, from the same start. Its
+    tolerances are 1e-10: at 1e-12, with the tool frame estimated, it wandered 276 steps (30 s)
+    along the directions the data cannot see before its gradient test fired, to predict the
+    readings no better (4e-9 m against 1e-10 m after 9 steps)."""
     return np.asarray(least_squares(lambda x: model.residuals(x, train),
                                     np.zeros(model.n_params), bounds=model.bounds(),
-                                    x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12).x)
+                                    x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10).x)
 
 
 def _bound_sigma(model: Model, x_true: np.ndarray, train: Measurements, sigma_m: float
