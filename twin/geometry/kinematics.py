@@ -358,11 +358,17 @@ def _compiled() -> Any:
 @cache
 def _plan_rows(parametrisation: tuple[str, ...], joint_types: tuple[str, ...]
                ) -> NDArray[np.int64]:
-    """The motions base to flange as rows (kind, axis, slot, joint, driven, column), shape
-    (motions, 6): what the compiled kernel reads."""
-    rows = [(kind, axis, slot, joint, int(driven), column)
+    """The motions base to flange as rows (kind, axis, slot, joint, driven, column, whole),
+    shape (motions, 7): what the compiled kernel reads. ``whole`` is 1 on the flange-side
+    motion of a revolute standard D-H joint, whose four motions the kernel carries a point
+    through in one pass over the poses."""
+    rows = [[kind, axis, slot, joint, int(driven), column, 0]
             for kind, axis, _, _, slot, joint, driven, column in _plan(parametrisation,
                                                                         joint_types)]
+    last = -1
+    for name, joint_type in zip(parametrisation, joint_types, strict=True):
+        last += len(joint_motions(name, joint_type))
+        rows[last][6] = int(name == "dh" and joint_type == "revolute")
     return np.ascontiguousarray(rows, dtype=np.int64)
 
 
