@@ -36,6 +36,7 @@ poses or tables.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from functools import cache
@@ -393,7 +394,7 @@ def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
     broadcasts any): tables (K, 4, n), angles of the poses or one set per table, a point or one
     per table."""
     batch = dh.shape[:-2]
-    size = int(np.prod(batch, dtype=np.int64))
+    size = math.prod(batch)
     q_batch = angles.q_rad.shape[:-2]
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
     if q_batch not in ((), batch) or local.shape[:-1] not in ((), batch) or size == 0:
