@@ -101,6 +101,33 @@ def test_positions_and_jacobians_equal_the_numpy_path(seed: int,
             _close(got, expected)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_whole_dh_joints_carry_the_point_as_their_motions_do(seed: int) -> None:
+    """The positions carry a revolute standard D-H joint in one pass over the poses, the
+    Jacobian's way in motion by motion: the same operations in the same order, equal bits, in
+    chains of D-H joints alone and mixed with others."""
+    from twin.geometry import compiled
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, MAX_JOINTS + 1))
+    kinds = ("dh",) * n if seed == 0 else tuple(rng.choice(PARAMETRISATIONS, n))
+    types = ("revolute",) * n if seed < 2 else tuple(rng.choice(JOINT_TYPES, n))
+    structure = Structure(kinds, base=_rigid(rng), tool=_rigid(rng), joint_types=types)
+    q = rng.uniform(-3, 3, (30, n))
+    tables = rng.normal(scale=0.3, size=(6, 4, n))
+    inputs = kinematics._compiled_inputs(structure, tables, turns(q), rng.normal(size=3))
+    assert inputs is not None
+    plan = kinematics._plan_rows(structure.parametrisation, structure.joint_types)
+    assert plan[:, 6].sum() == sum(kind == "dh" and joint_type == "revolute"
+                                   for kind, joint_type in zip(kinds, types, strict=True))
+    whole = compiled.positions(inputs.table, plan, inputs.cos, inputs.sin, inputs.slides,
+                               inputs.start, structure.base)
+    by_motion = compiled.jacobian(inputs.table, plan, inputs.cos, inputs.sin, inputs.slides,
+                                  inputs.start, structure.base, structure.tool,
+                                  np.eye(3)[None, None].copy(), structure.n_columns)[0]
+    np.testing.assert_array_equal(whole, by_motion)
+
+
 def test_shapes_beyond_the_kernel_take_the_numpy_path() -> None:
     """A batch of poses against one table broadcasts in numpy: the kernel is not asked."""
     structure = Structure.standard(6)

@@ -65,6 +65,7 @@ class Problem:
     linearised_at: Array = field(default_factory=lambda: np.zeros(0))
     _train_weight: Array = field(init=False, repr=False, compare=False)
     _prior: Array = field(init=False, repr=False, compare=False)
+    _in_variables: bool = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         p, n = self.model.n_params, self.model.robot.n_joints
@@ -86,6 +87,7 @@ class Problem:
         for name, value in (("x0", x0), ("joint_sigma_rad", joints), ("linearised_at", at)):
             value.setflags(write=False)
             object.__setattr__(self, name, value)
+        object.__setattr__(self, "_in_variables", bool(np.any(joints > 0)))
         object.__setattr__(self, "_train_weight", self.sigma_m / self.row_sigma(self.train))
         object.__setattr__(self, "_prior", np.flatnonzero(self.model.prior_weight() > 0))
 
@@ -108,7 +110,7 @@ class Problem:
     @property
     def in_variables(self) -> bool:
         """Whether the joints' noise enters the rows' variances (errors in variables)."""
-        return bool(np.any(self.joint_sigma_rad > 0))
+        return self._in_variables
 
     def row_sigma(self, data: Measurements) -> Array:
         """The noise 1σ of each residual row of ``data``, shape (M,), m: the reading's σ and the
@@ -169,6 +171,9 @@ class Problem:
         """f: the mean of the rows' costs (the loss on the training rows, squares of the prior
         rows), for rows (..., M + P) of :meth:`residuals`: shape (...,), m²."""
         rows = np.asarray(rows, dtype=np.float64)
+        if not self._prior.size:  # the swarms' case, without the prior's empty sums
+            return np.asarray(np.sum(self.loss.cost(rows), axis=-1) / rows.shape[-1],
+                              dtype=np.float64)
         split = rows.shape[-1] - self._prior.size
         total = np.sum(self.loss.cost(rows[..., :split]), axis=-1) \
             + np.sum(rows[..., split:] ** 2, axis=-1)

@@ -66,8 +66,14 @@ def _carry(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, k: in
     for axis in range(3):
         for i in range(m):
             p[axis, i] = start[kp, axis]
-    for index in range(plan.shape[0] - 1, -1, -1):
+    index = plan.shape[0]
+    while index > 0:
+        index -= 1
         kind, axis, slot, joint = plan[index, 0], plan[index, 1], plan[index, 2], plan[index, 3]
+        if plan[index, 6] and not keep:
+            _dh_joint(table, k, joint, cq, sq, kq, p)
+            index -= 3
+            continue
         if kind == 1:
             value = table[k, slot, joint] if slot >= 0 else 0.0
             if plan[index, 4]:  # a prismatic joint's slide: its travel at each pose
@@ -97,6 +103,27 @@ def _carry(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, k: in
                     before[index, row, i] = p[row, i]
 
 
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _dh_joint(table: Array, k: int, joint: int, cq: Array, sq: Array, kq: int, p: Array
+              ) -> None:
+    """Carry the points p (3, m) through a revolute standard D-H joint of table k, flange side
+    first: Rx(α), Tx(a), Tz(d), Rz(q + θ). The operations :func:`_carry` does motion by motion,
+    in the same order (equal bits), in one pass over the poses: a motion per pass read and
+    wrote every point four times, and the stores bounded the swarm's positions."""
+    ca, sa = math.cos(table[k, 2, joint]), math.sin(table[k, 2, joint])
+    ct, st = math.cos(table[k, 3, joint]), math.sin(table[k, 3, joint])
+    a, d = table[k, 0, joint], table[k, 1, joint]
+    for i in range(p.shape[1]):
+        y = ca * p[1, i] - sa * p[2, i]
+        z = sa * p[1, i] + ca * p[2, i] + d
+        x = p[0, i] + a
+        ci = cq[joint, kq, i] * ct - sq[joint, kq, i] * st
+        si = sq[joint, kq, i] * ct + cq[joint, kq, i] * st
+        p[0, i] = ci * x - si * y
+        p[1, i] = si * x + ci * y
+        p[2, i] = z
+
+
 # Inlined where it is called (numba's IR): as a call it took a third of the positions' time,
 # its output possibly sharing memory with p for all the compiler could tell.
 @numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -115,8 +142,9 @@ def positions(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, st
 
     Args:
         table: Tables, shape (K, 4, n), m and rad.
-        plan: The motions base to flange, rows (kind, axis, slot, joint, driven, column),
-            (motions, 6); slot −1 for a motion without a table entry.
+        plan: The motions base to flange, rows (kind, axis, slot, joint, driven, column,
+            whole), (motions, 7); slot −1 for a motion without a table entry; ``whole`` on
+            the flange-side motion of a revolute standard D-H joint (carried in one pass).
         cq: cos q joint-major, shape (n, 1 or K, m). sq: sin q, likewise.
         slides: q joint-major, shape (n, 1 or K, m), read for prismatic joints only (any
             shape without one).

@@ -36,6 +36,7 @@ poses or tables.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from functools import cache
@@ -358,11 +359,17 @@ def _compiled() -> Any:
 @cache
 def _plan_rows(parametrisation: tuple[str, ...], joint_types: tuple[str, ...]
                ) -> NDArray[np.int64]:
-    """The motions base to flange as rows (kind, axis, slot, joint, driven, column), shape
-    (motions, 6): what the compiled kernel reads."""
-    rows = [(kind, axis, slot, joint, int(driven), column)
+    """The motions base to flange as rows (kind, axis, slot, joint, driven, column, whole),
+    shape (motions, 7): what the compiled kernel reads. ``whole`` is 1 on the flange-side
+    motion of a revolute standard D-H joint, whose four motions the kernel carries a point
+    through in one pass over the poses."""
+    rows = [[kind, axis, slot, joint, int(driven), column, 0]
             for kind, axis, _, _, slot, joint, driven, column in _plan(parametrisation,
                                                                         joint_types)]
+    last = -1
+    for name, joint_type in zip(parametrisation, joint_types, strict=True):
+        last += len(joint_motions(name, joint_type))
+        rows[last][6] = int(name == "dh" and joint_type == "revolute")
     return np.ascontiguousarray(rows, dtype=np.int64)
 
 
@@ -387,7 +394,7 @@ def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
     broadcasts any): tables (K, 4, n), angles of the poses or one set per table, a point or one
     per table."""
     batch = dh.shape[:-2]
-    size = int(np.prod(batch, dtype=np.int64))
+    size = math.prod(batch)
     q_batch = angles.q_rad.shape[:-2]
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
     if q_batch not in ((), batch) or local.shape[:-1] not in ((), batch) or size == 0:

@@ -15,6 +15,7 @@ at a fraction of the cost.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -126,7 +127,7 @@ class Tracker:
         """The objective's rows for unknowns of shape (..., p): shape (..., R), m
         (:meth:`twin.problem.Problem.residuals`: the training rows, then the prior rows)."""
         x = np.asarray(x, dtype=np.float64)
-        self.evaluations += int(np.prod(x.shape[:-1], dtype=np.int64))
+        self.evaluations += math.prod(x.shape[:-1])
         return self.problem.residuals(x)
 
     def cost(self, x: ArrayLike) -> Array:

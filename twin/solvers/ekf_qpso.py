@@ -29,6 +29,7 @@ BETA_START, BETA_END = 1.0, 0.5
 def qpso(tracker: Tracker, center: Array, budget: Budget, rng: np.random.Generator) -> Outcome:
     """Quantum-behaved PSO around ``center`` (p,) until ``budget`` stops it."""
     iterations = budget.max_iterations
+    lower, upper = tracker.problem.lower, tracker.problem.upper
 
     def move(swarm: Swarm, k: int) -> Array:
         beta = BETA_START - (BETA_START - BETA_END) * k / max(iterations - 1, 1)
@@ -36,7 +37,7 @@ def qpso(tracker: Tracker, center: Array, budget: Budget, rng: np.random.Generat
         attractor = phi * swarm.best_x + (1.0 - phi) * swarm.g_x
         mbest = np.mean(swarm.best_x, axis=0)
         spread = beta * np.abs(mbest - swarm.x) * np.log(1.0 / (1.0 - u))  # 1 − u ∈ (0, 1]
-        return np.where(coin < 0.5, attractor - spread, attractor + spread)
+        return np.clip(np.where(coin < 0.5, attractor - spread, attractor + spread), lower, upper)
 
     x_init = initial_swarm(tracker.problem, np.asarray(center, dtype=np.float64), N_PARTICLES, rng)
     return run_population(tracker, x_init, budget, move)

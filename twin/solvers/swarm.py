@@ -9,8 +9,8 @@
   (eqs. 19–27): one cubic curve in R^p through the particles in index order, chord-length
   parameters from full-vector distances normalised to [0, 1] (eqs. 20–22), interpolated with
   :func:`scipy.interpolate.make_interp_spline` and sampled at M evenly spaced parameters (with
-  the extra ``fast``, in a study's workers, the same curve drawn by a compiled kernel:
-  :mod:`twin.solvers.compiled`).
+  the extra ``fast``, in a study's workers, the same curve drawn by a compiled kernel, and
+  each iteration's moves and selection in one compiled call each: :mod:`twin.solvers.compiled`).
 - :func:`run_population`: the loop. Each iteration a method proposes K ≥ N candidates, all are
   evaluated in ONE batched call, the best N are kept (:func:`best_in_slots`: velocities and
   personal bests stay with their slots), personal and global bests are updated elitistically, and
@@ -53,6 +53,7 @@ OMEGA_START, OMEGA_END = 0.9, 0.4
 """Inertia weight, decreasing linearly over the stage."""
 C_PERSONAL = C_SOCIAL = 1.49618
 """Learning factors c1, c2 (Clerc's constriction-equivalent values)."""
+_COEFFICIENTS = np.array([C_PERSONAL, C_SOCIAL])
 VELOCITY_FRACTION = 0.2
 """Velocity clamp as a fraction of the search range."""
 SPLINE_DEGREE = 3
@@ -76,17 +77,16 @@ def initial_swarm(
 
 
 def pso_velocity(
-    x: Array, v: Array, best_x: Array, g_x: Array, omega: float, vmax: Array,
-    rng: np.random.Generator,
+    x: Array, v: Array, best_x: Array, g_x: Array, omega: float, vmax: Array, r: Array
 ) -> Array:
     """Eq. 18's velocity ``ω v + c1 r1 (P − x) + c2 r2 (G − x)``, clamped to ±vmax; shape (N, p).
 
     Args:
         x: Positions (N, p). v: Velocities (N, p). best_x: Personal bests (N, p).
         g_x: Global best (p,). omega: Inertia weight. vmax: Velocity clamp (p,).
-        rng: Source of r1, r2 ~ U(0, 1), drawn per particle and dimension.
+        r: r1 and r2 ~ U(0, 1), per particle and dimension, shape (2, N, p).
     """
-    r1, r2 = rng.random((2, *x.shape))
+    r1, r2 = r
     v = omega * v + C_PERSONAL * r1 * (best_x - x) + C_SOCIAL * r2 * (g_x - x)
     return np.clip(v, -vmax, vmax)
 
@@ -185,8 +185,9 @@ class Swarm:
 
 
 Move = Callable[[Swarm, int], Array]
-"""``move(swarm, k) -> candidates (K, p)`` for iteration k (0-based); K ≥ N, the first N are the
-particles' new positions in slot order (their velocities, if any, already set in ``swarm.v``)."""
+"""``move(swarm, k) -> candidates (K, p)`` for iteration k (0-based), inside the box; K ≥ N, the
+first N are the particles' new positions in slot order (their velocities, if any, already set in
+``swarm.v``)."""
 
 
 def best_in_slots(candidates: Array, f: Array, n: int) -> tuple[Array, Array]:
@@ -214,6 +215,30 @@ def best_in_slots(candidates: Array, f: Array, n: int) -> tuple[Array, Array]:
     return x, fx
 
 
+def settle(swarm: Swarm, candidates: Array, f: Array, compiled: bool) -> None:
+    """The swarm after an iteration: the best N candidates in the slots (:func:`best_in_slots`)
+    and the personal bests updated where they improved (elitist), in place; on the compiled
+    kernel (``compiled``) in one pass of :func:`twin.solvers.compiled.keep_best`, the same
+    numbers.
+
+    Args:
+        swarm: The swarm before the iteration's selection.
+        candidates: Positions (K, p), the first N the slots' moved particles. f: Their f (K,).
+        compiled: Whether to take the compiled kernel.
+    """
+    n = swarm.x.shape[0]
+    if compiled:
+        from twin.solvers.compiled import keep_best
+
+        keep_best(candidates, f, np.argsort(f, kind="stable")[:n], swarm.x, swarm.best_x,
+                  swarm.best_f)
+        return
+    swarm.x, f = best_in_slots(candidates, f, n)
+    improved = f < swarm.best_f
+    swarm.best_x[improved] = swarm.x[improved]
+    swarm.best_f[improved] = f[improved]
+
+
 def run_population(tracker: Tracker, x_init: Array, budget: Budget, move: Move) -> Outcome:
     """Evaluate, move, select and record a swarm until ``budget`` stops it.
 
@@ -226,23 +251,17 @@ def run_population(tracker: Tracker, x_init: Array, budget: Budget, move: Move) 
     Returns:
         G_best, why the swarm stopped, and whether G_best is better than slot 0's start.
     """
-    lower, upper = tracker.problem.lower, tracker.problem.upper
+    compiled = takes_compiled()
     f = tracker.cost(x_init)
     f_start = float(f[0])
     swarm = Swarm(x_init.copy(), np.zeros_like(x_init), x_init.copy(), f.copy())
     if not tracker.started:
         tracker.record(swarm.g_x, swarm.g_f)
-    n = x_init.shape[0]
     best = [swarm.g_f]
     reason = StopReason.MAX_ITERATIONS
     for k in range(budget.max_iterations):
-        candidates = np.clip(move(swarm, k), lower, upper)
-        f = tracker.cost(candidates)
-        candidates, f = best_in_slots(candidates, f, n)
-        swarm.x = candidates
-        improved = f < swarm.best_f
-        swarm.best_x[improved] = candidates[improved]
-        swarm.best_f[improved] = f[improved]
+        candidates = move(swarm, k)
+        settle(swarm, candidates, tracker.cost(candidates), compiled)
         tracker.record(swarm.g_x, swarm.g_f)
         best.append(swarm.g_f)
         if stalled(best, budget):
@@ -263,20 +282,38 @@ def particle_swarm(
     """Global-best PSO around ``center`` (p,), with the B-spline step if ``n_interpolated`` > 0.
 
     ``n_interpolated = 0`` is M3 (PSO); ``N_INTERPOLATED`` is M8 (BIPSO): the M curve points are
-    pooled with the N moved particles and the best N are kept.
+    pooled with the N moved particles and the best N are kept. Where the compiled kernels are
+    taken (:func:`twin.geometry.kinematics.takes_compiled`) an iteration's moves are one call
+    of :func:`twin.solvers.compiled.pso_candidates`, with r1 and r2 drawn here as the numpy path
+    draws them: the same swarm to round-off.
     """
     problem = tracker.problem
     lower, upper = problem.lower, problem.upper
     vmax = VELOCITY_FRACTION * (upper - lower)
     iterations = budget.max_iterations
+    at = _even(n_interpolated) if n_interpolated else np.zeros(0)
 
     def move(swarm: Swarm, k: int) -> Array:
-        swarm.v = pso_velocity(swarm.x, swarm.v, swarm.best_x, swarm.g_x,
-                               inertia(k, iterations), vmax, rng)
+        r = rng.random((2, *swarm.x.shape))
+        omega = inertia(k, iterations)
+        if compiled:
+            candidates, drawn = pso_candidates(swarm.x, swarm.v, swarm.best_x, swarm.g_x, r,
+                                               omega, _COEFFICIENTS, vmax, lower, upper, at,
+                                               CHORD_RTOL)
+            if not drawn:  # fewer than four distinct particles: scipy's lower degree
+                n = swarm.x.shape[0]
+                candidates[n:] = np.clip(interpolated_points(candidates[:n], at.size),
+                                         lower, upper)
+            return np.asarray(candidates, dtype=np.float64)
+        swarm.v = pso_velocity(swarm.x, swarm.v, swarm.best_x, swarm.g_x, omega, vmax, r)
         moved = np.clip(swarm.x + swarm.v, lower, upper)
         if n_interpolated == 0:
             return moved
-        return np.concatenate([moved, interpolated_points(moved, n_interpolated)])
+        points = np.clip(interpolated_points(moved, n_interpolated), lower, upper)
+        return np.concatenate([moved, points])
 
+    compiled = takes_compiled()
+    if compiled:
+        from twin.solvers.compiled import pso_candidates
     x_init = initial_swarm(problem, np.asarray(center, dtype=np.float64), N_PARTICLES, rng)
     return run_population(tracker, x_init, budget, move)
