@@ -17,6 +17,7 @@ import pytest
 
 from twin.dataset import Measurements
 from twin.geometry import kinematics
+from twin.geometry.kinematics import KERNEL_VARIABLE
 from twin.io.measurements import write_measurements
 from twin.io.robot_file import default_robot
 from twin.robot import RobotModel, random_poses
@@ -46,6 +47,20 @@ def _kernel_choice_restored() -> Any:
     if kinematics._BULK[0] != bulk:
         kinematics._BULK[0] = bulk
         kinematics._compiled.cache_clear()
+
+
+@pytest.fixture
+def kernel(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch):  # type: ignore[no-untyped-def]
+    """The kernels taken for the test (parametrised indirectly): ``numpy`` (the reference path)
+    or ``numba`` (the compiled kernels of the extra ``fast``)."""
+    if request.param == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setenv(KERNEL_VARIABLE, request.param)
+    kinematics._compiled.cache_clear()
+    assert kinematics.takes_compiled() == (request.param == "numba")
+    yield request.param
+    monkeypatch.delenv(KERNEL_VARIABLE)
+    kinematics._compiled.cache_clear()
 
 
 @pytest.fixture(scope="session")

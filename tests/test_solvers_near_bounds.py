@@ -14,11 +14,12 @@ from scipy.optimize import least_squares, lsq_linear
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
 from twin.calibration.setup import make_problem
+from twin.geometry import kinematics
 from twin.robot import random_poses
 from twin.scenario import parse_scenario
 from twin.sim import Simulation, simulate
 from twin.solvers import get_solver
-from twin.solvers.lm import boxed_damped_step, damping
+from twin.solvers.lm import BOX_RTOL, boxed_damped_step, damping
 from twin.stopping import Budget
 
 SEEDS = range(10)
@@ -69,11 +70,13 @@ def test_lm_family_matches_scipy_near_the_bounds(simulations: list[Simulation], 
         assert result.converged, (method, result.stop_label)
 
 
+@pytest.mark.parametrize("kernel", ["numpy", "numba"], indirect=True)
 @pytest.mark.parametrize("seed", range(40))
-def test_box_step_is_the_bounded_least_squares_minimiser(seed: int) -> None:
-    """LM's step on the box (BVLS on the damped normal equations) is the minimiser scipy's
-    BVLS finds on the augmented least-squares problem [J; √(μD)] h ≈ [−r; 0], on problems with
-    columns scaled over eleven decades, several bounds in the way and some at zero."""
+def test_box_step_is_the_bounded_least_squares_minimiser(seed: int, kernel: str) -> None:
+    """LM's step on the box (BVLS on the damped normal equations; numpy's, and the compiled
+    one a study's workers take) is the minimiser scipy's BVLS finds on the augmented
+    least-squares problem [J; √(μD)] h ≈ [−r; 0], on problems with columns scaled over eleven
+    decades, several bounds in the way and some at zero."""
     rng = np.random.default_rng(seed)
     m, p = int(rng.integers(10, 80)), int(rng.integers(2, 40))
     J = rng.normal(size=(m, p)) * np.exp(rng.uniform(-18.0, 7.0, size=p))
@@ -99,3 +102,28 @@ def test_box_step_is_the_bounded_least_squares_minimiser(seed: int) -> None:
     # then determined only to ~1e-4 along the weak columns, where the objective cannot tell.
     scale = np.sqrt(np.diag(J.T @ J) + damped)
     assert np.max(np.abs(scale * (step - reference))) <= 1e-8 * np.max(np.abs(scale * reference))
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_the_compiled_box_step_takes_the_numpy_steps(seed: int,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """The compiled BVLS finds the numpy one's step to round-off, on well-scaled problems with
+    bounds in the way."""
+    pytest.importorskip("numba")
+    from twin.solvers.compiled import box_step
+
+    rng = np.random.default_rng(seed)
+    m, p = int(rng.integers(20, 80)), int(rng.integers(2, 30))
+    J = rng.normal(size=(m, p))
+    r = rng.normal(size=m)
+    damped = damping(J.T @ J, 10.0 ** rng.uniform(-6, -1))
+    width = 10.0 ** rng.uniform(-3, -1, size=p)
+    low, high = -width * rng.uniform(0, 1, size=p), width * rng.uniform(0, 1, size=p)
+    monkeypatch.setenv(kinematics.KERNEL_VARIABLE, "numpy")
+    kinematics._compiled.cache_clear()
+    reference = boxed_damped_step(J.T @ J, J.T @ r, damped, low, high)
+    A = J.T @ J + np.diag(damped)
+    step = box_step(A, J.T @ r, low, high, BOX_RTOL)
+    held = np.minimum(reference - low, high - reference) < 1e-12 * width
+    assert held.any(), "no bound in the way: the test would not test the box"
+    np.testing.assert_allclose(step, reference, rtol=1e-9, atol=1e-12 * float(np.max(width)))

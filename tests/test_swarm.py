@@ -55,19 +55,6 @@ def test_duplicate_particles_are_dropped_and_the_curve_still_interpolates() -> N
     np.testing.assert_allclose(curve(t), kept, rtol=0, atol=1e-15)
 
 
-@pytest.fixture
-def kernel(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch):  # type: ignore[no-untyped-def]
-    """The kernels taken for the test: ``numpy`` (scipy's spline) or ``numba`` (compiled)."""
-    if request.param == "numba":
-        pytest.importorskip("numba")
-    monkeypatch.setenv(KERNEL_VARIABLE, request.param)
-    kinematics._compiled.cache_clear()
-    assert kinematics.takes_compiled() == (request.param == "numba")
-    yield request.param
-    monkeypatch.delenv(KERNEL_VARIABLE)
-    kinematics._compiled.cache_clear()
-
-
 @pytest.mark.parametrize("kernel", ["numpy"], indirect=True)
 def test_interpolated_points_run_from_the_first_to_the_last_particle(kernel: str) -> None:
     """M points at evenly spaced t in [0, 1]: the ends are the first and last particles."""

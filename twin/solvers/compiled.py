@@ -192,3 +192,86 @@ def keep_best(candidates: Array, f: Array, chosen: NDArray[np.intp], x: Array, b
         if fx[i] < best_f[i]:
             best_x[i] = x[i]
             best_f[i] = fx[i]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _free_minimiser(A: Array, gradient: Array, h: Array, free: NDArray[np.bool_]) -> Array:
+    """The minimiser of ½hᵀAh + gᵀh over the free unknowns, the held ones fixed at h: the
+    solution of A_ff z = −(g_f + A_fh h_h), shape (free,)."""
+    index = np.nonzero(free)[0]
+    held = np.nonzero(~free)[0]
+    k = index.size
+    system = np.empty((k, k))
+    rhs = np.empty(k)
+    for a in range(k):
+        row = index[a]
+        total = gradient[row]
+        for j in held:
+            total += A[row, j] * h[j]
+        rhs[a] = -total
+        for b in range(k):
+            system[a, b] = A[row, index[b]]
+    return np.linalg.solve(system, rhs)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def box_step(A: Array, gradient: Array, low: Array, high: Array, rtol: float) -> Array:
+    """BVLS on ½hᵀAh + gᵀh with low ≤ h ≤ high, step for step the algorithm of
+    :func:`twin.solvers.lm.boxed_damped_step` (the reference, and the path without numba),
+    whose Python overhead per small solve was nine tenths of its time; shape (p,).
+
+    Args:
+        A: JᵀJ + diag(damping), positive definite, shape (p, p). gradient: Jᵀr, shape (p,).
+        low, high: The step's limits, shape (p,), low ≤ 0 ≤ high.
+        rtol: A held unknown is released only when pushed inwards by more than this fraction
+            of the gradient's size (:data:`twin.solvers.lm.BOX_RTOL`).
+    """
+    p = gradient.size
+    h = np.zeros(p)
+    side = np.zeros(p, dtype=np.int8)  # −1 held at low, +1 held at high, 0 free
+    free = np.ones(p, dtype=np.bool_)
+    while free.any():
+        index = np.nonzero(free)[0]
+        z = _free_minimiser(A, gradient, h, free)
+        out = False
+        for a in range(index.size):
+            i = index[a]
+            h[i] = min(max(z[a], low[i]), high[i])
+            if z[a] < low[i] or z[a] > high[i]:
+                side[i] = -1 if z[a] < low[i] else 1
+                free[i] = False
+                out = True
+        if not out:
+            break
+    for _ in range(p):
+        push = (A @ h + gradient) * side  # > 0 where the bound holds against descent
+        k = int(np.argmax(push))
+        size = abs(gradient[k])
+        for j in range(p):
+            size += abs(A[k, j]) * abs(h[j])
+        if push[k] <= rtol * size:
+            break
+        side[k] = 0
+        while (side == 0).any():
+            free = side == 0
+            index = np.nonzero(free)[0]
+            z = _free_minimiser(A, gradient, h, free)
+            now = h[index]
+            fraction = np.full(index.size, np.inf)
+            blocked = False
+            for a in range(index.size):
+                i = index[a]
+                if z[a] < low[i] or z[a] > high[i]:
+                    limit = low[i] if z[a] < low[i] else high[i]
+                    fraction[a] = (limit - now[a]) / (z[a] - now[a])
+                    blocked = True
+            if not blocked:
+                h[index] = z
+                break
+            first = int(np.argmin(fraction))
+            i = index[first]
+            below = z[first] < low[i]
+            h[index] = now + fraction[first] * (z - now)
+            h[i] = low[i] if below else high[i]
+            side[i] = -1 if below else 1
+    return np.minimum(np.maximum(h, low), high)

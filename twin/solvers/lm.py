@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.arrays import Array
+from twin.geometry.kinematics import takes_compiled
 from twin.problem import Problem
 from twin.solvers.base import Outcome, Solver, SolverResult, Tracker
 from twin.stopping import Budget, StopReason, held_at_bounds, optimality, small_step
@@ -105,7 +106,9 @@ def boxed_damped_step(normal: Array, gradient: Array, damped: Array, low: Array,
     inside; then release the held unknown the gradient pushes inwards hardest and walk towards
     the new free minimiser, stopping at the first bound in the way, until no held unknown is
     pushed inwards (beyond round-off, :data:`BOX_RTOL`). A is positive definite (damping > 0),
-    so the minimiser is unique.
+    so the minimiser is unique. Where the compiled kernels are taken
+    (:func:`twin.geometry.kinematics.takes_compiled`) the same steps run in
+    :func:`twin.solvers.compiled.box_step`, the same minimiser to round-off.
 
     Args:
         normal: JᵀJ, shape (p, p). gradient: Jᵀr, shape (p,). damped: Damping, all > 0, (p,).
@@ -115,6 +118,10 @@ def boxed_damped_step(normal: Array, gradient: Array, damped: Array, low: Array,
     p = gradient.size
     A = normal.copy()
     A.flat[:: p + 1] += damped
+    if takes_compiled():
+        from twin.solvers.compiled import box_step
+
+        return np.asarray(box_step(A, gradient, low, high, BOX_RTOL), dtype=np.float64)
     h = np.zeros(p)  # feasible: low <= 0 <= high
     side = np.zeros(p, dtype=np.int8)  # −1 held at low, +1 held at high, 0 free
 
