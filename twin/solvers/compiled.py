@@ -211,7 +211,9 @@ def _free_minimiser(A: Array, gradient: Array, h: Array, free: NDArray[np.bool_]
         rhs[a] = -total
         for b in range(k):
             system[a, b] = A[row, index[b]]
-    return np.linalg.solve(system, rhs)
+    z = np.empty(k)
+    z[:] = np.linalg.solve(system, rhs)
+    return z
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
