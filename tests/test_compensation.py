@@ -146,6 +146,25 @@ def test_a_program_row_at_an_aligned_wrist_is_singular(irb120: RobotModel,
     assert smallest[0] < 0.02 < smallest[1]
 
 
+def test_a_position_target_at_a_stretched_arm_is_singular(irb120: RobotModel,
+                                                         true_robot: RobotModel) -> None:
+    """Cartesian position targets: with the elbow stretched and the wrist 0.5° from aligned the
+    flange moves outwards only through large joint motions, and the row is flagged singular
+    (the position rows' smallest singular value, from numpy's SVD, below 0.02 m/rad) — its
+    correction turns joints more than twice as far as the same target's with the wrist bent
+    40°, which is corrected as usual."""
+    q = np.deg2rad([[20.0, 30.0, -79.9, 30.0, 0.5, -20.0],
+                    [20.0, 30.0, -79.9, 30.0, 40.0, -20.0]])
+    solved = compensate_targets(true_robot, irb120.flange_positions(q), q)
+    assert solved.status.tolist() == [STATUS_SINGULAR, STATUS_OK]
+    assert np.all(solved.position_error_m < 1e-9)
+    _, jacobian = flange_jacobian(true_robot.structure, true_robot.dh, q)
+    smallest = np.linalg.svd(jacobian[:, :3], compute_uv=False)[:, -1]
+    assert smallest[0] < 0.02 < smallest[1]
+    change_deg = np.rad2deg(np.max(np.abs(solved.q_rad - q), axis=1))
+    assert change_deg[0] > 2.0 * change_deg[1]
+
+
 def test_compensation_with_identified_model_reaches_identification_accuracy(
     irb120: RobotModel, true_robot: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:
@@ -222,15 +241,17 @@ def test_cli_corrects_a_program(
 def test_cli_targets_report_unreachable_rows(
     tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:
-    """`twin compensate --targets` solves reachable rows and marks a far one unreachable."""
+    """`twin compensate --targets` solves reachable rows, marks a far one unreachable and one
+    at the edge of the reach (the arm stretched to reach it) singular."""
     identified = _write_result(tmp_path / "result.json", irb120, measurements, port_m)
     targets = tmp_path / "targets.csv"
-    targets.write_text("x,y,z\n400,100,500\n2000,0,0\n300,-200,400\n")
+    targets.write_text("x,y,z\n400,100,500\n2000,0,0\n300,-200,400\n457.1,0,752.8\n")
     out = tmp_path / "corrected.csv"
     assert main(["compensate", "--identified", str(tmp_path / "result.json"),
                  "--targets", str(targets), "--out", str(out)]) == 0
     rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
-    assert [row[6] for row in rows] == [STATUS_OK, STATUS_UNREACHABLE, STATUS_OK]
+    assert [row[6] for row in rows] == [STATUS_OK, STATUS_UNREACHABLE, STATUS_OK,
+                                        STATUS_SINGULAR]
     assert rows[1][:6] == [""] * 6 and float(rows[1][7]) > 1000.0
     q = np.deg2rad([[float(v) for v in rows[i][:6]] for i in (0, 2)])
     np.testing.assert_allclose(identified.flange_positions(q) * 1e3,

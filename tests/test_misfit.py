@@ -25,6 +25,18 @@ def test_the_quantile_is_scipys(dof: int) -> None:
     assert chi2_quantile(1 - ALPHA, dof) == pytest.approx(chi2.ppf(1 - ALPHA, dof), rel=1e-10)
 
 
+def test_the_p_value_is_scipys_and_decides_as_the_threshold() -> None:
+    """A misfit's p-value is scipy.stats.chi2.sf of its statistic, and p < ALPHA exactly where
+    the statistic is above the quantile, on residuals from the noise to ten times it."""
+    rng = np.random.default_rng(4)
+    sigma = 1e-5
+    for factor in (0.8, 1.0, 1.05, 1.1, 1.3, 3.0, 10.0):
+        found = misfit_test(rng.normal(0, factor * sigma, 400), 24, sigma)
+        reference = chi2.sf(found.statistic, found.dof)
+        assert found.p_value == pytest.approx(reference, rel=1e-9, abs=1e-300)
+        assert (found.p_value < ALPHA) == found.misfit
+
+
 def test_noise_passes_and_a_model_error_does_not() -> None:
     """Residuals of the stated noise pass; three times the noise fails; a noise 20 % above the
     stated one on many rows rejects χ² and is a misfit too — the test decides on χ² alone, and

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
+from scipy.stats import chi2
 
 import twin
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
@@ -132,6 +133,9 @@ def test_the_misfit_test_uses_the_same_variances(tmp_path: Path,
     assert "MISFIT" not in printed and "errors in variables: each row weighted by 1/σ_i²" in printed
     document = json.loads(result.read_text())
     assert document["misfit"]["misfit"] is False
+    assert document["misfit"]["p_value"] == pytest.approx(
+        chi2.sf(document["misfit"]["chi2"], document["misfit"]["dof"]), rel=1e-5)
+    assert document["misfit"]["p_value"] >= 0.001
     assert document["misfit"]["noise_source"].startswith("stated σ with the joints' noise")
     noise = document["noise"]
     assert noise["errors_in_variables"] is True

@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import gammaincinv
+from scipy.special import gammaincc, gammaincinv
 
 from twin.dataset import REFERENCE, Measurements
 from twin.report.display import SIGNIFICANT, mm
@@ -74,6 +74,13 @@ class Misfit(NamedTuple):
     def ratio(self) -> float:
         """RMSE / noise."""
         return self.rmse_m / self.noise_m
+
+    @property
+    def p_value(self) -> float:
+        """P(χ²(dof) ≥ T): the chance of residuals at least this large if the model and the
+        noise were right (scipy.stats.chi2.sf without scipy.stats); the test's verdict is
+        ``p_value < ALPHA``."""
+        return float(gammaincc(self.dof / 2.0, self.statistic / 2.0))
 
     @property
     def implied_sigma_m(self) -> float:

@@ -53,7 +53,8 @@ DESCRIPTION = (
     "Compute the joint angles to command so that the real (identified) robot "
     "reaches Cartesian flange targets (--targets x,y,z in mm, base frame) or the flange "
     "poses a program written against the nominal model meant (--joints q1..qN in degrees). "
-    "Writes q1..qN (deg), a status (ok, unreachable, joint_limit) and the remaining flange "
+    "Writes q1..qN (deg), a status (ok, unreachable, joint_limit, singular) and the "
+    "remaining flange "
     "error (mm) per row; nothing is clipped. With --verify SCENARIO.toml: simulate, "
     "calibrate and compare the true flange error with and without compensation."
 )

@@ -118,8 +118,16 @@ def compensate_targets(
         base_p_target: Flange position targets, shape (m, 3), m.
         q_nominal_rad: Nominal solutions (e.g. from :func:`nominal_ik`), shape (m, n), rad.
         joints: The identified joint-level errors, if any (:class:`ActualJoints`).
+
+    Returns:
+        The solved commands; a row whose nominal solution is less than
+        :data:`~twin.compensation.targets.MIN_DEXTERITY` from a singularity of the flange's
+        position (:func:`~twin.compensation.targets.dexterity`, position rows) is ``singular``:
+        a correction there swings joints far, as at a program's singular rows.
     """
-    return solve_ik(identified, base_p_target, q_nominal_rad, joints=joints)
+    solved = solve_ik(identified, base_p_target, q_nominal_rad, joints=joints)
+    return solved._replace(regular=dexterity(identified, q_nominal_rad, position_only=True)
+                           >= MIN_DEXTERITY)
 
 
 APPROACH_PASSES = 4

@@ -20,26 +20,29 @@ MIN_DEXTERITY = 0.02
 of a metre, an elbow some 10° from stretched, a wrist some 6° from aligned."""
 
 
-def dexterity(robot: RobotModel, q_rad: ArrayLike, length_m: float = DEXTERITY_LENGTH_M
-              ) -> Array:
+def dexterity(robot: RobotModel, q_rad: ArrayLike, length_m: float = DEXTERITY_LENGTH_M, *,
+              position_only: bool = False) -> Array:
     """Smallest singular value of the joint Jacobian, rotation rows scaled by ``length_m``.
 
     Zero at a singularity (stretched or folded elbow, aligned wrist axes); ``length_m`` weighs
-    the angular rows against the linear ones (:data:`DEXTERITY_LENGTH_M` by default). An arm of
-    fewer than :data:`~twin.compensation.ik.FULL_POSE_JOINTS` joints is only ever asked for
-    positions (:mod:`twin.compensation.joints`): its dexterity is that of the position rows alone (a
-    SCARA's stretched elbow loses a direction of the flange's position, not of its 6D motion).
+    the angular rows against the linear ones (:data:`DEXTERITY_LENGTH_M` by default). Where only
+    the flange's position is asked for — Cartesian position targets, or any target of an arm of
+    fewer than :data:`~twin.compensation.ik.FULL_POSE_JOINTS` joints
+    (:mod:`twin.compensation.joints`) — it is that of the position rows alone: what a position
+    correction needs (a SCARA's stretched elbow loses a direction of the flange's position, an
+    aligned wrist none).
 
     Args:
         robot: The robot, SI.
         q_rad: Joint angles, shape (m, n), rad.
         length_m: Weight of the rotation rows, m.
+        position_only: Take the position rows alone.
 
     Returns:
         σ_min, shape (m,), m/rad.
     """
     _, jacobian = flange_jacobian(robot.structure, robot.dh, np.asarray(q_rad, dtype=np.float64))
-    if robot.n_joints < FULL_POSE_JOINTS:
+    if position_only or robot.n_joints < FULL_POSE_JOINTS:
         jacobian = jacobian[:, :3]
     else:
         jacobian[:, 3:] *= length_m

@@ -310,6 +310,7 @@ def fit_to_dict(result: CalibrationResult, causes: Sequence[Cause] = ()) -> dict
             "chi2": significant(misfit.statistic),
             "dof": misfit.dof,
             "threshold": significant(misfit.threshold),
+            "p_value": significant(misfit.p_value),
             "causes": [cause.describe() for cause in causes],
             "steps_found": bool(result.steps),
         }
