@@ -40,6 +40,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.linearisation import model_jacobian
 from twin.analysis.metrics import NO_ROWS
 from twin.analysis.uncertainty import cramer_rao_rms
 from twin.arrays import Array
@@ -221,7 +222,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     train = sim.measurements.subset(first.train_rows)
     validation = sim.measurements.subset(first.validation_rows)
     x_true = true_unknowns(sim, model)
-    _, jacobian = model.jacobian(x_true, train)
+    _, jacobian = model_jacobian(model, x_true, train)  # as the bound linearises it below
     sigma_m = noise_sigma_m(sim, jacobian)
     crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace,
                                           row_sigma_m(sim, jacobian, sigma_m))
