@@ -11,6 +11,7 @@ A Twin owns mutable MuJoCo data: use one per thread.
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import NamedTuple
 
@@ -73,7 +74,8 @@ class Twin:
         spec = build_spec(robot, self.port_m, physics, floor=True, attachment_m=attachment_m)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
-        self.statics_model = spec.compile()
+        # The same compiled model, copied rather than compiled again (a third of the cost).
+        self.statics_model = copy.copy(self.model)
         self.statics_model.opt.disableflags |= int(_STATICS_OFF)
         if not physics.gravity:
             self.statics_model.opt.gravity[:] = 0.0
