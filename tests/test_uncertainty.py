@@ -15,6 +15,7 @@ from twin.analysis.uncertainty import (
     residual_sigma,
     rms_distance,
 )
+from twin.analysis.unseen import unseen_directions, unseen_with_weak
 from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
@@ -108,3 +109,26 @@ def test_calibration_carries_covariance_and_an_honest_accuracy(
     seen = ~held_entirely
     z = (result.solver.x - held_truth)[seen] / uncertainty.sigma[seen]
     assert np.max(np.abs(z)) < 5.0, z
+
+
+def test_unseen_with_and_without_the_start_share_one_factorisation(
+        irb120: RobotModel, port_m: np.ndarray, true_delta: np.ndarray) -> None:
+    """:func:`unseen_with_weak` gives what :func:`unseen_directions` gives without and with the
+    start: with noise, where the start's test holds weak directions the other does not, and
+    without, where it holds nothing more."""
+    q = random_poses(irb120, 60, np.random.default_rng(4))
+    data = length_measurements(q, np.ones(len(q)))
+    model = make_model(irb120, Rig.cable(port_m))
+    nominal = measurement_identifiability(model, np.zeros(24), data)
+    x, start, scale = true_delta.ravel(), np.zeros(24), model.scale()
+    extra = []
+    for noise in (SIGMA_M, 0.0):
+        pair = unseen_with_weak(model, x, data, noise, scale, nominal, None, start)
+        alone = (unseen_directions(model, x, data, noise, scale, nominal),
+                 unseen_directions(model, x, data, noise, scale, nominal, start=start))
+        for shared, own in zip(pair, alone, strict=True):
+            np.testing.assert_array_equal(shared.basis, own.basis)
+            np.testing.assert_array_equal(shared.weak_sigma, own.weak_sigma)
+            assert (shared.names, shared.weak_names) == (own.names, own.weak_names)
+        extra.append(pair[1].basis.shape[1] - pair[0].basis.shape[1])
+    assert extra[0] > 0 and extra[1] == 0

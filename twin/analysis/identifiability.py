@@ -57,6 +57,9 @@ WEAK_RTOL = 1e-3
 them is amplified more than a thousandfold against the best-seen direction."""
 NAME_COEFFICIENT_TOL = 1e-3
 """Coefficients of a named null direction smaller than this (relative) are left out."""
+DECIDED_MARGIN = 2.0
+"""The base parameters' quick test leaves to the SVD of each trial the columns whose distance,
+or the kept columns whose σ_min, lies within this factor of the rank's threshold."""
 SPREAD_POSES = 200
 """Random poses of :func:`spread_rank`: many times the unknowns, so no direction is missed by
 chance."""
@@ -156,11 +159,43 @@ def name_direction(direction: ArrayLike, names: tuple[str, ...]) -> str:
 def _base_in_order(R: Array, threshold: float, order: NDArray[np.intp]) -> NDArray[np.intp]:
     """Columns tried in ``order``, each kept if it raises the rank of those kept
     (σ_min > threshold); returned ascending."""
+    decided = _base_by_distances(R, threshold, order)
+    if decided is not None:
+        return decided
     kept: list[int] = []
     for column in order:
         trial = R[:, [*kept, column]]
         if np.linalg.svd(trial, compute_uv=False)[-1] > threshold:
             kept.append(int(column))
+    return np.sort(np.asarray(kept, dtype=np.intp))
+
+
+def _base_by_distances(R: Array, threshold: float, order: NDArray[np.intp]
+                       ) -> NDArray[np.intp] | None:
+    """:func:`_base_in_order`'s decisions with one QR per rejected column and one SVD in all,
+    instead of one SVD per column; None where that cannot vouch for them.
+
+    A column's distance from the span of those kept before it (the diagonal of the R factor of
+    the columns in that order) bounds from above the smallest singular value of the kept
+    columns with it: at or below the threshold it is rejected, and with a margin of
+    :data:`DECIDED_MARGIN` that cannot be round-off. Every column kept this way is vouched for
+    at the end: the columns kept in all have σ_min above the threshold, and fewer of them
+    (each earlier trial) have σ_min no smaller (interlacing).
+    """
+    if R.shape[0] < R.shape[1]:
+        return None  # wider than tall: more columns than rows can pass, as the SVD test has it
+    kept: list[int] = []
+    rest = [int(column) for column in order]
+    while rest:
+        distance = np.abs(np.diagonal(np.linalg.qr(R[:, [*kept, *rest]], mode="r")))[len(kept):]
+        rejected = np.flatnonzero(distance <= threshold * DECIDED_MARGIN)
+        first = int(rejected[0]) if rejected.size else len(rest)
+        if first < len(rest) and distance[first] > threshold / DECIDED_MARGIN:
+            return None
+        kept += rest[:first]
+        rest = rest[first + 1:]
+    if kept and np.linalg.svd(R[:, kept], compute_uv=False)[-1] <= threshold * DECIDED_MARGIN:
+        return None
     return np.sort(np.asarray(kept, dtype=np.intp))
 
 

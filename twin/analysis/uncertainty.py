@@ -249,10 +249,12 @@ def calibration_uncertainty(
     prior = model.prior_weight()
     # J's R factor in place of J: the same JᵀJ, a p-row matrix to factorise.
     triangle = linearised.triangle
+    seen = unseen.seen  # one factorisation for P = S Q and the rows of Q
+    seen_x = unseen.scale[:, None] * seen
     covariance = seen_covariance(
-        np.concatenate([triangle / noise, np.diag(prior)[prior > 0]]), unseen.seen_x, 1.0) \
-        if noise > 0 else seen_covariance(triangle, unseen.seen_x, 0.0)
-    held = np.linalg.norm(unseen.seen, axis=1) < HELD_ROW_TOL
+        np.concatenate([triangle / noise, np.diag(prior)[prior > 0]]), seen_x, 1.0) \
+        if noise > 0 else seen_covariance(triangle, seen_x, 0.0)
+    held = np.linalg.norm(seen, axis=1) < HELD_ROW_TOL
     sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
     poses = model.poses(q_workspace_rad)
     return CalibrationUncertainty(

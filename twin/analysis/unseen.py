@@ -180,6 +180,90 @@ def _column_units(jacobian: Array, scale: Array) -> Array:
     return np.where(moving, units, typical)
 
 
+class _Sight(NamedTuple):
+    """What the data see at one x, before any candidate is held: the tests with and without
+    the start read it alike."""
+
+    scale: Array
+    """The unknowns' plausible moves, shape (p,) (:func:`unseen_directions`' ``scale``)."""
+    weight: Array
+    """The hold's weight w, shape (p,)."""
+    jacobian: Array
+    """The linearised rows' Jacobian, shape (M, p)."""
+    best: float
+    """The largest singular value of the bound-scaled Jacobian."""
+    exact: Array
+    """Orthonormal basis of its exact null space, bound-scaled, shape (p, e)."""
+    covariance: Array
+    """The Cramér–Rao covariance of the bound-scaled unknowns, every other one free, (p, p)."""
+    candidates: Array
+    """The nominal null directions as unit vectors, bound-scaled, shape (p, k)."""
+    outside: Array
+    """Each candidate's distance from the exact null space, shape (k,)."""
+    sigma: Array
+    """Each candidate's Cramér–Rao σ, in half-ranges of the box, shape (k,)."""
+
+
+def _sight(model: Model, x: Array, data: Measurements, noise_m: float, scale: Array,
+           nominal: Identifiability, row_weight: ArrayLike | None) -> _Sight:
+    """The factorisation and the candidates' tests at x (arguments of
+    :func:`unseen_directions`)."""
+    weight = np.where(rig_unknowns(model), RIG_WEIGHT, 1.0) * scale
+    linearised = linearise(model, x, data, row_weight)
+    # The scaled J's singular values and right vectors are its R factor's, scaled alike.
+    _, s, vt = np.linalg.svd(linearised.triangle * scale, full_matrices=True)
+    s = np.concatenate([s, np.zeros(scale.size - s.size)])
+    exact = vt[s <= RANK_RTOL * max(s[0], 1e-300)].T
+    keep = s > RANK_RTOL * max(s[0], 1e-300)
+    covariance = (vt[keep].T / s[keep] ** 2) @ vt[keep] * noise_m**2
+    candidates = nominal.null_space / scale[:, None]
+    candidates = candidates / np.linalg.norm(candidates, axis=0)
+    outside = np.linalg.norm(candidates - exact @ (exact.T @ candidates), axis=0)
+    sigma = np.sqrt(np.maximum(np.einsum("pk,pq,qk->k", candidates, covariance, candidates),
+                               0.0))
+    return _Sight(scale, weight, linearised.jacobian, float(s[0]), exact, covariance,
+                  candidates, outside, sigma)
+
+
+def _held(sight: _Sight, noise_m: float, offset: Array | None) -> NDArray[np.bool_]:
+    """Which candidates are held (module docstring); the weak ones the answer does not tell
+    from the start too when ``offset`` (the answer less the start, bound-scaled, (p,)) is
+    given."""
+    sigma = sight.sigma
+    held = (sight.outside < INSIDE_TOL) | (sigma > HELD_SIGMA) | ~np.isfinite(sigma)
+    if offset is not None and noise_m > 0:
+        # Weak: seen below WEAK_RTOL of the best-seen direction (σ·s_max/σ̂ is the inverse of
+        # its relative sensitivity), as the identifiability report counts weak directions.
+        weak = ~held & (sigma * sight.best > noise_m / WEAK_RTOL)
+        held |= _indistinct(sight.candidates, sight.covariance, weak, offset)
+    return np.asarray(held)
+
+
+def _subspace(sight: _Sight, held: NDArray[np.bool_], nominal: Identifiability, model: Model,
+              noise_m: float) -> Unseen:
+    """The unseen subspace of the exact null space and the ``held`` candidates."""
+    scale, weight, exact, candidates = sight.scale, sight.weight, sight.exact, sight.candidates
+    # A held candidate adds to the exact null space only what lies outside it: a candidate
+    # inside it (to INSIDE_TOL) would add its round-off, normalised into a random direction.
+    new = held & (sight.outside >= INSIDE_TOL)
+    rest = candidates[:, new] - exact @ (exact.T @ candidates[:, new])
+    basis = exact
+    if rest.shape[1]:
+        u, singular, _ = np.linalg.svd(rest, full_matrices=False)
+        basis = np.column_stack([exact, u[:, singular > INSIDE_TOL]])
+    if basis.shape[1]:
+        # The same subspace, orthonormal in the hold's weighted unknowns.
+        basis = np.linalg.qr(basis * (scale / weight)[:, None])[0]
+    weak = ~held & (sight.sigma > WEAK_SIGMA)
+    labels = np.asarray(nominal.unidentifiable, dtype=object)
+    return Unseen(weight, np.asarray(basis, dtype=np.float64),
+                  (*labels[held], *_extra_names(
+                      basis, candidates[:, held] * (scale / weight)[:, None], sight.jacobian,
+                      weight, model.names)),
+                  float(noise_m), tuple(labels[weak]),
+                  np.asarray(sight.sigma[weak], dtype=np.float64))
+
+
 def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: float,
                       scale: ArrayLike, nominal: Identifiability,
                       row_weight: ArrayLike | None = None, start: ArrayLike | None = None
@@ -202,47 +286,27 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
         start: Where the fit started (the nominal), shape (p,): a candidate whose value from
             it is within :data:`SIGNIFICANT_SIGMAS` of its σ is held too; None: no such test.
     """
+    x = np.asarray(x, dtype=np.float64)
     scale = np.asarray(scale, dtype=np.float64)
-    weight = np.where(rig_unknowns(model), RIG_WEIGHT, 1.0) * scale
-    linearised = linearise(model, x, data, row_weight)
-    jacobian = linearised.jacobian
-    # The scaled J's singular values and right vectors are its R factor's, scaled alike.
-    _, s, vt = np.linalg.svd(linearised.triangle * scale, full_matrices=True)
-    s = np.concatenate([s, np.zeros(scale.size - s.size)])
-    exact = vt[s <= RANK_RTOL * max(s[0], 1e-300)].T
-    keep = s > RANK_RTOL * max(s[0], 1e-300)
-    # The Cramér–Rao covariance of the bound-scaled unknowns, every other one free.
-    covariance = (vt[keep].T / s[keep] ** 2) @ vt[keep] * noise_m**2
-    candidates = nominal.null_space / scale[:, None]
-    candidates = candidates / np.linalg.norm(candidates, axis=0)
-    outside = np.linalg.norm(candidates - exact @ (exact.T @ candidates), axis=0)
-    sigma = np.sqrt(np.maximum(np.einsum("pk,pq,qk->k", candidates, covariance, candidates),
-                               0.0))
-    held = (outside < INSIDE_TOL) | (sigma > HELD_SIGMA) | ~np.isfinite(sigma)
-    if start is not None and noise_m > 0:
-        # Weak: seen below WEAK_RTOL of the best-seen direction (σ·s_max/σ̂ is the inverse of
-        # its relative sensitivity), as the identifiability report counts weak directions.
-        weak = ~held & (sigma * s[0] > noise_m / WEAK_RTOL)
-        held |= _indistinct(candidates, covariance, weak,
-                            (np.asarray(x, np.float64) - np.asarray(start, np.float64)) / scale)
-    # A held candidate adds to the exact null space only what lies outside it: a candidate
-    # inside it (to INSIDE_TOL) would add its round-off, normalised into a random direction.
-    new = held & (outside >= INSIDE_TOL)
-    rest = candidates[:, new] - exact @ (exact.T @ candidates[:, new])
-    basis = exact
-    if rest.shape[1]:
-        u, singular, _ = np.linalg.svd(rest, full_matrices=False)
-        basis = np.column_stack([exact, u[:, singular > INSIDE_TOL]])
-    if basis.shape[1]:
-        # The same subspace, orthonormal in the hold's weighted unknowns.
-        basis = np.linalg.qr(basis * (scale / weight)[:, None])[0]
-    weak = ~held & (sigma > WEAK_SIGMA)
-    labels = np.asarray(nominal.unidentifiable, dtype=object)
-    return Unseen(weight, np.asarray(basis, dtype=np.float64),
-                  (*labels[held], *_extra_names(
-                      basis, candidates[:, held] * (scale / weight)[:, None], jacobian, weight,
-                      model.names)),
-                  float(noise_m), tuple(labels[weak]), np.asarray(sigma[weak], dtype=np.float64))
+    sight = _sight(model, x, data, noise_m, scale, nominal, row_weight)
+    offset = None if start is None else (x - np.asarray(start, np.float64)) / scale
+    return _subspace(sight, _held(sight, noise_m, offset), nominal, model, noise_m)
+
+
+def unseen_with_weak(model: Model, x: ArrayLike, data: Measurements, noise_m: float,
+                     scale: ArrayLike, nominal: Identifiability, row_weight: ArrayLike | None,
+                     start: ArrayLike) -> tuple[Unseen, Unseen]:
+    """:func:`unseen_directions` at one x without and with ``start``, the Jacobian factorised
+    once for both (the same subspace twice when the start's test holds nothing more)."""
+    x = np.asarray(x, dtype=np.float64)
+    scale = np.asarray(scale, dtype=np.float64)
+    sight = _sight(model, x, data, noise_m, scale, nominal, row_weight)
+    held = _held(sight, noise_m, None)
+    with_start = _held(sight, noise_m, (x - np.asarray(start, np.float64)) / scale)
+    unseen = _subspace(sight, held, nominal, model, noise_m)
+    if np.array_equal(held, with_start):
+        return unseen, unseen
+    return unseen, _subspace(sight, with_start, nominal, model, noise_m)
 
 
 def _indistinct(candidates: Array, covariance: Array, weak: NDArray[np.bool_], offset: Array
@@ -291,4 +355,4 @@ def _extra_names(basis: Array, named: Array, jacobian: Array, scale: Array,
 
 
 __all__ = ["HELD_SIGMA", "RIG_WEIGHT", "SIGNIFICANT_SIGMAS", "WEAK_SIGMA", "Unseen",
-           "rig_unknowns", "unseen_directions"]
+           "rig_unknowns", "unseen_directions", "unseen_with_weak"]

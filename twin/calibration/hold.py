@@ -31,7 +31,12 @@ import numpy as np
 from twin.analysis.identifiability import Identifiability
 from twin.analysis.misfit import chi2_quantile
 from twin.analysis.uncertainty import residual_sigma
-from twin.analysis.unseen import SIGNIFICANCE_LEVEL, Unseen, unseen_directions
+from twin.analysis.unseen import (
+    SIGNIFICANCE_LEVEL,
+    Unseen,
+    unseen_directions,
+    unseen_with_weak,
+)
 from twin.arrays import Array
 from twin.problem import Problem
 from twin.report.display import mm2
@@ -152,10 +157,12 @@ def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
     # The noise of the rows the loss keeps: outliers a robust loss rejects are not noise.
     kept = target[~problem.loss.rejected(target)] if problem.loss.robust else target
     noise = residual_sigma(kept, rank) if kept.size > rank else 0.0
-    unseen = _unseen(problem, x, noise, nominal, None)
+    # What the answer cannot see, and that with the weak directions it does not tell from the
+    # start: one factorisation of its Jacobian for both.
+    unseen, weak_unseen = unseen_with_weak(problem.model, x, problem.train, noise, problem.scale,
+                                           nominal, problem.train_weight, start)
     held = _hold(problem, x, target, unseen, noise, nominal, None)
     _, f_held = _objective(problem, held)
-    weak_unseen = _unseen(problem, x, noise, nominal, start)
     extra = weak_unseen.basis.shape[1] - unseen.basis.shape[1]
     if extra > 0 and noise > 0:
         # Holding the weak directions too is taken only if the data cannot tell: the fit it
