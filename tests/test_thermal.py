@@ -6,7 +6,9 @@ simulate → calibrate → predict → Rerun on the command line."""
 
 from __future__ import annotations
 
+import csv
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -31,6 +33,7 @@ from twin.rig import Rig
 from twin.robot import RobotModel, random_poses
 from twin.scenario import load_scenario
 from twin.sim import Simulation, simulate
+from twin.sim.simulate import write_simulation
 from twin.study.trial import noise_sigma_m, true_unknowns
 from twin.viz import entities
 
@@ -247,3 +250,85 @@ def test_thermal_of_poses_is_refused(tmp_path: Path, refusals: Refusals) -> None
                                *(line + ",21.5" for line in lines[1:])]) + "\n")
     refusals.cli(["calibrate", path, "--errors", "dh,thermal", "--estimate-base"], [path],
                  "--errors thermal with 6-D poses")
+
+
+def _urdf_flange_m(path: Path, q: np.ndarray) -> np.ndarray:
+    """The flange (`tool0`) of a URDF at joint angles q (m, n), read by Pinocchio, (m, 3), m."""
+    pin = pytest.importorskip("pinocchio")
+    model = pin.buildModelFromUrdf(str(path))
+    data, frame = model.createData(), model.getFrameId("tool0")
+    found = []
+    for pose in q:
+        pin.framesForwardKinematics(model, data, pose)
+        found.append(data.oMf[frame].translation.copy())
+    return np.array(found)
+
+
+def test_a_result_is_exported_and_compensated_at_the_cells_temperature(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A thermal result exported with --temperature-c 10 K above the calibration's mean
+    temperature: the URDF, read by Pinocchio, has the table the result's own numbers give at
+    that temperature (each length plus its k · 10 K, from the JSON) and puts the flange where
+    the twin's true robot, warmed to it, has it — within the calibration's accuracy, where the
+    table at the mean temperature is off by the growth. Without the flag the export says the
+    links are at the mean temperature; compensating a program at that temperature brings the
+    warm robot's flange to the program's nominal poses. A result without growth refuses the
+    flag."""
+    sim = _simulate()
+    thermal = sim.scenario.thermal
+    assert thermal is not None
+    out = tmp_path / "thermal"
+    write_simulation(out, sim)
+    result = out / "result.json"
+    assert main(["calibrate", str(out / "capture.toml"), "--json", str(result)]) == 0
+    reference = json.loads(result.read_text())["unknowns"]["rig"]["temperature_ref_c"]
+    warm_c = reference + 10.0
+    capsys.readouterr()
+    assert main(["export", str(result), "--format", "urdf", "--out",
+                 str(tmp_path / "ref.urdf")]) == 0
+    assert re.search(r"twin: warning: .*the urdf file holds the links at 24.00 °C.*"
+                     r"--temperature-c T", capsys.readouterr().err)
+    assert main(["export", str(result), "--format", "urdf", "--out", str(tmp_path / "warm.urdf"),
+                 "--temperature-c", f"{warm_c}"]) == 0
+    printed = capsys.readouterr()
+    assert "(identified, at 34.00 °C)" in printed.out and "holds the links" not in printed.err
+    q = random_poses(sim.robot, 200, np.random.default_rng(5))
+    # The referee: the result's table grown by its own k, read from the JSON (µm/K).
+    loaded = load_result(result)
+    growth = {p["name"]: p["value"] * 1e-6 for p in
+              json.loads(result.read_text())["unknowns"]["parameters"] if p["group"] == "thermal"}
+    table = loaded.model.table(loaded.x).copy()
+    for slot, key in enumerate("ad"):
+        for joint in range(sim.robot.n_joints):
+            table[slot, joint] += growth.get(f"k_{key}{joint + 1}", 0.0) * 10.0
+    expected = replace(sim.robot, dh=table).flange_positions(q)
+    np.testing.assert_allclose(_urdf_flange_m(tmp_path / "warm.urdf", q), expected, rtol=0,
+                               atol=1e-8)
+    truth = sim.true_robot.perturbed(thermal.growth(warm_c)).flange_positions(q)
+    warm_error = rms_distance(_urdf_flange_m(tmp_path / "warm.urdf", q), truth)
+    cold_error = rms_distance(_urdf_flange_m(tmp_path / "ref.urdf", q), truth)
+    assert warm_error < 0.5 * cold_error and warm_error < 0.04e-3, (warm_error, cold_error)
+
+    program = out / "program.csv"
+    program.write_text("q1,q2,q3,q4,q5,q6\n" + "\n".join(
+        ",".join(f"{v:.6f}" for v in np.degrees(row)) for row in q[:40]) + "\n")
+    corrected = tmp_path / "corrected.csv"
+    assert main(["compensate", "--identified", str(result), "--joints", str(program),
+                 "--out", str(corrected), "--temperature-c", f"{warm_c}"]) == 0
+    with corrected.open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    ok = np.array([row["status"] == "ok" for row in rows])
+    commanded = np.deg2rad([[float(row[f"q{k}"]) for k in range(1, 7)]
+                            for row, good in zip(rows, ok, strict=True) if good])
+    warm_robot = sim.true_robot.perturbed(thermal.growth(warm_c))
+    reached = rms_distance(warm_robot.flange_positions(commanded),
+                           sim.robot.flange_positions(q[:40][ok]))
+    uncompensated = rms_distance(warm_robot.flange_positions(q[:40]),
+                                 sim.robot.flange_positions(q[:40]))
+    assert ok.sum() >= 25 and reached < 0.04e-3 < 0.1 * uncompensated, (reached, uncompensated)
+    assert main(["calibrate", str(out / "capture.toml"), "--errors", "dh", "--json",
+                 str(out / "rigid.json")]) == 0
+    assert main(["export", str(out / "rigid.json"), "--format", "urdf", "--out",
+                 str(tmp_path / "x.urdf"), "--temperature-c", "30"]) == 2
+    assert "a result without thermal growth" in capsys.readouterr().err
+    assert not (tmp_path / "x.urdf").exists()

@@ -266,6 +266,15 @@ def add_cable_tension(parser: argparse.ArgumentParser, help: str,
                         metavar="N", help=help)
 
 
+def add_temperature(parser: argparse.ArgumentParser, use: str) -> None:
+    """``--temperature-c``: the cell's temperature in °C, at which a result with thermal growth
+    is applied (its links grown to it from the calibration's mean temperature)."""
+    parser.add_argument("--temperature-c", type=number(-50.0, 150.0), metavar="C",
+                        help=f"the robot's temperature in °C for {use}, with a result that "
+                        "identified thermal growth (--errors dh,thermal): its links grown to it "
+                        "from the calibration's mean temperature (default: that temperature)")
+
+
 RESULT_ROBOT = "the nominal robot, only to check it is the result's (a result carries its own)"
 """What ``--robot`` is for on the commands that read a result."""
 

@@ -27,6 +27,7 @@ from twin.cli.arguments import (
     add_result,
     add_robot_flags,
     add_seed,
+    add_temperature,
     given_robot,
     integer,
 )
@@ -100,6 +101,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_cable_tension(parser, "the cable's pull while the robot runs, N, for the compliance the "
                       "result identified (default: the calibration's; 0 when the encoder is "
                       "unhooked)")
+    add_temperature(parser, "the compensation")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,13 +109,18 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from twin.compensation.joints import compensate_program_rows
-    from twin.io.identified import load_result, warn_result_cautions
+    from twin.io.identified import (
+        at_temperature,
+        load_result,
+        warn_result_cautions,
+        warn_temperature,
+    )
     from twin.io.measurements import joint_units_said, load_poses
     from twin.io.pose_tables import write_corrected
 
     if args.verify is not None:
         for flag in ("identified", "out", "robot", "xacro_arg", "cable_tension", "tool", "wobj",
-                     "tool0_in_flange"):
+                     "tool0_in_flange", "temperature_c"):
             if getattr(args, flag) is not None:
                 option = "--" + flag.replace("_", "-")
                 raise InputError(f"{option} with --verify",
@@ -124,8 +131,9 @@ def run(args: argparse.Namespace) -> int:
         missing = "--identified" if args.identified is None else "--out"
         raise InputError(f"no {missing}", "--identified RESULT.json and --out CORRECTED.csv",
                          source=missing)
-    model, x, _ = load_result(args.identified, given_robot(args), args.method)
-    robot = model.robot
+    result = load_result(args.identified, given_robot(args), args.method)
+    robot = result.model.robot  # the program's: the nominal at its own lengths
+    model, x, _ = at_temperature(result, args.temperature_c, args.identified)
     if args.cable_tension is not None:
         model, x = model.with_rig(replace(model.rig, tension_n=args.cable_tension), x)
     rng = np.random.default_rng(args.seed or 0)
@@ -144,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         ordered, q_nominal = _targets(args, robot, model, x, rng)
     # After every input is checked: a refusal stays one line.
     warn_result_cautions(args.identified, args.method, "the compensated program")
+    warn_temperature(result, args.temperature_c, args.identified, "the compensated program")
     write_corrected(args.out, ordered, robot)
     print(_summary(ordered, q_nominal, robot))
     print(f"wrote {args.out}")

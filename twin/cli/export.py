@@ -12,6 +12,7 @@ from twin.cli.arguments import (
     add_output,
     add_result,
     add_robot_flags,
+    add_temperature,
     given_robot,
 )
 from twin.errors import InputError, UnknownChoiceError
@@ -43,19 +44,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--base", type=InputPath, metavar="KINEMATICS.yaml",
                         help="with ur-calibration: the file ur_calibration extracted from the "
                         "robot; its hash, comments and order are kept, its numbers replaced")
+    add_temperature(parser, "the exported table")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand."""
     from twin.io.atomic import write_atomic
-    from twin.io.identified import ResultWarning, load_result, result_groups, warn_result_cautions
+    from twin.io.identified import (
+        ResultWarning,
+        at_temperature,
+        load_result,
+        result_groups,
+        warn_result_cautions,
+        warn_temperature,
+    )
+    from twin.report.display import plain
 
     if args.format_name not in FORMATS:
         raise UnknownChoiceError("export format", args.format_name, FORMATS, source="--format")
-    loaded = load_result(args.result, given_robot(args), args.method)
+    result = load_result(args.result, given_robot(args), args.method)
+    loaded = at_temperature(result, args.temperature_c, args.result)
     robot, delta = loaded.robot, loaded.delta
+    # The growth is applied (--temperature-c) or warned about below, apart from the rest.
     joint_level = [name for name in result_groups(args.result, args.method)
-                   if name in ERRORS and name != "dh"]
+                   if name in ERRORS and name not in ("dh", "thermal")]
     if joint_level:
         warnings.warn(f"{args.result}: a {args.format_name} file holds the identified D-H table "
                       f"only, not the joint-level errors ({', '.join(joint_level)}) the result "
@@ -64,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     if args.base is not None and args.format_name != "ur-calibration":
         raise InputError(f"--base with --format {args.format_name}",
                          "it with --format ur-calibration", source="--base")
-    identified = replace(robot.perturbed(delta), name=f"{robot.name} (identified)")
+    at = "" if args.temperature_c is None else f", at {plain(args.temperature_c, 2)} °C"
+    identified = replace(robot.perturbed(delta), name=f"{result.robot.name} (identified{at})")
     if args.base is not None:
         from twin.export.ur_calibration import export_with_base
 
@@ -74,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         text = export_text(identified, args.format_name)
     # After every input is checked: a refusal stays one line.
     warn_result_cautions(args.result, args.method, f"the {args.format_name} file")
+    warn_temperature(result, args.temperature_c, args.result, f"the {args.format_name} file")
     write_atomic(args.out, text)
     print(f"wrote {args.out} ({args.format_name}, {identified.name})")
     if args.format_name == "xacro":

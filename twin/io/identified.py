@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -38,11 +39,13 @@ from twin.io.robot_file import default_robot, robot_digest, robot_from_files
 from twin.io.truth import parse_dh_rows
 from twin.kinds import KINDS, Kind
 from twin.model import Model
+from twin.report.display import in_unit, mm, plain
 from twin.rig import Distance, Part, Rig
 from twin.robot import RobotModel
 from twin.units import (
     DH_IS_LENGTH,
     DH_KEYS,
+    THERMAL_UNIT,
     deg_to_rad,
     display_unit,
     from_display,
@@ -54,6 +57,7 @@ from twin.units import (
 from twin.unknowns import Group, make_groups
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
+from twin.unknowns.thermal import grown
 
 RESULT_FILE = "a calibration result JSON file (twin calibrate --json)"
 ROBOT_TOLERANCE_MM = 1e-3
@@ -359,6 +363,46 @@ class IdentifiedModel(NamedTuple):
     def delta(self) -> NDArray[np.float64]:
         """The identified errors of the kinematic table, shape (4, n), m and rad."""
         return np.asarray(self.model.table(self.x) - self.model.robot.dh, dtype=np.float64)
+
+
+def at_temperature(identified: IdentifiedModel, temperature_c: float | None,
+                   path: str | Path) -> IdentifiedModel:
+    """The result with its links grown to a cell's temperature (``--temperature-c``): its
+    model's nominal robot grown by each length's k · (T − T_ref) (:func:`twin.unknowns.thermal.
+    grown`), so that every table the model makes — the identified one an export writes, the
+    arm a compensation solves on — is the links' at T. Unchanged for None.
+
+    Raises:
+        InputError: for a temperature with a result that identified no thermal growth.
+    """
+    if temperature_c is None:
+        return identified
+    model = identified.model
+    reference = model.rig.temperature_ref_c
+    if not model.has("thermal") or reference is None:
+        raise InputError(f"--temperature-c with {path}, a result without thermal growth",
+                         "a result calibrated with --errors dh,thermal (its links' growth per "
+                         "kelvin), or no --temperature-c", source="--temperature-c")
+    robot = grown(model.robot, model.block(identified.x, "thermal"), temperature_c - reference)
+    return identified._replace(model=replace(model, robot=robot))
+
+
+def warn_temperature(identified: IdentifiedModel, temperature_c: float | None,
+                     path: str | Path, use: str) -> None:
+    """Warn (:class:`ResultWarning`) that ``use`` holds the links at the calibration's mean
+    temperature when a result identified their growth and no cell temperature was given: the
+    robot at another temperature is longer or shorter by k · (T − T_ref) per length."""
+    model = identified.model
+    reference = model.rig.temperature_ref_c
+    if temperature_c is not None or not model.has("thermal") or reference is None:
+        return
+    largest = float(np.max(np.abs(model.block(identified.x, "thermal")), initial=0.0))
+    at = f"{plain(reference, 2)} °C"
+    warnings.warn(f"{path}: {use} holds the links at {at}, the calibration's mean temperature; "
+                  f"the robot at another temperature T differs by k·(T − {at}) per length (k "
+                  f"up to {in_unit(largest, THERMAL_UNIT)}: {mm(10.0 * largest, significant=3)}"
+                  " at 10 K): --temperature-c T grows them to the cell's", ResultWarning,
+                  stacklevel=2)
 
 
 def _rig(document: Any, kind: Kind, path: Path, where: str) -> Rig:

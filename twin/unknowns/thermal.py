@@ -52,6 +52,22 @@ def temperature_rise(data: Measurements, reference_c: float | None) -> Array:
     return np.asarray(data.values[TEMPERATURE] - reference_c, dtype=np.float64)
 
 
+def grown(robot: RobotModel, growth_m_per_k: Array, rise_k: float) -> RobotModel:
+    """``robot`` with its links grown ``rise_k`` kelvin above the reference temperature: each
+    length entry of the table's first two slots plus its k · rise (what a result's tables are
+    at a cell's temperature).
+
+    Args:
+        robot: The robot whose table grows, SI.
+        growth_m_per_k: The growths k in the thermal group's order, shape (entries,), m/K.
+        rise_k: T − T_ref, K.
+    """
+    entries = np.flatnonzero(robot.structure.is_length[:SLOTS].ravel())
+    growth = np.zeros(robot.dh.size)
+    growth[entries] = np.asarray(growth_m_per_k, dtype=np.float64) * rise_k
+    return robot.perturbed(growth.reshape(robot.dh.shape))
+
+
 def make(robot: RobotModel, rig: Rig) -> Group:
     """The thermal growth of ``robot``'s length entries about ``rig``'s reference temperature."""
     n = robot.n_joints
