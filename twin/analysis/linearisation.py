@@ -39,6 +39,9 @@ KEPT_CHAINS = 2
 after the other, at the answer over the same workspace; over thousands of workspace poses each
 weighs megabytes."""
 
+KEPT_FINGERPRINTS = 16
+"""Digests of measurement sets kept (:func:`fingerprint`), each recognised by identity."""
+
 Kept = TypeVar("Kept")
 
 
@@ -56,7 +59,20 @@ class Linearisation(NamedTuple):
 
 def fingerprint(data: Measurements) -> bytes:
     """A digest of everything a model reads from ``data`` (joints, readings, indices, labels,
-    names): equal sets made apart (a subset taken twice) share what is kept for them."""
+    names): equal sets made apart (a subset taken twice) share what is kept for them.
+
+    Taken once per set: its arrays are read-only copies, so a set's digest never changes, and
+    a fit's checks look up its training poses a score of times."""
+    for data_ref, digest in _FINGERPRINTS:
+        if data_ref() is data:
+            return digest
+    found = _digest(data)
+    _FINGERPRINTS[:] = [*_FINGERPRINTS[len(_FINGERPRINTS) - KEPT_FINGERPRINTS + 1:],
+                        (weakref.ref(data), found)]
+    return found
+
+
+def _digest(data: Measurements) -> bytes:
     digest = hashlib.blake2b(digest_size=16)
     arrays: list[np.ndarray] = [data.q_rad, *(data.values[name] for name in sorted(data.values)),
                                 *(data.labels[name].indices for name in sorted(data.labels))]
@@ -145,6 +161,7 @@ def chain_jacobian(model: Model, x: ArrayLike, data: Measurements, *, measured: 
     return _kept(_CHAINS, model, _key(x, data, measured), make, KEPT_CHAINS)
 
 
+_FINGERPRINTS: list[tuple[weakref.ref[Measurements], bytes]] = []
 _JACOBIANS: list[tuple[weakref.ref[Model], tuple[object, ...], tuple[Array, Array]]] = []
 _LINEARISED: list[tuple[weakref.ref[Model], tuple[object, ...], Linearisation]] = []
 _CHAINS: list[tuple[weakref.ref[Model], tuple[object, ...], Array]] = []
