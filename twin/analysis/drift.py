@@ -96,6 +96,11 @@ class Drift(NamedTuple):
         return "s" if self.timed else "row"
 
 
+def has_reference_rows(data: Measurements) -> bool:
+    """Whether any row of ``data`` is flagged reference."""
+    return REFERENCE in data.values and bool(np.any(data.values[REFERENCE] > 0.5))
+
+
 def reference_drift(data: Measurements, residuals_m: ArrayLike, rows_per_pose: int,
                     stated_sigma_m: float) -> Drift | None:
     """Test the reference rows of ``data`` for drift (module docstring).
@@ -111,7 +116,7 @@ def reference_drift(data: Measurements, residuals_m: ArrayLike, rows_per_pose: i
     Returns:
         None when no row is flagged reference.
     """
-    if REFERENCE not in data.values or not np.any(data.values[REFERENCE] > 0.5):
+    if not has_reference_rows(data):
         return None
     m = len(data)
     reading = -np.asarray(residuals_m, dtype=np.float64)[: rows_per_pose * m].reshape(

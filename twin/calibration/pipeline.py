@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.analysis.drift import Drift, reference_drift
+from twin.analysis.drift import Drift, has_reference_rows, reference_drift
 from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
 from twin.analysis.linearisation import model_jacobian
@@ -104,8 +104,12 @@ def _drift(split: SplitProblem) -> Drift | None:
     """The drift test of the reference rows of the measurements (train and validation, in
     their order) at the start's unknowns; None without reference rows."""
     problem = split.problem
+    validated = not split.held_out and len(problem.validation) > 0
+    if not has_reference_rows(problem.train) \
+            and not (validated and has_reference_rows(problem.validation)):
+        return None  # nothing to join, order and evaluate
     data, rows = problem.train, split.train_rows
-    if not split.held_out and len(problem.validation):
+    if validated:
         data = joined(data, problem.validation)
         rows = np.concatenate([rows, split.validation_rows])
     order = np.argsort(rows, kind="stable")
