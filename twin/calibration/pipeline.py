@@ -70,18 +70,25 @@ def calibrate_many(
 
 def rejected_poses(problem: Problem, x: ArrayLike, data: Measurements) -> NDArray[np.bool_]:
     """Which poses of ``data`` have a residual row the problem's loss rejects, shape (m,)."""
+    return _rejected(problem, problem.model.residuals(np.asarray(x, dtype=np.float64), data),
+                     len(data))
+
+
+def _rejected(problem: Problem, residuals: Array, poses: int) -> NDArray[np.bool_]:
+    """Which of ``poses`` poses have a row of ``residuals`` (their kind's rows, then any rows
+    of no pose) the problem's loss rejects, shape (poses,)."""
     rows = problem.model.kind.rows_per_pose
-    residuals = problem.model.residuals(np.asarray(x, dtype=np.float64), data)
-    beyond = problem.loss.rejected(residuals[: rows * len(data)])
-    return np.asarray(np.any(beyond.reshape(len(data), rows), axis=1))
+    beyond = problem.loss.rejected(residuals[: rows * poses])
+    return np.asarray(np.any(beyond.reshape(poses, rows), axis=1))
 
 
-def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_workspace: Array
+def _assess(split: SplitProblem, x: Array, train_residuals: Array, identified: Identifiability,
+            q_workspace: Array
             ) -> tuple[Misfit, NDArray[np.intp], Measurements, Array | None, Gauge]:
     """The fit test, the rejected rows, the training poses kept (and their rows' weights σ/σ_i
-    when they differ) and the unobservable motions."""
+    when they differ) and the unobservable motions, from the training residuals at x."""
     problem, train_rows, validation_rows = split.problem, split.train_rows, split.validation_rows
-    out_train = rejected_poses(problem, x, problem.train)
+    out_train = _rejected(problem, train_residuals, len(problem.train))
     # Rows of the measurements: a separate file's rejected rows are not among them.
     out_validation = rejected_poses(problem, x, problem.validation) if not split.held_out \
         else np.zeros(0, dtype=bool)
@@ -90,8 +97,11 @@ def _assess(split: SplitProblem, x: Array, identified: Identifiability, q_worksp
     # A loss that rejects nearly everything (a swarm far from the optimum) leaves no degree of
     # freedom to test or to estimate the noise from: then every training row counts.
     enough = rows * int(np.sum(~out_train)) > identified.rank
-    kept = problem.train.subset(np.flatnonzero(~out_train)) if enough else problem.train
-    residuals = problem.model.residuals(x, kept)
+    if enough and np.any(out_train):
+        kept = problem.train.subset(np.flatnonzero(~out_train))
+        residuals = problem.model.residuals(x, kept)
+    else:
+        kept, residuals = problem.train, train_residuals
     row_sigma = problem.row_sigma(kept) if problem.in_variables else None
     misfit = misfit_test(residuals, identified.rank, problem.sigma_m,
                          repeat_sigma(kept, residuals, rows), row_sigma)
@@ -140,12 +150,12 @@ def _steps(split: SplitProblem, problem: Problem, x: Array) -> tuple[Step, ...]:
     return find_steps(residuals, problem.sigma_m, jacobian)
 
 
-def _metrics(problem: Problem, x: Array) -> dict[str, Metrics]:
+def _metrics(problem: Problem, x: Array, train_residuals: Array) -> dict[str, Metrics]:
     """``before`` (the start on the validation poses, or on the training poses when there are
-    none), ``train`` and, when there are validation poses, ``validation``
-    (:func:`twin.calibration.held_out.held_out_residuals`)."""
+    none), ``train`` (of the training residuals at x) and, when there are validation poses,
+    ``validation`` (:func:`twin.calibration.held_out.held_out_residuals`)."""
     model, train, validation = problem.model, problem.train, problem.validation
-    trained = metrics(model.residuals(x, train))
+    trained = metrics(train_residuals)
     if not len(validation):
         return {"before": metrics(model.residuals(problem.x0, train)), "train": trained}
     return {"before": metrics(held_out_residuals(model, problem.x0, train, validation)),
@@ -196,12 +206,15 @@ def solve_many(
         problem, solved, held = _solve(solver, split.problem, split.settings.budget, seed,
                                        nominal)
         identified = measurement_identifiability(problem.model, solved.x, problem.train)
+        # The training rows at the answer, once for the rejections, the fit test and the metrics.
+        train_residuals = problem.model.residuals(solved.x, problem.train)
         misfit, rejected, kept, weight, gauge = _assess(split._replace(problem=problem),
-                                                        solved.x, identified, q_workspace)
+                                                        solved.x, train_residuals, identified,
+                                                        q_workspace)
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
             train_rows=split.train_rows, validation_rows=split.validation_rows,
-            metrics=_metrics(problem, solved.x),
+            metrics=_metrics(problem, solved.x, train_residuals),
             identifiability=nominal,
             identified_identifiability=identified,
             uncertainty=calibration_uncertainty(
