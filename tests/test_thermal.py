@@ -20,6 +20,7 @@ from tests.conftest import Refusals
 from tests.test_viz_rerun import read_rrd, scalars
 from twin.analysis.uncertainty import cramer_rao_covariance, flange_sigma, rms_distance
 from twin.calibration.pipeline import calibrate
+from twin.calibration.selection import _warming, nested_errors
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.cli import main
@@ -332,3 +333,41 @@ def test_a_result_is_exported_and_compensated_at_the_cells_temperature(
                  str(tmp_path / "x.urdf"), "--temperature-c", "30"]) == 2
     assert "a result without thermal growth" in capsys.readouterr().err
     assert not (tmp_path / "x.urdf").exists()
+
+
+def test_errors_auto_tries_the_growth_of_a_warm_up(irb120: RobotModel) -> None:
+    """--errors auto adds thermal growth right after the D-H table when the measurements'
+    temperature changes, and says why it does not otherwise: no temperature_c, one that
+    stays put, or readings of the flange's orientation."""
+    q = random_poses(irb120, 20, np.random.default_rng(3))
+    lengths = length_measurements(q, np.ones(20))
+    warm = _warm(lengths, np.linspace(20.0, 28.0, 20))
+    assert _warming(warm) is None
+    assert nested_errors(False, True)[:3] == [("dh",), ("dh", "thermal"),
+                                               ("dh", "thermal", "compliance")]
+    assert all("thermal" not in errors for errors in nested_errors(True, False))
+    assert "no temperature_c" in str(_warming(lengths))
+    assert "changes by 0.05 K only" in str(_warming(_warm(lengths, np.linspace(20, 20.05, 20))))
+    poses = _model(irb120, "pose", ("dh",)).measure(np.zeros(24), q)
+    assert "orientation" in str(_warming(_warm(poses, np.linspace(20.0, 28.0, 20))))
+
+
+@pytest.mark.slow
+def test_errors_auto_chooses_the_growth_on_a_warm_up(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """On the thermal scenario's capture (8 K over the capture) --errors auto fits D-H alone,
+    then with the growth and the joint-level groups on top, and chooses D-H + thermal: the
+    lowest BIC, and the lowest validation RMSE."""
+    out = tmp_path / "thermal"
+    write_simulation(out, _simulate())
+    assert main(["calibrate", str(out / "capture.toml"), "--errors", "auto", "--json",
+                 str(out / "auto.json")]) == 0
+    assert "dh+thermal " in capsys.readouterr().out
+    candidates = json.loads((out / "auto.json").read_text())["error_choice"]["candidates"]
+    assert [c["errors"] for c in candidates][:3] == [["dh"], ["dh", "thermal"],
+                                                     ["dh", "thermal", "compliance"]]
+    chosen = [c for c in candidates if c["chosen"]]
+    assert [c["errors"] for c in chosen] == [["dh", "thermal"]]
+    assert chosen[0]["bic"] == min(c["bic"] for c in candidates)
+    validation = [c["validation_rmse"] for c in candidates]
+    assert chosen[0]["validation_rmse"] == min(validation), validation

@@ -1,11 +1,13 @@
 """Choosing the error model: which of the robot's error groups the data support (``--errors auto``).
 
 Nested candidates, each one group more than the last, cheapest first: ``dh``; ``dh +
-compliance`` (n unknowns); ``+ backlash`` (n, only when the measurements carry the approach
-directions); ``+ transmission`` (4n) — all of them; and last the same with ``link_compliance``
-in place of ``compliance`` (each link's weight its own coefficient, n(n+1)/2 more unknowns: for
-masses known only link by link). Each is fitted on the same training poses by the same method
-and compared on
+thermal`` (a growth per length, only when the measurements' ``temperature_c`` changes by more
+than :data:`TEMPERATURE_SPAN_K` and the kind takes it — a warm-up is the first thing a rigid
+table misses); ``+ compliance`` (n unknowns); ``+ backlash`` (n, only when the measurements
+carry the approach directions); ``+ transmission`` (4n) — all of them; and last the same with
+``link_compliance`` in place of ``compliance`` (each link's weight its own coefficient,
+n(n+1)/2 more unknowns: for masses known only link by link). Each is fitted on the same
+training poses by the same method and compared on
 
 - the **Bayesian information criterion** of its training residuals,
   ``BIC = m ln(RSS / m) + k ln m`` with m the training residuals and k the rank of the
@@ -40,12 +42,18 @@ from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_model
 from twin.calibration.split import required_poses
-from twin.dataset import Measurements
+from twin.dataset import TEMPERATURE, Measurements
+from twin.kinds import KINDS
+from twin.report.display import plain
 from twin.rig import Rig
 from twin.robot import RobotModel
 
-NESTED = ("dh", "compliance", "backlash", "transmission")
-"""The order in which candidates add groups: fewest unknowns first."""
+NESTED = ("dh", "thermal", "compliance", "backlash", "transmission")
+"""The order in which candidates add groups: a warm-up first, then fewest unknowns first."""
+TEMPERATURE_SPAN_K = 0.1
+"""The least change of the measurements' temperature over which thermal growth is tried: over
+less every growth multiplies next to nothing (held, and the candidate a copy of the one
+before)."""
 POSES_PER_UNKNOWN = 3
 """Readings per identified unknown below which a fit follows the noise: the choice warns."""
 
@@ -118,13 +126,30 @@ def warn_weak_data(robot: RobotModel, split: SplitProblem, errors: Sequence[str]
     warn_few_poses(len(split.train_rows), rank, errors, problem.model.kind.rows_per_pose)
 
 
-def nested_errors(has_approach: bool) -> list[tuple[str, ...]]:
-    """The candidate error models, in nesting order (backlash only with approach directions),
-    then the largest with ``link_compliance`` for ``compliance``."""
-    groups = [name for name in NESTED if has_approach or name != "backlash"]
+def nested_errors(has_approach: bool, has_temperature: bool = False) -> list[tuple[str, ...]]:
+    """The candidate error models, in nesting order (backlash only with approach directions,
+    thermal only with a changing temperature), then the largest with ``link_compliance`` for
+    ``compliance``."""
+    left_out = {name for name, kept in (("backlash", has_approach),
+                                        ("thermal", has_temperature)) if not kept}
+    groups = [name for name in NESTED if name not in left_out]
     nested = [tuple(groups[: k + 1]) for k in range(len(groups))]
     split = tuple("link_compliance" if name == "compliance" else name for name in nested[-1])
     return [*nested, split]
+
+
+def _warming(measurements: Measurements) -> str | None:
+    """Why thermal growth is not a candidate for these measurements, or None when it is (a
+    ``temperature_c`` column changing by more than :data:`TEMPERATURE_SPAN_K`, of a kind that
+    takes it)."""
+    if TEMPERATURE not in measurements.values:
+        return "thermal: the measurements carry no temperature_c"
+    span = float(np.ptp(measurements.values[TEMPERATURE]))
+    if span <= TEMPERATURE_SPAN_K:
+        return f"thermal: the temperature changes by {plain(span, significant=3)} K only"
+    if KINDS.lookup(measurements.kind).reads_rotation:
+        return "thermal: not with measurements that read the flange's orientation"
+    return None
 
 
 def bic(residuals_m: np.ndarray, rank: int) -> float:
@@ -152,10 +177,12 @@ def choose_errors(
         InputError: if not even the first candidate (D-H alone) can be fitted to so few
             poses.
     """
+    warming = _warming(measurements)
     models = list(candidates) if candidates is not None \
-        else nested_errors(measurements.approach is not None)
-    skipped = [] if candidates is not None or measurements.approach is not None else [
-        "backlash: the measurements do not carry the approach directions"]
+        else nested_errors(measurements.approach is not None, warming is None)
+    skipped = [] if candidates is not None else [
+        reason for reason in ("backlash: the measurements do not carry the approach directions"
+                              if measurements.approach is None else None, warming) if reason]
     train_fraction = settings.train_fraction
     n_train = round(train_fraction * len(measurements))
     fitted: list[Candidate] = []
@@ -174,7 +201,8 @@ def choose_errors(
         rank = nominal.rank if nominal is not None else model.n_params
         warn_few_poses(n_train, rank, errors, model.kind.rows_per_pose)
         train = measurements.subset(result.train_rows)
-        residuals = model.residuals(result.solver.x, train)
+        # The result's model: its rig holds what the fit set up (the thermal reference).
+        residuals = result.model.residuals(result.solver.x, train)
         fitted.append(Candidate(tuple(errors), result, rank, bic(residuals, rank)))
     chosen = int(np.argmin([candidate.bic for candidate in fitted]))
     return ErrorChoice(tuple(fitted), chosen, tuple(skipped))

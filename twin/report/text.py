@@ -591,16 +591,18 @@ def format_cross_validation(crossed: CrossValidation) -> str:
 def format_choice(choice: ErrorChoice) -> str:
     """The ``--errors auto`` table: each nested error model's unknowns, rank, residuals and
     BIC, the chosen one marked, and the rule."""
+    names = ["+".join(candidate.errors) for candidate in choice.candidates]
+    width = max([44, *(len(name) + 1 for name in names)])
     lines = ["Error models, fitted on the same training poses "
              f"({choice.best.result.method}):",
-             f"  {'errors':<44}{'unknowns':>9}{'rank':>6}{'train RMSE':>12}"
+             f"  {'errors':<{width}}{'unknowns':>9}{'rank':>6}{'train RMSE':>12}"
              f"{'valid. RMSE':>13}{'BIC':>12}  [mm]"]
     for k, candidate in enumerate(choice.candidates):
         train = mm(candidate.result.metrics["train"].rmse, width=12, unit=False)
         validation = mm(candidate.result.metrics["validation"].rmse, width=13, unit=False) \
             if candidate.result.validated else f"{'—':>13}"
         mark = "  <- chosen" if k == choice.chosen else ""
-        lines.append(f"  {'+'.join(candidate.errors):<44}{candidate.unknowns:>9}"
+        lines.append(f"  {names[k]:<{width}}{candidate.unknowns:>9}"
                      f"{candidate.rank:>6}{train}{validation}"
                      f"{candidate.bic:>12.1f}{mark}")
     lines += [f"  skipped: {reason}" for reason in choice.skipped]
