@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from twin.analysis.identifiability import identifiability
-from twin.analysis.linearisation import chain_jacobian, fingerprint, linearise
+from twin.analysis.linearisation import chain_jacobian, fingerprint, linearise, model_jacobian
 from twin.analysis.uncertainty import parameter_covariance, seen_covariance
 from twin.calibration.setup import make_model
 from twin.kinds.length import length_measurements
@@ -77,6 +77,20 @@ def test_chain_jacobian_is_the_models(setup, irb120: RobotModel) -> None:
                                   model.flange_jacobian(x, poses))
     np.testing.assert_array_equal(chain_jacobian(model, x, poses, measured=True),
                                   model.position_jacobian(x, poses))
+
+
+def test_model_jacobian_is_the_models_and_shared_without_gauge_directions(setup) -> None:
+    """The model's own rows and Jacobian, read-only and kept; for a kind without known gauge
+    directions (a cable) they are the linearisation's, the same arrays."""
+    model, x, data = setup
+    r, jacobian = model_jacobian(model, x, data)
+    expected = model.jacobian(x, data)
+    np.testing.assert_array_equal(r, expected[0])
+    np.testing.assert_array_equal(jacobian, expected[1])
+    assert not jacobian.flags.writeable
+    assert model_jacobian(model, x, data.subset(np.arange(len(data))))[1] is jacobian
+    assert linearise(model, x + 1e-12, data).jacobian \
+        is model_jacobian(model, x + 1e-12, data)[1]
 
 
 def test_checks_on_r_agree_with_the_checks_on_j(setup) -> None:

@@ -20,6 +20,7 @@ from scipy.optimize import least_squares
 
 from tests.test_viz_rerun import column, read_rrd, scalars
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
+from twin.analysis.linearisation import linearise, model_jacobian
 from twin.analysis.uncertainty import cramer_rao_rms
 from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate
@@ -185,6 +186,13 @@ def test_without_a_known_distance_the_scale_is_unseen() -> None:
     loose = calibrate(sim.robot, sim.measurements, rig=Rig(attachment_m=sim.rig_told.attachment_m),
                       method="lm", settings=settings)
     assert loose.model.symmetries(loose.solver.x).shape[1] == 1
+    # The linearisation the checks read is the identifiable Jacobian, not the model's own.
+    train = sim.measurements.subset(loose.train_rows)
+    own = model_jacobian(loose.model, loose.solver.x, train)[1]
+    identifiable = loose.model.identifiable_jacobian(loose.solver.x, train)[1]
+    np.testing.assert_array_equal(linearise(loose.model, loose.solver.x, train).jacobian,
+                                  identifiable)
+    assert np.max(np.abs(own - identifiable)) > 0
     assert loose.gauge is not None and "scale about the base origin" in loose.gauge.names
     told = calibrate(sim.robot, sim.measurements, rig=sim.rig_told, method="lm",
                      settings=settings)

@@ -12,7 +12,9 @@ singular vectors of J D (to round-off), and the same Gram matrix.
 Linearisations are kept for a few recent points (:data:`KEPT`), recognised by the model's
 identity, x, the poses' content and the rows' weights; their arrays are read-only. The same
 goes for the flange's and the measured point's Jacobians over workspace poses
-(:func:`chain_jacobian`), which the unobservable motions and the uncertainty both read.
+(:func:`chain_jacobian`), which the unobservable motions and the uncertainty both read, and
+for the model's own Jacobian (:func:`model_jacobian`), which is the identifiable one of a kind
+without known gauge directions.
 """
 
 from __future__ import annotations
@@ -101,7 +103,10 @@ def linearise(model: Model, x: ArrayLike, data: Measurements,
         else np.ascontiguousarray(row_weight, dtype=np.float64)
 
     def make() -> Linearisation:
-        residuals, jacobian = model.identifiable_jacobian(x, data)
+        # Without known gauge directions the identifiable Jacobian is the model's own, which
+        # a trial's noise and a fit's steps read too.
+        residuals, jacobian = model.identifiable_jacobian(x, data) \
+            if model.symmetries(x).shape[1] else model_jacobian(model, x, data)
         if weight is not None:
             residuals, jacobian = residuals * weight, jacobian * weight[:, None]
         triangle = np.asarray(np.linalg.qr(jacobian, mode="r"), dtype=np.float64)
@@ -110,6 +115,19 @@ def linearise(model: Model, x: ArrayLike, data: Measurements,
 
     return _kept(_LINEARISED, model, _key(x, data, None if weight is None else
                                           weight.tobytes()), make, KEPT)
+
+
+def model_jacobian(model: Model, x: ArrayLike, data: Measurements) -> tuple[Array, Array]:
+    """The model's residuals (M,) and Jacobian (M, p) at unknowns x (p,) on ``data``
+    (:meth:`twin.model.Model.jacobian`), read-only; kept for the next caller."""
+    x = np.ascontiguousarray(x, dtype=np.float64)
+
+    def make() -> tuple[Array, Array]:
+        residuals, jacobian = model.jacobian(x, data)
+        _read_only(residuals, jacobian)
+        return residuals, jacobian
+
+    return _kept(_JACOBIANS, model, _key(x, data), make, KEPT)
 
 
 def chain_jacobian(model: Model, x: ArrayLike, data: Measurements, *, measured: bool) -> Array:
@@ -127,8 +145,9 @@ def chain_jacobian(model: Model, x: ArrayLike, data: Measurements, *, measured: 
     return _kept(_CHAINS, model, _key(x, data, measured), make, KEPT_CHAINS)
 
 
+_JACOBIANS: list[tuple[weakref.ref[Model], tuple[object, ...], tuple[Array, Array]]] = []
 _LINEARISED: list[tuple[weakref.ref[Model], tuple[object, ...], Linearisation]] = []
 _CHAINS: list[tuple[weakref.ref[Model], tuple[object, ...], Array]] = []
 
 
-__all__ = ["Linearisation", "chain_jacobian", "fingerprint", "linearise"]
+__all__ = ["Linearisation", "chain_jacobian", "fingerprint", "linearise", "model_jacobian"]

@@ -74,15 +74,15 @@ def truth_errors(result: CalibrationResult, true_flange_m: ArrayLike, true_point
     identifiability = result.identified_identifiability
     null = identifiability.null_space if identifiability is not None \
         else np.zeros((model.n_params, 0))
-    poses = model.poses(q_rad)
     true_flange = np.asarray(true_flange_m, dtype=np.float64)
     true_point = np.asarray(true_point_m, dtype=np.float64)
+    # Each gauge carries the identified points at the poses, from which its motions start.
     flange = unobservable_motions(model, x, null, q_rad)
     point = unobservable_motions(model, x, null, q_rad, measured=True)
     return TruthErrors(
-        flange_m=rms_distance(model.flange_positions(x, poses), true_flange),
+        flange_m=rms_distance(flange.points_m, true_flange),
         flange_gauge_free_m=gauge_free_rms(flange, true_flange),
-        point_m=rms_distance(model.positions(x, poses), true_point),
+        point_m=rms_distance(point.points_m, true_point),
         point_gauge_free_m=gauge_free_rms(point, true_point),
         motions=flange.names,
         point_motions=point.names,

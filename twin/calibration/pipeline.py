@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.analysis.drift import Drift, reference_drift
 from twin.analysis.gauge import Gauge, unobservable_motions
 from twin.analysis.identifiability import Identifiability, measurement_identifiability
+from twin.analysis.linearisation import model_jacobian
 from twin.analysis.metrics import Metrics, metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
 from twin.analysis.steps import Step, find_steps
@@ -130,7 +131,7 @@ def _steps(split: SplitProblem, problem: Problem, x: Array) -> tuple[Step, ...]:
     jacobian = np.zeros((residuals.size, problem.model.n_params))
     for rows, data in parts:
         if len(rows):
-            r, j = problem.model.jacobian(x, data)
+            r, j = model_jacobian(problem.model, x, data)  # the training rows' as linearised
             residuals[rows], jacobian[rows] = r[: len(rows)], j[: len(rows)]
     return find_steps(residuals, problem.sigma_m, jacobian)
 

@@ -124,13 +124,14 @@ def build_spec(
     spec.option.timestep = TIMESTEP_S
     spec.option.gravity = [0.0, 0.0, -GRAVITY_M_S2]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    end = _add_chain(spec, robot, attachment_m)
+    fixed = fixed_transforms(robot.structure, robot.dh)
+    end = _add_chain(spec, robot, fixed, attachment_m)
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
     # offset, links two apart meet at the wrist and elbow centres too, and farther apart
     # where the links between them are points (a torso lift before the FR3's shoulder).
     radius = robot.radius_m if robot.radius_m is not None \
         else np.full(robot.n_joints, DEFAULT_RADIUS_M)
-    for first, second in _touching(fixed_transforms(robot.structure, robot.dh), radius):
+    for first, second in _touching(fixed, radius):
         spec.add_exclude(bodyname1=f"link{first}", bodyname2=f"link{second}")
     # Link 1 stands on the floor at the base; it only turns about the vertical.
     spec.add_exclude(bodyname1="world", bodyname2="link1")
@@ -163,14 +164,15 @@ def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
     return pairs
 
 
-def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike | None) -> str:
+def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array,
+               attachment_m: ArrayLike | None) -> str:
     """The pedestal (if joint 1 stands off the base origin), the links with their joints,
-    geoms and inertials, site ``flange`` and site ``point`` (with an attachment); returns the
-    site the cable ends at."""
+    geoms and inertials, site ``flange`` and site ``point`` (with an attachment), the chain's
+    fixed transforms ``fixed`` (n + 1, 4, 4) between them; returns the site the cable ends at."""
     n = robot.n_joints
     radius = robot.radius_m if robot.radius_m is not None else np.full(n, DEFAULT_RADIUS_M)
-    fixed = fixed_transforms(robot.structure, robot.dh)
-    post = joint_placements(robot.structure, robot.dh)[1]
+    # Link frames in the bodies, for the centres of mass only.
+    post = None if robot.com_m is None else joint_placements(robot.structure, robot.dh)[1]
     if np.linalg.norm(fixed[0][:3, 3]) > _SEGMENT_EPS_M:
         # Joint 1 stands off the base origin (a base transform, a Hayati joint 1): a pedestal.
         spec.worldbody.add_geom(name="pedestal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -187,7 +189,7 @@ def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, attachment_m: ArrayLike |
         joint.range = [robot.lower_rad[i], robot.upper_rad[i]]
         _add_link_geoms(body, fixed[i + 1][:3, 3], radius[i],
                         None if robot.mass_kg is None else float(robot.mass_kg[i]))
-        if robot.com_m is not None:
+        if robot.com_m is not None and post is not None:
             assert robot.mass_kg is not None  # RobotModel: a centre of mass needs a mass
             link = post[i]  # link frame i in the body, which moves with joint i
             _set_inertial(body, float(robot.mass_kg[i]), link[:3, :3] @ robot.com_m[i]

@@ -40,12 +40,12 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from twin.analysis.identifiability import measurement_identifiability
+from twin.analysis.linearisation import model_jacobian
 from twin.analysis.metrics import NO_ROWS
-from twin.analysis.uncertainty import cramer_rao_rms, rms_distance
+from twin.analysis.uncertainty import cramer_rao_rms
 from twin.arrays import Array
-from twin.calibration.accuracy import rigid_truth, truth_errors
+from twin.calibration.accuracy import TruthErrors, rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
-from twin.calibration.result import CalibrationResult
 from twin.dataset import TEMPERATURE, approach_directions
 from twin.geometry.kinematics import for_bulk_work
 from twin.geometry.rigid import angles, log_rotation
@@ -222,19 +222,19 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     train = sim.measurements.subset(first.train_rows)
     validation = sim.measurements.subset(first.validation_rows)
     x_true = true_unknowns(sim, model)
-    _, jacobian = model.jacobian(x_true, train)
+    _, jacobian = model_jacobian(model, x_true, train)  # as the bound linearises it below
     sigma_m = noise_sigma_m(sim, jacobian)
     crlb_m, point_crlb_m = cramer_rao_rms(model, x_true, train, sigma_m, q_workspace,
                                           row_sigma_m(sim, jacobian, sigma_m))
     null_space = measurement_identifiability(model, np.zeros(model.n_params), train).null_space
     rows: list[TrialRow] = []
     methods: dict[str, Any] = {}
-    # The model's poses come with the approach directions of visiting them in order, as the
-    # twin's flange below.
-    at_workspace = model.poses(q_workspace)
     truth = trial_truth(sim, model, q_workspace)
     for name, result in results.items():
-        flange_m = rms_distance(model.flange_positions(result.solver.x, at_workspace), truth[0])
+        # The model's poses come with the approach directions of visiting them in order, as
+        # the twin's flange.
+        errors = truth_errors(result, *truth, q_workspace)
+        flange_m = errors.flange_m
         error = result.solver.x - x_true
         if null_space.shape[1]:
             error = error - null_space @ np.linalg.lstsq(null_space, error, rcond=None)[0]
@@ -253,7 +253,7 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
             iterations=result.solver.iterations, evaluations=result.solver.evaluations,
             seconds=result.solver.seconds, converged=result.solver.converged,
             stop_reason=result.solver.stop_label,
-            **_truth_columns(result, truth, q_workspace, crlb_m, point_crlb_m),
+            **_truth_columns(errors, crlb_m, point_crlb_m),
         ))
         methods[name] = {
             "history_mm": m_to_mm([r.validation_rmse_m for r in result.solver.history]).tolist(),
@@ -271,12 +271,10 @@ def run_trial(spec: TrialSpec, case: str, trial: int, q_workspace: Array) -> Tri
     return TrialOutcome(case=case, trial=trial, seed=seed, rows=tuple(rows), detail=detail)
 
 
-def _truth_columns(result: CalibrationResult, truth: tuple[Array, Array], q_workspace: Array,
-                   crlb_m: float, point_crlb_m: float) -> dict[str, float]:
+def _truth_columns(errors: TruthErrors, crlb_m: float, point_crlb_m: float) -> dict[str, float]:
     """The gauge-free flange and measured-point errors against the truth (flange centres and
     measured points, :func:`trial_truth`), and their ratios to the bounds (NaN where a bound
     is zero: no noise)."""
-    errors = truth_errors(result, *truth, q_workspace)
     return {
         "flange_error_gauge_free_mm": _mm(errors.flange_gauge_free_m),
         "crlb_ratio_gauge_free": errors.flange_gauge_free_m / crlb_m if crlb_m > 0
