@@ -371,3 +371,28 @@ def test_errors_auto_chooses_the_growth_on_a_warm_up(tmp_path: Path,
     assert chosen[0]["bic"] == min(c["bic"] for c in candidates)
     validation = [c["validation_rmse"] for c in candidates]
     assert chosen[0]["validation_rmse"] == min(validation), validation
+
+
+def test_identify_scores_a_warm_up_at_its_temperatures(tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """`twin identify` on a warm-up's capture scores the poses as they were read, each at its
+    own temperature: the growths' columns are the rises, not zeros (which gave O1 = 0, an
+    infinite condition and numpy's divide-by-zero warnings); the indices equal those of the
+    base columns of the Jacobian the test takes itself, on the capture's rows."""
+    sim = _simulate()
+    out = tmp_path / "thermal"
+    write_simulation(out, sim)
+    capsys.readouterr()
+    assert main(["identify", str(out / "capture.toml"), "--json", str(out / "id.json")]) == 0
+    assert "divide by zero" not in capsys.readouterr().err
+    nominal = json.loads((out / "id.json").read_text())["nominal"]
+    data = load_measurements_of(out)
+    model = make_model(sim.robot, replace(sim.rig_told_pulled, temperature_ref_c=float(
+        np.mean(data.value(TEMPERATURE)))), "length", THERMAL)
+    base = [model.names.index(name) for name in nominal["base"]]
+    singular = np.linalg.svd(model.jacobian(np.zeros(model.n_params), data)[1][:, base],
+                             compute_uv=False)
+    assert nominal["observability"]["condition"] == pytest.approx(singular[0] / singular[-1],
+                                                                  rel=1e-6)
+    assert nominal["observability"]["o1"] == pytest.approx(
+        np.exp(np.mean(np.log(singular))) / np.sqrt(len(data)), rel=1e-6)

@@ -23,7 +23,7 @@ from twin.calibration.pipeline import solve_many
 from twin.calibration.result import CalibrationResult, SplitProblem
 from twin.choices import DEFAULT_METHOD
 from twin.dataset import Measurements
-from twin.design.optimal import DesignScore, score_poses
+from twin.design.optimal import DesignScore, score_data
 from twin.model import Model
 from twin.robot import RobotModel
 
@@ -71,8 +71,10 @@ def assess(robot: RobotModel, split: SplitProblem, measurements: Measurements, *
     x0 = np.zeros(model.n_params)
     workspace = data_workspace(data.q_rad, np.random.default_rng(seed), covers=MEASURED_RANGES)
     nominal = measurement_identifiability(model, x0, data)
-    score = score_poses(model, x0, data.q_rad, nominal.base_mask, split.problem.sigma_m,
-                        workspace.q_rad)
+    # The rows as measured: each its own station and temperature (a thermal growth's columns
+    # are its temperature's rise: at poses of one's choosing they are zeros).
+    score = score_data(model, x0, data, nominal.base_mask, split.problem.sigma_m,
+                       workspace.q_rad)
     point = cramer_rao_rms(model, x0, data, split.problem.sigma_m, workspace.q_rad)[1] \
         if model.has("attachment") else None
     result = solve_many(robot, split, [method], seed=seed)[method]

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.analysis.identifiability import Observability, identifiability, observability
 from twin.analysis.uncertainty import cramer_rao_flange_rms
 from twin.arrays import Array
+from twin.dataset import Measurements
 from twin.model import Model
 
 RIDGE = 1e-9
@@ -124,7 +125,8 @@ def score_poses(
     q_workspace_rad: ArrayLike,
     port: ArrayLike | None = None,
 ) -> DesignScore:
-    """Observability indices and predicted workspace accuracy of measuring at ``q_rad``.
+    """Observability indices and predicted workspace accuracy of measuring at ``q_rad``
+    (:func:`score_data` of those poses, at the reference temperature).
 
     Args:
         model: The cable model that will be fitted.
@@ -135,7 +137,15 @@ def score_poses(
         q_workspace_rad: Poses where the flange error is predicted, shape (k, n), rad.
         port: The station of each pose, shape (m,), for a rig of several ports; port 0 if None.
     """
-    data = model.poses(q_rad, port=port)
+    return score_data(model, x, model.poses(q_rad, port=port), base_mask, sigma_m,
+                      q_workspace_rad)
+
+
+def score_data(model: Model, x: ArrayLike, data: Measurements, base_mask: NDArray[np.bool_],
+               sigma_m: float, q_workspace_rad: ArrayLike) -> DesignScore:
+    """Observability indices and predicted workspace accuracy of measurements as they were
+    taken: each row's own station, temperature and approach (arguments as
+    :func:`score_poses`)."""
     jacobian = model.jacobian(np.asarray(x, dtype=np.float64), data)[1]
     return DesignScore(
         observability=observability(jacobian[:, base_mask]),
