@@ -201,7 +201,7 @@ def test_thermal_runs_through_the_command_line(tmp_path: Path,
     assert main(["calibrate", str(out / "capture.toml"), "--errors", "dh,thermal", "--json",
                  str(out / "result.json"), "--rerun-save", str(out / "calibrate.rrd")]) == 0
     report = capsys.readouterr().out
-    assert "Identified thermal growth (the D-H lengths above are at 24.00 °C" in report
+    assert "Identified thermal growth (the D-H lengths are the links' at 24.00 °C" in report
     assert "k_a [µm/K]" in report and "DRIFT beyond the noise" in report
     document = json.loads((out / "result.json").read_text())
     assert document["unknowns"]["rig"]["temperature_ref_c"] == pytest.approx(24.0)
@@ -375,8 +375,8 @@ def test_errors_auto_chooses_the_growth_on_a_warm_up(tmp_path: Path,
 
 def test_identify_scores_a_warm_up_at_its_temperatures(tmp_path: Path,
                                                        capsys: pytest.CaptureFixture[str]) -> None:
-    """`twin identify` on a warm-up's capture scores the poses as they were read, each at its
-    own temperature: the growths' columns are the rises, not zeros (which gave O1 = 0, an
+    """`twin identify` on a warm-up's capture reports the growth with its σ, and scores the
+    poses as they were read, each at its own temperature: the growths' columns are the rises, not zeros (which gave O1 = 0, an
     infinite condition and numpy's divide-by-zero warnings); the indices equal those of the
     base columns of the Jacobian the test takes itself, on the capture's rows."""
     sim = _simulate()
@@ -384,7 +384,10 @@ def test_identify_scores_a_warm_up_at_its_temperatures(tmp_path: Path,
     write_simulation(out, sim)
     capsys.readouterr()
     assert main(["identify", str(out / "capture.toml"), "--json", str(out / "id.json")]) == 0
-    assert "divide by zero" not in capsys.readouterr().err
+    printed = capsys.readouterr()
+    assert "divide by zero" not in printed.err
+    assert "Identified thermal growth (the D-H lengths are the links' at 24.00 °C" in printed.out
+    assert "k_a [µm/K]       ±σ" in printed.out
     nominal = json.loads((out / "id.json").read_text())["nominal"]
     data = load_measurements_of(out)
     model = make_model(sim.robot, replace(sim.rig_told_pulled, temperature_ref_c=float(

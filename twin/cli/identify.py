@@ -164,6 +164,7 @@ def run(args: argparse.Namespace) -> int:
         format_fit,
         format_held,
         format_joint_groups,
+        format_thermal,
     )
     from twin.units import m_to_mm
 
@@ -203,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
         *format_held(result),
         *format_fit(result),
         *format_joint_groups(result),
+        *format_thermal(result),
     ]
     truth, truth_lines = _truth(inputs, result)
     lines += [

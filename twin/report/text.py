@@ -519,7 +519,7 @@ def format_thermal(result: CalibrationResult) -> list[str]:
     deviations, _ = joint_level(sigma, group.units[0])
     found = dict(zip(group.names, zip(values, deviations, strict=True), strict=True))
     held = result.unseen.held(model.names) if result.unseen is not None else frozenset()
-    lines = ["", f"Identified thermal growth (the D-H lengths above are at "
+    lines = ["", f"Identified thermal growth (the D-H lengths are the links' at "
              f"{plain(model.rig.temperature_ref_c, 2)} °C, the data's mean temperature)",
              "  joint" + "".join(f"{f'{slot} [{label}]':>16} {'±σ':>8}"
                                  for slot in ("k_a", "k_d"))]
