@@ -376,9 +376,10 @@ def test_errors_auto_chooses_the_growth_on_a_warm_up(tmp_path: Path,
 def test_identify_scores_a_warm_up_at_its_temperatures(tmp_path: Path,
                                                        capsys: pytest.CaptureFixture[str]) -> None:
     """`twin identify` on a warm-up's capture reports the growth with its σ, and scores the
-    poses as they were read, each at its own temperature: the growths' columns are the rises, not zeros (which gave O1 = 0, an
-    infinite condition and numpy's divide-by-zero warnings); the indices equal those of the
-    base columns of the Jacobian the test takes itself, on the capture's rows."""
+    poses as they were read, each at its own temperature: the growths' columns are the rises,
+    not zeros (which gave O1 = 0, an infinite condition and numpy's divide-by-zero warnings);
+    the indices equal those of the base columns of the Jacobian the test takes itself, on the
+    capture's rows."""
     sim = _simulate()
     out = tmp_path / "thermal"
     write_simulation(out, sim)
