@@ -66,6 +66,10 @@ def plain(value: float, decimals: int | None = None, *, significant: int | None 
     kind = f".{decimals}f" if decimals is not None and significant is None \
         else f".{AS_GIVEN if significant is None else significant}g"
     text = format(float(value), f"{'+' if sign else ''}{kind}")
+    if text[0] == "-" and not any(digit in "123456789" for digit in text.split("e")[0]):
+        # A value rounded to zero has no sign: "-0.0000" (a held α6 at −1e-14) read as an
+        # error that had a direction.
+        text = ("+" if sign else "") + text[1:]
     return f"{text:>{width}}" if len(text) < width else (" " + text if width else text)
 
 
