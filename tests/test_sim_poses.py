@@ -12,6 +12,7 @@ from twin.io.robot_file import default_robot
 from twin.robot import random_poses
 from twin.scenario import PoseConstraints
 from twin.sim import Twin, read_pose_plan, sample_poses
+from twin.sim.poses import violations
 from twin.units import deg_to_rad
 
 PORT_M = np.array([0.6, -0.4, 0.1])
@@ -32,6 +33,29 @@ def test_sampled_poses_satisfy_every_constraint() -> None:
     assert np.all((length >= 0.1) & (length <= 1.2))
     assert not np.any(twin.in_collision(q)) and not np.any(twin.cable_blocked(q))
     assert np.array_equal(q, sample_poses(twin, 60, CONSTRAINTS, np.random.default_rng(5)))
+
+
+@pytest.mark.parametrize("constraints", [
+    CONSTRAINTS,
+    # A narrow cable range keeps under half of each batch: several batches are drawn.
+    PoseConstraints(min_flange_height_m=0.05, cable_min_m=0.6, cable_max_m=0.8)])
+def test_sampled_poses_are_the_first_usable_draws(constraints: PoseConstraints) -> None:
+    """The sampler returns the first usable poses of its draws in their order, as testing every
+    draw of each batch of twice the count would (its slices stop MuJoCo's tests early)."""
+    robot = default_robot()
+    twin = Twin.build(robot, PORT_M)
+    count = 50
+    rng = np.random.default_rng(8)
+    usable_draws = []
+    while sum(len(part) for part in usable_draws) < count:
+        batch = rng.uniform(robot.lower_rad, robot.upper_rad, size=(2 * count, 6))
+        failed = np.zeros(len(batch), dtype=bool)
+        for _, check in violations(constraints, twin, batch):
+            failed |= check
+        usable_draws.append(batch[~failed])
+    expected = np.concatenate(usable_draws)[:count]
+    np.testing.assert_array_equal(
+        sample_poses(twin, count, constraints, np.random.default_rng(8)), expected)
 
 
 def test_flange_below_the_floor_is_a_collision() -> None:
