@@ -23,6 +23,7 @@ Bounds ±100 µm/K: a metre of aluminium grows 23 µm/K, of steel 11.5; radius 5
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from twin.dataset import TEMPERATURE, Measurements
 from twin.rig import Rig
@@ -52,6 +53,12 @@ def temperature_rise(data: Measurements, reference_c: float | None) -> Array:
     return np.asarray(data.values[TEMPERATURE] - reference_c, dtype=np.float64)
 
 
+def growing(robot: RobotModel) -> NDArray[np.intp]:
+    """Where the growing entries sit in the table, slot-major as x lays out the D-H errors,
+    in the thermal group's order, shape (entries,)."""
+    return np.flatnonzero(robot.structure.is_length[:SLOTS].ravel())
+
+
 def grown(robot: RobotModel, growth_m_per_k: Array, rise_k: float) -> RobotModel:
     """``robot`` with its links grown ``rise_k`` kelvin above the reference temperature: each
     length entry of the table's first two slots plus its k · rise (what a result's tables are
@@ -62,7 +69,7 @@ def grown(robot: RobotModel, growth_m_per_k: Array, rise_k: float) -> RobotModel
         growth_m_per_k: The growths k in the thermal group's order, shape (entries,), m/K.
         rise_k: T − T_ref, K.
     """
-    entries = np.flatnonzero(robot.structure.is_length[:SLOTS].ravel())
+    entries = growing(robot)
     growth = np.zeros(robot.dh.size)
     growth[entries] = np.asarray(growth_m_per_k, dtype=np.float64) * rise_k
     return robot.perturbed(growth.reshape(robot.dh.shape))
@@ -71,8 +78,7 @@ def grown(robot: RobotModel, growth_m_per_k: Array, rise_k: float) -> RobotModel
 def make(robot: RobotModel, rig: Rig) -> Group:
     """The thermal growth of ``robot``'s length entries about ``rig``'s reference temperature."""
     n = robot.n_joints
-    # Indices into the table's entries, slot-major as x lays out the D-H errors.
-    entries = np.flatnonzero(robot.structure.is_length[:SLOTS].ravel())
+    entries = growing(robot)
     linear = np.zeros((4 * n, entries.size))
     linear[entries, np.arange(entries.size)] = 1.0
     names = robot.structure.parameter_names
