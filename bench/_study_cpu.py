@@ -4,9 +4,9 @@ per commit it compares, the tree of each on PYTHONPATH): one JSON line on stdout
 ``python _study_cpu.py MODE TRIALS SCENARIO`` where MODE is ``inprocess`` (the trials run one
 after the other in this process: CPU per trial, after one that loads and caches what a first
 trial loads) or ``local1``, ``local2``, ``dask1``, ``dask2`` (the trials run as `twin study`
-runs them, on that many local processes or Dask workers: the workers' CPU per trial, local
-processes only, and the wall time of the run, the executor's start and stop apart). Only the
-API that every compared commit has is used.
+runs them, on that many local processes or Dask workers: the CPU per trial of this process
+and its workers, local processes only, and the wall time of the run, the executor's start and
+stop apart). Only the API that every compared commit has is used.
 """
 
 from __future__ import annotations
@@ -21,9 +21,10 @@ from pathlib import Path
 from typing import Any
 
 
-def _children_cpu() -> float:
+def _run_cpu() -> float:
+    """CPU of this process and its finished workers so far, s."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+    return usage.ru_utime + usage.ru_stime + time.process_time()
 
 
 def in_process(plan: Any, trials: int) -> dict[str, float]:
@@ -41,7 +42,8 @@ def in_process(plan: Any, trials: int) -> dict[str, float]:
 
 
 def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[str, float]:
-    """The workers' CPU per trial (local processes) and the wall time of the trials, s."""
+    """The CPU per trial of this process and its workers (local processes) and the wall time of
+    the trials, s."""
     from twin.study.runner import run_trials
 
     if kind == "local":
@@ -59,12 +61,12 @@ def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[st
         pass
     overhead = time.perf_counter() - start
     with tempfile.TemporaryDirectory() as folder:
-        cpu, start = _children_cpu(), time.perf_counter()
+        cpu, start = _run_cpu(), time.perf_counter()
         run_trials(plan, Path(folder) / "study", make(), stream=io.StringIO())
         wall = time.perf_counter() - start - overhead
     found = {"wall_s": wall, "overhead_s": overhead}
     if kind == "local":
-        found["cpu_s"] = (_children_cpu() - cpu) / trials
+        found["cpu_s"] = (_run_cpu() - cpu) / trials
     return found
 
 

@@ -46,6 +46,21 @@ def calm(tmp_path_factory: pytest.TempPathFactory) -> tuple[StudyPlan, Path]:
     return plan, folder / "out"
 
 
+def test_first_trial_runs_before_any_worker(tmp_path: Path) -> None:
+    """The first trial of a run is recorded before a worker process exists (forked workers then
+    inherit the compiled kernel it loaded), the others by the workers."""
+    plan = load_study(write_scenario(tmp_path, with_study('trials = 3\nmethods = ["lm"]')))
+    children: list[int] = []
+
+    def count(outcome: TrialOutcome) -> None:
+        children.append(len(multiprocessing.active_children()))
+
+    run_trials(plan, tmp_path / "out", LocalProcesses(2), stream=io.StringIO(), on_outcome=count)
+    assert len(children) == 3
+    assert children[0] == 0
+    assert max(children) > 0
+
+
 @pytest.mark.slow
 def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Path]) -> None:
     """SIGKILL of a busy worker process breaks the pool; its batches run again on a fresh pool
