@@ -52,7 +52,8 @@ def run_trials(
     Args:
         plan: The study.
         folder: Study folder; trials already recorded there are not run again.
-        executor: Where trials run (entered here); the first runs in this process.
+        executor: Where trials run (entered here); for one whose workers are forked from this
+            process, the first trial runs here, before they start.
         stream: Where the progress bar goes; stderr by default.
         on_outcome: Called in this process with each newly recorded trial.
 
@@ -69,12 +70,13 @@ def run_trials(
     with executor:
         progress = Progress(len(plan.keys), len(plan.keys) - len(todo), stream)
         try:
-            # The first trial runs here, before any worker starts: local workers are forked,
-            # and inherit the compiled kernel this trial loads (measured: each loaded it
-            # again, 0.3 s of CPU per worker and 16 % more CPU per trial with two of them).
-            first = run_batch(specs, todo[:1])
-            batches = make_batches(todo[1:], executor.workers)
-            for outcomes in chain([first], executor.run(partial(run_batch, specs), batches)):
+            # Workers forked from here inherit the compiled kernel the first trial loads, when
+            # it runs here before they start (measured: each loaded it again, 0.3 s of CPU per
+            # worker and 16 % more CPU per trial with two of them).
+            here = todo[:1] if executor.forks else []
+            batches = make_batches(todo[len(here):], executor.workers)
+            work = executor.run(partial(run_batch, specs), batches)
+            for outcomes in chain([run_batch(specs, here)] if here else [], work):
                 for outcome in outcomes:
                     if store.append(outcome):
                         progress.advance()

@@ -31,6 +31,11 @@ class Executor(Protocol):
         """Number of parallel workers (for sizing batches)."""
         ...
 
+    @property
+    def forks(self) -> bool:
+        """Whether the workers are forked from this process (and inherit what it loaded)."""
+        ...
+
     def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
         """Yield ``function(batch)`` for every batch, as each finishes."""
         ...

@@ -110,6 +110,11 @@ class DaskCluster:
         info = self.client.scheduler_info()["workers"]
         return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
 
+    @property
+    def forks(self) -> bool:
+        """False: Dask's workers are processes of their own, which load what they run."""
+        return False
+
     def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
         """Yield ``function(batch)`` for every batch as its task finishes."""
         from dask.distributed import as_completed

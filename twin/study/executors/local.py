@@ -65,6 +65,11 @@ class LocalProcesses:
         """Number of worker processes."""
         return self._workers
 
+    @property
+    def forks(self) -> bool:
+        """True: the workers are forked from this process."""
+        return True
+
     def __enter__(self) -> LocalProcesses:
         return self
 
