@@ -15,7 +15,7 @@ from twin.analysis.uncertainty import (
     residual_sigma,
     rms_distance,
 )
-from twin.analysis.unseen import unseen_directions, unseen_with_weak
+from twin.analysis.unseen import _sparse_names, unseen_directions, unseen_with_weak
 from twin.calibration.pipeline import calibrate
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
@@ -132,3 +132,12 @@ def test_unseen_with_and_without_the_start_share_one_factorisation(
             assert (shared.names, shared.weak_names) == (own.names, own.weak_names)
         extra.append(pair[1].basis.shape[1] - pair[0].basis.shape[1])
     assert extra[0] > 0 and extra[1] == 0
+
+
+def test_unseen_names_pivot_on_what_the_subspace_moves() -> None:
+    """A subspace near span{u0, u3 − u2} is named by the unknowns it moves: "u0" and "u2-u3".
+    Pivots chosen by rank alone took u3 and u2, which it barely moves (1e-6), and their inverse
+    made both directions read "u0"."""
+    basis = np.linalg.qr(np.array([[1.0, 1.0], [0.0, 0.0], [0.0, 1e-6], [1e-6, 0.0]]))[0]
+    names = _sparse_names(basis, np.ones(4), ("u0", "u1", "u2", "u3"))
+    assert names == ("u0", "u2-u3")

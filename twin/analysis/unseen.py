@@ -55,6 +55,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.identifiability import (
@@ -145,21 +146,20 @@ class Unseen(NamedTuple):
 
 
 def _sparse_names(basis: Array, column_units: Array, names: tuple[str, ...]) -> tuple[str, ...]:
-    """Readable names of a subspace: its basis turned so that each direction has one pivot
-    unknown (the last ones in the order of x that can be), then named in column-scaled units
-    as :func:`twin.analysis.identifiability.name_direction` names null directions."""
-    p, k = basis.shape
-    pivots: list[int] = []
-    for index in range(p - 1, -1, -1):
-        trial = [*pivots, index]
-        if np.linalg.matrix_rank(basis[trial], tol=1e-9) == len(trial):
-            pivots = trial
-        if len(pivots) == k:
-            break
-    sparse = basis @ np.linalg.inv(basis[pivots])
+    """Readable names of a subspace, in column-scaled units as
+    :func:`twin.analysis.identifiability.name_direction` names null directions: its basis
+    turned so that each direction has one pivot unknown, 1 on its own pivot and 0 on the
+    others'. The pivots are the unknowns the subspace moves most (QR with column pivoting; on a
+    tie the last in the order of x), so every other coefficient stays of order one and each
+    name carries its own pivot: pivots chosen by rank alone could fall on an unknown the
+    subspace barely moves, whose inverse blew the others up until every name read alike."""
+    k = basis.shape[1]
+    scaled = column_units[:, None] * basis
+    # Reversed, so that of equal candidates the pivoting takes the last unknown.
+    pivots = scaled.shape[0] - 1 - scipy.linalg.qr(scaled[::-1].T, pivoting=True)[2][:k]
+    sparse = scaled @ np.linalg.inv(scaled[pivots])
     sparse[np.abs(sparse) < 1e-12] = 0.0
-    return tuple(name_direction(column_units * sparse[:, j], names)
-                 for j in np.argsort(pivots))
+    return tuple(name_direction(sparse[:, j], names) for j in np.argsort(pivots))
 
 
 def rig_unknowns(model: Model) -> NDArray[np.bool_]:
