@@ -138,6 +138,19 @@ def test_groups_must_fit_the_kind(irb120: RobotModel, port_m: np.ndarray) -> Non
         Model(irb120, rig, model.kind, (*model.groups, *model.groups))
 
 
+def test_rows_that_turn_the_flange_are_refused_with_poses(irb120: RobotModel) -> None:
+    """A per-row change of the table's angles would turn the flange row by row, which 6-D poses
+    read on one table: refused; the thermal growth (lengths alone) is taken."""
+    thermal = make_model(irb120, Rig(temperature_ref_c=20.0), "pose",
+                         CalibrationSettings(errors=("dh", "thermal"))).group("thermal")
+    assert thermal.linear is not None
+    turning = np.zeros_like(thermal.linear)
+    turning[3 * irb120.n_joints] = 1.0  # θ1 grows with the temperature
+    kind = make_model(irb120, Rig(), "pose").kind
+    with pytest.raises(ValueError, match="thermal: not with 6-D poses"):
+        Model(irb120, Rig(temperature_ref_c=20.0), kind, (replace(thermal, linear=turning),))
+
+
 JOINT_GROUPS = ["transmission", "backlash", "compliance"]
 
 

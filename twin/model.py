@@ -104,9 +104,14 @@ class Model:
         # per measurement set, and every evaluation on it reuses them.
         object.__setattr__(self, "_turns", cached(lambda data: turns(data.q_rad)))
         rows = tuple(group for group in self.groups if group.stage == Stage.ROWS)
-        if rows and self.kind.reads_rotation:
-            raise ValueError(f"{', '.join(group.name for group in rows)}: not with "
-                             f"{self.kind.what}, which read the flange's orientation")
+        # The flange's orientation is read on the table without the rows' changes (one walk of
+        # the frame for every row): exact for changes of lengths alone, which do not turn it.
+        turning = ~self.robot.structure.is_length.ravel()
+        turns_flange = [group.name for group in rows
+                        if group.linear is not None and np.count_nonzero(group.linear[turning])]
+        if turns_flange and self.kind.reads_rotation:
+            raise ValueError(f"{', '.join(turns_flange)}: not with {self.kind.what}, which "
+                             "read the flange's orientation")
         object.__setattr__(self, "_row_groups", rows)
         # Each table group's place in x and its map's transpose; None where the map is the
         # identity (the D-H errors, entry by entry): the swarms' (K, 4n) @ (4n, 4n) product

@@ -43,7 +43,6 @@ from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import DEFAULT_SETTINGS, make_model
 from twin.calibration.split import required_poses
 from twin.dataset import TEMPERATURE, Measurements
-from twin.kinds import KINDS
 from twin.report.display import plain
 from twin.rig import Rig
 from twin.robot import RobotModel
@@ -140,15 +139,12 @@ def nested_errors(has_approach: bool, has_temperature: bool = False) -> list[tup
 
 def _warming(measurements: Measurements) -> str | None:
     """Why thermal growth is not a candidate for these measurements, or None when it is (a
-    ``temperature_c`` column changing by more than :data:`TEMPERATURE_SPAN_K`, of a kind that
-    takes it)."""
+    ``temperature_c`` column changing by more than :data:`TEMPERATURE_SPAN_K`)."""
     if TEMPERATURE not in measurements.values:
         return "thermal: the measurements carry no temperature_c"
     span = float(np.ptp(measurements.values[TEMPERATURE]))
     if span <= TEMPERATURE_SPAN_K:
         return f"thermal: the temperature changes by {plain(span, significant=3)} K only"
-    if KINDS.lookup(measurements.kind).reads_rotation:
-        return "thermal: not with measurements that read the flange's orientation"
     return None
 
 

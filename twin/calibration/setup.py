@@ -86,10 +86,6 @@ def _prepared(robot: RobotModel, measurements: Measurements, setup: Rig,
     setup, measurements = KINDS.lookup(measurements.kind).prepare(robot, setup, measurements,
                                                                    settings.noise)
     if "thermal" in settings.errors:
-        kind = KINDS.lookup(measurements.kind)
-        if kind.reads_rotation:
-            raise InputError(f"--errors thermal with {kind.what}", "thermal growth with "
-                             "readings of a point (their orientation rows do not take it yet)")
         _check_temperature(measurements, "")
         if setup.temperature_ref_c is None:
             setup = replace(setup, temperature_ref_c=float(np.mean(measurements.value(
