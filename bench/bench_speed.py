@@ -17,7 +17,8 @@ study worker is.
 3. **M9 under the paper's protocol** (AMLM 30 + BIPSO 30, 100 particles) against LM run to
    convergence, CPU time of the solve on the same simulated paper rig, with the kernel a study
    takes (parts 3 to 5 alike). Goal: at most 5×.
-4. **Study CPU per trial**: geometric_irb120 with LM, every trial's post-fit checks included,
+4. **Study CPU per trial**: geometric_irb120 with LM, every column of a trial's row included
+   (the hold, the identifiability, the bound, the truth; not the checks only a report shows),
    trials one after the other in one process, BLAS pinned: this tree beside the commit this
    work started from (:data:`BEFORE_COMMIT`, its files extracted by git and run by
    ``_study_cpu.py`` in a process of their own, as this tree's are). Goal: at most 1/5. The

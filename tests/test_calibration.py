@@ -126,3 +126,26 @@ def test_on_result_sees_each_method_as_it_finishes(
     results = calibrate_many(irb120, measurements, port_m, ["m7", "lm"], on_result=seen.append)
     assert [result.method for result in seen] == ["amlm", "lm"] == list(results)
     assert all(result is results[result.method] for result in seen)
+
+
+def test_a_result_without_the_report_has_the_same_answer(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """report=False (a study's trial) gives each method the same answer, metrics, hold and
+    identifiability as a full calibration, and leaves out the checks a report shows."""
+    full = calibrate_many(irb120, measurements, port_m, ["lm", "pso"], seed=4)
+    lean = calibrate_many(irb120, measurements, port_m, ["lm", "pso"], seed=4, report=False)
+    for name, result in full.items():
+        bare = lean[name]
+        np.testing.assert_array_equal(bare.solver.x, result.solver.x)
+        np.testing.assert_array_equal(bare.held.method_x, result.held.method_x)  # type: ignore
+        assert bare.metrics == result.metrics
+        for found, full_found in ((bare.identified_identifiability,
+                                   result.identified_identifiability),
+                                  (bare.unseen, result.unseen)):
+            assert found is not None and full_found is not None
+            for part, full_part in zip(found, full_found, strict=True):
+                np.testing.assert_array_equal(part, full_part)
+        assert result.uncertainty is not None and result.gauge is not None
+        assert (bare.uncertainty, bare.gauge, bare.misfit, bare.workspace, bare.steps) == \
+            (None, None, None, None, ())

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,7 +31,7 @@ from twin.analysis.metrics import Metrics, metrics
 from twin.analysis.misfit import Misfit, misfit_test, repeat_sigma
 from twin.analysis.steps import Step, find_steps
 from twin.analysis.uncertainty import calibration_uncertainty
-from twin.analysis.workspace import data_workspace
+from twin.analysis.workspace import Workspace, data_workspace
 from twin.arrays import Array
 from twin.calibration.held_out import held_out_residuals
 from twin.calibration.hold import Held, hold_unseen
@@ -55,17 +56,19 @@ def calibrate_many(
     settings: CalibrationSettings = DEFAULT_SETTINGS,
     seed: int = 0,
     on_result: Callable[[CalibrationResult], None] | None = None,
+    report: bool = True,
 ) -> dict[str, CalibrationResult]:
     """Run several methods on the same split, each with a generator seeded from ``seed``.
 
-    Takes the arguments of :func:`calibrate`, with a list of methods, and ``on_result``, called
-    with each method's result as soon as it is done (to show a run live).
+    Takes the arguments of :func:`calibrate`, with a list of methods, ``on_result``, called
+    with each method's result as soon as it is done (to show a run live), and ``report``
+    (:func:`solve_many`).
 
     Returns:
         Results keyed by each method's name, in the order given.
     """
     split = make_problem(robot, measurements, port_m, rig=rig, settings=settings, seed=seed)
-    return solve_many(robot, split, methods, seed=seed, on_result=on_result)
+    return solve_many(robot, split, methods, seed=seed, on_result=on_result, report=report)
 
 
 def rejected_poses(problem: Problem, x: ArrayLike, data: Measurements) -> NDArray[np.bool_]:
@@ -192,15 +195,20 @@ def solve_many(
     *,
     seed: int = 0,
     on_result: Callable[[CalibrationResult], None] | None = None,
+    report: bool = True,
 ) -> dict[str, CalibrationResult]:
     """:func:`calibrate_many` on a problem already made (and so already checked) by
-    :func:`make_problem`."""
+    :func:`make_problem`. With ``report=False`` each result holds the answer, its metrics, the
+    hold and the identifiability at the start and at the answer, which is all a study's trial
+    reads; the checks a report shows beside them (the fit test and the rejected rows, the
+    gauge, the uncertainty over the workspace, the steps, the drift) are left out (None, or
+    empty): 15 % of a study trial's CPU."""
     solvers = [get_solver(name) for name in methods]
     nominal = measurement_identifiability(split.problem.model, split.problem.x0,
                                           split.problem.train)
-    workspace = data_workspace(split.problem.train.q_rad, np.random.default_rng(seed))
-    q_workspace = workspace.q_rad
-    drift = _drift(split)
+    workspace = data_workspace(split.problem.train.q_rad, np.random.default_rng(seed)) \
+        if report else None
+    drift = _drift(split) if report else None
     results = {}
     for solver in solvers:
         problem, solved, held = _solve(solver, split.problem, split.settings.budget, seed,
@@ -208,35 +216,46 @@ def solve_many(
         identified = measurement_identifiability(problem.model, solved.x, problem.train)
         # The training rows at the answer, once for the rejections, the fit test and the metrics.
         train_residuals = problem.model.residuals(solved.x, problem.train)
-        misfit, rejected, kept, weight, gauge = _assess(split._replace(problem=problem),
-                                                        solved.x, train_residuals, identified,
-                                                        q_workspace)
+        checks = {} if workspace is None else _checks(
+            split._replace(problem=problem), solved.x, train_residuals, nominal, identified,
+            held, workspace)
         results[solver.name] = CalibrationResult(
             robot=robot, model=problem.model, solver=solved, seed=seed,
             train_rows=split.train_rows, validation_rows=split.validation_rows,
             metrics=_metrics(problem, solved.x, train_residuals),
             identifiability=nominal,
             identified_identifiability=identified,
-            uncertainty=calibration_uncertainty(
-                problem.model, solved.x, kept, nominal.rank, q_workspace, held.unseen, weight
-            ),
             settings=split.settings,
-            # A σ fitted to these residuals explains them by construction: no misfit test.
-            misfit=None if split.noise is not None and split.noise.from_residuals else misfit,
-            rejected_rows=rejected,
-            gauge=gauge,
             unseen=held.unseen,
             held=held,
             held_out=split.held_out,
             noise=split.noise,
-            workspace=workspace,
             row_sigma=problem.row_sigma(problem.train) if problem.in_variables else None,
             drift=drift,
-            steps=_steps(split, problem, solved.x),
+            **checks,
         )
         if on_result is not None:
             on_result(results[solver.name])
     return results
+
+
+def _checks(split: SplitProblem, x: Array, train_residuals: Array, nominal: Identifiability,
+            identified: Identifiability, held: Held, workspace: Workspace) -> dict[str, Any]:
+    """The checks a report shows beside a method's answer x (:func:`solve_many`), as the
+    :class:`CalibrationResult` fields they fill."""
+    problem = split.problem
+    misfit, rejected, kept, weight, gauge = _assess(split, x, train_residuals, identified,
+                                                    workspace.q_rad)
+    return {
+        "uncertainty": calibration_uncertainty(problem.model, x, kept, nominal.rank,
+                                               workspace.q_rad, held.unseen, weight),
+        # A σ fitted to these residuals explains them by construction: no misfit test.
+        "misfit": None if split.noise is not None and split.noise.from_residuals else misfit,
+        "rejected_rows": rejected,
+        "gauge": gauge,
+        "workspace": workspace,
+        "steps": _steps(split, problem, x),
+    }
 
 
 def calibrate(
