@@ -107,7 +107,7 @@ def main() -> None:
               f"{per_pose:.1f} readings per pose")
         plain, durable = append_s(folder, False), append_s(folder, True)
         print(f"append per row ({ROWS} rows, {os.statvfs(folder).f_bsize} B blocks, beside "
-              "the repository): plain {plain * 1e6:.1f} µs, O_APPEND + fsync "
+              f"the repository): plain {plain * 1e6:.1f} µs, O_APPEND + fsync "
               f"{durable * 1e6:.1f} µs, ratio {durable / plain:.1f}")
         print(f"fsync share of one settled ASCII pose: "
               f"{durable / (durable + 1 / pose_rate) * 100:.1f} %")
