@@ -20,6 +20,7 @@ from tests.conftest import Refusals
 from tests.test_viz_rerun import read_rrd, scalars
 from twin.analysis.uncertainty import cramer_rao_covariance, flange_sigma, rms_distance
 from twin.calibration.pipeline import calibrate
+from twin.calibration.result import CalibrationResult
 from twin.calibration.selection import _warming, nested_errors
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
@@ -135,6 +136,24 @@ def _held_out(model: Model, q: np.ndarray, reference_c: float) -> list[Measureme
             for shift in (-4.0, 0.0, 4.0)]
 
 
+def _seen_alone(sim: Simulation, result: CalibrationResult
+                ) -> tuple[Model, Measurements, np.ndarray, np.ndarray, list[int]]:
+    """A warm-up's calibration against its truth: the model, the training poses, the true
+    unknowns, their Cramér–Rao covariance there, and the growths the poses see alone (in no
+    null direction) — among them those of the long links, k_a2, k_d1 and k_d4."""
+    model = result.model
+    train = sim.measurements.subset(result.train_rows)
+    x_true = true_unknowns(sim, model)
+    covariance = cramer_rao_covariance(model, x_true, train, noise_sigma_m(
+        sim, model.jacobian(x_true, train)[1]))
+    assert result.identifiability is not None
+    null = result.identifiability.null_space
+    alone = [i for i in range(model.n_params)[model.slice("thermal")]
+             if np.max(np.abs(null[i]), initial=0.0) < 1e-6]
+    assert {model.names[i] for i in alone} >= {"k_a2", "k_d1", "k_d4"}
+    return model, train, x_true, covariance, alone
+
+
 @pytest.mark.slow
 def test_thermal_recovered_within_twice_the_bound() -> None:
     """Over 6 seeded warm-ups: each growth the data see alone, k_a and k_d, has an RMS error
@@ -147,16 +166,7 @@ def test_thermal_recovered_within_twice_the_bound() -> None:
         sim = _simulate(200 + seed)
         result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told, settings=THERMAL,
                            seed=seed)
-        model = result.model
-        train = sim.measurements.subset(result.train_rows)
-        x_true = true_unknowns(sim, model)
-        sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
-        covariance = cramer_rao_covariance(model, x_true, train, sigma)
-        assert result.identifiability is not None
-        null = result.identifiability.null_space
-        alone = [i for i in range(model.n_params)[model.slice("thermal")]
-                 if np.max(np.abs(null[i]), initial=0.0) < 1e-6]
-        assert {model.names[i] for i in alone} >= {"k_a2", "k_d1", "k_d4"}
+        model, train, x_true, covariance, alone = _seen_alone(sim, result)
         errors.append(result.solver.x[alone] - x_true[alone])
         bounds.append(np.sqrt(np.diag(covariance))[alone])
         q = random_poses(sim.robot, 300, np.random.default_rng(2024 + seed))
@@ -264,16 +274,8 @@ def test_thermal_of_6d_poses_recovered_within_twice_the_bound(
         sim = simulate(scenario, 300 + seed)
         result = calibrate(sim.robot, sim.measurements, rig=sim.rig_told_pulled,
                            settings=scenario.calibration, seed=seed)
-        model = result.model
-        train = sim.measurements.subset(result.train_rows)
-        x_true = true_unknowns(sim, model)
-        covariance = cramer_rao_covariance(model, x_true, train, noise_sigma_m(
-            sim, model.jacobian(x_true, train)[1]))
-        assert result.identifiability is not None and result.held is not None
-        null = result.identifiability.null_space
-        alone = [i for i in range(model.n_params)[model.slice("thermal")]
-                 if np.max(np.abs(null[i]), initial=0.0) < 1e-6]
-        assert {model.names[i] for i in alone} >= {"k_a2", "k_d1", "k_d4"}
+        model, train, x_true, covariance, alone = _seen_alone(sim, result)
+        assert result.held is not None
         errors.append(result.held.method_x[alone] - x_true[alone])
         bounds.append(np.sqrt(np.diag(covariance))[alone])
         if seed == 0:
