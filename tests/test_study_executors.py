@@ -46,6 +46,22 @@ def calm(tmp_path_factory: pytest.TempPathFactory) -> tuple[StudyPlan, Path]:
     return plan, folder / "out"
 
 
+def _worker_signals(batch: tuple[int, ...]) -> tuple[object, object, set[int]]:
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    return signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM), set(held)
+
+
+def test_workers_take_stops_as_workers_and_the_command_gets_them_back() -> None:
+    """A worker ignores SIGINT, dies of SIGTERM and holds neither once started (it was forked
+    with both held, so that one stopped before its handlers were set cannot swallow them);
+    this process holds neither after the run."""
+    with LocalProcesses(2) as pool:
+        found = list(pool.run(_worker_signals, [(0,), (1,)]))
+    assert found == [(signal.SIG_IGN, signal.SIG_DFL, set())] * 2
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    assert not {signal.SIGINT, signal.SIGTERM} & set(held)
+
+
 def test_first_trial_runs_before_any_worker(tmp_path: Path) -> None:
     """The first trial of a run is recorded before a worker process exists (forked workers then
     inherit the compiled kernel it loaded), the others by the workers."""

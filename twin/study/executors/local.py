@@ -5,6 +5,9 @@ threadpoolctl, the library that sets the thread count of the BLAS a numpy is lin
 workers already take every core, and a BLAS that starts a thread per core in each of them
 burns CPU fighting over the cores (a trial cost 60 % more CPU unpinned, 2 workers no faster
 than one). Workers are forked, so they start at once with what this process has imported.
+They are forked with SIGINT and SIGTERM blocked, until they have set their own handlers
+(:func:`_start_worker`): a worker forked with the command's handlers, and stopped before it
+set its own, swallowed the SIGTERM that stops it and kept the command from exiting.
 
 A worker that dies breaks a :class:`~concurrent.futures.ProcessPoolExecutor` for every batch
 still in it; the batches that had not finished are submitted again to a fresh pool. A pool that
@@ -14,17 +17,21 @@ kills its worker every time, and the run stops with :class:`~twin.errors.TwinErr
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import signal
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from typing import Any
 
 from twin.errors import TwinError
 
 MAX_FRUITLESS_RESTARTS = 3
+STOPS = frozenset({signal.SIGINT, signal.SIGTERM})
+"""The signals that stop a run; held while workers are forked."""
 
 
 def _start_worker() -> None:
@@ -41,7 +48,20 @@ def _start_worker() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # Forked with both blocked (_stops_held): what arrived since is taken now, as set above.
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
     threadpool_limits(limits=1)
+
+
+@contextmanager
+def _stops_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held (blocked, not lost) in this thread, and so in the workers it
+    forks, until the block ends; the command takes what arrived then."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
@@ -82,13 +102,15 @@ class LocalProcesses:
         fruitless = 0
         while pending:
             pool = ProcessPoolExecutor(max_workers=min(self._workers, len(pending)),
+                                       mp_context=multiprocessing.get_context("fork"),
                                        initializer=_start_worker)
             finished_any = False
             clean = False
             try:
-                futures: dict[Future[Any], int] = {
-                    pool.submit(function, batch): index for index, batch in pending.items()
-                }
+                with _stops_held():  # the first submit forks every worker
+                    futures: dict[Future[Any], int] = {
+                        pool.submit(function, batch): index for index, batch in pending.items()
+                    }
                 waiting = set(futures)
                 while waiting:
                     done, waiting = wait(waiting, return_when=FIRST_COMPLETED)
