@@ -105,7 +105,7 @@ class Model:
         object.__setattr__(self, "_turns", cached(lambda data: turns(data.q_rad)))
         rows = tuple(group for group in self.groups if group.stage == Stage.ROWS)
         # The flange's orientation is read on the table without the rows' changes (one walk of
-        # the frame for every row): exact for changes of lengths alone, which do not turn it.
+        # the frame serves every row): exact for changes of lengths alone, which do not turn it.
         turning = ~self.robot.structure.is_length.ravel()
         turns_flange = [group.name for group in rows
                         if group.linear is not None and np.count_nonzero(group.linear[turning])]
