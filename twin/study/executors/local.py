@@ -4,10 +4,12 @@ Every worker runs its BLAS and OpenMP on one thread (:func:`_start_worker`, thro
 threadpoolctl, the library that sets the thread count of the BLAS a numpy is linked to): the
 workers already take every core, and a BLAS that starts a thread per core in each of them
 burns CPU fighting over the cores (a trial cost 60 % more CPU unpinned, 2 workers no faster
-than one). Workers are forked, so they start at once with what this process has imported.
-They are forked with SIGINT and SIGTERM blocked, until they have set their own handlers
-(:func:`_start_worker`): a worker forked with the command's handlers, and stopped before it
-set its own, swallowed the SIGTERM that stops it and kept the command from exiting.
+than one). On Linux workers are forked (:data:`START`), so they start at once with what this
+process has imported; elsewhere they start as the platform starts them (spawned on macOS,
+where the system's libraries, Accelerate among them, are not safe to fork). They start with
+SIGINT and SIGTERM blocked, until they have set their own handlers (:func:`_start_worker`): a
+worker forked with the command's handlers, and stopped before it set its own, swallowed the
+SIGTERM that stops it and kept the command from exiting.
 
 A worker that dies breaks a :class:`~concurrent.futures.ProcessPoolExecutor` for every batch
 still in it; the batches that had not finished are submitted again to a fresh pool. A pool that
@@ -20,6 +22,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -31,7 +34,10 @@ from twin.errors import TwinError
 
 MAX_FRUITLESS_RESTARTS = 3
 STOPS = frozenset({signal.SIGINT, signal.SIGTERM})
-"""The signals that stop a run; held while workers are forked."""
+"""The signals that stop a run; held while workers start."""
+START = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
+"""How workers start: forked on Linux (named: Python 3.14 makes forkserver the default there),
+the platform's default elsewhere."""
 
 
 def _start_worker() -> None:
@@ -56,7 +62,7 @@ def _start_worker() -> None:
 @contextmanager
 def _stops_held() -> Iterator[None]:
     """SIGINT and SIGTERM held (blocked, not lost) in this thread, and so in the workers it
-    forks, until the block ends; the command takes what arrived then."""
+    starts, until the block ends; the command takes what arrived then."""
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
     try:
         yield
@@ -87,8 +93,8 @@ class LocalProcesses:
 
     @property
     def forks(self) -> bool:
-        """True: the workers are forked from this process."""
-        return True
+        """Whether the workers are forked from this process (on Linux: :data:`START`)."""
+        return START.get_start_method() == "fork"
 
     def __enter__(self) -> LocalProcesses:
         return self
@@ -102,12 +108,12 @@ class LocalProcesses:
         fruitless = 0
         while pending:
             pool = ProcessPoolExecutor(max_workers=min(self._workers, len(pending)),
-                                       mp_context=multiprocessing.get_context("fork"),
+                                       mp_context=START,
                                        initializer=_start_worker)
             finished_any = False
             clean = False
             try:
-                with _stops_held():  # the first submit forks every worker
+                with _stops_held():  # the first submit starts every worker
                     futures: dict[Future[Any], int] = {
                         pool.submit(function, batch): index for index, batch in pending.items()
                     }
