@@ -15,7 +15,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from twin.cli import main
 from twin.io.importers import StillRule, import_files
-from twin.io.measurements import load_measurements
+from twin.io.measurements import joint_columns, load_measurements
 from twin.io.robot_file import load_robot
 from twin.scenario import load_scenario
 from twin.sim import simulate
@@ -192,3 +192,33 @@ def test_csv_files_in_their_units_import(tmp_path: Path,
     assert "fr3_joint4 = 0.000 deg outside" in capsys.readouterr().out
     lengths = load_measurements(tmp_path / "lengths.csv", robot)
     assert np.allclose(m_to_mm(lengths.value("length_m")), 750.0) and len(lengths) == 6
+
+
+@pytest.mark.parametrize("delimiter", [";", "\t"])
+def test_a_spreadsheets_csv_imports_as_the_comma_one(tmp_path: Path, delimiter: str,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """A spreadsheet's export where the decimal mark is a comma (fields separated by semicolons,
+    or tabs) imports to the same poses and lengths as the comma-separated file of the same
+    numbers; a field with both marks (1.234,5) is not a number: the row is left out."""
+    robot = load_robot(ROOT / "models" / "irb120.toml")
+    rng = np.random.default_rng(8)
+    q_deg = rad_to_deg(rng.uniform(robot.lower_rad * 0.8, robot.upper_rad * 0.8, size=(5, 6)))
+    lengths_mm = rng.uniform(400.0, 1200.0, 5)
+    rows = [[f"{v:.9f}" for v in [*q, length]] for q, length in zip(q_deg, lengths_mm,
+                                                                      strict=True)]
+    header = [*joint_columns(6), "length"]
+    (tmp_path / "comma.csv").write_text("\n".join(",".join(r) for r in [header, *rows]) + "\n")
+    local = [[v.replace(".", ",") for v in r] for r in rows]
+    local.append(["1.234,5", *local[0][1:]])
+    (tmp_path / "local.csv").write_text("# exported\n" + "\n".join(
+        delimiter.join(r) for r in [header, *local]) + "\n")
+    for name in ("comma", "local"):
+        assert main(["import", str(tmp_path / f"{name}.csv"), "--angle-unit", "deg",
+                     "--out", str(tmp_path / f"{name}_out.csv")]) == 0
+    assert "local.csv: line 8: a field that is not a finite number: dropped" in \
+        capsys.readouterr().out
+    comma, local_read = (load_measurements(tmp_path / f"{name}_out.csv", robot)
+                         for name in ("comma", "local"))
+    np.testing.assert_array_equal(local_read.q_rad, comma.q_rad)
+    np.testing.assert_array_equal(local_read.value("length_m"), comma.value("length_m"))
+    np.testing.assert_allclose(rad_to_deg(comma.q_rad), q_deg, rtol=0, atol=1e-9)
