@@ -56,6 +56,8 @@ def test_extra_columns_comments_and_order(tmp_path: Path) -> None:
         (b"\x89PNG\r\n\x1a\n\x00\x00binary", "found binary data"),
         (b"q1,q2\xff\xfe", "not UTF-8"),
         (b"q1,q1,q2,q3,q4,q5,q6,length\n1,1,2,3,4,5,6,7\n", "column 'q1' twice"),
+        (b"q1;q2;q3;q4;q5;q6;length\n1;2;3;4;5;6;1.234,5\n",
+         "line 2, column length: found '1.234,5', expected a number (a decimal comma or point)"),
     ],
 )
 def test_bad_files(tmp_path: Path, content: bytes, message: str) -> None:
@@ -65,6 +67,22 @@ def test_bad_files(tmp_path: Path, content: bytes, message: str) -> None:
     with pytest.raises(InputError) as info:
         load_measurements(path)
     assert str(info.value).startswith(str(path)) and message in str(info.value)
+
+
+@pytest.mark.parametrize("delimiter", [";", "\t"])
+def test_a_spreadsheets_export_reads_as_the_comma_file(tmp_path: Path, delimiter: str) -> None:
+    """Fields separated by semicolons or tabs, numbers with a decimal comma or point (as a
+    spreadsheet exports where the decimal mark is a comma): the same measurements as the comma
+    file of the same numbers."""
+    comma = tmp_path / "comma.csv"
+    comma.write_text(HEADER + ROW + "-10.25,0,5,0,30.5,-60,640\n")
+    local = tmp_path / "local.csv"
+    local.write_text("# from a spreadsheet\n" + delimiter.join(HEADER.strip().split(",")) + "\n"
+                     + delimiter.join(["10", "20", "-30", "40", "-50", "60", "812,5"]) + "\n"
+                     + delimiter.join(["-10,25", "0", "5", "0", "30.5", "-60", "640"]) + "\n")
+    read, expected = load_measurements(local), load_measurements(comma)
+    np.testing.assert_array_equal(read.q_rad, expected.q_rad)
+    np.testing.assert_array_equal(read.value("length_m"), expected.value("length_m"))
 
 
 def test_joint_outside_limits(irb120: RobotModel, tmp_path: Path) -> None:

@@ -22,7 +22,9 @@ Optional per-row columns beside any kind's readings (:data:`twin.dataset.ROW_COL
 ``t_s`` (s since the capture started, >= 0), ``temperature_c`` (°C, within
 :data:`twin.dataset.TEMPERATURE_RANGE_C`) and ``reference`` (1 on a reference pose revisited
 during the capture, else 0), which the drift test reads.
-Other columns are ignored; ``#`` lines are comments. Every problem is reported as one
+Other columns are ignored; ``#`` lines are comments. Fields are separated by commas, or — as
+a spreadsheet exports them where the decimal mark is a comma — by semicolons or tabs
+(:func:`csv_rows`), whose numbers may then take a decimal comma. Every problem is reported as one
 :class:`~twin.errors.InputError` naming the file, the line and column, what was found and what
 was expected.
 """
@@ -128,7 +130,7 @@ def read_columns(
         stdin: Whether ``-`` means standard input.
         journal: The command's own resumable file (see :func:`twin.io.paths.read_bytes`).
     """
-    rows = _data_rows(read_text(path, what, stdin=stdin, journal=journal), path, what)
+    rows, comma = csv_rows(read_text(path, what, stdin=stdin, journal=journal), path, what)
     header = _header(rows, columns, (*optional, *labels), path)
     header_line = rows[0][0]
     numeric = (*columns, *(name for name in optional if name in header))
@@ -143,8 +145,8 @@ def read_columns(
                 source=path, where=f"line {number}",
             )
         for col, name in enumerate(numeric):
-            values[row, col] = _cell(fields[header.index(name)].strip(), path,
-                                       f"line {number}, column {name}")
+            values[row, col] = _cell(fields[header.index(name)].strip(), comma, path,
+                                     f"line {number}, column {name}")
         for name in named:
             label = fields[header.index(name)].strip()
             if not label or len(label) > MAX_LABEL_CHARS:
@@ -157,20 +159,46 @@ def read_columns(
     return Columns(values[:, :count], extra, texts, lines, tuple(header), header_line)
 
 
-def _data_rows(text: str, path: str | Path, what: str) -> list[tuple[int, list[str]]]:
-    """The CSV rows of ``text`` that are neither blank nor comments, with their line
-    numbers; lines no longer than :data:`~twin.io.paths.MAX_LINE_CHARS`."""
+def csv_rows(text: str, path: str | Path, what: str
+             ) -> tuple[list[tuple[int, list[str]]], bool]:
+    """The CSV rows of ``text`` that are neither blank nor comments, with their line numbers
+    (lines no longer than :data:`~twin.io.paths.MAX_LINE_CHARS`), and whether its numbers may
+    take a decimal comma. The delimiter is read from the first such line: a semicolon or a tab
+    where it has one (a spreadsheet's export where the decimal mark is a comma), else a
+    comma."""
     for number, line in enumerate(io.StringIO(text), start=1):
         # Before the csv module, whose field limit would otherwise raise its own error.
         if len(line.rstrip("\r\n")) > MAX_LINE_CHARS:
             raise InputError(f"a line of {len(line.rstrip())} characters",
                              f"{what} with lines of at most {MAX_LINE_CHARS}", source=path,
                              where=f"line {number}")
-    return [
-        (number, fields)
-        for number, fields in enumerate(csv.reader(io.StringIO(text)), start=1)
-        if fields and any(f.strip() for f in fields) and not fields[0].lstrip().startswith("#")
-    ]
+    first = next((line for line in text.splitlines()
+                  if line.strip() and not line.lstrip().startswith("#")), "")
+    delimiter = next((mark for mark in (";", "\t") if mark in first), ",")
+    rows = [(number, fields) for number, fields
+            in enumerate(csv.reader(io.StringIO(text), delimiter=delimiter), start=1)
+            if fields and any(f.strip() for f in fields)
+            and not fields[0].lstrip().startswith("#")]
+    return rows, delimiter != ","
+
+
+def finite_number(text: str, decimal_comma: bool) -> float:
+    """The finite number a CSV field holds; with ``decimal_comma``, one comma and no point is
+    its decimal mark (``0,75``), and a field with both marks is not a number.
+
+    Raises:
+        ValueError: for anything else, with what was expected ("a number", "a finite number").
+    """
+    mark = " (a decimal comma or point)" if decimal_comma else ""
+    if decimal_comma and text.count(",") == 1 and "." not in text:
+        text = text.replace(",", ".")
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"a number{mark}") from None
+    if not math.isfinite(value):
+        raise ValueError("a finite number")
+    return value
 
 
 def _header(rows: list[tuple[int, list[str]]], columns: tuple[str, ...],
@@ -196,15 +224,12 @@ def _header(rows: list[tuple[int, list[str]]], columns: tuple[str, ...],
     return header
 
 
-def _cell(text: str, path: str | Path, where: str) -> float:
-    """A numeric cell: a finite number."""
+def _cell(text: str, decimal_comma: bool, path: str | Path, where: str) -> float:
+    """A numeric cell: a finite number (:func:`finite_number`)."""
     try:
-        value = float(text)
-    except ValueError:
-        raise InputError(shown(text), "a number", source=path, where=where) from None
-    if not math.isfinite(value):
-        raise InputError(f"{text!r}", "a finite number", source=path, where=where)
-    return value
+        return finite_number(text, decimal_comma)
+    except ValueError as exc:
+        raise InputError(shown(text), str(exc), source=path, where=where) from None
 
 
 def read_table(

@@ -17,7 +17,7 @@ told (a prismatic joint's values in the length unit), joint columns named as the
   with cable lengths, one encoder zero per session.
 
 Fields are separated by commas, or — as a spreadsheet writes them where the decimal mark is a
-comma — by semicolons, or by tabs (:func:`_dialect`, from the first line); in a file of
+comma — by semicolons, or by tabs (:func:`twin.io.measurements.csv_rows`); in a file of
 semicolons or tabs a number may take a decimal comma (``0,75``).
 
 A row that is not numbers, has the wrong number of fields, lies outside the joint limits, or has
@@ -26,9 +26,6 @@ a reading its kind refuses is left out and reported with the reason.
 
 from __future__ import annotations
 
-import csv
-import io
-import math
 import os
 from collections.abc import Sequence
 from dataclasses import replace
@@ -41,7 +38,7 @@ from twin.choices import ANGLE_UNITS, LENGTH_UNITS, SESSION_BY
 from twin.dataset import Labels
 from twin.errors import InputError, UnknownChoiceError
 from twin.io.importers.base import Imported, outside_limits
-from twin.io.measurements import joint_columns
+from twin.io.measurements import csv_rows, finite_number, joint_columns
 from twin.io.paths import read_text
 from twin.kinds import KINDS, Kind
 from twin.rig import SESSION_LABELS
@@ -51,25 +48,11 @@ from twin.units import LENGTH_FACTORS, deg_to_rad, mm_to_m
 WHAT = "a CSV of joint angles and readings"
 
 
-def _dialect(text: str) -> str:
-    """The field delimiter of a CSV's text, from its first line that is neither blank nor a
-    comment: a semicolon or a tab where the line has one (a spreadsheet's export where the
-    decimal mark is a comma, which its numbers may then take), else a comma."""
-    first = next((line for line in text.splitlines()
-                  if line.strip() and not line.lstrip().startswith("#")), "")
-    return next((mark for mark in (";", "\t") if mark in first), ",")
-
-
 def _rows(path: Path) -> tuple[list[tuple[int, list[str]]], bool]:
-    """Numbered non-blank, non-comment rows of a CSV file, and whether its numbers may take a
-    decimal comma (its fields are not separated by commas)."""
-    text = read_text(path, WHAT)
-    delimiter = _dialect(text)
-    rows = [(number, [f.strip() for f in fields]) for number, fields
-            in enumerate(csv.reader(io.StringIO(text), delimiter=delimiter), start=1)
-            if fields and any(f.strip() for f in fields)
-            and not fields[0].lstrip().startswith("#")]
-    return rows, delimiter != ","
+    """Numbered non-blank, non-comment rows of a CSV file, fields stripped, and whether its
+    numbers may take a decimal comma (:func:`twin.io.measurements.csv_rows`)."""
+    rows, comma = csv_rows(read_text(path, WHAT), path, WHAT)
+    return [(number, [f.strip() for f in fields]) for number, fields in rows], comma
 
 
 def _labelled() -> Kind:
@@ -117,16 +100,6 @@ def session_names(paths: Sequence[Path], by: str) -> list[str]:
     if by == "file":
         return names
     return [name.rpartition("/")[0] or "." for name in names]
-
-
-def _number(text: str, decimal_comma: bool) -> float:
-    """A finite number; with ``decimal_comma``, one comma (and no point) is its decimal mark."""
-    if decimal_comma and text.count(",") == 1 and "." not in text:
-        text = text.replace(",", ".")
-    value = float(text)
-    if not math.isfinite(value):
-        raise ValueError(text)
-    return value
 
 
 class _File:
@@ -185,8 +158,8 @@ def _read_file(path: Path, robot: RobotModel, headerless: bool, angle_unit: str,
             dropped.append(f"{where}: {len(fields)} fields, expected {fields_expected}: dropped")
             continue
         try:
-            q = np.array([_number(fields[j], comma) for j in joints])
-            values = [_number(fields[j], comma) * (1.0 if column in kind.unitless else to_mm)
+            q = np.array([finite_number(fields[j], comma) for j in joints])
+            values = [finite_number(fields[j], comma) * (1.0 if column in kind.unitless else to_mm)
                       for j, column in zip(reading, kind.columns, strict=True)]
         except (ValueError, IndexError):
             dropped.append(f"{where}: a field that is not a finite number: dropped")
