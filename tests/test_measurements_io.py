@@ -69,15 +69,17 @@ def test_bad_files(tmp_path: Path, content: bytes, message: str) -> None:
     assert str(info.value).startswith(str(path)) and message in str(info.value)
 
 
-@pytest.mark.parametrize("delimiter", [";", "\t"])
-def test_a_spreadsheets_export_reads_as_the_comma_file(tmp_path: Path, delimiter: str) -> None:
+@pytest.mark.parametrize(("first", "delimiter"), [("", ";"), ("", "\t"), ("sep=;\n", ";")])
+def test_a_spreadsheets_export_reads_as_the_comma_file(tmp_path: Path, first: str,
+                                                       delimiter: str) -> None:
     """Fields separated by semicolons or tabs, numbers with a decimal comma or point (as a
-    spreadsheet exports where the decimal mark is a comma): the same measurements as the comma
-    file of the same numbers."""
+    spreadsheet exports where the decimal mark is a comma), after Excel's sep= line or not:
+    the same measurements as the comma file of the same numbers."""
     comma = tmp_path / "comma.csv"
     comma.write_text(HEADER + ROW + "-10.25,0,5,0,30.5,-60,640\n")
     local = tmp_path / "local.csv"
-    local.write_text("# from a spreadsheet\n" + delimiter.join(HEADER.strip().split(",")) + "\n"
+    local.write_text("# from a spreadsheet\n" + first
+                     + delimiter.join(HEADER.strip().split(",")) + "\n"
                      + delimiter.join(["10", "20", "-30", "40", "-50", "60", "812,5"]) + "\n"
                      + delimiter.join(["-10,25", "0", "5", "0", "30.5", "-60", "640"]) + "\n")
     read, expected = load_measurements(local), load_measurements(comma)

@@ -163,23 +163,25 @@ def csv_rows(text: str, path: str | Path, what: str
              ) -> tuple[list[tuple[int, list[str]]], bool]:
     """The CSV rows of ``text`` that are neither blank nor comments, with their line numbers
     (lines no longer than :data:`~twin.io.paths.MAX_LINE_CHARS`), and whether its numbers may
-    take a decimal comma. The delimiter is read from the first such line: a semicolon or a tab
-    where it has one (a spreadsheet's export where the decimal mark is a comma), else a
-    comma."""
+    take a decimal comma. The delimiter is read from the first such line: the one it names when
+    it is Excel's ``sep=;`` (then skipped), else a semicolon or a tab where it has one (a
+    spreadsheet's export where the decimal mark is a comma), else a comma."""
     for number, line in enumerate(io.StringIO(text), start=1):
         # Before the csv module, whose field limit would otherwise raise its own error.
         if len(line.rstrip("\r\n")) > MAX_LINE_CHARS:
             raise InputError(f"a line of {len(line.rstrip())} characters",
                              f"{what} with lines of at most {MAX_LINE_CHARS}", source=path,
                              where=f"line {number}")
-    first = next((line for line in text.splitlines()
+    first = next((line.strip() for line in text.splitlines()
                   if line.strip() and not line.lstrip().startswith("#")), "")
-    delimiter = next((mark for mark in (";", "\t") if mark in first), ",")
+    named = re.fullmatch(r"sep=(.)", first)
+    delimiter = named.group(1) if named else next(
+        (mark for mark in (";", "\t") if mark in first), ",")
     rows = [(number, fields) for number, fields
             in enumerate(csv.reader(io.StringIO(text), delimiter=delimiter), start=1)
             if fields and any(f.strip() for f in fields)
             and not fields[0].lstrip().startswith("#")]
-    return rows, delimiter != ","
+    return rows[1:] if named else rows, delimiter != ","
 
 
 def finite_number(text: str, decimal_comma: bool) -> float:
