@@ -54,7 +54,7 @@ def _start_worker() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    # Forked with both blocked (_stops_held): what arrived since is taken now, as set above.
+    # Started with both blocked (_stops_held): what arrived since is taken now, as set above.
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
     threadpool_limits(limits=1)
 
