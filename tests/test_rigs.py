@@ -18,7 +18,13 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.analysis.gauge import gauge_free_rms, unobservable_motions
-from twin.analysis.uncertainty import cramer_rao_flange_rms, cramer_rao_rms, rms_distance
+from twin.analysis.uncertainty import (
+    cramer_rao_covariance,
+    cramer_rao_flange_rms,
+    cramer_rao_rms,
+    predicted_flange_rms,
+    rms_distance,
+)
 from twin.calibration.accuracy import rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate, solve_many
 from twin.calibration.result import CalibrationResult
@@ -85,6 +91,35 @@ def _gauge_free_points(model: Model, x: np.ndarray, null: np.ndarray, q: np.ndar
 def _true_points(sim: Simulation, q: np.ndarray) -> np.ndarray:
     transforms = sim.true_robot.flange_transforms(q)
     return transforms[:, :3, :3] @ sim.rig.attachment_m + transforms[:, :3, 3]
+
+
+@pytest.mark.parametrize(("name", "at_flange"),
+                         [("geometric_irb120", True), ("eyelet_irb120", False)])
+def test_a_point_at_the_flange_is_worked_out_once_as_its_own_chain_would(name: str,
+                                                                         at_flange: bool) -> None:
+    """A measured point at the flange centre (no attachment, none estimated) takes the flange's
+    bound and gauge instead of working them out again: they agree with the point's own chain
+    (its Jacobian, its gauge) worked out here. An estimated eyelet is not the flange."""
+    sim = _simulate(name)
+    result = _calibrate(sim)
+    model, x = result.model, result.solver.x
+    assert model.measures_flange is at_flange
+    q = _workspace(sim)
+    poses = model.poses(q)
+    apart = float(np.max(np.abs(model.position_jacobian(x, poses)
+                                - model.flange_jacobian(x, poses))))
+    assert (apart <= 1e-12) is at_flange, apart
+    assert result.identified_identifiability is not None
+    null = result.identified_identifiability.null_space
+    errors = truth_errors(result, *rigid_truth(sim.true_robot, sim.rig.attachment_m, q), q)
+    assert errors.point_gauge_free_m == pytest.approx(
+        _gauge_free_points(model, x, null, q, _true_points(sim, q)), rel=1e-9, abs=1e-15)
+    train = sim.measurements.subset(result.train_rows)
+    x_true = true_unknowns(sim, model)
+    sigma = noise_sigma_m(sim, model.jacobian(x_true, train)[1])
+    covariance = cramer_rao_covariance(model, x_true, train, sigma)
+    own = predicted_flange_rms(model.position_jacobian(x_true, poses), covariance)
+    assert cramer_rao_rms(model, x_true, train, sigma, q)[1] == pytest.approx(own, rel=1e-12)
 
 
 def test_an_eyelet_off_the_flange_is_found() -> None:

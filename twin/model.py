@@ -45,6 +45,8 @@ from twin.unknowns.group import cached
 NULL_RTOL = 1e-8
 """Singular values of the column-scaled Jacobian below this fraction of the largest make an
 exact null direction (the rank tolerance of :mod:`twin.analysis.identifiability`)."""
+FLANGE_ATOL = 1e-12
+"""A fixed attachment closer than this to the flange centre, m, is the flange centre."""
 
 
 @dataclass(frozen=True)
@@ -224,6 +226,14 @@ class Model:
         if x.shape[-1:] != (self.n_params,):
             raise ValueError(f"x: shape {x.shape}, expected (..., {self.n_params})")
         return x
+
+    @property
+    def measures_flange(self) -> bool:
+        """Whether the measured point is the flange centre at every x: no point group, and the
+        rig's attachment within :data:`FLANGE_ATOL` of the centre. Its positions and their
+        Jacobians are then the flange's, and are not worked out twice."""
+        return not self._point_moves \
+            and float(np.max(np.abs(self.rig.attachment_m))) <= FLANGE_ATOL
 
     # --- the chain ------------------------------------------------------------------------
 

@@ -180,9 +180,18 @@ def cramer_rao_rms(model: Model, x_true: ArrayLike, data: Measurements, sigma_m:
             1/σ_i² (Gauss–Markov; the Cramér–Rao bound itself for Gaussian noise).
     """
     covariance = cramer_rao_covariance(model, x_true, data, sigma_m, row_sigma_m)
-    poses = model.poses(q_rad)
-    return (predicted_flange_rms(model.flange_jacobian(x_true, poses), covariance),
-            predicted_flange_rms(model.position_jacobian(x_true, poses), covariance))
+    return _workspace_rms(model, x_true, model.poses(q_rad), covariance)
+
+
+def _workspace_rms(model: Model, x: ArrayLike, poses: Measurements, covariance: Array
+                   ) -> tuple[float, float]:
+    """:func:`predicted_flange_rms` of the flange centre and of the measured point at the poses,
+    m each, for a covariance (p, p) of x (p,); once where the point is the flange."""
+    flange = predicted_flange_rms(chain_jacobian(model, x, poses, measured=False), covariance)
+    if model.measures_flange:
+        return flange, flange
+    return flange, predicted_flange_rms(chain_jacobian(model, x, poses, measured=True),
+                                        covariance)
 
 
 def cramer_rao_flange_rms(
@@ -256,13 +265,7 @@ def calibration_uncertainty(
         if noise > 0 else seen_covariance(triangle, seen_x, 0.0)
     held = np.linalg.norm(seen, axis=1) < HELD_ROW_TOL
     sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
-    poses = model.poses(q_workspace_rad)
-    return CalibrationUncertainty(
-        noise_sigma_m=noise,
-        covariance=covariance,
-        sigma=np.where(held, np.nan, sigma),
-        flange_rms_m=predicted_flange_rms(chain_jacobian(model, x, poses, measured=False),
-                                          covariance),
-        point_rms_m=predicted_flange_rms(chain_jacobian(model, x, poses, measured=True),
-                                         covariance),
-    )
+    flange_rms, point_rms = _workspace_rms(model, x, model.poses(q_workspace_rad), covariance)
+    return CalibrationUncertainty(noise_sigma_m=noise, covariance=covariance,
+                                  sigma=np.where(held, np.nan, sigma), flange_rms_m=flange_rms,
+                                  point_rms_m=point_rms)

@@ -78,7 +78,8 @@ def truth_errors(result: CalibrationResult, true_flange_m: ArrayLike, true_point
     true_point = np.asarray(true_point_m, dtype=np.float64)
     # Each gauge carries the identified points at the poses, from which its motions start.
     flange = unobservable_motions(model, x, null, q_rad)
-    point = unobservable_motions(model, x, null, q_rad, measured=True)
+    point = flange if model.measures_flange \
+        else unobservable_motions(model, x, null, q_rad, measured=True)
     return TruthErrors(
         flange_m=rms_distance(flange.points_m, true_flange),
         flange_gauge_free_m=gauge_free_rms(flange, true_flange),

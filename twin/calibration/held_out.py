@@ -13,7 +13,7 @@ real data sets are made (MUKCa's fixtures: examples/panda_mukca).
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.unseen import rig_unknowns
 from twin.arrays import Array
@@ -27,17 +27,20 @@ REFIT_ITERATIONS = 10
 
 
 def held_out_only(model: Model, x: ArrayLike, train: Measurements, held_out: Measurements
-                  ) -> Array:
+                  ) -> NDArray[np.bool_]:
     """Which unknowns are the rig's, moved by held-out rows and by no training pose's row,
     (p,) bool. A row of no pose does not count: a known distance between two sockets of the
     held-out placement says how far apart they are, not where."""
+    rig = rig_unknowns(model)
+    if not rig.any():  # a model of the robot alone: no Jacobian to take
+        return rig
     x = np.asarray(x, dtype=np.float64)
     poses = model.kind.rows_per_pose * len(train)
     seen_train = np.linalg.norm(model.jacobian(x, train)[1][:poses], axis=0)
     seen_held = np.linalg.norm(model.jacobian(x, held_out)[1], axis=0)
     largest = max(float(np.max(seen_train, initial=0.0)), float(np.max(seen_held, initial=0.0)))
     tolerance = SEEN_RTOL * largest
-    return np.asarray(rig_unknowns(model) & (seen_train <= tolerance) & (seen_held > tolerance))
+    return np.asarray(rig & (seen_train <= tolerance) & (seen_held > tolerance))
 
 
 def held_out_residuals(model: Model, x: ArrayLike, train: Measurements, held_out: Measurements
