@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from twin.analysis.identifiability import (
+    _base_by_distances,
     identifiability,
     measurement_identifiability,
     name_direction,
@@ -166,6 +167,45 @@ def _base_one_svd_per_column(J: np.ndarray, rtol: float, prefer: list[int]) -> l
         if np.linalg.svd(scaled[:, [*kept, column]], compute_uv=False)[-1] > threshold:
             kept.append(column)
     return sorted(int(visible[k]) for k in kept)
+
+
+def _planted(rng: np.random.Generator, supports: list[tuple[int, int]], p: int = 9,
+             sigma: float = 0.3e-8) -> np.ndarray:
+    """A (50, p) Jacobian of unit columns with a near-null direction per (first, last) support:
+    σ ≈ ``sigma`` (below the rank's threshold of 1e-8) along v spread over columns first..last,
+    its last component 1e-4 — so small that the column's distance from those before it is far
+    above the threshold, and the quick test leaves the decision to the SVDs."""
+    J = rng.normal(size=(50, p))
+    J /= np.linalg.norm(J, axis=0)
+    for first, last in supports:
+        v = np.zeros(p)
+        v[first:last] = rng.normal(size=last - first)
+        v[last] = 1e-4
+        v /= np.linalg.norm(v)
+        u = rng.normal(size=50)
+        J = J - np.outer(J @ v, v) + sigma * np.outer(u / np.linalg.norm(u), v)
+    return J
+
+
+def test_base_decisions_left_to_the_svds_match_one_svd_per_column() -> None:
+    """Where a dependency's last column stands far from those before it (its component along
+    the near-null direction is small), the quick test cannot decide, and the bisection over the
+    columns in order keeps the same ones as an SVD per column: one dependency ending at the
+    last column, in the middle, two of them, and with preferred columns."""
+    rng = np.random.default_rng(11)
+    names = tuple("abcdefghi")
+    for supports, prefer in (([(0, 8)], []), ([(0, 4)], []), ([(1, 3), (4, 7)], []),
+                             ([(2, 6)], [5, 7])):
+        J = _planted(rng, supports)
+        scaled = J / np.linalg.norm(J, axis=0)
+        R = np.linalg.qr(scaled, mode="r")
+        threshold = 1e-8 * np.linalg.svd(R, compute_uv=False)[0]
+        order = np.r_[prefer, [k for k in range(9) if k not in prefer]].astype(np.intp)
+        assert _base_by_distances(R, threshold, order) is None  # the SVDs decide
+        found = identifiability(J, names, prefer=prefer)
+        assert found.rank == 9 - len(supports)
+        assert sorted(found.base) == _base_one_svd_per_column(J, 1e-8, prefer)
+        assert len(found.base) == found.rank
 
 
 def test_base_decisions_match_one_svd_per_column(irb120, port_m, poses, true_delta) -> None:

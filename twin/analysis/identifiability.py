@@ -162,11 +162,33 @@ def _base_in_order(R: Array, threshold: float, order: NDArray[np.intp]) -> NDArr
     decided = _base_by_distances(R, threshold, order)
     if decided is not None:
         return decided
+    if R.shape[0] >= R.shape[1]:
+        return _base_by_bisection(R, threshold, order)
     kept: list[int] = []
     for column in order:
         trial = R[:, [*kept, column]]
         if np.linalg.svd(trial, compute_uv=False)[-1] > threshold:
             kept.append(int(column))
+    return np.sort(np.asarray(kept, dtype=np.intp))
+
+
+def _base_by_bisection(R: Array, threshold: float, order: NDArray[np.intp]) -> NDArray[np.intp]:
+    """:func:`_base_in_order`'s decisions for a tall R, about log₂ p SVDs per rejected column
+    instead of one per column: σ_min of the kept columns and the first j of the rest cannot
+    rise as j grows (interlacing, for as many rows as columns), so the first column that takes
+    it to the threshold is found by bisection; the ones before it are kept, it is not."""
+    kept: list[int] = []
+    rest = [int(column) for column in order]
+    while rest:
+        passing, failing = 0, len(rest) + 1  # the longest prefix known to pass, one known not
+        while failing - passing > 1:
+            middle = (passing + failing) // 2
+            if np.linalg.svd(R[:, [*kept, *rest[:middle]]], compute_uv=False)[-1] <= threshold:
+                failing = middle
+            else:
+                passing = middle
+        kept += rest[:passing]
+        rest = rest[passing + 1:]
     return np.sort(np.asarray(kept, dtype=np.intp))
 
 
