@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import multiprocessing
 import os
 import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -61,6 +63,76 @@ def test_workers_take_stops_as_workers_and_the_command_gets_them_back() -> None:
     assert found == [(signal.SIG_IGN, signal.SIG_DFL, set())] * 2
     held = signal.pthread_sigmask(signal.SIG_BLOCK, [])
     assert not {signal.SIGINT, signal.SIGTERM} & set(held)
+
+
+def _blas_threads(batch: tuple[int, ...]) -> list[int]:
+    from threadpoolctl import threadpool_info
+
+    return [library["num_threads"] for library in threadpool_info()
+            if library["user_api"] == "blas"]
+
+
+def test_blas_runs_on_one_thread_in_the_command_while_entered_and_in_every_worker() -> None:
+    """While the executor is entered, this process (which runs a run's first trial) and every
+    worker run BLAS on one thread; this process gets its own count back after."""
+    before = _blas_threads(())
+    with LocalProcesses(2) as pool:
+        assert _blas_threads(()) == [1] * len(before)
+        found = list(pool.run(_blas_threads, [(0,), (1,)]))
+    assert found == [[1] * len(before)] * 2
+    assert _blas_threads(()) == before
+
+
+KERNEL_VERSIONS = """
+import io, json, sys
+from functools import partial
+from pathlib import Path
+from twin.geometry import compiled
+from twin.study.definition import load_study
+from twin.study.executors.local import LocalProcesses
+from twin.study.runner import run_trials
+
+def versions():
+    return {name: sorted(map(str, getattr(compiled, name).signatures))
+            for name in ("positions", "jacobian", "distances")}
+
+def observed(function, batch):
+    before = versions()
+    outcomes = function(batch)
+    return [(outcomes, {name: [v for v in found if v not in before[name]]
+                        for name, found in versions().items()})]
+
+class Observed(LocalProcesses):
+    def run(self, function, batches):
+        for result in super().run(partial(observed, function), batches):
+            new.append(result[0][1])
+            yield result[0][0]
+
+new = []
+run_trials(load_study(Path(sys.argv[1])), Path(sys.argv[2]), Observed(1),
+           stream=io.StringIO())
+print(json.dumps(new))
+"""
+
+
+def test_a_forked_worker_loads_no_kernel_version_the_command_did_not(tmp_path: Path) -> None:
+    """In a fresh process, the first trial runs in the command on the trials' specs as a
+    worker receives them (pickled: frozen arrays come back writeable), so the forked worker
+    takes the compiled kernels' versions it loaded and loads none of its own (numba makes one
+    per writeable flags of the inputs; each took tens of ms of CPU per worker)."""
+    pytest.importorskip("numba")
+    if not LocalProcesses().forks:
+        pytest.skip("workers are spawned here: each loads its kernels")
+    scenario = write_scenario(tmp_path, with_study('trials = 4\nmethods = ["lm"]'))
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env.pop("TWIN_KERNEL", None)
+    done = subprocess.run([sys.executable, "-c", KERNEL_VERSIONS, str(scenario),
+                           str(tmp_path / "out")], env=env, capture_output=True, text=True,
+                          check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    loaded = json.loads(done.stdout.splitlines()[-1])
+    assert loaded and all(not versions for batch in loaded for versions in batch.values()), \
+        loaded
 
 
 def test_first_trial_runs_before_any_worker(tmp_path: Path) -> None:

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import json
+import pickle
 from collections.abc import Callable, Mapping
 from functools import partial
 from itertools import chain
@@ -72,11 +73,15 @@ def run_trials(
         try:
             # Workers forked from here inherit the compiled kernel the first trial loads, when
             # it runs here before they start (measured: each loaded it again, 0.3 s of CPU per
-            # worker and 16 % more CPU per trial with two of them).
+            # worker and 16 % more CPU per trial with two of them), and on the specs as a
+            # worker receives them, pickled: an array frozen here comes back writeable, and
+            # numba makes a kernel's version per writeable flags of its inputs (each worker
+            # loaded four more, 0.2 s of CPU, when this trial ran on these).
             here = todo[:1] if executor.forks else []
             batches = make_batches(todo[len(here):], executor.workers)
             work = executor.run(partial(run_batch, specs), batches)
-            for outcomes in chain([run_batch(specs, here)] if here else [], work):
+            shipped = pickle.loads(pickle.dumps(specs)) if here else specs
+            for outcomes in chain([run_batch(shipped, here)] if here else [], work):
                 for outcome in outcomes:
                     if store.append(outcome):
                         progress.advance()

@@ -1,12 +1,15 @@
 """Local worker processes (one per core by default), with a killed worker's batches rerun.
 
-Every worker runs its BLAS and OpenMP on one thread (:func:`_start_worker`, through
-threadpoolctl, the library that sets the thread count of the BLAS a numpy is linked to): the
-workers already take every core, and a BLAS that starts a thread per core in each of them
-burns CPU fighting over the cores (a trial cost 60 % more CPU unpinned, 2 workers no faster
-than one). On Linux workers are forked (:data:`START`), so they start at once with what this
-process has imported; elsewhere they start as the platform starts them (spawned on macOS,
-where the system's libraries, Accelerate among them, are not safe to fork). They start with
+Every worker runs its BLAS and OpenMP on one thread (through threadpoolctl, the library that
+sets the thread count of the BLAS a numpy is linked to): the workers already take every core,
+and a BLAS that starts a thread per core in each of them burns CPU fighting over the cores (a
+trial cost 60 % more CPU unpinned, 2 workers no faster than one). On Linux workers are forked
+(:data:`START`), so they start at once with what this process has imported; elsewhere they
+start as the platform starts them (spawned on macOS, where the system's libraries, Accelerate
+among them, are not safe to fork). While the executor is entered this process runs its BLAS on
+one thread too — it runs a run's first trial (:func:`twin.study.runner.run_trials`) — and
+forked workers inherit that; a spawned worker pins its own (:func:`_start_worker`). Pinning
+again in a forked worker cost 0.17 s of CPU over its first ten trials, measured. They start with
 SIGINT and SIGTERM blocked, until they have set their own handlers (:func:`_start_worker`): a
 worker forked with the command's handlers, and stopped before it set its own, swallowed the
 SIGTERM that stops it and kept the command from exiting.
@@ -40,23 +43,24 @@ START = multiprocessing.get_context("fork" if sys.platform.startswith("linux") e
 the platform's default elsewhere."""
 
 
-def _start_worker() -> None:
+def _start_worker(pinned: bool) -> None:
     """Ignore Ctrl-C (it reaches the whole process group; the parent alone handles it and stops
     the pool), die at once on SIGTERM, and run BLAS and OpenMP on one thread for the worker's
-    life.
+    life (unless ``pinned``: forked from a process that did).
 
     A forked worker inherits the command's SIGTERM handler, which raises to stop the command
     as Ctrl-C does; in a worker that printed a traceback per worker when a supervisor stopped
     the whole process group, and a worker interrupted while reading its next batch could block
     the parent's shutdown for ever. The default action ends it silently: the parent alone
     handles SIGTERM, and stops (terminates) what is left of the pool."""
-    from threadpoolctl import threadpool_limits
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     # Started with both blocked (_stops_held): what arrived since is taken now, as set above.
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
-    threadpool_limits(limits=1)
+    if not pinned:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1)
 
 
 @contextmanager
@@ -85,6 +89,7 @@ class LocalProcesses:
 
     def __init__(self, workers: int | None = None) -> None:
         self._workers = workers or os.cpu_count() or 1
+        self._limits: Any = None
 
     @property
     def workers(self) -> int:
@@ -97,10 +102,15 @@ class LocalProcesses:
         return START.get_start_method() == "fork"
 
     def __enter__(self) -> LocalProcesses:
+        from threadpoolctl import threadpool_limits
+
+        self._limits = threadpool_limits(limits=1)
         return self
 
     def __exit__(self, *exc: object) -> None:
-        return None
+        if self._limits is not None:
+            self._limits.restore_original_limits()
+            self._limits = None
 
     def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
         """Yield ``function(batch)`` for every batch as it finishes; rerun a dead worker's."""
@@ -109,7 +119,8 @@ class LocalProcesses:
         while pending:
             pool = ProcessPoolExecutor(max_workers=min(self._workers, len(pending)),
                                        mp_context=START,
-                                       initializer=_start_worker)
+                                       initializer=_start_worker,
+                                       initargs=(self.forks and self._limits is not None,))
             finished_any = False
             clean = False
             try:
