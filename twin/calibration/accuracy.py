@@ -21,6 +21,7 @@ from twin.analysis.uncertainty import rms_distance
 from twin.analysis.workspace import WORKSPACE_POSES, within
 from twin.arrays import Array
 from twin.calibration.result import CalibrationResult
+from twin.geometry.kinematics import point_position
 from twin.robot import RobotModel
 
 
@@ -51,10 +52,9 @@ def rigid_truth(true_robot: RobotModel, true_attachment_m: ArrayLike, q_rad: Arr
         true_attachment_m: The true measured point in the flange frame, shape (3,), m.
         q_rad: Poses, shape (k, n), rad.
     """
-    transforms = true_robot.flange_transforms(np.asarray(q_rad, dtype=np.float64))
-    flange = transforms[:, :3, 3]
-    return flange, transforms[:, :3, :3] @ np.asarray(true_attachment_m, dtype=np.float64) \
-        + flange
+    q = np.asarray(q_rad, dtype=np.float64)
+    return (true_robot.flange_positions(q),
+            point_position(true_robot.structure, true_robot.dh, q, true_attachment_m))
 
 
 def truth_errors(result: CalibrationResult, true_flange_m: ArrayLike, true_point_m: ArrayLike,

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from twin.arrays import Array
 from twin.errors import InputError
+from twin.geometry.kinematics import point_position
 from twin.io.measurements import load_plan
 from twin.report.display import AS_GIVEN, mm, mm_values
 from twin.robot import RobotModel
@@ -50,8 +51,7 @@ def _checks(constraints: PoseConstraints, twin: Twin) -> list[Check]:
     port_m = twin.port_m
     if port_m is not None:
         def out_of_range(q_rad: Array) -> NDArray[np.bool_]:
-            transforms = robot.flange_transforms(q_rad)
-            point = transforms[:, :3, :3] @ twin.attachment_m + transforms[:, :3, 3]
+            point = point_position(robot.structure, robot.dh, q_rad, twin.attachment_m)
             length = np.linalg.norm(point - port_m, axis=-1)
             return (length < constraints.cable_min_m) | (length > constraints.cable_max_m)
 
