@@ -60,7 +60,8 @@ class Twin:
         attachment_m: The measured point in the flange frame, shape (3,), m.
         model: Compiled model with a floor (contacts on), for collision checks.
         statics_model: The same model with contacts, constraints and control clamping off,
-            for lengths and statics.
+            for lengths and statics; without servos (rigid physics) the model itself, whose
+            kinematics and tendons read none of those options.
         data: Scratch data of either model (``statics_data`` is the same object).
     """
 
@@ -74,11 +75,14 @@ class Twin:
             else np.array(attachment_m, dtype=np.float64)
         spec = build_spec(robot, self.port_m, physics, floor=True, attachment_m=attachment_m)
         self.model = spec.compile()
-        # The same compiled model, copied rather than compiled again (a third of the cost).
-        self.statics_model = copy.copy(self.model)
-        self.statics_model.opt.disableflags |= int(_STATICS_OFF)
-        if not physics.gravity:
-            self.statics_model.opt.gravity[:] = 0.0
+        self.statics_model = self.model
+        if physics.stiffness_nm_per_rad is not None:
+            # The same compiled model, copied rather than compiled again (a third of the cost);
+            # without servos there are no statics, and a copy was a tenth of a study's twin.
+            self.statics_model = copy.copy(self.model)
+            self.statics_model.opt.disableflags |= int(_STATICS_OFF)
+            if not physics.gravity:
+                self.statics_model.opt.gravity[:] = 0.0
         # One scratch data for both models, which differ in their options only: each use sets
         # the state it reads (the joints; the statics the velocities and the servos' targets,
         # the cable's pull set here), and a second arena was a quarter of building a twin.
