@@ -146,14 +146,14 @@ def test_store_repairs_a_torn_tail_and_counts_each_trial_once(tmp_path: Path) ->
     plan = load_study(path)
     done = outcomes(path, [("", 0), ("", 1)])
     store = open_store(plan, tmp_path / "out")
-    assert [store.append(o) for o in done] == [True, True]
+    assert store.record(done) == done
     with (tmp_path / "out" / "results.csv").open("a") as handle:
         handle.write("2,,123,lm,0.5,0.4")
     with (tmp_path / "out" / "trials.jsonl").open("a") as handle:
         handle.write('{"case": "", "trial": 2, "seed"')
     store = open_store(plan, tmp_path / "out")
     assert store.finished() == {("", 0), ("", 1)}
-    assert not store.append(done[0])
+    assert store.record([done[0], done[0]]) == []
     lines = (tmp_path / "out" / "results.csv").read_text().splitlines()
     assert len(lines) == 3 and lines[0] == ",".join(COLUMNS)
     details = (tmp_path / "out" / "trials.jsonl").read_text().splitlines()

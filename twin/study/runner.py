@@ -82,11 +82,10 @@ def run_trials(
             work = executor.run(partial(run_batch, specs), batches)
             shipped = pickle.loads(pickle.dumps(specs)) if here else specs
             for outcomes in chain([run_batch(shipped, here)] if here else [], work):
-                for outcome in outcomes:
-                    if store.append(outcome):
-                        progress.advance()
-                        if on_outcome is not None:
-                            on_outcome(outcome)
+                for outcome in store.record(outcomes):
+                    progress.advance()
+                    if on_outcome is not None:
+                        on_outcome(outcome)
         finally:
             progress.close()
     return store
