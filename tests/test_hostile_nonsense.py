@@ -121,8 +121,20 @@ def test_the_same_robot_within_the_stated_tolerance(
          "expected a share in (0, 1]"),
         (["plan", "--port", PORT], "twin plan: found no --poses, --out, expected every "
          "argument `twin plan --help` marks as required"),
-        (["calibrate", "m.csv", "--no-such-flag"], "found unrecognized arguments "
-         "--no-such-flag"),
+        (["calibrate", "m.csv", "--no-such-flag"], "twin calibrate: found unrecognized "
+         "arguments --no-such-flag, expected only those `twin calibrate --help` lists"),
+        # A mistyped flag is named, not taken for the required one it was meant to be.
+        (["export", "r.json", "--frmat", "urdf", "--out", "x"], "twin export: found "
+         "unrecognized arguments --frmat, expected only those `twin export --help` lists "
+         "(did you mean --format?)"),
+        (["export", "r.json", "--format=urdf", "--out", "x", "--robt", "r.toml"],
+         "found unrecognized arguments --robt, expected only those `twin export --help` lists "
+         "(did you mean --robot?)"),
+        (["predict", "r.json", "--identified", "r.json", "--joints", "j.csv", "--out", "x"],
+         "twin predict: found unrecognized arguments r.json, expected only those "
+         "`twin predict --help` lists"),
+        (["--frob", "calibrate", "m.csv"], "twin: found unrecognized arguments --frob, "
+         "expected only those `twin COMMAND --help` lists"),
     ],
 )
 def test_a_bad_flag_is_one_line(argv: list[str], match: str, tmp_path: Path,
@@ -130,6 +142,19 @@ def test_a_bad_flag_is_one_line(argv: list[str], match: str, tmp_path: Path,
     """argparse's own errors come out as one `twin: error:` line, not four lines of usage."""
     refusals.cli(argv, [SCENARIO], match)
     assert not (tmp_path / "x").exists()
+
+
+def test_what_argparse_takes_is_not_refused_as_unknown() -> None:
+    """A command names the flags it does not know before it parses, so what argparse takes as
+    a value or an abbreviation must not look unknown: ``-`` (stdin), a negative list,
+    ``--flag=VALUE``, the unique start of a flag, and a word after ``--``."""
+    from twin.cli import build_parser
+
+    args = build_parser().parse_args(["calibrate", "-", "--port", "-500,-300,150", "--seed=3",
+                                      "--meth", "lm"])
+    assert (str(args.input), args.port, args.seed, args.method) == \
+        ("-", ["-500,-300,150"], 3, "lm")
+    assert str(build_parser().parse_args(["calibrate", "--", "-m.csv"]).input) == "-m.csv"
 
 
 @pytest.mark.parametrize(

@@ -15,9 +15,11 @@ limit that keeps a typo (``--poses 1e9``) from exhausting memory, times finite o
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
 import re
-from collections.abc import Callable
+import sys
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from twin.choices import JOINT_RANGE
@@ -62,9 +64,11 @@ _FLAG_MESSAGES: tuple[tuple[str, Callable[[re.Match[str]], str]], ...] = (
 )
 """argparse's messages about one flag, in the form ``found X, expected Y``."""
 _COMMAND_MESSAGES: tuple[tuple[str, Callable[[re.Match[str], str], str]], ...] = (
-    (r"unrecognized arguments: (.*)", lambda m, prog: f"found unrecognized arguments {m[1]}, "
-     f"expected only those `{prog} COMMAND --help` lists" if prog == "twin" else
-     f"found unrecognized arguments {m[1]}, expected only those `{prog} --help` lists"),
+    (r"unrecognized arguments: (.*?)( \(did you mean .*\))?", lambda m, prog:
+     f"found unrecognized arguments {m[1]}, expected only those `{prog} COMMAND --help` lists"
+     if prog == "twin" else
+     f"found unrecognized arguments {m[1]}, expected only those `{prog} --help` lists"
+     + (m[2] or "")),
     (r"the following arguments are required: (.*)", lambda m, prog: f"found no {m[1]}, "
      f"expected every argument `{prog} --help` marks as required"),
     (r"ambiguous option: (\S+) could match (.*)", lambda m, prog: f"found {m[1]}, which could "
@@ -81,6 +85,45 @@ class ArgumentParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         # argparse asks this matcher whether a word starting with '-' is a negative number.
         self._negative_number_matcher = NEGATIVE_VALUE
+
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        """As argparse's, but a command (a parser without subcommands of its own) refuses what
+        it does not know itself, naming the command: flags first, before it asks for a
+        required argument that a mistyped flag may have been (``--frmat urdf`` for
+        ``--format urdf`` was refused as "found no --format"), then any word left over."""
+        words = list(sys.argv[1:] if args is None else args)
+        if self._subparsers is None:
+            unknown = self._unknown_flags(words)
+            if unknown:
+                self.error("unrecognized arguments: " + " ".join(unknown)
+                           + self._suggestion(unknown[0]))
+        parsed, extras = super().parse_known_args(words, namespace)
+        if extras and self._subparsers is None:
+            self.error("unrecognized arguments: " + " ".join(extras))
+        return parsed, extras
+
+    def _unknown_flags(self, words: Sequence[str]) -> list[str]:
+        """The words before ``--`` that argparse reads as flags (not ``-`` for stdin, a
+        negative number or a word with a space) and that name none of this parser's, whole or
+        as the start of one (argparse takes an abbreviation)."""
+        known = list(self._option_string_actions)  # argparse's own table of its flags
+        unknown = []
+        for word in words:
+            if word == "--":
+                break
+            flag = word.split("=", 1)[0]
+            if not word.startswith("-") or len(word) == 1 or " " in word \
+                    or self._negative_number_matcher.match(word) or flag in known:
+                continue
+            if not (flag.startswith("--") and any(name.startswith(flag) for name in known)):
+                unknown.append(flag)
+        return unknown
+
+    def _suggestion(self, flag: str) -> str:
+        """`` (did you mean --format?)`` for a flag close to one of the parser's, else ''."""
+        close = difflib.get_close_matches(flag, [name for name in self._option_string_actions
+                                                 if name.startswith("--")], n=1)
+        return f" (did you mean {close[0]}?)" if close else ""
 
     def error(self, message: str) -> NoReturn:
         """Raise the message in the form ``--flag: found X, expected Y``."""
