@@ -135,6 +135,64 @@ def test_a_forked_worker_loads_no_kernel_version_the_command_did_not(tmp_path: P
         loaded
 
 
+SOLVE_VERSIONS = """
+import json, sys
+from dataclasses import replace
+from pathlib import Path
+import twin.calibration.pipeline as pipeline
+import twin.solvers.lm as lm
+from twin.geometry import compiled as geometry
+from twin.solvers import compiled as solving
+from twin.study.definition import load_study
+from twin.study.trial import TrialSpec, run_batch
+
+def versions():
+    return {f"{module.__name__}.{name}": len(kernel.signatures)
+            for module in (geometry, solving) for name, kernel in vars(module).items()
+            if hasattr(kernel, "signatures")}
+
+def observed(solver):
+    def solve(*args):
+        before = versions()
+        result = solver.solve(*args)
+        loaded[solver.name] = sorted(k for k, v in versions().items() if v != before[k])
+        return result
+    return replace(solver, solve=solve)
+
+def counted(*args):
+    steps[0] += 1
+    return boxed(*args)
+
+loaded, steps, boxed, find = {}, [0], lm.boxed_damped_step, pipeline.get_solver
+pipeline.get_solver = lambda name: observed(find(name))
+lm.boxed_damped_step = counted
+plan = load_study(Path(sys.argv[1]), trials=1)
+case = plan.cases[0]
+run_batch({case.label: TrialSpec(case.scenario, plan.methods, plan.workspace_poses)},
+          [(case.label, 0)])
+print(json.dumps({"loaded": loaded, "box_steps": steps[0]}))
+"""
+
+
+@pytest.mark.slow
+def test_no_method_a_study_times_loads_a_kernel() -> None:
+    """In a fresh process, a study's batch loads the compiled kernels before any method is
+    timed (:func:`twin.solvers.compiled.load`): while each of the paper's ten methods solves
+    the paper rig's first trial — LM and AMLM taking box steps, the swarms their compiled
+    moves — no kernel gains a version. The first box step in each worker had cost 13–20 ms of
+    LM's time, the first swarm of a run its kernels' loading (seconds on a fresh install)."""
+    pytest.importorskip("numba")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env.pop("TWIN_KERNEL", None)
+    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "paper_irb120.toml"
+    done = subprocess.run([sys.executable, "-c", SOLVE_VERSIONS, str(scenario)], env=env,
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.splitlines()[-1])
+    assert len(found["loaded"]) == 10 and found["box_steps"] > 0, found
+    assert not any(found["loaded"].values()), found
+
+
 def test_first_trial_runs_before_any_worker(tmp_path: Path) -> None:
     """Where workers are forked (Linux), the first trial of a run is recorded before a worker
     process exists (they then inherit the compiled kernel it loaded), the others by the

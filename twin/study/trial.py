@@ -47,7 +47,7 @@ from twin.arrays import Array
 from twin.calibration.accuracy import TruthErrors, rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
 from twin.dataset import TEMPERATURE, approach_directions
-from twin.geometry.kinematics import for_bulk_work
+from twin.geometry.kinematics import for_bulk_work, takes_compiled
 from twin.geometry.rigid import angles, log_rotation
 from twin.kinds.plane import plane_corrections, plane_part
 from twin.kinds.pose import pose_part
@@ -291,8 +291,13 @@ def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]
               ) -> list[TrialOutcome]:
     """Run a batch of (case, trial) pairs; the unit of work an executor ships to a worker (whose
     many trials pay the compiled kernel's import once: :func:`~twin.geometry.kinematics.
-    for_bulk_work`)."""
+    for_bulk_work`, with the solvers' kernels loaded before any method is timed:
+    :func:`twin.solvers.compiled.load`)."""
     for_bulk_work()
+    if takes_compiled():
+        from twin.solvers.compiled import load
+
+        load()
     spaces: dict[str, Array] = {}
     outcomes = []
     for case, trial in batch:
