@@ -33,3 +33,18 @@ def test_png_onto_a_folder_is_refused(tmp_path: Path) -> None:
     figure, _ = pyplot().subplots()
     with pytest.raises(InputError, match="a directory"):
         save_png(figure, tmp_path)
+
+
+def test_study_metrics_start_at_zero(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fig. 3's bars are mean ± std of quantities that are never negative: a skewed time whose
+    std exceeds its mean is cut at zero, not drawn below it."""
+    from twin.study import figures
+
+    drawn = []
+    monkeypatch.setattr(figures, "save_png", lambda figure, path, tight: drawn.append(figure))
+    stats = {"rmse": {"mean": 0.3, "std": 0.05}, "mae": {"mean": 0.2, "std": 0.04},
+             "max": {"mean": 0.7, "std": 0.2}, "seconds": {"mean": 0.005, "std": 0.02}}
+    figures.fig_metrics({"before": stats, "lm": stats}, tmp_path / "fig3.png", "title")
+    lows = [axis.get_ylim()[0] for axis in drawn[0].axes]
+    pyplot().close(drawn[0])
+    assert len(lows) == 4 and min(lows) >= 0.0, lows

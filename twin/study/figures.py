@@ -1,7 +1,7 @@
 """A study's figures as PNG (:mod:`twin.report.plots`): the paper's Figs. 3–5 and the truth.
 
 - ``fig3_metrics.png``: validation RMSE, MAE (the paper's "STD"), MAX and time per method,
-  mean ± std over trials (paper Fig. 3).
+  mean ± std over trials (paper Fig. 3), the axes from zero.
 - ``fig4_convergence.png``: validation RMSE per iteration, median over trials with the
   inter-quartile band, per method (paper Fig. 4).
 - ``fig5_residuals.png``: cable-length residuals at the validation poses of the first trial,
@@ -48,6 +48,9 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
         means = [table6[m][key]["mean"] for m in methods]
         stds = [table6[m][key]["std"] for m in methods]
         axis.bar(x, means, yerr=stds, capsize=3, color=[colors[m] for m in methods])
+        # Every metric is at least zero: a std wider than its mean (a skewed time) is cut at
+        # the axis, not drawn as a negative time.
+        axis.set_ylim(bottom=0.0)
         axis.set_xticks(x, methods, rotation=30, ha="right")
         axis.set_title(label)
         if key != "seconds":
