@@ -8,6 +8,7 @@ import json
 import math
 from collections import Counter
 from pathlib import Path
+from types import SimpleNamespace
 from typing import get_type_hints
 
 import numpy as np
@@ -205,6 +206,24 @@ def test_progress_plain_lines() -> None:
     last = stream.getvalue().splitlines()[-1]
     assert "5/5 trials" in last and last.endswith("done") and "\r" not in stream.getvalue()
     assert format_duration(3725) == "1:02:05" and format_duration(65) == "1:05"
+
+
+def test_progress_eta_from_the_rate_after_the_first_report(monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    """A run's first report pays what the run pays once (imports, the workers' start, numba's
+    loading or compiling): the ETA waits for a second report and extrapolates the rate since
+    the first, not the first trial's time."""
+    from twin.study import progress as module
+
+    clock = [100.0]
+    monkeypatch.setattr(module, "time", SimpleNamespace(monotonic=lambda: clock[0]))
+    progress = Progress(total=21, stream=io.StringIO())
+    clock[0] = 120.0  # the first trial, after 20 s of start
+    progress.advance()
+    assert progress.line().endswith("0:20 elapsed, ETA --:--")
+    clock[0] = 130.0  # a worker's batch of ten in 10 s: 1 s a trial, 10 left
+    progress.advance(10)
+    assert progress.line().endswith("0:30 elapsed, ETA 0:10")
 
 
 def test_changed_robot_file_is_refused(tmp_path: Path) -> None:

@@ -2,7 +2,10 @@
 
 On a terminal the bar redraws in place; otherwise (a log file, CI) it prints a plain line at
 most every few seconds and always the last one. The ETA extrapolates the rate of the trials
-finished in this run, so trials resumed from an earlier run do not make it optimistic.
+finished in this run after its first report, which pays what a run pays once (the imports, the
+workers' start, the compiled kernels' loading: seconds when numba compiles them on a fresh
+install, when the first trial's time had promised a wait ten times too long); trials resumed
+from an earlier run do not make it optimistic either.
 """
 
 from __future__ import annotations
@@ -42,31 +45,34 @@ class Progress:
         self.done = done
         self.stream = stream if stream is not None else sys.stderr
         self.label = label
-        self._resumed = done
         self._start = time.monotonic()
+        self._first: tuple[float, int] | None = None
+        """When this run's first report came, and the count then."""
         self._last_plain = -float("inf")
         self._tty = self.stream.isatty()
         self._draw(force=True)
 
     def line(self) -> str:
         """The current state as one line of text."""
-        elapsed = time.monotonic() - self._start
-        fresh = self.done - self._resumed
+        now = time.monotonic()
         remaining = self.total - self.done
         if remaining == 0:
             eta = "done"
-        elif fresh > 0:
-            eta = "ETA " + format_duration(elapsed / fresh * remaining)
+        elif self._first is not None and self.done > self._first[1]:
+            since, counted = self._first
+            eta = "ETA " + format_duration((now - since) / (self.done - counted) * remaining)
         else:
             eta = "ETA --:--"
         filled = BAR_WIDTH * self.done // max(self.total, 1)
         bar = "#" * filled + "." * (BAR_WIDTH - filled)
         return (f"[{bar}] {self.done}/{self.total} {self.label}, "
-                f"{format_duration(elapsed)} elapsed, {eta}")
+                f"{format_duration(now - self._start)} elapsed, {eta}")
 
     def advance(self, count: int = 1) -> None:
-        """Count ``count`` more finished trials."""
+        """Count ``count`` more finished trials, reported at once (a worker's batch)."""
         self.done += count
+        if self._first is None:
+            self._first = (time.monotonic(), self.done)
         self._draw(force=self.done >= self.total)
 
     def _draw(self, force: bool) -> None:

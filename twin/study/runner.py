@@ -82,9 +82,10 @@ def run_trials(
             work = executor.run(partial(run_batch, specs), batches)
             shipped = pickle.loads(pickle.dumps(specs)) if here else specs
             for outcomes in chain([run_batch(shipped, here)] if here else [], work):
-                for outcome in store.record(outcomes):
-                    progress.advance()
-                    if on_outcome is not None:
+                recorded = store.record(outcomes)
+                progress.advance(len(recorded))
+                if on_outcome is not None:
+                    for outcome in recorded:
                         on_outcome(outcome)
         finally:
             progress.close()
