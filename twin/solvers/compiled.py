@@ -286,8 +286,8 @@ def load() -> None:
     it before its first trial, so that no method's time includes numba's loading: the first LM
     step that left the box took 13–20 ms more in each worker, the first swarm of a run its
     kernels' loading, and on a fresh install their compiling (seconds). Numba keeps a version
-    per argument type, layout and writeable flag; tests/test_compiled.py checks that no solve
-    of a study loads another."""
+    per argument type, layout and writeable flag; tests/test_study_executors.py checks that no
+    solve of a study loads another."""
     n, p = 5, 2
     x = np.linspace(0.0, 1.0, n * p).reshape(n, p) ** 2  # distinct particles
     even = np.linspace(0.0, 1.0, 3)

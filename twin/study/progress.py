@@ -3,9 +3,9 @@
 On a terminal the bar redraws in place; otherwise (a log file, CI) it prints a plain line at
 most every few seconds and always the last one. The ETA extrapolates the rate of the trials
 finished in this run after its first report, which pays what a run pays once (the imports, the
-workers' start, the compiled kernels' loading: seconds when numba compiles them on a fresh
-install, when the first trial's time had promised a wait ten times too long); trials resumed
-from an earlier run do not make it optimistic either.
+workers' start, the compiled kernels' loading; on a fresh install numba compiled them for 18 s
+within the first trial, and the ETA then promised 1:28 for five trials that took a second);
+trials resumed from an earlier run do not make it optimistic either.
 """
 
 from __future__ import annotations
@@ -46,8 +46,7 @@ class Progress:
         self.stream = stream if stream is not None else sys.stderr
         self.label = label
         self._start = time.monotonic()
-        self._first: tuple[float, int] | None = None
-        """When this run's first report came, and the count then."""
+        self._first: tuple[float, int] | None = None  # this run's first report: when, count
         self._last_plain = -float("inf")
         self._tty = self.stream.isatty()
         self._draw(force=True)
