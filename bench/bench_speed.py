@@ -26,7 +26,8 @@ study worker is.
    round-off; the same iterations).
 5. **Study throughput**: as `twin study` runs trials, from a shell that does not pin BLAS:
    the CPU per trial of the run (the command's process and its workers) on 1 and 2 local
-   processes, both trees (goal: at most 1/5), and
+   processes, both trees (goal: at most 1/5; this tree's runs are also the first of its local
+   runs' repeats below), and
    trials per second of wall time on 1 and 2 workers, local processes and a Dask
    LocalCluster, once running: from the wall times of N and 2N trials, where what a run pays
    once cancels (the executor's start and stop, imports, numba's first call of about 0.3 s in
@@ -247,10 +248,13 @@ def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
     (when given); trials per second of wall time on 1 and 2 workers, local and Dask, once
     running (runs of ``trials`` and twice as many), the best of ``repeats`` runs each."""
     cpu: dict[str, float] = {}
+    first: dict[str, float] = {}  # this tree's local runs of `trials`: their first repeat's wall
     for label, tree in _trees(before):
         for workers in (1, 2):
-            cpu[f"{label} {workers}"] = _study(tree, f"local{workers}", trials,
-                                               pinned=False)["cpu_s"]
+            found = _study(tree, f"local{workers}", trials, pinned=False)
+            cpu[f"{label} {workers}"] = found["cpu_s"]
+            if tree == ROOT:
+                first[f"local{workers}"] = found["wall_s"]
     for workers in (1, 2):
         shown = ", ".join(f"{label} {cpu[f'{label} {workers}'] * 1e3:.1f} ms"
                           for label, _ in _trees(before))
@@ -264,8 +268,11 @@ def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
     for kind in ("local", "dask"):
         for workers in (1, 2):
             name = f"{kind}{workers}"
-            walls = {size: min(_study(ROOT, name, size, pinned=False)["wall_s"]
-                               for _ in range(repeats)) for size in (trials, 2 * trials)}
+            walls = {}
+            for size in (trials, 2 * trials):
+                done = [first[name]] if size == trials and name in first else []
+                walls[size] = min(done + [_study(ROOT, name, size, pinned=False)["wall_s"]
+                                          for _ in range(repeats - len(done))])
             rates[name] = trials / max(walls[2 * trials] - walls[trials], 1e-6)
             whole[name] = walls[trials]
             print(f"5. {kind}, {workers} worker(s): {trials} trials in {walls[trials]:.2f} s, "
