@@ -193,6 +193,31 @@ def test_no_method_a_study_times_loads_a_kernel() -> None:
     assert not any(found["loaded"].values()), found
 
 
+def test_a_run_leaves_the_commands_kernel_as_it_was(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first trial runs in the command's process on the compiled kernel, as the workers
+    do; after the run the process takes the kernel it took before, so that an API caller's
+    next calibration does not depend on a study having run (BIPSO's answer differs between
+    the two: docs/methods.md)."""
+    pytest.importorskip("numba")
+    from twin.geometry import compiled, kinematics
+
+    if not LocalProcesses().forks:
+        pytest.skip("workers are spawned here: the command's process runs no trial")
+    monkeypatch.delenv("TWIN_KERNEL", raising=False)
+    monkeypatch.setattr(kinematics, "_BULK", [False])
+    kinematics._compiled.cache_clear()
+    taken = []
+    monkeypatch.setattr(compiled, "positions", lambda *args, kernel=compiled.positions:
+                        taken.append(1) or kernel(*args))
+    try:
+        plan = load_study(write_scenario(tmp_path, with_study('trials = 2\nmethods = ["lm"]')))
+        run_trials(plan, tmp_path / "out", LocalProcesses(1), stream=io.StringIO())
+        assert taken and not kinematics.takes_compiled()
+    finally:
+        kinematics._compiled.cache_clear()
+
+
 def test_first_trial_runs_before_any_worker(tmp_path: Path) -> None:
     """Where workers are forked (Linux), the first trial of a run is recorded before a worker
     process exists (they then inherit the compiled kernel it loaded), the others by the

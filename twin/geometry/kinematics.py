@@ -38,6 +38,8 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cache
 from typing import Any, NamedTuple
@@ -333,6 +335,19 @@ def for_bulk_work() -> None:
     import it than the kernel saves (an LM fit takes milliseconds)."""
     _BULK[0] = True
     _compiled.cache_clear()
+
+
+@contextmanager
+def bulk_work() -> Iterator[None]:
+    """:func:`for_bulk_work` for a block, this process's choice restored after it: a study's
+    first trial runs in the command's process, whose caller may calibrate afterwards, and a
+    swarm's answer depends on the kernel (BIPSO's does: docs/methods.md)."""
+    before = _BULK[0]
+    try:
+        yield
+    finally:
+        _BULK[0] = before
+        _compiled.cache_clear()
 
 
 def takes_compiled() -> bool:

@@ -20,6 +20,7 @@ from itertools import chain
 from pathlib import Path
 from typing import Any, TextIO
 
+from twin.geometry.kinematics import bulk_work
 from twin.io.atomic import write_atomic
 from twin.io.lock import folder_lock
 from twin.study.definition import StudyPlan
@@ -80,8 +81,12 @@ def run_trials(
             here = todo[:1] if executor.forks else []
             batches = make_batches(todo[len(here):], executor.workers)
             work = executor.run(partial(run_batch, specs), batches)
-            shipped = pickle.loads(pickle.dumps(specs)) if here else specs
-            for outcomes in chain([run_batch(shipped, here)] if here else [], work):
+            first = []
+            if here:
+                # On the compiled kernel, as the workers; this process's choice back after it.
+                with bulk_work():
+                    first = [run_batch(pickle.loads(pickle.dumps(specs)), here)]
+            for outcomes in chain(first, work):
                 recorded = store.record(outcomes)
                 progress.advance(len(recorded))
                 if on_outcome is not None:
