@@ -6,6 +6,7 @@ import csv
 import io
 import json
 import math
+import time
 from collections import Counter
 from pathlib import Path
 from types import SimpleNamespace
@@ -224,6 +225,20 @@ def test_progress_eta_from_the_rate_after_the_first_report(monkeypatch: pytest.M
     clock[0] = 130.0  # a worker's batch of ten in 10 s: 1 s a trial, 10 left
     progress.advance(10)
     assert progress.line().endswith("0:30 elapsed, ETA 0:10")
+
+
+def test_a_note_comes_only_while_a_block_runs_long() -> None:
+    """:meth:`Progress.note_after` writes its line above the bar once the block has run that
+    long, and nothing for a block that ends before."""
+    stream = io.StringIO()
+    progress = Progress(total=2, stream=stream)
+    with progress.note_after(5.0, "slow"):
+        pass
+    assert "slow" not in stream.getvalue()
+    with progress.note_after(0.05, "slow"):
+        time.sleep(0.5)
+    lines = stream.getvalue().splitlines()
+    assert lines.count("slow") == 1 and "0/2 trials" in lines[-1]
 
 
 def test_changed_robot_file_is_refused(tmp_path: Path) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -10,6 +11,8 @@ import os
 import signal
 import subprocess
 import sys
+import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -216,6 +219,32 @@ def test_a_run_leaves_the_commands_kernel_as_it_was(tmp_path: Path,
         assert taken and not kinematics.takes_compiled()
     finally:
         kinematics._compiled.cache_clear()
+
+
+def test_a_slow_first_trial_is_said_to_load_the_kernels(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """While a run's first trial takes long in the command's process (numba compiling the
+    kernels after an install: 15 s on 2 cores, the bar standing still), a line says why."""
+    from twin.geometry.kinematics import bulk_work
+    from twin.study import runner
+
+    if not LocalProcesses().forks:
+        pytest.skip("workers are spawned here: the command's process runs no trial")
+
+    @contextlib.contextmanager
+    def compiling() -> Iterator[None]:
+        time.sleep(0.5)
+        with bulk_work():
+            yield
+
+    monkeypatch.setattr(runner, "LOADING_NOTE_S", 0.05)
+    monkeypatch.setattr(runner, "bulk_work", compiling)
+    stream = io.StringIO()
+    plan = load_study(write_scenario(tmp_path, with_study('trials = 2\nmethods = ["lm"]')))
+    run_trials(plan, tmp_path / "out", LocalProcesses(1), stream=stream)
+    text = stream.getvalue()
+    assert text.count(runner.LOADING_NOTE) == 1
+    assert text.index(runner.LOADING_NOTE) < text.index("2/2 trials")
 
 
 def test_first_trial_runs_before_any_worker(tmp_path: Path) -> None:

@@ -11,7 +11,10 @@ trials resumed from an earlier run do not make it optimistic either.
 from __future__ import annotations
 
 import sys
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TextIO
 
 BAR_WIDTH = 28
@@ -85,6 +88,24 @@ class Progress:
             self._last_plain = now
             self.stream.write(self.line() + "\n")
         self.stream.flush()
+
+    def note(self, text: str) -> None:
+        """Write ``text`` on a line of its own (above the bar on a terminal) and draw the bar
+        again."""
+        self.stream.write(("\r" + text + CLEAR_TO_END if self._tty else text) + "\n")
+        self._draw(force=True)
+
+    @contextmanager
+    def note_after(self, seconds: float, text: str) -> Iterator[None]:
+        """:meth:`note` ``text`` if the block is still running after ``seconds`` (from a timer
+        thread, ended with the block: workers forked after it start from one thread)."""
+        timer = threading.Timer(seconds, self.note, (text,))
+        timer.start()
+        try:
+            yield
+        finally:
+            timer.cancel()
+            timer.join()
 
     def close(self) -> None:
         """End the bar's line on a terminal if the run stopped early."""

@@ -32,6 +32,12 @@ from twin.study.statistics import summarize
 from twin.study.store import StudyStore, TrialOutcome
 from twin.study.trial import TrialSpec, run_batch
 
+LOADING_NOTE_S = 3.0
+"""A run's first trial that takes longer than this (0.4 s from numba's cache) is said to be
+loading the compiled kernels."""
+LOADING_NOTE = ("the first trial loads the compiled kernels; after an install numba compiles "
+                "them first, once (15 s on 2 cores)")
+
 
 def open_store(plan: StudyPlan, folder: str | Path) -> StudyStore:
     """The study folder for ``plan``; refuses one made from a different scenario or methods."""
@@ -84,7 +90,7 @@ def run_trials(
             first = []
             if here:
                 # On the compiled kernel, as the workers; this process's choice back after it.
-                with bulk_work():
+                with progress.note_after(LOADING_NOTE_S, LOADING_NOTE), bulk_work():
                     first = [run_batch(pickle.loads(pickle.dumps(specs)), here)]
             for outcomes in chain(first, work):
                 recorded = store.record(outcomes)
