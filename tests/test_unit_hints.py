@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 from conftest import Refusals
 
 from twin.cli import main
+from twin.dataset import Measurements
+from twin.io.measurements import write_measurements
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
@@ -27,3 +30,26 @@ def test_a_port_in_metres_gets_a_hint(csv_path: Path, capsys: pytest.CaptureFixt
     hint = [line for line in captured.err.splitlines() if "--port" in line]
     assert len(hint) == 1 and "looks like metres" in hint[0]
     assert "MISFIT" in captured.out
+
+
+def test_lengths_in_metres_get_a_hint(measurements: Measurements, tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """Cable lengths written in metres (0.6 for 600 mm) in a file twin reads in mm: a one-line
+    hint naming the file, the median it read and how to convert it (and the MISFIT); a file in
+    mm has none, nor one of an encoder zeroed near its shortest pose."""
+    path = tmp_path / "metres.csv"
+    metres = replace(measurements, values={"length_m": measurements.value("length_m") / 1e3})
+    write_measurements(path, metres)
+    assert main(["calibrate", str(path), "--port", "600,-400,100"]) == 0
+    captured = capsys.readouterr()
+    hint = [line for line in captured.err.splitlines() if "look like metres" in line]
+    assert len(hint) == 1 and hint[0].startswith(f"twin: warning: {path}: ")
+    assert "--length-unit m" in hint[0] and "MISFIT" in captured.out
+    # In mm, and in mm from a zero set 1 mm short of the shortest pose (the offset
+    # estimated): no hint.
+    lengths = measurements.value("length_m")
+    for name, values in (("mm.csv", lengths), ("zeroed.csv", lengths - lengths.min() + 1e-3)):
+        write_measurements(tmp_path / name, replace(measurements, values={"length_m": values}))
+        assert main(["calibrate", str(tmp_path / name), "--port", "600,-400,100",
+                     "--estimate-offset"]) == 0
+        assert "look like metres" not in capsys.readouterr().err

@@ -235,15 +235,17 @@ def truth_of(inputs: Inputs, result: CalibrationResult) -> tuple[
 
 
 def _warn_rig_unit(inputs: Inputs, measurements: Measurements) -> None:
-    """A one-line hint when the rig looks given in metres (the Python API's unit) while the
-    flags and files take millimetres (:meth:`twin.kinds.base.Kind.unit_hint`)."""
+    """A one-line hint when the rig or the readings look given in metres (the Python API's
+    unit) while the flags and files take millimetres
+    (:meth:`twin.kinds.base.Kind.unit_hint`), naming the flag or the file."""
     from twin.io.measurements import UnitWarning
     from twin.kinds import KINDS
 
     hint = KINDS.lookup(measurements.kind).unit_hint(inputs.rig, measurements)
     if hint is not None:
-        where = "--port" if inputs.truth_path is None else str(inputs.measurements_path)
-        warnings.warn(f"{where}: {hint}", UnitWarning, stacklevel=2)
+        where = "--port" if inputs.truth_path is None and not hint.readings \
+            else str(inputs.measurements_path)
+        warnings.warn(f"{where}: {hint.text}", UnitWarning, stacklevel=2)
 
 
 def prepare_error(inputs: Inputs, exc: InputError) -> InputError:

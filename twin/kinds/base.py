@@ -68,6 +68,15 @@ class Noise(NamedTuple):
     """Of an angle, rad; None: the kind's own default."""
 
 
+class UnitHint(NamedTuple):
+    """A hint that an input looks given in another unit than millimetres."""
+
+    readings: bool
+    """True when the measurement file looks wrong, False when the rig (a flag) does."""
+    text: str
+    """What looks wrong and what it probably is, one sentence."""
+
+
 class KindJacobian(NamedTuple):
     """Residuals at one x and their derivatives."""
 
@@ -282,8 +291,9 @@ class Kind(ABC):
         units."""
         return None
 
-    def unit_hint(self, rig: Rig, data: Measurements) -> str | None:
-        """A hint when the rig looks given in other units than the readings (None: none)."""
+    def unit_hint(self, rig: Rig, data: Measurements) -> UnitHint | None:
+        """A hint when the rig or the readings look given in other units than millimetres
+        (None: none)."""
         return None
 
     def predict(self, model: Model, x: Array, poses: Measurements) -> dict[str, Array]:

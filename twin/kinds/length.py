@@ -40,10 +40,11 @@ from twin.kinds.base import (
     KindJacobian,
     Measured,
     Noise,
+    UnitHint,
     mm_cells,
 )
 from twin.kinds.bench import Bench, Captured, Fields
-from twin.report.display import POSITION_DECIMALS, mm, xyz_mm
+from twin.report.display import AS_GIVEN, POSITION_DECIMALS, mm, xyz_mm
 from twin.rig import PORT_LABELS, SESSION_LABELS, Rig
 from twin.robot import RobotModel
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m
@@ -61,6 +62,9 @@ COLUMN = "length"
 """The file column of a length, mm."""
 PORT_IN_METRES_MM = 5.0
 """Ports within ±5 mm in every coordinate beside lengths of hundreds of mm look like metres."""
+LENGTHS_IN_METRES_MM = 10.0
+"""Cable lengths all positive and below this, mm, look like metres: a drawstring reads tens of
+millimetres at the least, and an arm's cell in metres reads about 1."""
 
 
 def cable_length(structure: Structure, dh: ArrayLike, q_rad: ArrayLike, port_m: ArrayLike,
@@ -302,17 +306,28 @@ class Length(Kind):
         modelled = np.median(nominal[: len(data)] + lengths)
         return float(np.median(lengths) / modelled) if modelled > 0 else np.inf
 
-    def unit_hint(self, rig: Rig, data: Measurements) -> str | None:
-        """Ports within ±5 mm beside lengths of hundreds of mm: given in metres, likely."""
+    def unit_hint(self, rig: Rig, data: Measurements) -> UnitHint | None:
+        """Cable lengths all of a few millimetres (metres, likely), or ports within ±5 mm beside
+        lengths of hundreds of mm (the ports in metres, likely)."""
+        if not len(data):
+            return None
+        read_m = data.value(LENGTH)
+        median_m = float(np.median(read_m))
+        # All of them: an encoder zeroed at some pose reads a few mm around it, and more away.
+        if np.all(read_m > 0) and np.max(read_m) < mm_to_m(LENGTHS_IN_METRES_MM):
+            read = mm(median_m, significant=AS_GIVEN, unit=False)
+            return UnitHint(True, "the cable lengths are read in mm, and every one is below "
+                            f"{LENGTHS_IN_METRES_MM:g} mm (median {read} mm) — they look like "
+                            f"metres ({read} m); convert the file with "
+                            "`twin import --length-unit m`")
         told = [j for j, name in enumerate(rig.port_names) if name not in rig.unknown_ports]
         if not told:
             return None
         small = np.all(np.abs(m_to_mm(rig.ports_m[told])) <= PORT_IN_METRES_MM)
-        if small and float(np.median(data.value(LENGTH))) > 20 * float(mm_to_m(
-                PORT_IN_METRES_MM)):
-            return (f"every port coordinate is within ±{PORT_IN_METRES_MM:g} mm while the "
-                    "cable lengths are hundreds of millimetres: the port is read in mm — it "
-                    "looks like metres (0.6 for 600 mm)")
+        if small and median_m > 20 * float(mm_to_m(PORT_IN_METRES_MM)):
+            return UnitHint(False, f"every port coordinate is within ±{PORT_IN_METRES_MM:g} mm "
+                            "while the cable lengths are hundreds of millimetres: the port is "
+                            "read in mm — it looks like metres (0.6 for 600 mm)")
         return None
 
     def predict(self, model: Model, x: Array, poses: Measurements) -> dict[str, Array]:
