@@ -5,12 +5,18 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import Refusals
 
 from twin.cli import main
 from twin.dataset import Measurements
 from twin.io.measurements import write_measurements
+from twin.kinds import KINDS
+from twin.kinds.pose import pose_measurements
+from twin.kinds.position import position_measurements
+from twin.rig import Rig
+from twin.robot import RobotModel, random_poses
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
@@ -53,3 +59,21 @@ def test_lengths_in_metres_get_a_hint(measurements: Measurements, tmp_path: Path
         assert main(["calibrate", str(tmp_path / name), "--port", "600,-400,100",
                      "--estimate-offset"]) == 0
         assert "look like metres" not in capsys.readouterr().err
+
+
+def test_tracker_coordinates_in_metres_get_a_hint(irb120: RobotModel, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """Tracker positions written in metres: a one-line hint naming the file and how to convert
+    it; in mm none. A 6-D pose file is read by the same test of its x, y, z."""
+    q = random_poses(irb120, 40, np.random.default_rng(0))
+    flange = irb120.flange_transforms(q)
+    for scale, hinted in ((1e-3, True), (1.0, False)):
+        path = tmp_path / f"tracker-{scale:g}.csv"
+        write_measurements(path, position_measurements(q, flange[:, :3, 3] * scale))
+        assert main(["calibrate", str(path)]) == 0
+        err = capsys.readouterr().err
+        assert ("look like metres" in err) == hinted, err
+        assert not hinted or (f"twin: warning: {path}: the tracker coordinates" in err
+                              and "`twin import --length-unit m`" in err)
+        poses = pose_measurements(q, flange[:, :3, 3] * scale, flange[:, :3, :3])
+        assert (KINDS.lookup("pose").unit_hint(Rig(), poses) is not None) == hinted

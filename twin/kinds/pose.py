@@ -51,7 +51,16 @@ from twin.geometry.rigid import (
     rotation,
     rotation_derivatives,
 )
-from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured, Noise, mm_cells
+from twin.kinds.base import (
+    MARK_RADIUS_M,
+    Canvas,
+    Kind,
+    KindJacobian,
+    Measured,
+    Noise,
+    UnitHint,
+    mm_cells,
+)
 from twin.kinds.bench import (
     TARGET_KEYS,
     Bench,
@@ -65,6 +74,7 @@ from twin.kinds.bench import (
 from twin.kinds.position import (
     COLUMNS,
     POSITION,
+    coordinates_hint,
     fit_frame,
     frame_jacobian,
     in_instrument,
@@ -185,6 +195,10 @@ class Pose(Kind):
     flags = (("--sigma-deg", "6-D poses (the noise of an orientation)"),)
     point_rows = (0, 1, 2)
     beyond_noun = "orientations"
+
+    def unit_hint(self, rig: Rig, data: Measurements) -> UnitHint | None:
+        """Coordinates all within ±10 mm (:func:`twin.kinds.position.coordinates_hint`)."""
+        return coordinates_hint(data)
 
     def template(self, q_rad: Array, rig: Rig, labels: Mapping[str, NDArray[np.intp]]
                  ) -> Measurements:

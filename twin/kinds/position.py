@@ -21,7 +21,15 @@ from twin.arrays import Array, frozen_array
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.rigid import angles, kabsch, rotation, rotation_derivatives
-from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured, mm_cells
+from twin.kinds.base import (
+    MARK_RADIUS_M,
+    Canvas,
+    Kind,
+    KindJacobian,
+    Measured,
+    UnitHint,
+    mm_cells,
+)
 from twin.kinds.bench import (
     TARGET_KEYS,
     Bench,
@@ -31,7 +39,7 @@ from twin.kinds.bench import (
     read_target,
     refuse_port,
 )
-from twin.report.display import xyz_mm
+from twin.report.display import AS_GIVEN, mm, xyz_mm
 from twin.rig import Rig
 from twin.units import MAX_LENGTH_M, m_to_mm, mm_to_m, rad_to_deg
 
@@ -106,6 +114,24 @@ def read_xyz_mm(numbers: Mapping[str, Array], lines: Sequence[int]) -> Array:
     return np.asarray(mm_to_m(xyz_mm_), dtype=np.float64)
 
 
+COORDINATES_IN_METRES_MM = 10.0
+"""Tracker coordinates all within ±this, mm, look like metres: an arm's workspace spans
+hundreds of millimetres in any frame."""
+
+
+def coordinates_hint(data: Measurements) -> UnitHint | None:
+    """Tracker coordinates all within ±10 mm: given in metres, likely (the positions' and the
+    6-D poses' hint, :meth:`twin.kinds.base.Kind.unit_hint`)."""
+    read_m = data.value(POSITION)
+    largest_m = float(np.max(np.abs(read_m))) if read_m.size else np.inf
+    if largest_m >= mm_to_m(COORDINATES_IN_METRES_MM):
+        return None
+    read = mm(largest_m, significant=AS_GIVEN, unit=False)
+    return UnitHint(True, "the tracker coordinates x, y, z are read in mm, and every one is "
+                    f"within ±{COORDINATES_IN_METRES_MM:g} mm (the largest {read} mm) — they "
+                    "look like metres; convert the file with `twin import --length-unit m`")
+
+
 class Position(Kind):
     """Tracker positions (:mod:`twin.kinds.position`)."""
 
@@ -118,6 +144,10 @@ class Position(Kind):
     messages = ("geometry_msgs/msg/PointStamped", "geometry_msgs/msg/PoseStamped")
     in_instrument_frame = True
     measurement_keys = TARGET_KEYS
+
+    def unit_hint(self, rig: Rig, data: Measurements) -> UnitHint | None:
+        """Coordinates all within ±10 mm (:func:`coordinates_hint`)."""
+        return coordinates_hint(data)
 
     def template(self, q_rad: Array, rig: Rig, labels: Mapping[str, NDArray[np.intp]]
                  ) -> Measurements:
