@@ -51,16 +51,7 @@ from twin.geometry.rigid import (
     rotation,
     rotation_derivatives,
 )
-from twin.kinds.base import (
-    MARK_RADIUS_M,
-    Canvas,
-    Kind,
-    KindJacobian,
-    Measured,
-    Noise,
-    UnitHint,
-    mm_cells,
-)
+from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured, Noise, mm_cells
 from twin.kinds.bench import (
     TARGET_KEYS,
     Bench,
@@ -86,6 +77,7 @@ from twin.robot import RobotModel
 from twin.units import deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 
 if TYPE_CHECKING:
+    from twin.kinds.base import UnitHint
     from twin.model import Model
 
 ROTATION = "rotation"
