@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := about 3 min of pytest, 3 min 52 s to 4 min 2 s from a fresh clone, four runs while this machine ran 15 % slower than its best (2 min 38 s, 3 min 28 s)
+TEST_TIME := about 3 min of pytest, 3 min 52 s to 4 min 8 s from a fresh clone, five runs while this machine ran 15 % slower than its best (2 min 38 s, 3 min 28 s)
 TEST_FAST_TIME := 52 s on the same slower machine, 1.6 CPU-minutes (44 s at its best)
 
 .PHONY: demo test test-fast lint bench docs clean
