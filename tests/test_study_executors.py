@@ -68,6 +68,76 @@ def test_workers_take_stops_as_workers_and_the_command_gets_them_back() -> None:
     assert not {signal.SIGINT, signal.SIGTERM} & set(held)
 
 
+STOP_INSIDE_FUTURES = """
+import multiprocessing, os, signal, sys
+import concurrent.futures
+from contextlib import closing
+from twin.study.executors.local import LocalProcesses
+
+class Stop(KeyboardInterrupt):
+    pass
+
+def stop(signum, frame):
+    raise Stop
+
+def tracer(k):
+    # SIGTERM to this process at the k-th line it runs inside concurrent.futures (0: never)
+    lines = [0]
+    def local(frame, event, arg):
+        if event == "line":
+            lines[0] += 1
+            if lines[0] == k:
+                os.kill(os.getpid(), signal.SIGTERM)
+        return local
+    futures = os.path.dirname(concurrent.futures.__file__)
+    return (lambda frame, event, arg: local if frame.f_code.co_filename.startswith(futures)
+            else None), lines
+
+def run(k):
+    trace, lines = tracer(k)
+    with LocalProcesses(2) as executor:
+        try:
+            with closing(executor.run(abs, range(-40, 0))) as results:
+                sys.settrace(trace)
+                found = sorted(results)
+        except Stop:
+            found = None
+        finally:
+            sys.settrace(None)
+    assert not multiprocessing.active_children(), k
+    assert signal.getsignal(signal.SIGTERM) is stop, k
+    return found, lines[0]
+
+signal.signal(signal.SIGTERM, stop)
+found, total = run(0)
+assert found == list(range(1, 41)), found
+stopped = 0
+for k in range(1, total + 1, int(sys.argv[1])):
+    print(k, flush=True)  # the last printed: where it hung
+    found, _ = run(k)
+    stopped += found is None
+print("stopped", stopped, "of", len(range(1, total + 1, int(sys.argv[1]))), "lines", total)
+"""
+
+
+@pytest.mark.slow
+def test_a_stop_inside_concurrent_futures_stops_the_run_and_its_workers() -> None:
+    """SIGTERM whose handler raises, arriving at every 11th line the run's process runs inside
+    concurrent.futures: each run stops (or ends, if it came after the last result) with no
+    worker left and the handler back. Raised inside ``wait()``, holding a future's lock, it
+    left the pool's shutdown waiting for ever (a CI run hung; before the fix the sweep hung at
+    its first such line)."""
+    try:
+        run = subprocess.run([sys.executable, "-c", STOP_INSIDE_FUTURES, "11"],
+                             capture_output=True, text=True, timeout=60, check=False)
+    except subprocess.TimeoutExpired as exc:
+        hung = (exc.stdout or b"").decode().split()
+        pytest.fail(f"the run hung after a stop at line {hung[-1] if hung else '?'}")
+    assert run.returncode == 0, run.stderr
+    summary = run.stdout.splitlines()[-1].split()
+    assert int(summary[1]) > 100, run.stdout[-200:]  # stops at many points, not a few
+
+
 def _blas_threads(batch: tuple[int, ...]) -> list[int]:
     from threadpoolctl import threadpool_info
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import pickle
 from collections.abc import Callable, Mapping
+from contextlib import closing
 from functools import partial
 from itertools import chain
 from pathlib import Path
@@ -86,18 +87,19 @@ def run_trials(
             # loaded four more, 0.2 s of CPU, when this trial ran on these).
             here = todo[:1] if executor.forks else []
             batches = make_batches(todo[len(here):], executor.workers)
-            work = executor.run(partial(run_batch, specs), batches)
             first = []
             if here:
                 # On the compiled kernel, as the workers; this process's choice back after it.
                 with progress.note_after(LOADING_NOTE_S, LOADING_NOTE), bulk_work():
                     first = [run_batch(pickle.loads(pickle.dumps(specs)), here)]
-            for outcomes in chain(first, work):
-                recorded = store.record(outcomes)
-                progress.advance(len(recorded))
-                if on_outcome is not None:
-                    for outcome in recorded:
-                        on_outcome(outcome)
+            # Closed however the loop ends, so that a stop ends the workers' batches here.
+            with closing(executor.run(partial(run_batch, specs), batches)) as work:
+                for outcomes in chain(first, work):
+                    recorded = store.record(outcomes)
+                    progress.advance(len(recorded))
+                    if on_outcome is not None:
+                        for outcome in recorded:
+                            on_outcome(outcome)
         finally:
             progress.close()
     return store

@@ -9,7 +9,7 @@ managers: entering starts the workers, leaving stops them. Each is registered in
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
 from math import ceil
 from typing import Any, Protocol, TypeVar
 
@@ -36,8 +36,10 @@ class Executor(Protocol):
         """Whether the workers are forked from this process (and inherit what it loaded)."""
         ...
 
-    def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
-        """Yield ``function(batch)`` for every batch, as each finishes."""
+    def run(self, function: Callable[[Any], Any], batches: Sequence[Any]
+            ) -> Generator[Any, None, None]:
+        """Yield ``function(batch)`` for every batch, as each finishes; closing the generator
+        stops the batches still running."""
         ...
 
     def __enter__(self) -> Executor: ...

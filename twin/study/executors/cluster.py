@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib
 import logging
 import socket
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
 from typing import Any
 from urllib.parse import urlsplit
 
@@ -115,7 +115,8 @@ class DaskCluster:
         """False: Dask's workers are processes of their own, which load what they run."""
         return False
 
-    def run(self, function: Callable[[Any], Any], batches: Sequence[Any]) -> Iterator[Any]:
+    def run(self, function: Callable[[Any], Any], batches: Sequence[Any]
+            ) -> Generator[Any, None, None]:
         """Yield ``function(batch)`` for every batch as its task finishes."""
         from dask.distributed import as_completed
         from distributed.scheduler import KilledWorker
