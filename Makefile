@@ -5,8 +5,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := about 3 min of pytest, 3 min 52 s to 4 min 8 s from a fresh clone, five runs while this machine ran 15 % slower than its best (2 min 38 s, 3 min 28 s)
-TEST_FAST_TIME := 52 s on the same slower machine, 1.6 CPU-minutes (44 s at its best)
+TEST_TIME := about 3 min 20 s of pytest, 4 min 28 s from a fresh clone (venv, install and mypy included)
+TEST_FAST_TIME := 52 s, 1.6 CPU-minutes
 
 .PHONY: demo test test-fast lint bench docs clean
 
@@ -40,7 +40,7 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/mypy
 
 # Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on this
-# 2-core machine (1323-1328 and 1188 tests) on 2026-12-02.
+# 2-core machine (1330 and 1193 tests) on 2026-12-02.
 test: lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
 	$(BIN)/python -m pytest -n 2
