@@ -16,7 +16,7 @@ study worker is.
    pose at once, then forward differences). Both are checked to agree first. Goal: at least 6×.
 3. **M9 under the paper's protocol** (AMLM 30 + BIPSO 30, 100 particles) against LM run to
    convergence, CPU time of the solve on the same simulated paper rig, with the kernel a study
-   takes (parts 3 to 5 alike). Goal: at most 5×.
+   takes (parts 3 to 5 alike), the two timed in alternating blocks. Goal: at most 5×.
 4. **Study CPU per trial**: geometric_irb120 with LM, every column of a trial's row included
    (the hold, the identifiability, the bound, the truth; not the checks only a report shows),
    trials one after the other in one process, BLAS pinned: this tree beside the commit this
@@ -75,6 +75,8 @@ BEFORE_COMMIT = "599d482"
 """The commit this work started from: parts 4 and 5 run its tree beside this one (extracted by
 git; skipped where the checkout does not hold it)."""
 DRIVER = Path(__file__).resolve().parent / "_study_cpu.py"
+BLOCK = 4
+"""Timed calls of each function per round of :func:`_cpu`."""
 
 
 def _goal(label: str, ratio: float, goal: str, met: bool | None) -> None:
@@ -160,16 +162,22 @@ def kernel(poses: int, seconds: float) -> None:
         _goal(f"twin ({label}) / finite-difference reference", ratio, ">= 6", ratio >= 6)
 
 
-def _cpu(function: Callable[[], object], seconds: float) -> float:
-    """Median CPU time of calls repeated for ``seconds`` of CPU (at least three), after one
-    that loads what a first call loads, s."""
-    function()
-    times: list[float] = []
-    while len(times) < 3 or sum(times) < seconds:
-        start = time.process_time()
-        function()
-        times.append(time.process_time() - start)
-    return statistics.median(times)
+def _cpu(functions: dict[str, Callable[[], object]], seconds: float) -> dict[str, float]:
+    """Median CPU time of each function's calls, s, measured in turn: rounds of a block of
+    :data:`BLOCK` timed calls of each, after an untimed one that warms what the other left
+    cold, for ``seconds`` of CPU in all (at least three rounds). Blocks in turn cancel the
+    drift of a shared VM's speed (one after the other, 2 s each, M9 / LM read 4.58-6.37x over
+    five runs of one tree); single calls in turn would time each cold from the other (LM
+    2.5-2.7 ms against 2.0-2.1 ms warm)."""
+    times: dict[str, list[float]] = {name: [] for name in functions}
+    while len(times[next(iter(functions))]) < 3 * BLOCK or sum(map(sum, times.values())) < seconds:
+        for name, function in functions.items():
+            function()
+            for _ in range(BLOCK):
+                start = time.process_time()
+                function()
+                times[name].append(time.process_time() - start)
+    return {name: statistics.median(values) for name, values in times.items()}
 
 
 def paper_m9(poses: int, seconds: float, particles: int | None) -> None:
@@ -183,13 +191,14 @@ def paper_m9(poses: int, seconds: float, particles: int | None) -> None:
     scenario = load_scenario(PAPER)
     sim = simulate(scenario, 0)
     data = sim.measurements.subset(np.arange(min(poses, len(sim.measurements))))
-    times = {}
+    solves = {}
     for method, stop in (("lm", "converge"), ("amlm-bipso", "paper")):
         settings = replace(scenario.calibration, stop=stop)
         split = make_problem(sim.robot, data, None, rig=sim.rig_told_pulled, settings=settings)
         solver = get_solver(method)
-        times[method] = _cpu(lambda solver=solver, split=split: solver.solve(
-            split.problem, split.settings.budget, np.random.default_rng(0)), seconds)
+        solves[method] = lambda solver=solver, split=split: solver.solve(
+            split.problem, split.settings.budget, np.random.default_rng(0))
+    times = _cpu(solves, 2 * seconds)
     print(f"3. paper rig, {len(data)} poses: M9 (paper protocol) {times['amlm-bipso'] * 1e3:.1f} "
           f"ms CPU, LM to convergence {times['lm'] * 1e3:.1f} ms CPU")
     _goal("M9 (paper) / LM (converge)", times["amlm-bipso"] / times["lm"], "<= 5",
