@@ -131,7 +131,8 @@ def test_a_stop_inside_concurrent_futures_stops_the_run_and_its_workers() -> Non
         run = subprocess.run([sys.executable, "-c", STOP_INSIDE_FUTURES, "11"],
                              capture_output=True, text=True, timeout=60, check=False)
     except subprocess.TimeoutExpired as exc:
-        hung = (exc.stdout or b"").decode().split()
+        printed = exc.stdout or b""  # bytes after a timeout, even in text mode
+        hung = (printed.decode() if isinstance(printed, bytes) else printed).split()
         pytest.fail(f"the run hung after a stop at line {hung[-1] if hung else '?'}")
     assert run.returncode == 0, run.stderr
     summary = run.stdout.splitlines()[-1].split()
