@@ -26,12 +26,12 @@ study worker is.
    round-off; the same iterations).
 5. **Study throughput**: as `twin study` runs trials, from a shell that does not pin BLAS:
    the CPU per trial of the run (the command's process and its workers) on 1 and 2 local
-   processes, both trees (goal: at most 1/5; this tree's runs are also the first of its local
-   runs' repeats below), and
+   processes, both trees (goal: at most 1/5), and
    trials per second of wall time on 1 and 2 workers, local processes and a Dask
-   LocalCluster, once running: from the wall times of N and 2N trials, where what a run pays
-   once cancels (the executor's start and stop, imports, numba's first call of about 0.3 s in
-   the command's process), best of two runs each; whole runs of N trials beside it.
+   LocalCluster, once running: from the wall times of runs of N and 2N trials, where what a
+   run pays once cancels (the executor's start and stop, the workers' imports), best of two
+   runs each; whole runs of N trials beside it. Every executor's runs share one process, after
+   a trial that loads what only a command's first run loads (imports, numba's first call).
    Goal: 2 local workers at least 1.8× one.
 """
 
@@ -53,6 +53,7 @@ import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 from _timing import median_time  # noqa: E402
@@ -216,19 +217,20 @@ def _before_tree(folder: Path) -> Path | None:
     return folder
 
 
-def _study(tree: Path, mode: str, trials: int, *, pinned: bool) -> dict[str, float]:
-    """``_study_cpu.py MODE`` on the twin of ``tree`` (its own geometric scenario), in a
+def _study(tree: Path, mode: str, sizes: list[int], *, pinned: bool) -> dict[str, Any]:
+    """``_study_cpu.py MODE SIZES`` on the twin of ``tree`` (its own geometric scenario), in a
     process whose environment pins BLAS to one thread (``pinned``) or, as a user's shell,
     leaves it unset."""
     env = {name: value for name, value in os.environ.items()
            if pinned or name not in BLAS_VARIABLES}
     env["PYTHONPATH"] = str(tree)
     done = subprocess.run(
-        [sys.executable, str(DRIVER), mode, str(trials), str(tree / "scenarios" / GEOMETRIC.name)],
+        [sys.executable, str(DRIVER), mode, ",".join(map(str, sizes)),
+         str(tree / "scenarios" / GEOMETRIC.name)],
         cwd=tree, env=env, capture_output=True, text=True, check=False)
     if done.returncode:
         raise SystemExit(f"{DRIVER.name} {mode} on {tree}: {done.stderr[-3000:]}")
-    found: dict[str, float] = json.loads(done.stdout.splitlines()[-1])
+    found: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
     return found
 
 
@@ -239,7 +241,7 @@ def _trees(before: Path | None) -> list[tuple[str, Path]]:
 def study_cpu(trials: int, before: Path | None) -> None:
     """CPU per trial of the geometric study with LM in one process, this tree and the one
     before, BLAS pinned in both."""
-    cpu = {label: _study(tree, "inprocess", trials, pinned=True)["cpu_s"]
+    cpu = {label: _study(tree, "inprocess", [trials], pinned=True)["cpu_s"]
            for label, tree in _trees(before)}
     shown = ", ".join(f"{label} {value * 1e3:.1f} ms" for label, value in cpu.items())
     print(f"4. study, {GEOMETRIC.name} with LM, {trials} trials in one process, CPU per trial: "
@@ -251,19 +253,16 @@ def study_cpu(trials: int, before: Path | None) -> None:
     _goal(f"CPU per trial in one process / at {BEFORE_COMMIT}", ratio, "<= 0.2", ratio <= 0.2)
 
 
-def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
-    """As `twin study` runs trials (a shell that does not pin BLAS): the CPU per trial of the
-    command's process and its workers on 1 and 2 local processes, this tree and the one before
-    (when given); trials per second of wall time on 1 and 2 workers, local and Dask, once
-    running (runs of ``trials`` and twice as many), the best of ``repeats`` runs each."""
-    cpu: dict[str, float] = {}
-    first: dict[str, float] = {}  # this tree's local runs of `trials`: their first repeat's wall
-    for label, tree in _trees(before):
+def _local_cpu(trials: int, before: Path | None, runs: dict[str, list[dict[str, float]]]
+               ) -> None:
+    """The CPU per trial of the first run of ``trials`` on 1 and 2 local processes, this tree
+    (from ``runs``) beside the one before (run here), and the ratio to its goal."""
+    cpu = {f"now {name[-1]}": found[0]["cpu_s"] for name, found in runs.items()
+           if name.startswith("local")}
+    if before is not None:
         for workers in (1, 2):
-            found = _study(tree, f"local{workers}", trials, pinned=False)
-            cpu[f"{label} {workers}"] = found["cpu_s"]
-            if tree == ROOT:
-                first[f"local{workers}"] = found["wall_s"]
+            found = _study(before, f"local{workers}", [trials], pinned=False)["runs"]
+            cpu[f"{BEFORE_COMMIT} {workers}"] = found[0]["cpu_s"]
     for workers in (1, 2):
         shown = ", ".join(f"{label} {cpu[f'{label} {workers}'] * 1e3:.1f} ms"
                           for label, _ in _trees(before))
@@ -272,27 +271,31 @@ def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
             ratio = cpu[f"now {workers}"] / cpu[f"{BEFORE_COMMIT} {workers}"]
             _goal(f"CPU per trial, {workers} local worker(s) / at {BEFORE_COMMIT}", ratio,
                   "<= 0.2", ratio <= 0.2)
-    rates: dict[str, float] = {}
-    whole: dict[str, float] = {}
-    for kind in ("local", "dask"):
-        for workers in (1, 2):
-            name = f"{kind}{workers}"
-            walls = {}
-            for size in (trials, 2 * trials):
-                done = [first[name]] if size == trials and name in first else []
-                walls[size] = min(done + [_study(ROOT, name, size, pinned=False)["wall_s"]
-                                          for _ in range(repeats - len(done))])
-            rates[name] = trials / max(walls[2 * trials] - walls[trials], 1e-6)
-            whole[name] = walls[trials]
-            print(f"5. {kind}, {workers} worker(s): {trials} trials in {walls[trials]:.2f} s, "
-                  f"{2 * trials} in {walls[2 * trials]:.2f} s (best of {repeats}): "
-                  f"{rates[name]:.1f} trials/s once running")
+
+
+def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
+    """As `twin study` runs trials (a shell that does not pin BLAS): the CPU per trial of the
+    command's process and its workers on 1 and 2 local processes, this tree and the one before
+    (when given); trials per second of wall time on 1 and 2 workers, local and Dask, once
+    running (runs of ``trials`` and twice as many), the best of ``repeats`` runs each."""
+    names = [f"{kind}{workers}" for kind in ("local", "dask") for workers in (1, 2)]
+    runs = {name: _study(ROOT, name, [trials, 2 * trials] * repeats, pinned=False)["runs"]
+            for name in names}
+    _local_cpu(trials, before, runs)
+    walls = {name: {size: min(run["wall_s"] for run in runs[name] if run["trials"] == size)
+                    for size in (trials, 2 * trials)} for name in names}
+    rates = {name: trials / max(wall[2 * trials] - wall[trials], 1e-6)
+             for name, wall in walls.items()}
+    for name, wall in walls.items():
+        print(f"5. {name[:-1]}, {name[-1]} worker(s): {trials} trials in {wall[trials]:.2f} s, "
+              f"{2 * trials} in {wall[2 * trials]:.2f} s (best of {repeats}, the executor's "
+              f"start and stop included): {rates[name]:.1f} trials/s once running")
     for kind in ("local", "dask"):
         ratio = rates[f"{kind}2"] / rates[f"{kind}1"]
         _goal(f"{kind}: 2 workers / 1, trials per second once running", ratio,
               ">= 1.8" if kind == "local" else "none", ratio >= 1.8 if kind == "local" else None)
-        print(f"  {kind}: whole runs of {trials} trials, start included: "
-              f"{whole[f'{kind}1'] / whole[f'{kind}2']:.2f}×")
+        print(f"  {kind}: whole runs of {trials} trials, the executor's start included: "
+              f"{walls[f'{kind}1'][trials] / walls[f'{kind}2'][trials]:.2f}×")
     print(f"  load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores: other "
           "work on the machine takes cores from the workers")
 
