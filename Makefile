@@ -43,12 +43,12 @@ lint: $(VENV)/.installed-dev
 # 2-core machine (1330 and 1193 tests) on 2026-12-02.
 test: lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
-	$(BIN)/python -m pytest -n 2
+	$(BIN)/python -m pytest -n 2 --dist worksteal
 
 # The inner loop: every test not marked slow (no study, capture or benchmark subprocess runs).
 test-fast: $(VENV)/.installed-dev
 	@echo "make: pytest -m 'not slow' on 2 workers ($(TEST_FAST_TIME))"
-	$(BIN)/python -m pytest -n 2 -m "not slow"
+	$(BIN)/python -m pytest -n 2 --dist worksteal -m "not slow"
 
 # The speed goals side by side (bench/bench_speed.py), then every other benchmark.
 bench: $(VENV)/.installed-dev
