@@ -1,14 +1,19 @@
 """Study CPU per trial of the twin found on ``sys.path`` (bench_speed.py runs this script in a
-process of its own per commit it compares, the tree of each on PYTHONPATH): one JSON line on
-stdout.
+process of its own per commit it compares, the tree of each on PYTHONPATH).
 
-``python _study_cpu.py MODE SIZES SCENARIO``, SIZES trial counts separated by commas, run one
-after the other in this process after one trial that loads and caches what a first trial loads
-(imports, the compiled kernel), so that each run pays only what every `twin study` run pays
-again. MODE is ``inprocess`` (the trials run one after the other here: CPU per trial, first
-size only) or ``local1``, ``local2``, ``dask1``, ``dask2`` (each run as `twin study` runs
-trials, on that many local processes or Dask workers, the executor's start and stop included:
-its wall time and, local processes only, the CPU per trial of this process and its workers).
+``python _study_cpu.py MODE SIZES SCENARIO``: first one trial that loads and caches what a
+first trial loads (imports, the compiled kernel; a trial no run below repeats), so that what is
+measured is only what every trial, or every `twin study` run, pays again. Then:
+
+- MODE ``inprocess`` (SIZES one trial count): blocks of trials one after the other in this
+  process, as stdin asks for them — a line ``FIRST COUNT`` runs trials FIRST … FIRST + COUNT − 1
+  and prints ``{"cpu_s": …}``, their CPU per trial — until stdin closes. Two trees served in
+  turn, block by block, see the same drift of a shared machine's speed.
+- MODE ``local1``, ``local2``, ``dask1``, ``dask2`` (SIZES trial counts separated by commas):
+  a run of each size one after the other, as `twin study` runs trials, on that many local
+  processes or Dask workers, the executor's start and stop included; one JSON line of each
+  run's wall time and, local processes only, the CPU per trial of this process and its workers.
+
 Only the API that every compared commit has is used.
 """
 
@@ -30,17 +35,20 @@ def _run_cpu() -> float:
     return usage.ru_utime + usage.ru_stime + time.process_time()
 
 
-def in_process(plan: Any, trials: int) -> dict[str, float]:
-    """CPU per trial of trials run in this process, s."""
+def in_process(plan: Any) -> None:
+    """Serve the blocks of trials stdin asks for, printing each block's CPU per trial, s."""
     from twin.study.trial import TrialSpec, run_trial, workspace
 
     case = plan.cases[0]
     spec = TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
     space = workspace(spec)
-    start = time.process_time()
-    for trial in range(trials):
-        run_trial(spec, case.label, trial, space)
-    return {"cpu_s": (time.process_time() - start) / trials}
+    print(json.dumps({"ready": True}), flush=True)
+    for line in sys.stdin:
+        first, count = (int(word) for word in line.split())
+        start = time.process_time()
+        for trial in range(first, first + count):
+            run_trial(spec, case.label, trial, space)
+        print(json.dumps({"cpu_s": (time.process_time() - start) / count}), flush=True)
 
 
 def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[str, float]:
@@ -76,7 +84,8 @@ def warm_up(plan: Any, trial: int) -> None:
 
 
 def main() -> None:
-    """Run the mode asked for at each size and print the figures as one JSON line."""
+    """Warm up, then serve blocks of trials (``inprocess``) or run each size and print the
+    runs' figures as one JSON line."""
     mode, scenario = sys.argv[1], Path(sys.argv[3])
     sizes = [int(size) for size in sys.argv[2].split(",")]
     from twin.study.definition import load_study
@@ -84,7 +93,7 @@ def main() -> None:
     plans = {size: load_study(scenario, trials=size, methods=["lm"]) for size in set(sizes)}
     warm_up(plans[sizes[0]], max(sizes))
     if mode == "inprocess":
-        print(json.dumps(in_process(plans[sizes[0]], sizes[0])))
+        in_process(plans[sizes[0]])
         return
     runs = [through_executor(plans[size], size, mode[:-1], int(mode[-1])) for size in sizes]
     print(json.dumps({"runs": runs}))

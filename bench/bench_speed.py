@@ -8,12 +8,13 @@ study worker is.
 1. **Start-up**: ``twin --version`` against ``python -c "import numpy"``, median wall time of
    repeated runs. Goal: at most 2×.
 2. **The hot kernel**: residuals and their 24-column D-H Jacobian at 96 poses of the IRB 120,
-   evaluations per second of :meth:`twin.model.Model.jacobian` — on the numpy path a single
+   evaluations per CPU-second of :meth:`twin.model.Model.jacobian` — on the numpy path a single
    command takes, and on the compiled kernel a study's workers take (extra ``fast``;
    :func:`twin.geometry.kinematics.for_bulk_work`) — against a plain batched
    finite-difference reference in the same run (the lengths of the 25 tables x and x + h·e_k,
    the flange centre carried through each joint's D-H motions on arrays over every table and
-   pose at once, then forward differences). Both are checked to agree first. Goal: at least 6×.
+   pose at once, then forward differences), the two timed in alternating blocks (as in 3).
+   Both are checked to agree first. Goal: at least 6×.
 3. **M9 under the paper's protocol** (AMLM 30 + BIPSO 30, 100 particles) against LM run to
    convergence, CPU time of the solve on the same simulated paper rig, with the kernel a study
    takes (parts 3 to 5 alike), the two timed in alternating blocks. Goal: at most 5×.
@@ -21,7 +22,8 @@ study worker is.
    (the hold, the identifiability, the bound, the truth; not the checks only a report shows),
    trials one after the other in one process, BLAS pinned: this tree beside the commit this
    work started from (:data:`BEFORE_COMMIT`, its files extracted by git and run by
-   ``_study_cpu.py`` in a process of their own, as this tree's are). Goal: at most 1/5. The
+   ``_study_cpu.py`` in a process of their own, as this tree's are), the two processes running
+   the same trials in turn, a few at a time. Goal: at most 1/5. The
    trials' results are the same to 1e-7 relative (iterative solvers carry the kernel's
    round-off; the same iterations).
 5. **Study throughput**: as `twin study` runs trials, from a shell that does not pin BLAS:
@@ -51,9 +53,10 @@ import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
+from contextlib import ExitStack  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
-from typing import Any  # noqa: E402
+from typing import IO, Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 from _timing import median_time  # noqa: E402
@@ -78,6 +81,8 @@ git; skipped where the checkout does not hold it)."""
 DRIVER = Path(__file__).resolve().parent / "_study_cpu.py"
 BLOCK = 4
 """Timed calls of each function per round of :func:`_cpu`."""
+STUDY_BLOCK = 4
+"""Trials per block of part 4, whose trees run block by block in turn."""
 
 
 def _goal(label: str, ratio: float, goal: str, met: bool | None) -> None:
@@ -146,13 +151,8 @@ def kernel(poses: int, seconds: float) -> None:
         (r_ref, j_ref), (r_ours, j_ours) = reference(), ours()
         assert np.allclose(r_ref, r_ours, rtol=0, atol=1e-12), "residuals disagree"
         assert np.allclose(j_ref, j_ours, rtol=0, atol=1e-5), "Jacobians disagree"
-        for name, function in (("reference", reference), (label, ours)):
-            count, start = 0, time.perf_counter()
-            while time.perf_counter() - start < seconds:
-                function()
-                count += 1
-            rates[f"{name} ({label})" if name == "reference" else label] = \
-                count / (time.perf_counter() - start)
+        cpu = _cpu({"reference": reference, label: ours}, 2 * seconds)
+        rates[label], rates[f"reference ({label})"] = 1 / cpu[label], 1 / cpu["reference"]
     del os.environ[kinematics.KERNEL_VARIABLE]
     kinematics._compiled.cache_clear()
     print(f"2. residual + {model.n_params}-column Jacobian at {poses} poses: numpy path "
@@ -238,14 +238,48 @@ def _trees(before: Path | None) -> list[tuple[str, Path]]:
     return [("now", ROOT)] + ([] if before is None else [(BEFORE_COMMIT, before)])
 
 
+def _serve(stack: ExitStack, tree: Path, trials: int) -> tuple[subprocess.Popen[str], IO[str]]:
+    """``_study_cpu.py inprocess`` on the twin of ``tree`` (BLAS pinned, as here), serving
+    blocks of trials until ``stack`` closes its stdin; its stderr goes to a temporary file."""
+    errors = stack.enter_context(tempfile.TemporaryFile("w+"))  # noqa: SIM115 (the stack closes it)
+    process = stack.enter_context(subprocess.Popen(
+        [sys.executable, str(DRIVER), "inprocess", str(trials),
+         str(tree / "scenarios" / GEOMETRIC.name)],
+        cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE, stderr=errors, text=True))
+    return process, errors
+
+
+def _answer(process: subprocess.Popen[str], errors: IO[str]) -> dict[str, Any]:
+    """The driver's next JSON line; its stderr as the error where it ended instead."""
+    assert process.stdout is not None
+    line = process.stdout.readline()
+    if not line:
+        errors.seek(0)
+        raise SystemExit(f"{DRIVER.name} inprocess: {errors.read()[-3000:]}")
+    found: dict[str, Any] = json.loads(line)
+    return found
+
+
 def study_cpu(trials: int, before: Path | None) -> None:
     """CPU per trial of the geometric study with LM in one process, this tree and the one
-    before, BLAS pinned in both."""
-    cpu = {label: _study(tree, "inprocess", [trials], pinned=True)["cpu_s"]
-           for label, tree in _trees(before)}
+    before, BLAS pinned in both: the same trials, :data:`STUDY_BLOCK` at a time, the trees in
+    turn, so that both see the same drift of the machine's speed."""
+    cpu = {label: 0.0 for label, _ in _trees(before)}
+    with ExitStack() as stack:
+        drivers = {label: _serve(stack, tree, trials) for label, tree in _trees(before)}
+        for driver in drivers.values():
+            _answer(*driver)  # ready: its warm-up trial has run
+        for first in range(0, trials, STUDY_BLOCK):
+            count = min(STUDY_BLOCK, trials - first)
+            for label, (process, errors) in drivers.items():
+                assert process.stdin is not None
+                process.stdin.write(f"{first} {count}\n")
+                process.stdin.flush()
+                cpu[label] += _answer(process, errors)["cpu_s"] * count / trials
     shown = ", ".join(f"{label} {value * 1e3:.1f} ms" for label, value in cpu.items())
     print(f"4. study, {GEOMETRIC.name} with LM, {trials} trials in one process, CPU per trial: "
-          f"{shown}")
+          f"{shown} (the trees in turn, {STUDY_BLOCK} trials at a time)")
     if before is None:
         print(f"  ({BEFORE_COMMIT} is not in this checkout: nothing to compare with)")
         return
