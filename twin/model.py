@@ -241,21 +241,22 @@ class Model:
         """The kinematic tables of unknowns x (..., p): shape (..., 4, n), m and rad."""
         x = self._check(x)
         shape = (*x.shape[:-1], *self.robot.dh.shape)
-        table = np.broadcast_to(self.robot.dh, shape)
+        table = self.robot.dh
         for where, linear_t in self._table_maps:
             correction = x[..., where] if linear_t is None else x[..., where] @ linear_t
             table = table + correction.reshape(shape)
-        return np.asarray(table, dtype=np.float64)
+        return table if table.shape == shape else np.broadcast_to(table, shape)
 
     def point(self, x: ArrayLike) -> Array:
         """The measured point in the flange frame for unknowns x (..., p): shape (..., 3), m."""
         x = self._check(x)
-        point = np.broadcast_to(self.rig.attachment_m, (*x.shape[:-1], 3))
+        shape = (*x.shape[:-1], 3)
+        point = self.rig.attachment_m
         for group in self.groups:
             if group.stage == Stage.POINT:
                 assert group.linear is not None
                 point = point + self.block(x, group.name) @ group.linear.T
-        return np.asarray(point, dtype=np.float64)
+        return point if point.shape == shape else np.broadcast_to(point, shape)
 
     def joints(self, x: ArrayLike, data: Measurements) -> Array:
         """Where the joints stand: recorded angles plus the joint-level corrections of x (..., p),

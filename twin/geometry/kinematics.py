@@ -41,7 +41,7 @@ import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -151,7 +151,7 @@ class Structure:
         """Whether each joint slides (its q in m) rather than turns (rad), shape (n,)."""
         return np.array([kind == "prismatic" for kind in self.joint_types], dtype=bool)
 
-    @property
+    @cached_property
     def all_revolute(self) -> bool:
         """Every joint revolute: the kernel's shortest path."""
         return all(kind == "revolute" for kind in self.joint_types)
@@ -168,7 +168,7 @@ class Structure:
         column for a revolute joint, d_i's for a prismatic one."""
         return _joint_columns(self.parametrisation, self.joint_types)
 
-    @property
+    @cached_property
     def n_columns(self) -> int:
         """Number of a trace's derivative columns: the table's 4n and one per prismatic Hayati
         joint's slide (which holds no table entry)."""
