@@ -5,8 +5,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := about 3 min 20 s of pytest, 4 min 28 s from a fresh clone (venv, install and mypy included)
-TEST_FAST_TIME := 52 s, 1.6 CPU-minutes
+TEST_TIME := about 4 min 27 s of pytest, 6 min 12 s from a fresh clone (venv, install and mypy included)
+TEST_FAST_TIME := 87 s, 2.8 CPU-minutes
 
 .PHONY: demo test test-fast lint bench docs clean
 
@@ -39,8 +39,9 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check twin tests bench
 	$(BIN)/mypy
 
-# Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on this
-# 2-core machine (1330 and 1193 tests) on 2026-12-02.
+# Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a
+# 2-core Intel Xeon VM (1330 and 1193 tests) on 2026-12-02, from a fresh clone (pip's cache
+# warm); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of a few commits before.
 test: lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
 	$(BIN)/python -m pytest -n 2 --dist worksteal
