@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
 TEST_TIME := 4 min 27 s to 5 min 19 s of pytest, 6 min 12 s to 7 min 13 s from a fresh clone (venv, install and mypy included)
-TEST_FAST_TIME := 87 s, 2.8 CPU-minutes
+TEST_FAST_TIME := 77 s, 2.5 CPU-minutes
 
 .PHONY: demo test test-fast lint bench docs clean
 
@@ -40,7 +40,7 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/mypy
 
 # Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a
-# 2-core Intel Xeon VM (1330 and 1193 tests) on 2026-12-02, from a fresh clone (pip's cache
+# 2-core Intel Xeon VM (1330 and 1190 tests) on 2026-12-02 and 03, from a fresh clone (pip's cache
 # warm); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of a few commits before.
 test: lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"

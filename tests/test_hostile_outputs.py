@@ -340,6 +340,7 @@ def test_sigterm_stops_a_study_as_ctrl_c(tmp_path: Path) -> None:
     assert set(rows) == set(done) | {(str(trial), "lm") for trial in range(10)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["study", "check"])
 def test_sigterm_to_the_process_group_stops_workers_quietly(command: str,
                                                           tmp_path: Path) -> None:

@@ -189,6 +189,7 @@ print(json.dumps(new))
 """
 
 
+@pytest.mark.slow
 def test_a_forked_worker_loads_no_kernel_version_the_command_did_not(tmp_path: Path) -> None:
     """In a fresh process, the first trial runs in the command on the trials' specs as a
     worker receives them (pickled: frozen arrays come back writeable), so the forked worker
