@@ -217,12 +217,10 @@ def _before_tree(folder: Path) -> Path | None:
     return folder
 
 
-def _study(tree: Path, mode: str, sizes: list[int], *, pinned: bool) -> dict[str, Any]:
+def _study(tree: Path, mode: str, sizes: list[int]) -> dict[str, Any]:
     """``_study_cpu.py MODE SIZES`` on the twin of ``tree`` (its own geometric scenario), in a
-    process whose environment pins BLAS to one thread (``pinned``) or, as a user's shell,
-    leaves it unset."""
-    env = {name: value for name, value in os.environ.items()
-           if pinned or name not in BLAS_VARIABLES}
+    process whose environment leaves BLAS's threads unset, as a user's shell does."""
+    env = {name: value for name, value in os.environ.items() if name not in BLAS_VARIABLES}
     env["PYTHONPATH"] = str(tree)
     done = subprocess.run(
         [sys.executable, str(DRIVER), mode, ",".join(map(str, sizes)),
@@ -295,7 +293,7 @@ def _local_cpu(trials: int, before: Path | None, runs: dict[str, list[dict[str, 
            if name.startswith("local")}
     if before is not None:
         for workers in (1, 2):
-            found = _study(before, f"local{workers}", [trials], pinned=False)["runs"]
+            found = _study(before, f"local{workers}", [trials])["runs"]
             cpu[f"{BEFORE_COMMIT} {workers}"] = found[0]["cpu_s"]
     for workers in (1, 2):
         shown = ", ".join(f"{label} {cpu[f'{label} {workers}'] * 1e3:.1f} ms"
@@ -313,7 +311,7 @@ def study_scaling(trials: int, before: Path | None, repeats: int) -> None:
     (when given); trials per second of wall time on 1 and 2 workers, local and Dask, once
     running (runs of ``trials`` and twice as many), the best of ``repeats`` runs each."""
     names = [f"{kind}{workers}" for kind in ("local", "dask") for workers in (1, 2)]
-    runs = {name: _study(ROOT, name, [trials, 2 * trials] * repeats, pinned=False)["runs"]
+    runs = {name: _study(ROOT, name, [trials, 2 * trials] * repeats)["runs"]
             for name in names}
     _local_cpu(trials, before, runs)
     walls = {name: {size: min(run["wall_s"] for run in runs[name] if run["trials"] == size)
