@@ -510,7 +510,9 @@ class Model:
             return r, jacobian
         norms = np.linalg.norm(jacobian, axis=0)
         unit = np.where(norms > rtol * np.max(norms), norms, 1.0)
-        _, s, vt = np.linalg.svd(jacobian / unit, full_matrices=True)
+        # Every row of V, but no more of U than V needs: a full U is (m, m).
+        _, s, vt = np.linalg.svd(jacobian / unit,
+                                 full_matrices=jacobian.shape[0] < jacobian.shape[1])
         s = np.concatenate([s, np.zeros(self.n_params - s.size)])
         null = vt[s <= rtol * s[0]].T / unit[:, None]
         basis = np.concatenate([gauge, null], axis=1)

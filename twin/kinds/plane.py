@@ -200,7 +200,7 @@ def fit_plane(points_m: Array) -> tuple[Array, float]:
         InputError: for fewer than three points, or points on one line.
     """
     centre = points_m.mean(axis=0)
-    _, s, vt = np.linalg.svd(points_m - centre)
+    _, s, vt = np.linalg.svd(points_m - centre, full_matrices=False)
     if len(points_m) < PLANE_POINTS or s[1] <= COLLINEAR_RTOL * max(s[0], 1e-300):
         raise InputError(f"{len(points_m)} touches on one line" if len(points_m)
                          >= PLANE_POINTS else f"{len(points_m)} touches",
