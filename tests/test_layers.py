@@ -4,6 +4,7 @@ every pure module import without the adapters' libraries, and the import graph h
 from __future__ import annotations
 
 import ast
+import functools
 import json
 import subprocess
 import sys
@@ -90,10 +91,17 @@ def _imports(name: str, path: Path, modules: set[str]) -> set[str]:
     return {module for module in found if module in modules and module != name}
 
 
+@functools.cache
+def import_graph() -> dict[str, frozenset[str]]:
+    """The package's modules each module imports (:func:`_imports`), parsed once for the
+    tests that read it."""
+    files = modules()
+    return {name: frozenset(_imports(name, path, set(files))) for name, path in files.items()}
+
+
 def test_the_import_graph_has_no_cycle() -> None:
     """No module imports, directly or through others, a module that imports it back."""
-    files = modules()
-    graph = {name: _imports(name, path, set(files)) for name, path in files.items()}
+    graph = import_graph()
     done: set[str] = set()
 
     def cycle(trail: list[str]) -> list[str] | None:
@@ -108,7 +116,7 @@ def test_the_import_graph_has_no_cycle() -> None:
         done.add(trail[-1])
         return None
 
-    for name in files:
+    for name in graph:
         found = None if name in done else cycle([name])
         assert found is None, "import cycle: " + " -> ".join(found or [])
 
@@ -186,8 +194,8 @@ def test_every_layer_imports_only_what_its_rule_allows() -> None:
     files = modules()
     assert {layer(name) for name in files} == set(RULES), "a layer without a rule, or a rule " \
         "without a layer"
-    broken = sorted(f"{name} -> {dep}" for name, path in files.items()
-                    for dep in _imports(name, path, set(files))
+    broken = sorted(f"{name} -> {dep}" for name, imported in import_graph().items()
+                    for dep in imported
                     if layer(dep) != layer(name) and layer(dep) not in RULES[layer(name)])
     assert broken == []
 

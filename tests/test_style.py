@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "twin"
@@ -10,12 +11,18 @@ MAX_FUNCTION_LINES = 80
 """From ``def`` to the function's last line, docstring and comments included."""
 
 
+@functools.cache
+def _nodes(path: Path) -> tuple[ast.AST, ...]:
+    """Every node of the module at ``path``, parsed and walked once for the checks below."""
+    return tuple(ast.walk(ast.parse(path.read_text(encoding="utf-8"))))
+
+
 def long_functions(root: Path, limit: int = MAX_FUNCTION_LINES) -> list[str]:
     """``path:line name (n lines)`` (the path relative to ``root``) for every function or
     method under ``root`` longer than ``limit`` lines, nested ones too."""
     found = []
     for path in sorted(root.rglob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in _nodes(path):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 lines = (node.end_lineno or node.lineno) - node.lineno + 1
                 if lines > limit:
@@ -63,7 +70,7 @@ def kind_branches(root: Path, names: set[str], skip: Path | None = None) -> list
     for path in sorted(root.rglob("*.py")):
         if skip is not None and path.is_relative_to(skip):
             continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in _nodes(path):
             if isinstance(node, ast.Compare):
                 named = set().union(*(_literals(side) for side in (node.left, *node.comparators)))
             elif isinstance(node, ast.MatchValue):
