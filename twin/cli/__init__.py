@@ -87,9 +87,10 @@ def _sigterm_as_interrupt() -> Iterator[None]:
 
 
 def build_parser(argv: Sequence[str] | None = None) -> ArgumentParser:
-    """The argument parser with every subcommand; for a command line ``argv`` whose first word
-    names a command, with that command alone (its flags were 12 ms of each command's start
-    when all thirteen commands' were built)."""
+    """The argument parser with every subcommand; for a command line ``argv``, only what
+    parsing it reads: the command its first word names, alone, with its flags; without one
+    (``--version``, ``--help``, a word that names no command), every command's name and help
+    but none of their flags (building them all was 12 ms of every command's start)."""
     parser = ArgumentParser(
         prog="twin",
         description="Kinematic calibration of serial robots with a drawstring encoder, "
@@ -100,11 +101,12 @@ def build_parser(argv: Sequence[str] | None = None) -> ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     # The top level has no flag that takes a value: its first other word is the command.
     named = next((word for word in argv or () if not word.startswith("-")), None)
-    chosen = tuple(module for module in SUBCOMMANDS if named == module.NAME) or SUBCOMMANDS
-    for module in chosen:
+    chosen = tuple(module for module in SUBCOMMANDS if named == module.NAME)
+    for module in chosen or SUBCOMMANDS:
         command = subparsers.add_parser(module.NAME, help=module.HELP,
                                         description=module.DESCRIPTION)
-        module.add_arguments(command)
+        if chosen or argv is None:
+            module.add_arguments(command)
         command.set_defaults(func=module.run)
     return parser
 
