@@ -95,10 +95,14 @@ def startup(repeats: int) -> None:
     twin = [sys.executable, "-m", "twin", "--version"]
     numpy_only = [sys.executable, "-c", "import numpy"]
 
-    def run(command: list[str]) -> Callable[[], None]:
-        return lambda: subprocess.run(command, check=True, capture_output=True)
+    def run(command: list[str], env: dict[str, str] | None = None) -> Callable[[], None]:
+        return lambda: subprocess.run(command, check=True, capture_output=True, env=env)
 
-    run(twin)()
+    # The first run writes the bytecode of twin's modules, as a user's first run (or pip's
+    # install) does; a shell with PYTHONDONTWRITEBYTECODE set would have every run compile
+    # them again (about 55 ms of each run here), which no install does and numpy never pays.
+    run(twin, {name: value for name, value in os.environ.items()
+               if name != "PYTHONDONTWRITEBYTECODE"})()
     run(numpy_only)()
     twin_s, _ = median_time(run(twin), repeats)
     numpy_s, _ = median_time(run(numpy_only), repeats)
