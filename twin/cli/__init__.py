@@ -127,7 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     warnings.showwarning = _show_warning
     try:
-        from twin.hardware.capture_session import refuse_capture_journal
+        from twin.hardware.capture_layout import refuse_capture_journal
 
         with _sigterm_as_interrupt(), command_scope():
             check_command_paths(vars(args).values())

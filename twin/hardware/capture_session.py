@@ -31,7 +31,7 @@ import contextlib
 import math
 import os
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -39,9 +39,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from twin.calibration.settings import CalibrationSettings
-from twin.choices import MAX_JOINTS, MIN_JOINTS
 from twin.dataset import REFERENCE, TIME, Measurements, approach_directions
 from twin.errors import InputError, TwinError
+from twin.hardware.capture_layout import (
+    capture_columns,
+    capture_header,
+    row_columns,
+    starts_as_journal,
+)
 from twin.hardware.encoders import EncoderConfig, open_encoder
 from twin.hardware.encoders.base import Encoder, EncoderDisconnectedError
 from twin.hardware.encoders.settle import Settled, SettleRule, settle
@@ -51,38 +56,17 @@ from twin.io.capture_file import write_capture
 from twin.io.journal import Journal
 from twin.io.lock import folder_lock
 from twin.io.measurements import (
-    approach_columns,
     format_measurements,
-    joint_columns,
     load_plan,
     read_table,
 )
-from twin.io.paths import OutputFile, os_error, read_bytes, read_text
+from twin.io.paths import os_error, read_bytes, read_text
 from twin.io.robot_file import load_robot, robot_files
 from twin.io.truth import TRUTH_FILE, write_truth
-from twin.kinds.length import COLUMN as LENGTH_COLUMN
 from twin.kinds.length import length_measurements
 from twin.report.display import mm, seconds
 from twin.rig import Rig
 from twin.robot import RobotModel
-
-POSE_COLUMN = "pose"
-
-
-def row_columns(n_joints: int) -> tuple[str, ...]:
-    """The columns a resumed capture reads back: ``pose, q1..qN, length``."""
-    return (POSE_COLUMN, *joint_columns(n_joints), LENGTH_COLUMN)
-
-
-def capture_columns(n_joints: int) -> tuple[str, ...]:
-    """Every column of a capture's measurement file (as :func:`format_row` writes them)."""
-    return (*row_columns(n_joints), TIME, REFERENCE, *approach_columns(n_joints))
-
-
-def capture_header(n_joints: int) -> str:
-    """The first line of a capture's measurement file, with its LF."""
-    return ",".join(capture_columns(n_joints)) + "\n"
-
 
 CAPTURE_COLUMNS = capture_columns(6)
 """The columns of a 6-joint arm's capture."""
@@ -223,19 +207,6 @@ def check_folder(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
                              where="line 1")
 
 
-def _starts_as_journal(path: Path) -> bool:
-    """Whether a regular file begins with the header of a capture's measurements."""
-    if not path.is_file():
-        return False
-    headers = [capture_header(n).encode("utf-8") for n in range(MIN_JOINTS, MAX_JOINTS + 1)]
-    try:
-        with open(path, "rb") as handle:
-            start = handle.read(max(map(len, headers)))
-    except OSError:
-        return False
-    return any(start.startswith(header) for header in headers)
-
-
 def real_measurements(folder: Path) -> tuple[Path, str] | None:
     """What makes ``folder`` hold real measurements, which only `twin capture` may write to:
     a capture's plan or journal, or a measurement file no simulation wrote (no truth.json
@@ -245,7 +216,7 @@ def real_measurements(folder: Path) -> tuple[Path, str] | None:
         The file, and what it is.
     """
     plan, measurements = folder / PLAN_NAME, folder / MEASUREMENTS_NAME
-    if _starts_as_journal(measurements):
+    if starts_as_journal(measurements):
         return measurements, "a capture's measurements"
     if os.path.lexists(plan):
         return plan, "the plan of a capture"
@@ -283,19 +254,6 @@ def set_aside(folder: Path) -> tuple[Path, list[str]]:
         raise os_error(kept, "moving the capture into it", exc, "a folder to write into") \
             from None
     return kept, moved
-
-
-def refuse_capture_journal(values: Iterable[object]) -> None:
-    """Refuse an output file that would replace a capture's measurements (only the capture
-    appends to them).
-
-    Raises:
-        InputError: naming the file.
-    """
-    for value in values:
-        if isinstance(value, OutputFile) and _starts_as_journal(value):
-            raise InputError("a capture's measurements", "an output that is not a "
-                             "capture's journal (it would be replaced)", source=value)
 
 
 def prepare(folder: Path, plan_path: Path, plan_q_rad: NDArray[np.float64],
