@@ -9,10 +9,13 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
   process, as stdin asks for them — a line ``FIRST COUNT`` runs trials FIRST … FIRST + COUNT − 1
   and prints ``{"cpu_s": …}``, their CPU per trial — until stdin closes. Two trees served in
   turn, block by block, see the same drift of a shared machine's speed.
-- MODE ``local1``, ``local2``, ``dask1``, ``dask2`` (SIZES trial counts separated by commas):
-  a run of each size one after the other, as `twin study` runs trials, on that many local
-  processes or Dask workers, the executor's start and stop included; one JSON line of each
-  run's wall time and, local processes only, the CPU per trial of this process and its workers.
+- MODE one or more of ``local1``, ``local2``, ``dask1``, ``dask2``, separated by commas (SIZES
+  trial counts separated by commas): for each executor in turn, a run of each size one after
+  the other, as `twin study` runs trials, on that many local processes or Dask workers, the
+  executor's start and stop included; one JSON line of each executor's runs: their wall times
+  and, local processes only, the CPU per trial of this process and its workers. Local
+  processes run before Dask's: their workers are forked from here, which is safe only before
+  a Dask client has started its threads.
 
 Only the API that every compared commit has is used.
 """
@@ -95,7 +98,9 @@ def main() -> None:
     if mode == "inprocess":
         in_process(plans[sizes[0]])
         return
-    runs = [through_executor(plans[size], size, mode[:-1], int(mode[-1])) for size in sizes]
+    executors = sorted(mode.split(","), key=lambda name: name.startswith("dask"))
+    runs = {name: [through_executor(plans[size], size, name[:-1], int(name[-1]))
+                   for size in sizes] for name in executors}
     print(json.dumps({"runs": runs}))
 
 

@@ -32,9 +32,9 @@ study worker is.
    trials per second of wall time on 1 and 2 workers, local processes and a Dask
    LocalCluster, once running: from the wall times of runs of N and 2N trials, where what a
    run pays once cancels (the executor's start and stop, the workers' imports), best of two
-   runs each; whole runs of N trials beside it. Every executor's runs share one process, after
-   a trial that loads what only a command's first run loads (imports, numba's first call).
-   Goal: 2 local workers at least 1.8× one.
+   runs each; whole runs of N trials beside it. Every executor's runs share one process per
+   tree (local processes first, then Dask), after a trial that loads what only a command's
+   first run loads (imports, numba's first call). Goal: 2 local workers at least 1.8× one.
 """
 
 from __future__ import annotations
@@ -221,18 +221,21 @@ def _before_tree(folder: Path) -> Path | None:
     return folder
 
 
-def _study(tree: Path, mode: str, sizes: list[int]) -> dict[str, Any]:
-    """``_study_cpu.py MODE SIZES`` on the twin of ``tree`` (its own geometric scenario), in a
-    process whose environment leaves BLAS's threads unset, as a user's shell does."""
+def _study(tree: Path, executors: list[str], sizes: list[int]
+           ) -> dict[str, list[dict[str, float]]]:
+    """``_study_cpu.py EXECUTORS SIZES`` on the twin of ``tree`` (its own geometric scenario),
+    in one process whose environment leaves BLAS's threads unset, as a user's shell does: each
+    executor's runs, by its name."""
     env = {name: value for name, value in os.environ.items() if name not in BLAS_VARIABLES}
     env["PYTHONPATH"] = str(tree)
+    mode = ",".join(executors)
     done = subprocess.run(
         [sys.executable, str(DRIVER), mode, ",".join(map(str, sizes)),
          str(tree / "scenarios" / GEOMETRIC.name)],
         cwd=tree, env=env, capture_output=True, text=True, check=False)
     if done.returncode:
         raise SystemExit(f"{DRIVER.name} {mode} on {tree}: {done.stderr[-3000:]}")
-    found: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
+    found: dict[str, list[dict[str, float]]] = json.loads(done.stdout.splitlines()[-1])["runs"]
     return found
 
 
@@ -296,9 +299,8 @@ def _local_cpu(trials: int, before: Path | None, runs: dict[str, list[dict[str, 
     cpu = {f"now {name[-1]}": found[0]["cpu_s"] for name, found in runs.items()
            if name.startswith("local")}
     if before is not None:
-        for workers in (1, 2):
-            found = _study(before, f"local{workers}", [trials])["runs"]
-            cpu[f"{BEFORE_COMMIT} {workers}"] = found[0]["cpu_s"]
+        for name, found in _study(before, ["local1", "local2"], [trials]).items():
+            cpu[f"{BEFORE_COMMIT} {name[-1]}"] = found[0]["cpu_s"]
     for workers in (1, 2):
         shown = ", ".join(f"{label} {cpu[f'{label} {workers}'] * 1e3:.1f} ms"
                           for label, _ in _trees(before))
@@ -317,8 +319,7 @@ def study_scaling(trials: int, before: Path | None, repeats: int,
     ``dask_workers`` Dask workers, once running (runs of ``trials`` and twice as many), the
     best of ``repeats`` runs each."""
     names = [f"local{workers}" for workers in (1, 2)] + [f"dask{n}" for n in dask_workers]
-    runs = {name: _study(ROOT, name, [trials, 2 * trials] * repeats)["runs"]
-            for name in names}
+    runs = _study(ROOT, names, [trials, 2 * trials] * repeats)
     _local_cpu(trials, before, runs)
     walls = {name: {size: min(run["wall_s"] for run in runs[name] if run["trials"] == size)
                     for size in (trials, 2 * trials)} for name in names}
