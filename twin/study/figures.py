@@ -40,7 +40,7 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
     plt = pyplot()
     methods = [m for m in table6 if m != "before"]
     colors = _colors(methods)
-    figure, axes = plt.subplots(2, 2, figsize=(11, 7))
+    figure, axes = plt.subplots(2, 2, figsize=(11, 7), layout="constrained")
     panels = (("rmse", "(a) RMSE [mm]"), ("mae", '(b) "STD" = MAE [mm]'),
               ("max", "(c) MAX [mm]"), ("seconds", "(d) time per trial [s]"))
     x = np.arange(len(methods))
@@ -58,8 +58,7 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
                            f"{plain(table6['before'][key]['mean'], LENGTH_DECIMALS)})")
         axis.grid(axis="y", alpha=0.3)
     figure.suptitle(title)
-    figure.tight_layout()
-    save_png(figure, path, tight=True)
+    save_png(figure, path)
 
 
 def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str], path: Path,
@@ -67,7 +66,7 @@ def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str]
     """Paper Fig. 4: validation RMSE against iteration, median and quartiles over trials."""
     plt = pyplot()
     colors = _colors(methods)
-    figure, axis = plt.subplots(figsize=(9, 5.5))
+    figure, axis = plt.subplots(figsize=(9, 5.5), layout="constrained")
     for method in methods:
         histories = [d["methods"][method]["history_mm"] for d in details
                      if method in d["methods"]]
@@ -86,7 +85,7 @@ def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str]
     axis.grid(alpha=0.3, which="both")
     axis.legend(ncol=3, fontsize=8)
     axis.set_title(title)
-    save_png(figure, path, tight=True)
+    save_png(figure, path)
 
 
 def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], path: Path,
@@ -94,7 +93,7 @@ def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], 
     """Paper Fig. 5: residuals before and after, one trial per pose and all trials' spread."""
     plt = pyplot()
     colors = _colors(methods)
-    figure, (left, right) = plt.subplots(1, 2, figsize=(13, 5),
+    figure, (left, right) = plt.subplots(1, 2, figsize=(13, 5), layout="constrained",
                                          gridspec_kw={"width_ratios": [3, 2]})
     first = details[0]
     poses = np.arange(1, len(first["before_residuals_mm"]) + 1)
@@ -118,8 +117,7 @@ def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], 
     right.set_ylabel("|residual| over all trials [mm]")
     right.grid(alpha=0.3, axis="y", which="both")
     figure.suptitle(title)
-    figure.tight_layout()
-    save_png(figure, path, tight=True)
+    save_png(figure, path)
 
 
 def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[str],
@@ -129,7 +127,7 @@ def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[
     colors = _colors(methods)
     names = details[0]["parameter_names"]
     units = details[0]["parameter_units"]
-    figure, axes = plt.subplots(2, 1, figsize=(12, 7))
+    figure, axes = plt.subplots(2, 1, figsize=(12, 7), layout="constrained")
     for axis, unit in zip(axes, ("mm", "deg"), strict=True):
         columns = [i for i, u in enumerate(units) if u == unit]
         x = np.arange(len(columns))
@@ -152,8 +150,7 @@ def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[
         axis.grid(alpha=0.3, which="both")
     axes[0].legend(ncol=5, fontsize=7)
     axes[0].set_title(f"{title}: error off the null space (bottom row: not identifiable)")
-    figure.tight_layout()
-    save_png(figure, path, tight=True)
+    save_png(figure, path)
 
 
 def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) -> None:
@@ -163,7 +160,7 @@ def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) ->
     cases = summary["cases"]
     labels = [c["case"] for c in cases]
     x = np.arange(len(cases))
-    figure, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8))
+    figure, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
     for method in methods:
         present = [c for c in cases if method in c["truth"]]
         if len(present) != len(cases):
@@ -180,8 +177,7 @@ def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) ->
         axis.set_ylabel(label)
         axis.grid(alpha=0.3, which="both")
     right.legend(ncol=2, fontsize=7)
-    figure.tight_layout()
-    save_png(figure, path, tight=True)
+    save_png(figure, path)
 
 
 def write_figures(folder: str | Path, summary: Mapping[str, Any],
