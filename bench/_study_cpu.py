@@ -12,8 +12,9 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
 - MODE one or more of ``local1``, ``local2``, ``dask1``, ``dask2``, separated by commas (SIZES
   trial counts separated by commas): for each executor in turn, a run of each size one after
   the other, as `twin study` runs trials, on that many local processes or Dask workers, the
-  executor's start and stop included; one JSON line of each executor's runs: their wall times
-  and, local processes only, the CPU per trial of this process and its workers. Local
+  executor's start and stop included; one JSON line of each executor's runs: their wall times,
+  when each trial was recorded and, local processes only, the CPU per trial of this process
+  and its workers. Local
   processes run before Dask's: their workers are forked from here, which is safe only before
   a Dask client has started its threads.
 
@@ -54,9 +55,10 @@ def in_process(plan: Any) -> None:
         print(json.dumps({"cpu_s": (time.process_time() - start) / count}), flush=True)
 
 
-def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[str, float]:
-    """The wall time of a run of the trials, s, and (local processes) the CPU per trial of this
-    process and its workers, s."""
+def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[str, Any]:
+    """A run of the trials: its wall time, s; when each trial was recorded, s from the start,
+    in order (``done_s``); and (local processes) the CPU per trial of this process and its
+    workers, s."""
     from twin.study.runner import run_trials
 
     if kind == "local":
@@ -67,10 +69,13 @@ def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[st
         from twin.study.executors.cluster import DaskCluster
 
         executor = DaskCluster(workers=workers)
+    done: list[float] = []
     with tempfile.TemporaryDirectory() as folder:
         cpu, start = _run_cpu(), time.perf_counter()
-        run_trials(plan, Path(folder) / "study", executor, stream=io.StringIO())
-        found = {"trials": trials, "wall_s": time.perf_counter() - start}
+        run_trials(plan, Path(folder) / "study", executor, stream=io.StringIO(),
+                   on_outcome=lambda _: done.append(time.perf_counter() - start))
+        found: dict[str, Any] = {"trials": trials, "wall_s": time.perf_counter() - start,
+                                 "done_s": done}
     if kind == "local":
         found["cpu_s"] = (_run_cpu() - cpu) / trials
     return found
