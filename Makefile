@@ -5,8 +5,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 2 min 57 s to 6 min 25 s of pytest, 6 min 26 s to 8 min 2 s from a fresh clone (venv, install and mypy included)
-TEST_FAST_TIME := 53 s to 98 s, 1.7 to 3.0 CPU-minutes
+TEST_TIME := 2 min 44 s to 6 min 25 s of pytest, 6 min 26 s to 8 min 2 s from a fresh clone (venv, install and mypy included)
+TEST_FAST_TIME := 46 s to 98 s, 1.5 to 3.0 CPU-minutes
 
 .PHONY: demo test test-fast lint bench docs clean
 
@@ -42,8 +42,10 @@ lint: $(VENV)/.installed-dev
 # Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a
 # 2-core Intel Xeon VM (1330 and 1190 tests) on 2026-12-03, in checkouts and from fresh clones
 # (pip's cache warm); the range is that VM's speed, which changed by 1.7x from hour to hour (the
-# same tree's pytest took 2 min 57 s at one hour and 4 min 31 s to 6 min 25 s at others); a
-# 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of some commits before.
+# same tree's pytest took 2 min 44 s to 3 min 13 s at one hour and 4 min 31 s to 6 min 25 s at
+# others); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of some commits
+# before. Three workers on those 2 cores took 6 % less wall time (153 and 183 s against 165 and
+# 193 s, alternating), the sleeping tests' cores taken up; kept at 2, a worker per core.
 test: lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
 	$(BIN)/python -m pytest -n 2 --dist worksteal
