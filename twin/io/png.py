@@ -16,10 +16,10 @@ DPI = 120
 def save_png(figure: Any, path: str | Path) -> None:
     """Write ``figure`` to ``path`` as a PNG at :data:`DPI`, atomically, and close it.
 
-    Every figure is laid out by matplotlib's constrained layout as it is drawn: one draw. A
-    ``tight_layout`` and a page cropped to what is drawn drew each of a study's figures twice
-    and measured it a third time (3.6 s of a 2-trial study's report, of which the figures
-    were all).
+    Every figure is laid out by matplotlib's constrained layout as it is saved. A
+    ``tight_layout`` before and a page cropped to what is drawn measured each of a study's
+    figures' text once more each: the report of a 2-trial study, nearly all figures, took
+    3.1–3.6 s with them and 2.7–3.0 s without (alternating runs).
 
     Args:
         figure: A matplotlib figure from :func:`twin.report.plots.pyplot`, made with
