@@ -14,9 +14,8 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
   the other, as `twin study` runs trials, on that many local processes or Dask workers, the
   executor's start and stop included; one JSON line of each executor's runs: their wall times,
   when each trial was recorded and, local processes only, the CPU per trial of this process
-  and its workers. Local
-  processes run before Dask's: their workers are forked from here, which is safe only before
-  a Dask client has started its threads.
+  and its workers. Local processes run before Dask's: their workers are forked from here,
+  which is safe only before a Dask client has started its threads.
 
 Only the API that every compared commit has is used.
 """

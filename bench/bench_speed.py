@@ -223,7 +223,7 @@ def _before_tree(folder: Path) -> Path | None:
 
 
 def _study(tree: Path, executors: list[str], sizes: list[int]
-           ) -> dict[str, list[dict[str, float]]]:
+           ) -> dict[str, list[dict[str, Any]]]:
     """``_study_cpu.py EXECUTORS SIZES`` on the twin of ``tree`` (its own geometric scenario),
     in one process whose environment leaves BLAS's threads unset, as a user's shell does: each
     executor's runs, by its name."""
@@ -236,7 +236,7 @@ def _study(tree: Path, executors: list[str], sizes: list[int]
         cwd=tree, env=env, capture_output=True, text=True, check=False)
     if done.returncode:
         raise SystemExit(f"{DRIVER.name} {mode} on {tree}: {done.stderr[-3000:]}")
-    found: dict[str, list[dict[str, float]]] = json.loads(done.stdout.splitlines()[-1])["runs"]
+    found: dict[str, list[dict[str, Any]]] = json.loads(done.stdout.splitlines()[-1])["runs"]
     return found
 
 
@@ -293,7 +293,7 @@ def study_cpu(trials: int, before: Path | None) -> None:
     _goal(f"CPU per trial in one process / at {BEFORE_COMMIT}", ratio, "<= 0.2", ratio <= 0.2)
 
 
-def _local_cpu(trials: int, before: Path | None, runs: dict[str, list[dict[str, float]]]
+def _local_cpu(trials: int, before: Path | None, runs: dict[str, list[dict[str, Any]]]
                ) -> None:
     """The CPU per trial of the first run of ``trials`` on 1 and 2 local processes, this tree
     (from ``runs``) beside the one before (run here), and the ratio to its goal."""
