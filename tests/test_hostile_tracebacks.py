@@ -16,7 +16,8 @@ from pathlib import Path
 import pytest
 from conftest import Refusals
 
-from twin.io.paths import MAX_LINE_CHARS, MAX_NESTING
+from twin.errors import InputError
+from twin.io.paths import MAX_LINE_CHARS, MAX_NESTING, read_toml
 from twin.io.robot_file import robot_to_toml
 from twin.kinds import KINDS
 from twin.robot import RobotModel
@@ -197,6 +198,20 @@ def test_a_broken_robot_file(text: str, match: str, tmp_path: Path, csv_path: Pa
     robot.write_text(text)
     refusals.cli(["calibrate", csv_path, "--port", PORT, "--robot", robot], [robot, csv_path],
                  f"{robot}: {match}")
+
+
+def test_keys_nested_to_the_limit_are_read_and_one_key_deeper_is_refused(tmp_path: Path
+                                                                         ) -> None:
+    """A value MAX_NESTING dotted keys deep, beside a long list of numbers, is read; one key
+    deeper is refused, naming the limit."""
+    path = tmp_path / "deep.toml"
+    numbers = "n = [" + ", ".join(["1"] * 10000) + "]\n"
+    path.write_text(numbers + ".".join(["x"] * MAX_NESTING) + " = 1\n")
+    document = read_toml(path, "a test file")
+    assert len(document["n"]) == 10000
+    path.write_text(numbers + ".".join(["x"] * (MAX_NESTING + 1)) + " = 1\n")
+    with pytest.raises(InputError, match=f"keys nested more than {MAX_NESTING} deep"):
+        read_toml(path, "a test file")
 
 
 @pytest.mark.parametrize(
