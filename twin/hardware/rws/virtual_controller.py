@@ -231,8 +231,14 @@ class Handler(BaseHTTPRequestHandler):
         # json=1 (and debug=1) are common URL parameters of every RWS 1.0 resource.
         route_query = {k: v for k, v in query.items() if k not in ("json", "debug")}
         length = int(self.headers.get("Content-Length") or 0)
-        body = self.rfile.read(length).decode("utf-8", errors="replace") if length else ""
-        form = {k: v[-1] for k, v in parse_qs(body).items()}
+        raw = self.rfile.read(length) if length else b""
+        if len(raw) < length:
+            # The client went away between its headers and the end of its form (a capture
+            # killed mid-request; its HTTP library sends the two apart): a request that did not
+            # arrive whole is not one, for a controller as for any HTTP server.
+            self.close_connection = True
+            return
+        form = {k: v[-1] for k, v in parse_qs(raw.decode("utf-8", errors="replace")).items()}
         self.server.log(method, parts.path, query, self.headers, form)
         ok, token = self.server.auth.check(self.headers.get("Authorization"),
                                            self.headers.get("Cookie"), method, self.path)
