@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from twin.arrays import lengths
+from twin.arrays import lengths, read_only
 from twin.choices import MAX_JOINTS
 from twin.geometry import kinematics
 from twin.geometry.kinematics import (
@@ -18,6 +18,7 @@ from twin.geometry.kinematics import (
     KERNEL_VARIABLE,
     PARAMETRISATIONS,
     Structure,
+    Turns,
     point_position,
     trace_point,
     turns,
@@ -126,6 +127,41 @@ def test_whole_dh_joints_carry_the_point_as_their_motions_do(seed: int) -> None:
                                   inputs.start, structure.base, structure.tool,
                                   np.eye(3)[None, None].copy(), structure.n_columns)[0]
     np.testing.assert_array_equal(whole, by_motion)
+
+
+def test_the_kernels_get_read_only_arrays_whatever_the_callers(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Numba compiles a version of a kernel per writeable flag of each input (2–5 s each on a
+    fresh install, in every process that meets it first): a model's tables are read-only, a
+    swarm's candidates are not; a data set's cached angles are, fresh poses' are not. Every
+    array the kinematics hands the kernels is read-only whichever the caller's were — one
+    version each — and the caller's arrays stay writeable."""
+    from twin.geometry import compiled
+
+    monkeypatch.setenv(KERNEL_VARIABLE, "numba")
+    kinematics._compiled.cache_clear()
+    handed: list[tuple[object, ...]] = []
+
+    def recorded(kernel):  # type: ignore[no-untyped-def]
+        return lambda *args: handed.append(args) or kernel(*args)
+
+    for name in ("positions", "jacobian", "distances"):
+        monkeypatch.setattr(compiled, name, recorded(getattr(compiled, name)))
+    rng = np.random.default_rng(7)
+    structure = Structure(("dh", "dh", "mdh", "hayati", "dh", "dh"),
+                          joint_types=("revolute", "prismatic") + ("revolute",) * 4)
+    q = rng.uniform(-1.0, 1.0, (7, 6))
+    table = rng.normal(scale=0.1, size=(4, 6))
+    frozen_table = read_only(table.copy())
+    for dh in (table, frozen_table, np.stack([table, table])):
+        for angles in (q, turns(q), Turns(*map(read_only, turns(q)))):
+            point_position(structure, dh, angles)
+            trace_point(structure, dh, angles, np.ones(3)).jacobian(rng.normal(size=(7, 2, 3)))
+    kinematics.distances(rng.normal(size=(3, 7, 3)), rng.normal(size=(7, 3)))
+    arrays = [a for args in handed for a in args if isinstance(a, np.ndarray)]
+    assert len(handed) == 3 * 3 * 3 + 1 and not any(a.flags.writeable for a in arrays)
+    assert table.flags.writeable and q.flags.writeable
+    kinematics._compiled.cache_clear()
 
 
 def test_shapes_beyond_the_kernel_take_the_numpy_path() -> None:

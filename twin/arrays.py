@@ -4,12 +4,15 @@ frozen value objects."""
 from __future__ import annotations
 
 import contextlib
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
 """A float64 array; each use states its shape and unit in its docstring."""
+ScalarT = TypeVar("ScalarT", bound=np.generic)
+"""Any numpy scalar type: :func:`read_only` returns its input's."""
 
 
 def frozen_array(
@@ -37,6 +40,18 @@ def frozen_array(
     array = np.array(array)
     array.setflags(write=False)
     return array
+
+
+def read_only(array: NDArray[ScalarT]) -> NDArray[ScalarT]:
+    """``array`` if it is read-only, else a read-only view of it (the caller's array stays
+    writeable): what the compiled kernels are handed, so that numba keeps one version of each
+    (it makes one per writeable flag of every input, seconds of compiling each on a fresh
+    install)."""
+    if not array.flags.writeable:
+        return array
+    view = array.view()
+    view.setflags(write=False)
+    return view
 
 
 def lengths(vectors: Array) -> Array:

@@ -47,7 +47,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array, frozen_array, lengths
+from twin.arrays import Array, frozen_array, lengths, read_only
 
 PARAMETRISATIONS = ("dh", "mdh", "hayati")
 """Per-joint parametrisations, see the module docstring."""
@@ -385,10 +385,10 @@ def _plan_rows(parametrisation: tuple[str, ...], joint_types: tuple[str, ...]
     for name, joint_type in zip(parametrisation, joint_types, strict=True):
         last += len(joint_motions(name, joint_type))
         rows[last][6] = int(name == "dh" and joint_type == "revolute")
-    return np.ascontiguousarray(rows, dtype=np.int64)
+    return read_only(np.ascontiguousarray(rows, dtype=np.int64))
 
 
-_NO_SLIDES = np.zeros((0, 1, 1))
+_NO_SLIDES = read_only(np.zeros((0, 1, 1)))
 """The compiled kernel's joint values for a chain without a prismatic joint (never read)."""
 
 
@@ -407,7 +407,9 @@ def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
                      point_m: ArrayLike | None) -> _Compiled | None:
     """The kernel's inputs, or None where the batch shapes are beyond it (the numpy path
     broadcasts any): tables (K, 4, n), angles of the poses or one set per table, a point or one
-    per table."""
+    per table; every array read-only, whether the caller's was or not (a model's table is, a
+    swarm's candidates are not; a data set's cached angles are, fresh poses' are not), so that
+    each kernel has one compiled version (:func:`twin.arrays.read_only`)."""
     batch = dh.shape[:-2]
     size = math.prod(batch)
     q_batch = angles.q_rad.shape[:-2]
@@ -417,12 +419,11 @@ def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
     n, m = structure.n_joints, angles.q_rad.shape[-2]
     start = (local @ structure.tool[:3, :3].T + structure.tool[:3, 3]).reshape(-1, 3)
     shape = (n, size if q_batch else 1, m)
-    slides = _NO_SLIDES if structure.all_revolute else np.ascontiguousarray(
-        np.moveaxis(angles.q_rad, -1, 0).reshape(shape))
-    return _Compiled(batch, np.ascontiguousarray(dh.reshape(size, 4, n)),
-                     np.ascontiguousarray(angles.cos.reshape(shape)),
-                     np.ascontiguousarray(angles.sin.reshape(shape)), slides,
-                     np.ascontiguousarray(start))
+    slides = _NO_SLIDES if structure.all_revolute \
+        else np.moveaxis(angles.q_rad, -1, 0).reshape(shape)
+    return _Compiled(batch, *(read_only(np.ascontiguousarray(array)) for array in (
+        dh.reshape(size, 4, n), angles.cos.reshape(shape), angles.sin.reshape(shape), slides,
+        start)))
 
 
 def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
@@ -491,8 +492,8 @@ def distances(points_m: ArrayLike, anchors_m: ArrayLike) -> Array:
     if compiled is None or points.ndim < 2 or points.shape[-1] != 3 or points.size == 0 \
             or anchors.shape not in (points.shape[-2:], points.shape):
         return lengths(points - anchors)
-    out = compiled.distances(np.ascontiguousarray(points.reshape(-1, *points.shape[-2:])),
-                             np.ascontiguousarray(anchors.reshape(-1, *points.shape[-2:])))
+    out = compiled.distances(*(read_only(np.ascontiguousarray(array.reshape(
+        -1, *points.shape[-2:]))) for array in (points, anchors)))
     return np.asarray(out.reshape(*batch, -1))
 
 
@@ -730,7 +731,8 @@ class CompiledTrace:
             w = w_m.reshape(-1, *w_m.shape[-3:])
         _, columns, rotation = _compiled().jacobian(
             inputs.table, self._plan, inputs.cos, inputs.sin, inputs.slides, inputs.start,
-            structure.base, structure.tool, np.ascontiguousarray(w), structure.n_columns)
+            structure.base, structure.tool, read_only(np.ascontiguousarray(w)),
+            structure.n_columns)
         table, joints = _split_columns(structure, columns.reshape(*inputs.batch, m, -1,
                                                                   structure.n_columns))
         return PointJacobian(self.position, table, joints,

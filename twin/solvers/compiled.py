@@ -282,7 +282,7 @@ def box_step(A: Array, gradient: Array, low: Array, high: Array, rtol: float) ->
 def load() -> None:
     """Load (on a fresh install, compile) every kernel of this module, as the solvers call them:
     fresh float64 arrays in C order, the curve's parameters read-only as
-    :func:`twin.solvers.swarm._even` keeps them (PSO's none writeable). A study's process calls
+    :func:`twin.solvers.swarm._even` keeps them (PSO's empty set too). A study's process calls
     it before its first trial, so that no method's time includes numba's loading: the first LM
     step that left the box took 13–20 ms more in each worker, the first swarm of a run its
     kernels' loading, and on a fresh install their compiling (seconds). Numba keeps a version
@@ -293,10 +293,9 @@ def load() -> None:
     even = np.linspace(0.0, 1.0, 3)
     even.setflags(write=False)
     box_step(2.0 * np.eye(p), np.ones(p), -np.ones(p), np.full(p, 0.1), 1e-10)
-    for at in (even, np.zeros(0)):
-        candidates, _ = pso_candidates(x, np.zeros((n, p)), x.copy(), x.copy()[0],
-                                       np.full((2, n, p), 0.5), 0.5, np.ones(2), np.ones(p),
-                                       np.full(p, -2.0), np.full(p, 2.0), at, 1e-12)
+    candidates, _ = pso_candidates(x, np.zeros((n, p)), x.copy(), x.copy()[0],
+                                   np.full((2, n, p), 0.5), 0.5, np.ones(2), np.ones(p),
+                                   np.full(p, -2.0), np.full(p, 2.0), even, 1e-12)
     keep_best(candidates, np.arange(len(candidates), dtype=np.float64),
               np.argsort(np.zeros(len(candidates)), kind="stable")[:n], x.copy(), x.copy(),
               np.full(n, np.inf))

@@ -291,7 +291,7 @@ def particle_swarm(
     lower, upper = problem.lower, problem.upper
     vmax = VELOCITY_FRACTION * (upper - lower)
     iterations = budget.max_iterations
-    at = _even(n_interpolated) if n_interpolated else np.zeros(0)
+    at = _even(n_interpolated)  # none for PSO: read-only alike, one compiled version
 
     def move(swarm: Swarm, k: int) -> Array:
         r = rng.random((2, *swarm.x.shape))
