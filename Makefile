@@ -8,7 +8,7 @@ DEMO := out/demo
 TEST_TIME := 2 min 44 s to 6 min 25 s of pytest, 4 min 36 s to 8 min 2 s from a fresh clone (venv, install and mypy included)
 TEST_FAST_TIME := 46 s to 98 s, 1.5 to 3.0 CPU-minutes
 
-.PHONY: demo test test-fast lint bench docs clean
+.PHONY: demo test test-fast lint kernels bench docs clean
 
 $(BIN)/python:
 	@echo "make: creating $(VENV) with $(PYTHON)"
@@ -46,7 +46,18 @@ lint: $(VENV)/.installed-dev
 # others); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of some commits
 # before. Three workers on those 2 cores took 6 % less wall time (153 and 183 s against 165 and
 # 193 s, alternating), the sleeping tests' cores taken up; kept at 2, a worker per core.
-test: lint
+# numba compiles the kernels of the extra `fast` on their first use and caches them beside the
+# sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
+# the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
+# (on the core it leaves idle); tests/test_study_executors.py checks that they are all a study
+# takes.
+kernels: $(VENV)/.installed
+	@echo "make: numba's kernels, compiled once and cached (or read from the cache)"
+	$(BIN)/python -c "from twin.geometry import compiled as g; from twin.solvers import compiled as s; g.load(); s.load()"
+
+test: $(VENV)/.installed-dev
+	@$(MAKE) --no-print-directory kernels & kernels=$$!; \
+	  $(MAKE) --no-print-directory lint; lint=$$?; wait $$kernels && exit $$lint
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
 	$(BIN)/python -m pytest -n 2 --dist worksteal
 

@@ -268,6 +268,52 @@ def test_no_method_a_study_times_loads_a_kernel() -> None:
     assert not any(found["loaded"].values()), found
 
 
+LOADED_BEFORE = """
+import json, sys
+from pathlib import Path
+from twin.geometry import compiled as geometry
+from twin.solvers import compiled as solving
+from twin.study.definition import load_study
+from twin.study.trial import TrialSpec, run_batch
+
+def versions():
+    return {f"{module.__name__}.{name}": len(kernel.signatures)
+            for module in (geometry, solving) for name, kernel in vars(module).items()
+            if hasattr(kernel, "signatures")}
+
+geometry.load()
+solving.load()
+before = versions()
+plan = load_study(Path(sys.argv[1]), trials=1)
+case = plan.cases[0]
+run_batch({case.label: TrialSpec(case.scenario, plan.methods, plan.workspace_poses)},
+          [(case.label, 0)])
+print(json.dumps({"before": before, "after": versions()}))
+"""
+
+
+@pytest.mark.slow
+def test_the_kernels_make_test_compiles_first_are_every_one_a_study_takes() -> None:
+    """``make test`` compiles the kernels beside mypy (:func:`twin.geometry.compiled.load`,
+    :func:`twin.solvers.compiled.load`), so that a fresh clone's tests read them from numba's
+    cache: in a fresh process, after those two, the paper rig's first trial with each of the
+    ten methods loads no other version of any kernel."""
+    pytest.importorskip("numba")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env.pop("TWIN_KERNEL", None)
+    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "paper_irb120.toml"
+    done = subprocess.run([sys.executable, "-c", LOADED_BEFORE, str(scenario)], env=env,
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.splitlines()[-1])
+    entries = [f"twin.geometry.compiled.{name}" for name in ("positions", "jacobian",
+                                                             "distances")] \
+        + [f"twin.solvers.compiled.{name}" for name in ("box_step", "pso_candidates",
+                                                        "keep_best", "curve_points")]
+    assert all(found["before"][name] == 1 for name in entries), found
+    assert found["after"] == found["before"], found
+
+
 def test_a_run_leaves_the_commands_kernel_as_it_was(tmp_path: Path,
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     """The first trial runs in the command's process on the compiled kernel, as the workers
