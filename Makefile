@@ -53,7 +53,7 @@ lint: $(VENV)/.installed-dev
 # takes.
 kernels: $(VENV)/.installed
 	@echo "make: numba's kernels, compiled once and cached (or read from the cache)"
-	$(BIN)/python -c "from twin.geometry import compiled as g; from twin.solvers import compiled as s; g.load(); s.load()"
+	$(BIN)/python -c "from twin.geometry.kinematics import load_compiled; from twin.solvers.compiled import load; load_compiled(); load()"
 
 test: $(VENV)/.installed-dev
 	@$(MAKE) --no-print-directory kernels & kernels=$$!; \

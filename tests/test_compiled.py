@@ -122,10 +122,10 @@ def test_whole_dh_joints_carry_the_point_as_their_motions_do(seed: int) -> None:
     assert plan[:, 6].sum() == sum(kind == "dh" and joint_type == "revolute"
                                    for kind, joint_type in zip(kinds, types, strict=True))
     whole = compiled.positions(inputs.table, plan, inputs.cos, inputs.sin, inputs.slides,
-                               inputs.start, structure.base)
+                               inputs.start, inputs.base)
     by_motion = compiled.jacobian(inputs.table, plan, inputs.cos, inputs.sin, inputs.slides,
-                                  inputs.start, structure.base, structure.tool,
-                                  np.eye(3)[None, None].copy(), structure.n_columns)[0]
+                                  inputs.start, inputs.base, inputs.tool,
+                                  read_only(np.eye(3)[None, None]), structure.n_columns)[0]
     np.testing.assert_array_equal(whole, by_motion)
 
 

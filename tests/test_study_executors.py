@@ -272,6 +272,7 @@ LOADED_BEFORE = """
 import json, sys
 from pathlib import Path
 from twin.geometry import compiled as geometry
+from twin.geometry.kinematics import load_compiled
 from twin.solvers import compiled as solving
 from twin.study.definition import load_study
 from twin.study.trial import TrialSpec, run_batch
@@ -281,7 +282,7 @@ def versions():
             for module in (geometry, solving) for name, kernel in vars(module).items()
             if hasattr(kernel, "signatures")}
 
-geometry.load()
+load_compiled()
 solving.load()
 before = versions()
 plan = load_study(Path(sys.argv[1]), trials=1)
@@ -294,10 +295,11 @@ print(json.dumps({"before": before, "after": versions()}))
 
 @pytest.mark.slow
 def test_the_kernels_make_test_compiles_first_are_every_one_a_study_takes() -> None:
-    """``make test`` compiles the kernels beside mypy (:func:`twin.geometry.compiled.load`,
-    :func:`twin.solvers.compiled.load`), so that a fresh clone's tests read them from numba's
-    cache: in a fresh process, after those two, the paper rig's first trial with each of the
-    ten methods loads no other version of any kernel."""
+    """``make test`` compiles the kernels beside mypy
+    (:func:`twin.geometry.kinematics.load_compiled`, :func:`twin.solvers.compiled.load`), so
+    that a fresh clone's tests read them from numba's cache: in a fresh process, after those
+    two, the paper rig's first trial with each of the ten methods loads no other version of
+    any kernel."""
     pytest.importorskip("numba")
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     env.pop("TWIN_KERNEL", None)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.arrays import read_only
 from twin.calibration.setup import make_model
 from twin.geometry import kinematics
 from twin.geometry.kinematics import KERNEL_VARIABLE
@@ -81,7 +82,7 @@ def test_the_compiled_curve_is_scipys(count: int) -> None:
         x = rng.normal(size=(count, p)) * 10.0 ** rng.uniform(-4, 0, (count, 1))
         t, kept = chord_parameters(x)
         curve = make_interp_spline(t, kept, k=3, axis=0)
-        for at in (np.linspace(0.0, 1.0, 100), t):
+        for at in map(read_only, (np.linspace(0.0, 1.0, 100), t)):  # as _even keeps them
             np.testing.assert_allclose(curve_points(t, kept, at), curve(at), rtol=0,
                                        atol=1e-12 * np.max(np.abs(kept)))
 
@@ -262,7 +263,7 @@ def test_the_compiled_swarm_step_is_the_numpy_step() -> None:
     v = _particles(n, p, 3)
     g_x = best_x[7]
     r = rng.random((2, n, p))
-    at = np.linspace(0.0, 1.0, m)
+    at = read_only(np.linspace(0.0, 1.0, m))  # as _even keeps them
     v_numpy = pso_velocity(x, v, best_x, g_x, 0.7, vmax, r)
     moved = np.clip(x + v_numpy, lower, upper)
     points = np.clip(interpolated_points(moved, m), lower, upper)

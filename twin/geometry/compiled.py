@@ -248,17 +248,3 @@ def distances(points: Array, anchors: Array) -> Array:
             out[k, i] = math.sqrt(out[k, i])
     return out
 
-
-def load() -> None:
-    """Load (on a fresh install, compile and cache) every kernel of this module, through
-    :mod:`twin.geometry.kinematics` as a study's worker takes them (each has one version: the
-    kinematics hands them read-only arrays). ``make test`` runs it beside mypy, where a fresh
-    clone's tests each compiled them in their own processes, some 26 s of CPU per process."""
-    from twin.geometry import kinematics
-
-    structure = kinematics.Structure.standard(2)
-    with kinematics.bulk_work():
-        kinematics.for_bulk_work()
-        trace = kinematics.trace_point(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)))
-        trace.jacobian(np.ones((3, 1, 3)))
-        kinematics.distances(trace.position, np.zeros((3, 3)))

@@ -357,6 +357,20 @@ def takes_compiled() -> bool:
     return _compiled() is not None
 
 
+def load_compiled() -> None:
+    """Load (on a fresh install, compile and cache) every kernel of
+    :mod:`twin.geometry.compiled` as this module hands them arrays in bulk work (read-only, so
+    one version each): ``make test`` runs it beside mypy, where a fresh clone's tests had each
+    compiled them in their own processes, some 26 s of CPU apiece. Nothing is loaded where the
+    numpy path is forced (``TWIN_KERNEL=numpy``) or numba is not installed."""
+    structure = Structure.standard(2)
+    with bulk_work():
+        for_bulk_work()
+        trace = trace_point(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)))
+        trace.jacobian(np.ones((3, 1, 3)))
+        distances(trace.position, np.zeros((3, 3)))
+
+
 @cache
 def _compiled() -> Any:
     """The compiled kernel's module, or None (numba not installed, ``TWIN_KERNEL=numpy``, or
@@ -401,15 +415,18 @@ class _Compiled(NamedTuple):
     sin: Array
     slides: Array
     start: Array
+    base: Array
+    tool: Array
 
 
 def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
                      point_m: ArrayLike | None) -> _Compiled | None:
     """The kernel's inputs, or None where the batch shapes are beyond it (the numpy path
     broadcasts any): tables (K, 4, n), angles of the poses or one set per table, a point or one
-    per table; every array read-only, whether the caller's was or not (a model's table is, a
-    swarm's candidates are not; a data set's cached angles are, fresh poses' are not), so that
-    each kernel has one compiled version (:func:`twin.arrays.read_only`)."""
+    per table, the structure's base and tool transforms; every array read-only, whether the
+    caller's was or not (a model's table is, a swarm's candidates are not; a data set's cached
+    angles are, fresh poses' are not), so that each kernel has one compiled version
+    (:func:`twin.arrays.read_only`)."""
     batch = dh.shape[:-2]
     size = math.prod(batch)
     q_batch = angles.q_rad.shape[:-2]
@@ -423,7 +440,7 @@ def _compiled_inputs(structure: Structure, dh: Array, angles: Turns,
         else np.moveaxis(angles.q_rad, -1, 0).reshape(shape)
     return _Compiled(batch, *(read_only(np.ascontiguousarray(array)) for array in (
         dh.reshape(size, 4, n), angles.cos.reshape(shape), angles.sin.reshape(shape), slides,
-        start)))
+        start, structure.base, structure.tool)))
 
 
 def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
@@ -452,7 +469,7 @@ def point_position(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns
         out = compiled.positions(inputs.table, _plan_rows(structure.parametrisation,
                                                           structure.joint_types),
                                  inputs.cos, inputs.sin, inputs.slides, inputs.start,
-                                 structure.base)
+                                 inputs.base)
         return np.asarray(out.reshape(*inputs.batch, -1, 3))
     ndim, per_joint, slots = _cos_sin(structure, dh, angles)
     local = np.zeros(3) if point_m is None else np.asarray(point_m, dtype=np.float64)
@@ -715,7 +732,7 @@ class CompiledTrace:
         self._inputs = inputs
         self._plan = _plan_rows(structure.parametrisation, structure.joint_types)
         out = _compiled().positions(inputs.table, self._plan, inputs.cos, inputs.sin,
-                                    inputs.slides, inputs.start, structure.base)
+                                    inputs.slides, inputs.start, inputs.base)
         self.position = np.asarray(out.reshape(*inputs.batch, -1, 3))
 
     def jacobian(self, directions: ArrayLike | None = None) -> PointJacobian:
@@ -731,7 +748,7 @@ class CompiledTrace:
             w = w_m.reshape(-1, *w_m.shape[-3:])
         _, columns, rotation = _compiled().jacobian(
             inputs.table, self._plan, inputs.cos, inputs.sin, inputs.slides, inputs.start,
-            structure.base, structure.tool, read_only(np.ascontiguousarray(w)),
+            inputs.base, inputs.tool, read_only(np.ascontiguousarray(w)),
             structure.n_columns)
         table, joints = _split_columns(structure, columns.reshape(*inputs.batch, m, -1,
                                                                   structure.n_columns))
