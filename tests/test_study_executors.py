@@ -14,6 +14,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from test_study import recorded, with_study, write_scenario
@@ -210,12 +211,9 @@ def test_a_forked_worker_loads_no_kernel_version_the_command_did_not(tmp_path: P
         loaded
 
 
-SOLVE_VERSIONS = """
+VERSIONS = """
 import json, sys
-from dataclasses import replace
 from pathlib import Path
-import twin.calibration.pipeline as pipeline
-import twin.solvers.lm as lm
 from twin.geometry import compiled as geometry
 from twin.solvers import compiled as solving
 from twin.study.definition import load_study
@@ -225,6 +223,13 @@ def versions():
     return {f"{module.__name__}.{name}": len(kernel.signatures)
             for module in (geometry, solving) for name, kernel in vars(module).items()
             if hasattr(kernel, "signatures")}
+"""
+"""What the scripts below share: each kernel's count of loaded versions, by name."""
+
+SOLVE_VERSIONS = VERSIONS + """
+from dataclasses import replace
+import twin.calibration.pipeline as pipeline
+import twin.solvers.lm as lm
 
 def observed(solver):
     def solve(*args):
@@ -249,6 +254,20 @@ print(json.dumps({"loaded": loaded, "box_steps": steps[0]}))
 """
 
 
+def _on_the_paper_rig(script: str) -> dict[str, Any]:
+    """What ``script`` prints last (JSON), run in a fresh process on the paper rig's scenario
+    with the kernels a study takes (no TWIN_KERNEL)."""
+    pytest.importorskip("numba")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env.pop("TWIN_KERNEL", None)
+    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "paper_irb120.toml"
+    done = subprocess.run([sys.executable, "-c", script, str(scenario)], env=env,
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
+    return found
+
+
 @pytest.mark.slow
 def test_no_method_a_study_times_loads_a_kernel() -> None:
     """In a fresh process, a study's batch loads the compiled kernels before any method is
@@ -256,31 +275,13 @@ def test_no_method_a_study_times_loads_a_kernel() -> None:
     the paper rig's first trial — LM and AMLM taking box steps, the swarms their compiled
     moves — no kernel gains a version. The first box step in each worker had cost 13–20 ms of
     LM's time, the first swarm of a run its kernels' loading (seconds on a fresh install)."""
-    pytest.importorskip("numba")
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    env.pop("TWIN_KERNEL", None)
-    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "paper_irb120.toml"
-    done = subprocess.run([sys.executable, "-c", SOLVE_VERSIONS, str(scenario)], env=env,
-                          capture_output=True, text=True, check=False)
-    assert done.returncode == 0, done.stderr[-2000:]
-    found = json.loads(done.stdout.splitlines()[-1])
+    found = _on_the_paper_rig(SOLVE_VERSIONS)
     assert len(found["loaded"]) == 10 and found["box_steps"] > 0, found
     assert not any(found["loaded"].values()), found
 
 
-LOADED_BEFORE = """
-import json, sys
-from pathlib import Path
-from twin.geometry import compiled as geometry
+LOADED_BEFORE = VERSIONS + """
 from twin.geometry.kinematics import load_compiled
-from twin.solvers import compiled as solving
-from twin.study.definition import load_study
-from twin.study.trial import TrialSpec, run_batch
-
-def versions():
-    return {f"{module.__name__}.{name}": len(kernel.signatures)
-            for module in (geometry, solving) for name, kernel in vars(module).items()
-            if hasattr(kernel, "signatures")}
 
 load_compiled()
 solving.load()
@@ -300,14 +301,7 @@ def test_the_kernels_make_test_compiles_first_are_every_one_a_study_takes() -> N
     that a fresh clone's tests read them from numba's cache: in a fresh process, after those
     two, the paper rig's first trial with each of the ten methods loads no other version of
     any kernel."""
-    pytest.importorskip("numba")
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    env.pop("TWIN_KERNEL", None)
-    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "paper_irb120.toml"
-    done = subprocess.run([sys.executable, "-c", LOADED_BEFORE, str(scenario)], env=env,
-                          capture_output=True, text=True, check=False)
-    assert done.returncode == 0, done.stderr[-2000:]
-    found = json.loads(done.stdout.splitlines()[-1])
+    found = _on_the_paper_rig(LOADED_BEFORE)
     entries = [f"twin.geometry.compiled.{name}" for name in ("positions", "jacobian",
                                                              "distances")] \
         + [f"twin.solvers.compiled.{name}" for name in ("box_step", "pso_candidates",
