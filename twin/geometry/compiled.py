@@ -247,4 +247,3 @@ def distances(points: Array, anchors: Array) -> Array:
         for i in range(m):  # apart, where the compiler vectorises it: half the time
             out[k, i] = math.sqrt(out[k, i])
     return out
-

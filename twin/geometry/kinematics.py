@@ -360,9 +360,10 @@ def takes_compiled() -> bool:
 def load_compiled() -> None:
     """Load (on a fresh install, compile and cache) every kernel of
     :mod:`twin.geometry.compiled` as this module hands them arrays in bulk work (read-only, so
-    one version each): ``make test`` runs it beside mypy, where a fresh clone's tests had each
-    compiled them in their own processes, some 26 s of CPU apiece. Nothing is loaded where the
-    numpy path is forced (``TWIN_KERNEL=numpy``) or numba is not installed."""
+    one version each): ``make test`` runs it and :func:`twin.solvers.compiled.load` beside
+    mypy, where a fresh clone's tests had compiled both modules' kernels in each of their
+    processes, some 26 s of CPU apiece. Nothing is loaded where the numpy path is forced
+    (``TWIN_KERNEL=numpy``) or numba is not installed."""
     structure = Structure.standard(2)
     with bulk_work():
         for_bulk_work()
