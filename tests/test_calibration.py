@@ -128,6 +128,7 @@ def test_on_result_sees_each_method_as_it_finishes(
     assert all(result is results[result.method] for result in seen)
 
 
+@pytest.mark.slow
 def test_a_result_without_the_report_has_the_same_answer(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:

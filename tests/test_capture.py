@@ -318,6 +318,7 @@ def test_capture_interrupted_twice_calibrates_like_an_uninterrupted_one(
     assert after < before / 5
 
 
+@pytest.mark.slow
 def test_second_capture_on_the_same_folder_is_refused(
         folder: Path, devices: dict[str, Device], tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:

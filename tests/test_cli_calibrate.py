@@ -87,6 +87,7 @@ def test_user_mistakes_exit_2_with_one_line(
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_console_entry_point_has_no_traceback(tmp_path: Path) -> None:
     """`python -m twin` on binary garbage: exit 2, one line, no traceback."""
     garbage = _write(tmp_path, "garbage.csv", bytes(range(256)))

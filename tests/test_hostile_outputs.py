@@ -127,6 +127,7 @@ def _undeclared(folder: Path, patterns: tuple[str, ...]) -> list[str]:
                   if not any(fnmatch.fnmatchcase(path.name, p) for p in patterns))
 
 
+@pytest.mark.slow
 def test_a_capture_folder_holds_only_what_its_commands_declare(
         real_capture: Path, capture_copy: Path, tmp_path: Path) -> None:
     """The names the CLI keeps other outputs from are every name `twin capture` and `twin

@@ -64,6 +64,7 @@ def test_a_study_too_big(command: str, study: str, flags: list[str], match: str,
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_a_fixture_of_too_many_touches(tmp_path: Path, refusals: Refusals) -> None:
     """Each touch count is within the pose limit, but sockets × placements × touches is not."""
     text = (ROOT / "scenarios" / "fixed_points_irb120.toml").read_text()

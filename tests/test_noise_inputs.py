@@ -63,6 +63,7 @@ def trials() -> list[tuple[float, float, float]]:
     return found
 
 
+@pytest.mark.slow
 def test_errors_in_variables_reach_the_bound_the_resolution_allows(
         trials: list[tuple[float, float, float]]) -> None:
     """Over six draws of the twin with joint angles recorded to 0.1°, the weighted fit's

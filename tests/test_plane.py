@@ -150,6 +150,7 @@ def _referee(model: Model, train: Measurements) -> np.ndarray:
                                     x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12).x)
 
 
+@pytest.mark.slow
 def test_planes_recover_the_ball_within_twice_the_bound() -> None:
     """Four faces, the block's height told: the ball's predicted position over 400 held-out
     workspace poses, modulo the turn about and shift along joint 1's axis the faces cannot
@@ -177,6 +178,7 @@ def test_planes_recover_the_ball_within_twice_the_bound() -> None:
                           truth_points) < 2 * bound
 
 
+@pytest.mark.slow
 def test_without_a_known_distance_the_scale_is_unseen() -> None:
     """The same faces, no height told: the kind gives the identifiability a common scale
     (every length, the ball and the faces' offsets) as a known gauge, and the result names
@@ -227,6 +229,7 @@ def test_known_angles_between_the_faces_sharpen_the_ball() -> None:
     assert errors[1] < 2 * bounds[1], (errors, bounds)
 
 
+@pytest.mark.slow
 def test_planes_run_through_the_command_line(tmp_path: Path) -> None:
     """twin simulate → calibrate (with a Rerun recording) → predict on the plane scenario: the
     report names each identified face, the result keeps the faces the calibration started
@@ -248,6 +251,7 @@ def test_planes_run_through_the_command_line(tmp_path: Path) -> None:
     assert header[-3:] == ["x", "y", "z"]
 
 
+@pytest.mark.slow
 def test_a_scenarios_angles_reach_the_calibration_through_the_capture(tmp_path: Path) -> None:
     """[planes] angles = true: twin simulate writes the five right angles of the faces into the
     capture's [rig] angles, calibrate reads them back and the result lists them (degrees)."""

@@ -286,6 +286,7 @@ def calibrated(tmp_path_factory: pytest.TempPathFactory) -> dict:
     return {"folder": folder, "robot": robot, "truth": truth}
 
 
+@pytest.mark.slow
 def test_filtered_module_brings_the_true_robot_to_every_target(calibrated: dict) -> None:
     """Done when of #23: 40 robtargets (two tools, a turned work object, several configurations)
     and 10 jointtargets, compensated by `twin compensate --rapid`, read back by this test's

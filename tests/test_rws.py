@@ -202,6 +202,7 @@ def test_the_virtual_controller_answers_as_the_documentation_says(
         running.stop()
 
 
+@pytest.mark.slow
 def test_a_request_cut_short_is_neither_recorded_nor_answered(cell: dict[str, object],
                                                                tmp_path: Path) -> None:
     """A capture killed between a POST's headers and its form (requests sends the two apart):

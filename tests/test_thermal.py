@@ -307,6 +307,7 @@ def _urdf_flange_m(path: Path, q: np.ndarray) -> np.ndarray:
     return np.array(found)
 
 
+@pytest.mark.slow
 def test_a_result_is_exported_and_compensated_at_the_cells_temperature(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A thermal result exported with --temperature-c 10 K above the calibration's mean

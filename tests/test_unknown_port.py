@@ -40,6 +40,7 @@ def _radius(port_m: np.ndarray) -> float:
     return float(np.hypot(port_m[0], port_m[1]))
 
 
+@pytest.mark.slow
 def test_a_port_300_mm_from_any_guess_is_found() -> None:
     """Told only that the port is unknown (the guess 300 mm off is not used), the calibration
     starts it within 2 mm of the truth, finds its distance from joint 1's axis to 0.05 mm,
