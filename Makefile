@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
 TEST_TIME := 2 min 44 s to 6 min 25 s of pytest, 4 min 36 s to 8 min 2 s from a fresh clone (venv, install and mypy included)
-TEST_FAST_TIME := 46 s to 98 s, 1.5 to 3.0 CPU-minutes
+TEST_FAST_TIME := 47 s to 51 s at a slow hour, about 1.5 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bench docs clean
 
@@ -39,13 +39,15 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check twin tests bench
 	$(BIN)/mypy
 
-# Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a
-# 2-core Intel Xeon VM (1330 and 1190 tests) on 2026-12-03, in checkouts and from fresh clones
-# (pip's cache warm); the range is that VM's speed, which changed by 1.7x from hour to hour (the
-# same tree's pytest took 2 min 44 s to 3 min 13 s at one hour and 4 min 31 s to 6 min 25 s at
-# others); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of some commits
-# before. Three workers on those 2 cores took 6 % less wall time (153 and 183 s against 165 and
-# 193 s, alternating), the sleeping tests' cores taken up; kept at 2, a worker per core.
+# Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a 2-core
+# Intel Xeon VM (1334 and 1086 tests) on 2026-12-03, in checkouts and from fresh clones (pip's
+# cache warm); the range is that VM's speed, which changed by 1.7x from hour to hour (the same
+# tree's pytest took 2 min 44 s to 3 min 13 s at one hour and 4 min 31 s to 6 min 25 s at others;
+# test-fast, at 11:25, a slow hour, 47-51 s, where it took 85-92 s before the tests of half a
+# second or more were marked slow); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the
+# suite of some commits before. Three workers on those 2 cores took 6 % less wall time (153 and
+# 183 s against 165 and 193 s, alternating), the sleeping tests' cores taken up; kept at 2, a
+# worker per core.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
@@ -61,7 +63,8 @@ test: $(VENV)/.installed-dev
 	@echo "make: pytest on 2 workers ($(TEST_TIME))"
 	$(BIN)/python -m pytest -n 2 --dist worksteal
 
-# The inner loop: every test not marked slow (no study, capture or benchmark subprocess runs).
+# The inner loop: every test not marked slow, each of which took under half a second on this
+# 2-core VM at a slow hour (no study, capture or benchmark).
 test-fast: $(VENV)/.installed-dev
 	@echo "make: pytest -m 'not slow' on 2 workers ($(TEST_FAST_TIME))"
 	$(BIN)/python -m pytest -n 2 --dist worksteal -m "not slow"

@@ -61,6 +61,7 @@ def _against_truth(sim: Simulation, result: CalibrationResult,
             cramer_rao_flange_rms(model, x_true, train, sigma_m, workspace))
 
 
+@pytest.mark.slow
 def test_ur5e_from_its_urdf_calibrates_to_the_bound_and_goes_back_into_it(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`twin simulate` a UR5e read from its URDF (Hayati joints 2 and 3), `twin calibrate` the

@@ -331,6 +331,7 @@ def test_second_capture_on_the_same_folder_is_refused(
     assert not (out / "measurements.csv").exists()
 
 
+@pytest.mark.slow
 def test_resume_with_another_plan_is_refused(
         folder: Path, devices: dict[str, Device], tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -341,6 +342,7 @@ def test_resume_with_another_plan_is_refused(
     assert "another plan" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_file_robot_source_records_the_logged_angles(
         folder: Path, devices: dict[str, Device], tmp_path: Path) -> None:
     """With --robot-source file, each row carries the controller's logged angles for its pose."""
@@ -523,6 +525,7 @@ PLAN_POSES, EVERY = 25, 5
 """A plan of 25 poses (at least the 24 unknowns) revisiting its first after every 5 others."""
 
 
+@pytest.mark.slow
 def test_plan_revisits_its_first_pose_after_every_n(tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     """--reference-every 5: the first pose, then 5 others and a revisit, ..., a revisit at the

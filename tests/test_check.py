@@ -180,6 +180,7 @@ def test_user_errors_are_one_line_and_run_nothing(tmp_path: Path,
         assert stderr.count("\n") == 1, stderr
 
 
+@pytest.mark.slow
 def test_sweep_points_are_checked_one_by_one_and_nan_fails(tmp_path: Path) -> None:
     """Each sweep point is checked on its own. Without any noise the Cramér–Rao bound is zero
     and crlb_ratio NaN: an expectation on it fails and says how many trials were non-finite,

@@ -154,6 +154,7 @@ def test_bad_capture_calibration_table(
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_stop_protocol_from_capture_and_flag(
     csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -20,6 +20,7 @@ from twin.units import dh_rows_to_display
 PORT = "600,-400,100"
 
 
+@pytest.mark.slow
 def test_identify_reports_rank_names_and_sigma(
     csv_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -238,6 +238,7 @@ def test_cli_corrects_a_program(
     np.testing.assert_allclose(reached[:, :3, 3], wanted[:, :3, 3], atol=5e-8)
 
 
+@pytest.mark.slow
 def test_cli_targets_report_unreachable_rows(
     tmp_path: Path, irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:

@@ -23,6 +23,7 @@ def _commands() -> list[str]:
     return [line for block in blocks for line in block.splitlines() if line.strip()]
 
 
+@pytest.mark.slow
 def test_doc_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Each command exits 0, in the order the page gives them (later ones read earlier ones'
     outputs)."""

@@ -140,6 +140,7 @@ def test_no_reference_rows_no_test() -> None:
     assert drift is not None and not drift.series and not drift.drift
 
 
+@pytest.mark.slow
 def test_the_twin_grows_its_links_row_by_row() -> None:
     """Each row's cable length is the grown robot's: the true table plus the expansion times the
     temperature rise, at that row's actual joints (the core's kinematics, independent of the

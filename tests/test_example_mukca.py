@@ -37,6 +37,7 @@ def test_the_readme_command_reproduces_the_documented_table(
         assert float(row[4]) < 0.2 * float(row[3])
 
 
+@pytest.mark.slow
 def test_the_readme_commands_by_hand_give_the_tables_last_row(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:

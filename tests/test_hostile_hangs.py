@@ -70,6 +70,7 @@ def test_a_time_limit_that_never_expires(flag: list[str], match: str, tmp_path: 
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_a_scheduler_that_does_not_answer(tmp_path: Path, refusals: Refusals) -> None:
     """An unreachable --scheduler is found out within the probe's timeout, before the study
     folder exists."""

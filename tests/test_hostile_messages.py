@@ -91,6 +91,7 @@ def test_a_cell_is_quoted_short(tmp_path: Path, refusals: Refusals) -> None:
     assert len(error) < 300
 
 
+@pytest.mark.slow
 def test_a_huge_value_in_a_scenario_is_quoted_short(tmp_path: Path,
                                                     refusals: Refusals) -> None:
     """A list of a hundred thousand numbers where a count belongs: named, not echoed."""

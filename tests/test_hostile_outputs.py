@@ -200,6 +200,7 @@ def test_simulate_over_a_simulation_is_allowed(tmp_path: Path) -> None:
         "capture.toml", "measurements.csv", "robot.toml", "truth.json"]
 
 
+@pytest.mark.slow
 def test_no_output_file_replaces_a_capture_journal(capture_copy: Path, tmp_path: Path,
                                                    refusals: Refusals) -> None:
     """`twin plan --out cap/measurements.csv`: the capture's journal is not an input of the
@@ -277,6 +278,7 @@ def test_two_studies_started_together_never_duplicate_a_row(tmp_path: Path) -> N
     assert not (folder / LOCK_NAME).exists()
 
 
+@pytest.mark.slow
 def test_an_early_failure_leaves_no_lock(tmp_path: Path, refusals: Refusals) -> None:
     """A capture whose encoder cannot be opened (a fault, exit 1) left its new folder with a
     `.lock`; a study refused by the folder it was pointed at leaves it as it was."""

@@ -110,6 +110,7 @@ def _without_dac_override() -> None:
         raise OSError(ctypes.get_errno(), "prctl(PR_CAPBSET_DROP)")
 
 
+@pytest.mark.slow
 def test_a_read_only_folder(csv_path: Path, tmp_path: Path, refusals: Refusals) -> None:
     """--json into a folder the user may not write: one line naming the folder. Root writes
     anywhere, so as root the command runs without that capability."""

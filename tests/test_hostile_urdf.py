@@ -67,6 +67,7 @@ DOCTYPE = '<?xml version="1.0"?>\n<!DOCTYPE robot [<!ENTITY name "{value}">]>\n'
 NO_DOCTYPE = "found a document type declaration (<!DOCTYPE …>), expected a URDF file without one"
 
 
+@pytest.mark.slow
 def test_a_joint_named_through_an_entity(tmp_path: Path, refusals: Refusals) -> None:
     """Expat expands the entity, urdfdom does not: Pinocchio was asked for a joint it does not
     have and crashed (rc −11). The declaration is refused before either parser uses a name."""
@@ -74,6 +75,7 @@ def test_a_joint_named_through_an_entity(tmp_path: Path, refusals: Refusals) -> 
     _plan(refusals, tmp_path, text, NO_DOCTYPE, process=True)
 
 
+@pytest.mark.slow
 def test_a_tip_link_named_through_an_entity(tmp_path: Path, refusals: Refusals) -> None:
     """A tip link urdfdom names otherwise (it was an IndexError traceback)."""
     text = _urdf(head=DOCTYPE.format(value="tool0"), links=[*LINKS[:-1], "&name;"])
@@ -113,6 +115,7 @@ def test_a_chain_pinocchio_reads_otherwise_is_refused(tmp_path: Path) -> None:
             urdf_reader._check_same_chain(wrong, chain, path)
 
 
+@pytest.mark.slow
 def test_flange_and_tool0_each_others_parent(tmp_path: Path, refusals: Refusals) -> None:
     """The chain walk from tool0 went flange → tool0 → flange… for ever."""
     more = ('<link name="flange"/><link name="tool0"/>' + _joint("a", "flange", "tool0", "fixed")

@@ -110,6 +110,7 @@ def data() -> dict[str, np.ndarray]:
     return recording()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("storage", [StoragePlugin.SQLITE3, StoragePlugin.MCAP])
 def test_a_ros2_bag_imports_to_the_poses_it_holds(storage: StoragePlugin,
                                                   data: dict[str, np.ndarray],
@@ -131,6 +132,7 @@ def test_a_ros2_bag_imports_to_the_poses_it_holds(storage: StoragePlugin,
     assert np.max(np.abs(imported.value("length_m") - data["lengths"])) < 1e-5
 
 
+@pytest.mark.slow
 def test_a_ros1_bag_of_points_imports_to_its_poses(data: dict[str, np.ndarray],
                                                    tmp_path: Path) -> None:
     """A ROS 1 bag with geometry_msgs/PointStamped: the tracker's points, median per stop."""

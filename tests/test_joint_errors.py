@@ -179,6 +179,7 @@ def capture(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder / "run"
 
 
+@pytest.mark.slow
 def test_simulated_capture_records_what_the_calibration_needs(capture: Path) -> None:
     """The capture asks for the extended groups and the cable's tension; the measurements carry
     approach1..6; the truth names the joint-level errors in the calibration's terms."""
@@ -195,6 +196,7 @@ def test_simulated_capture_records_what_the_calibration_needs(capture: Path) -> 
     assert result["unknowns"]["rig"]["tension_n"] == 5.0
 
 
+@pytest.mark.slow
 def test_predict_reproduces_the_twins_flange(capture: Path, tmp_path: Path) -> None:
     """`twin predict` on the capture's poses puts the flange where the twin's physical flange
     was (MuJoCo at rest: transmission error, backlash for each pose's approach, sag under the
@@ -324,6 +326,7 @@ def test_compensation_solves_on_the_whole_model(
     assert rms_distance(missed, targets) > 1e-4
 
 
+@pytest.mark.slow
 def test_compensation_puts_the_twins_robot_on_its_targets(tmp_path: Path) -> None:
     """In the twin (paper rig, masses 20 % off): commands compensated with the extended model
     bring the true robot (MuJoCo at rest, joint errors and sag) to within 3× the calibration's

@@ -99,6 +99,7 @@ def import_graph() -> dict[str, frozenset[str]]:
     return {name: frozenset(_imports(name, path, set(files))) for name, path in files.items()}
 
 
+@pytest.mark.slow
 def test_the_import_graph_has_no_cycle() -> None:
     """No module imports, directly or through others, a module that imports it back."""
     graph = import_graph()

@@ -236,6 +236,7 @@ def _pose_bounds(model: Model, x_true: np.ndarray, train: Measurements, sigma_m:
     return float(np.sqrt(np.mean(variance[0]))), float(np.sqrt(np.mean(variance[1])))
 
 
+@pytest.mark.slow
 def test_pose_runs_through_the_command_line(tmp_path: Path) -> None:
     """twin simulate → calibrate (with a Rerun recording) → predict on the pose scenario: the
     report says what orientations see, the result keeps the tool rotation and the weight, and

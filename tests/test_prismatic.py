@@ -53,6 +53,7 @@ PIN_WEIGHT = 1e2
 costs ten times a reading's noise."""
 
 
+@pytest.mark.slow
 def test_torso_from_its_urdf_calibrates_to_the_bound(tmp_path: Path,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     """`twin simulate` the FR3 on its lift (8 joints, the lift a prismatic Hayati joint, two
@@ -103,6 +104,7 @@ def test_torso_from_its_urdf_calibrates_to_the_bound(tmp_path: Path,
     assert rms_distance(robot.flange_positions(workspace), truth) > 20.0 * bound_m
 
 
+@pytest.mark.slow
 def test_torso_result_alone_predicts_compensates_and_exports(tmp_path: Path) -> None:
     """The torso's result file alone (no --robot): `twin predict` puts the flange at new poses
     (q1 in mm) near the twin's true flange, `twin compensate --joints` corrects them (the
@@ -174,6 +176,7 @@ def _gantry(tmp_path: Path) -> RobotModel:
     return load_robot(path)
 
 
+@pytest.mark.slow
 def test_nine_joints_load_calibrate_and_compensate(tmp_path: Path) -> None:
     """A two-axis gantry with the FR3 (9 joints, two prismatic) from a model file: FK equal to
     the chain it was written from; cable data made by the core from a perturbed table and two

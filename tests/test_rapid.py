@@ -158,6 +158,7 @@ def test_tool0_is_abbs_flange_frame() -> None:
     np.testing.assert_allclose(home, quaternion_matrix([0.707107, 0, 0.707107, 0]), atol=1e-6)
 
 
+@pytest.mark.slow
 def test_configuration_is_abbs() -> None:
     """cf1, cf4, cf6, cfx of twin's geometric definition equal the manual's, computed from the
     D-H frames (this test's own), on 2000 random poses of the IRB 120, all eight cfx seen."""
@@ -350,6 +351,7 @@ def test_filtered_module_brings_the_true_robot_to_every_target(calibrated: dict)
     assert np.all(e["tcp_after"] <= 2.0 * e["tcp_model"] + 1e-6), (e["tcp_after"], e["tcp_model"])
 
 
+@pytest.mark.slow
 def test_filtering_refusals(calibrated: dict, tmp_path: Path, refusals: Refusals) -> None:
     """A robtarget that is not one, a module for a robot whose tool0 twin does not know, an
     output that is not a module: one line naming the line or flag, exit 2, nothing written."""

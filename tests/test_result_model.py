@@ -41,6 +41,7 @@ def test_result_rebuilds_the_identified_model(
     assert parameters[-11]["name"] == "alpha6" and parameters[-11]["sigma"] is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("change", "message"),
     [

@@ -122,6 +122,7 @@ def test_a_point_at_the_flange_is_worked_out_once_as_its_own_chain_would(name: s
     assert cramer_rao_rms(model, x_true, train, sigma, q)[1] == pytest.approx(own, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_an_eyelet_off_the_flange_is_found() -> None:
     """The eyelet at (25, −15, 40) mm, told the flange centre and estimated: its predicted
     position over the workspace is within 2× its Cramér–Rao bound, the referee predicts the
@@ -143,6 +144,7 @@ def test_an_eyelet_off_the_flange_is_found() -> None:
     assert result.misfit is not None and not result.misfit.misfit
 
 
+@pytest.mark.slow
 def test_the_eyelet_unestimated_is_a_misfit() -> None:
     """The same data with the attachment left at the flange centre do not fit, and the first
     likely cause named is the attachment point."""
@@ -158,6 +160,7 @@ def test_the_eyelet_unestimated_is_a_misfit() -> None:
     assert causes[0].refit_rmse_m < 2 * result.misfit.noise_m
 
 
+@pytest.mark.slow
 def test_a_port_50_mm_off_is_reported_as_a_misfit() -> None:
     """Told a port 50 mm off, the calibration reports a misfit naming the port first; told
     the right one it does not."""
@@ -252,6 +255,7 @@ def test_stations_with_unknown_ports() -> None:
     assert gauge_free_rms(flange, sim.true_robot.flange_positions(q)) < 2 * bound
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("loss", ["huber", "cauchy"])
 def test_outliers_are_rejected_and_the_fit_reaches_the_bound(loss: str) -> None:
     """The outliers regime (5 % of readings off by ±0.5–1.5 mm) under a robust loss: the

@@ -358,6 +358,7 @@ def test_controller_faults_are_one_line_and_lose_nothing(
     assert rows(out)[:, 0].tolist() == list(range(1, kept + 1))
 
 
+@pytest.mark.slow
 def test_the_robot_program_is_named_once_it_is_written(
         cell: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """An encoder that cannot be opened stops the capture before anything is written (the

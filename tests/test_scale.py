@@ -114,6 +114,7 @@ def _calibrate(sim: Simulation, estimate: tuple[str, ...], seed: int = 0) -> Cal
                      settings=settings, seed=seed)
 
 
+@pytest.mark.slow
 def test_misfit_flags_an_unestimated_scale_and_is_quiet_when_it_is_estimated() -> None:
     """On the twin with a 100 ppm scale (three seeds): without --estimate-scale the χ² test
     rejects the fit (p < 0.001, the test's level), with it the p-value is above the level."""
@@ -146,6 +147,7 @@ def _reading_bound(model: Model, x_true: np.ndarray, covariance: np.ndarray, q: 
     return float(np.sqrt(np.mean(np.einsum("ij,jk,ik->i", rows, covariance, rows))))
 
 
+@pytest.mark.slow
 def test_scale_and_dh_errors_are_recovered_within_twice_their_bound() -> None:
     """Over 6 trials of the scale scenario (port told, scale and D-H errors estimated): the
     scale's RMS error against the twin's truth is within 2× its Cramér–Rao σ; at 300 held-out
@@ -198,6 +200,7 @@ def test_an_estimated_port_cannot_see_the_scale(irb120: RobotModel, port_m: np.n
     assert "scale" in unseen, unseen
 
 
+@pytest.mark.slow
 def test_scale_runs_through_the_command_line(tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     """twin simulate → calibrate (with a Rerun recording) → predict → export on the scale

@@ -22,6 +22,7 @@ def test_the_shipped_scenarios_are_there() -> None:
     assert {"geometric_irb120", "paper_irb120"} <= names
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_every_scenario_loads_and_simulates(path: Path) -> None:
     """Each file in scenarios/ validates and gives a capture of the poses it asks for, with a

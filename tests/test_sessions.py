@@ -40,6 +40,7 @@ def _stepped(sim: Simulation, sessions: bool) -> tuple[Measurements, int]:
                         labels, data.approach), row
 
 
+@pytest.mark.slow
 def test_each_session_gets_its_own_zero() -> None:
     """Two sessions 3 mm apart: the zeros come back within 2× their Cramér–Rao σ of the truth
     (0 and +3 mm: the model adds the offset to the modelled length), scipy from the same start
@@ -79,6 +80,7 @@ def test_a_step_is_named_at_its_row_and_a_capture_without_one_names_none() -> No
     assert calibrate(sim.robot, sim.measurements, rig=sim.rig_told).steps == ()
 
 
+@pytest.mark.slow
 def test_the_session_column_through_the_cli(tmp_path: Path,
                                             capsys: pytest.CaptureFixture[str]) -> None:
     """A CSV with a session column round-trips; `twin calibrate` prints each session's zero

@@ -61,6 +61,7 @@ def test_every_method_lowers_the_validation_rmse(
     assert len(history) == result.solver.iterations + 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", LM_FAMILY)
 def test_lm_family_reaches_the_noise_floor(
     sim: Simulation, results: dict[str, CalibrationResult], method: str
@@ -180,6 +181,7 @@ def test_adaptive_momentum_follows_eqs_10_to_12() -> None:
     assert rule.rejected() is False
 
 
+@pytest.mark.slow
 def test_thirty_filter_passes_stay_put_with_non_geometric_errors() -> None:
     """On a paper-scenario trial (compliance, transmission error, backlash) 30 EKF or UKF passes
     end as good as LM: the iterated filter does not drift along barely-seen directions (a filter

@@ -47,6 +47,7 @@ def test_version_and_every_help_load_no_heavy_library() -> None:
     assert {call: libraries for call, libraries in loaded.items() if libraries} == {}
 
 
+@pytest.mark.slow
 def test_a_command_that_runs_loads_what_it_uses() -> None:
     """The check above can fail: a command that runs (here one that fails on its input after
     parsing) does load numpy; numba it leaves to bulk work (tests/test_compiled.py)."""
@@ -56,6 +57,7 @@ def test_a_command_that_runs_loads_what_it_uses() -> None:
     assert "numpy" in libraries and "numba" not in libraries
 
 
+@pytest.mark.slow
 def test_the_package_is_lazy_and_its_names_resolve() -> None:
     """`import twin` loads no numpy; reading a public name imports its module."""
     code = ("import sys, twin\n"

@@ -227,6 +227,7 @@ def test_progress_eta_from_the_rate_after_the_first_report(monkeypatch: pytest.M
     assert progress.line().endswith("0:30 elapsed, ETA 0:10")
 
 
+@pytest.mark.slow
 def test_a_note_comes_only_while_a_block_runs_long() -> None:
     """:meth:`Progress.note_after` writes its line above the bar once the block has run that
     long, and nothing for a block that ends before."""

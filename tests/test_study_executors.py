@@ -335,6 +335,7 @@ def test_a_run_leaves_the_commands_kernel_as_it_was(tmp_path: Path,
         kinematics._compiled.cache_clear()
 
 
+@pytest.mark.slow
 def test_a_slow_first_trial_is_said_to_load_the_kernels(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """While a run's first trial takes long in the command's process (numba compiling the

@@ -6,6 +6,8 @@ import ast
 import functools
 from pathlib import Path
 
+import pytest
+
 PACKAGE = Path(__file__).resolve().parents[1] / "twin"
 MAX_FUNCTION_LINES = 80
 """From ``def`` to the function's last line, docstring and comments included."""
@@ -31,6 +33,7 @@ def long_functions(root: Path, limit: int = MAX_FUNCTION_LINES) -> list[str]:
     return sorted(found)
 
 
+@pytest.mark.slow
 def test_no_function_is_over_80_lines() -> None:
     """Every function of the package, from ``def`` to its last line, is at most 80 lines: a
     long one is split into the steps it takes (a parser into a table of small readers)."""

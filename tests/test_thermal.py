@@ -54,6 +54,7 @@ def _model(robot: RobotModel, kind: str, errors: tuple[str, ...] = ("dh", "therm
     return make_model(robot, rig, kind, CalibrationSettings(errors=errors))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["length", "position", "pose"])
 def test_thermal_jacobian_matches_differences(irb120: RobotModel, kind: str) -> None:
     """∂r/∂x of D-H, transmission and thermal unknowns together equals central differences
@@ -107,6 +108,7 @@ def _simulate(seed: int | None = None, ramp_k: float | None = None) -> Simulatio
     return simulate(scenario, seed)
 
 
+@pytest.mark.slow
 def test_a_constant_temperature_holds_the_growth_at_zero() -> None:
     """A capture at one temperature cannot see a growth per kelvin: every coefficient is
     held at 0 and named unseen, and the D-H errors are those of the D-H fit alone."""
@@ -416,6 +418,7 @@ def test_errors_auto_chooses_the_growth_on_a_warm_up(tmp_path: Path,
     assert chosen[0]["validation_rmse"] == min(validation), validation
 
 
+@pytest.mark.slow
 def test_identify_scores_a_warm_up_at_its_temperatures(tmp_path: Path,
                                                        capsys: pytest.CaptureFixture[str]) -> None:
     """`twin identify` on a warm-up's capture reports the growth with its σ, and scores the

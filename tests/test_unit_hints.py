@@ -27,6 +27,7 @@ def test_more_joint_columns_than_the_robot_has(csv_path: Path, refusals: Refusal
                   "600,-400,100"], [csv_path], "found the column q5 for a robot of 4 joints")
 
 
+@pytest.mark.slow
 def test_a_port_in_metres_gets_a_hint(csv_path: Path, capsys: pytest.CaptureFixture[str]
                                       ) -> None:
     """--port 0.6,-0.4,0.1 (metres, as the API takes) beside lengths of hundreds of mm: a
@@ -38,6 +39,7 @@ def test_a_port_in_metres_gets_a_hint(csv_path: Path, capsys: pytest.CaptureFixt
     assert "MISFIT" in captured.out
 
 
+@pytest.mark.slow
 def test_lengths_in_metres_get_a_hint(measurements: Measurements, tmp_path: Path,
                                       capsys: pytest.CaptureFixture[str]) -> None:
     """Cable lengths written in metres (0.6 for 600 mm) in a file twin reads in mm: a one-line
@@ -61,6 +63,7 @@ def test_lengths_in_metres_get_a_hint(measurements: Measurements, tmp_path: Path
         assert "look like metres" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_tracker_coordinates_in_metres_get_a_hint(irb120: RobotModel, tmp_path: Path,
                                                   capsys: pytest.CaptureFixture[str]) -> None:
     """Tracker positions written in metres: a one-line hint naming the file and how to convert

@@ -121,6 +121,7 @@ def _perturbed(robot: RobotModel, seed: int, flange_off_axis: float = 0.0) -> Ro
     return robot.perturbed(delta)
 
 
+@pytest.mark.slow
 def test_ur_file_is_the_identified_robot() -> None:
     """A calibrated UR5e in UR's layout, read by PyYAML and turned into forward kinematics by
     UR's convention (this test's), is the identified robot's tool0 to 1e-9 m on 1000 poses."""
@@ -186,6 +187,7 @@ def test_xacro_description_reads_as_its_urdf(tmp_path: Path) -> None:
     assert robot.joint_names == urdf.joint_names
 
 
+@pytest.mark.slow
 def test_xacro_ur_calibrates_end_to_end(tmp_path: Path) -> None:
     """Cable data of a perturbed UR5e, calibrated with --robot ur5e.urdf.xacro --xacro-arg,
     exported in UR's layout over the user's file: the hash and the comments are the user's, the

@@ -112,6 +112,7 @@ def test_a_separate_file_validates(csv_path: Path, tmp_path: Path, irb120: Robot
         np.sqrt(np.mean(nominal**2)) * 1e3, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_k_fold_holds_every_pose_out_once_and_each_fold_is_a_fit(
         irb120: RobotModel, measurements: Measurements, port_m: np.ndarray) -> None:
     """5 folds partition the poses; each fold's held-out RMSE is that of scipy's fit on its
@@ -186,6 +187,7 @@ def test_a_rig_unknown_only_held_out_rows_touch_is_fitted_to_them(
     assert np.sqrt(np.mean(fitted**2)) == pytest.approx(result.metrics["validation"].rmse)
 
 
+@pytest.mark.slow
 def test_a_placement_held_out_is_judged_with_its_sockets_fitted_to_it() -> None:
     """Leave one placement of a ball bar out (the twin's fixed-points scenario, sockets 50 mm
     apart): the held-out sockets are touched in training only by their known distance, a row of

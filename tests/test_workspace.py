@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import twin
 from twin.analysis.uncertainty import predicted_flange_rms, rms_distance
@@ -30,6 +31,7 @@ def _narrow(irb120: RobotModel, true_robot: RobotModel, port_m: np.ndarray) -> M
     return synthesize(true_robot, q, port_m, 1e-5, rng)
 
 
+@pytest.mark.slow
 def test_a_narrow_data_set_states_its_accuracy_where_it_was_measured(
         irb120: RobotModel, true_robot: RobotModel, port_m: np.ndarray, tmp_path: Path,
         capsys: object) -> None:
