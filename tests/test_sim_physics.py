@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -89,6 +90,29 @@ def test_rigid_twin_equals_core_model() -> None:
     q = _poses(300)
     assert np.max(np.abs(Twin.build(robot, PORT_M).lengths(q)
                          - cable_length(robot.structure, robot.dh, q, PORT_M))) < 1e-9
+
+
+def test_a_collected_twins_data_serves_the_next_twin_as_new_data_would() -> None:
+    """A twin's scratch data passes, once it is collected, to the next twin of the same sizes,
+    which reads what a twin on data of its own reads (the servos' statics and the cable's pull
+    included); twins alive together never share data."""
+    robot, other = _perturbed(default_robot(), 5), _perturbed(default_robot(), 6)
+    q = _poses(40)
+    gc.collect()  # the earlier tests' twins hand theirs back first
+    first = Twin.build(robot, PORT_M, PAPER)
+    handed = first.data
+    del first
+    reused = Twin.build(other, PORT_M + 0.05, PAPER)
+    alongside = Twin.build(other, PORT_M + 0.05, PAPER)
+    assert reused.data is handed and alongside.data is not handed
+    assert np.array_equal(reused.lengths(q), alongside.lengths(q))
+    assert np.array_equal(reused.in_collision(q), alongside.in_collision(q))
+
+
+def _perturbed(robot: RobotModel, seed: int) -> RobotModel:
+    """Every D-H entry off the nominal (no link of zero length: the same geoms, the same
+    sizes)."""
+    return robot.perturbed(np.random.default_rng(seed).uniform(1e-4, 1e-3, robot.dh.size))
 
 
 def test_physics_rejects_loads_without_stiffness() -> None:
