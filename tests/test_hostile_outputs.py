@@ -213,13 +213,14 @@ def test_no_output_file_replaces_a_capture_journal(capture_copy: Path, tmp_path:
 def _study(folder: Path, trials: int, command: str = "study", *, group: bool = False
            ) -> subprocess.Popen[str]:
     """`twin study` (or `twin check`, of an LM expectation) of LM trials, as a process (the
-    leader of a process group of its own if ``group``)."""
+    leader of a process group of its own if ``group``), without figures (what is checked is
+    the rows, the lock and the temporary files; drawing was a third of a short run)."""
     argv = [*TWIN, command, str(SIM_SCENARIO), "--out", str(folder), "--trials", str(trials),
-            "--methods", "lm"]
+            "--methods", "lm", "--no-figures"]
     if command == "check":
         expect = folder.parent / "expect.toml"
         expect.write_text('[expect]\nlm = ["converged share >= 0.5"]\n')
-        argv += ["--no-figures", "--expect", str(expect)]
+        argv += ["--expect", str(expect)]
     return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=group)
 
@@ -314,7 +315,7 @@ def test_a_killed_runs_temporary_files_are_removed(tmp_path: Path) -> None:
     live = temporary_beside(folder / "summary.json")  # this process's: it is alive
     assert stale.exists() and stale.name.startswith(f".summary.md.{writer.pid}-")
     run = subprocess.run([*TWIN, "study", str(SIM_SCENARIO), "--out", str(folder), "--trials",
-                          "1", "--methods", "lm"], capture_output=True, text=True,
+                          "1", "--methods", "lm", "--no-figures"], capture_output=True, text=True,
                          timeout=TIMEOUT_S, check=False)
     assert run.returncode == 0, run.stderr
     assert not stale.exists() and live.exists()

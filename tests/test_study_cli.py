@@ -114,3 +114,24 @@ def test_rerun_recording_holds_each_trial_and_the_summary(tmp_path: Path) -> Non
     assert len(details) == 3
     ((_, report),) = texts["report"]
     assert "Table 6 replica" in report and report == (tmp_path / "out" / "summary.md").read_text()
+
+
+@pytest.mark.slow
+def test_no_figures_then_a_second_run_draws_them_running_no_trial(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`twin study --no-figures` writes the tables and no PNG; `twin study` of the same folder
+    then draws them and runs no trial (results.csv byte for byte as it was)."""
+    from twin.cli import main
+
+    scenario = write_scenario(tmp_path, with_study('trials = 2\nmethods = ["lm"]'))
+    out = tmp_path / "out"
+    argv = ["study", str(scenario), "--out", str(out)]
+    assert main([*argv, "--no-figures"]) == 0
+    assert (out / "summary.md").exists() and not list(out.glob("*.png"))
+    assert "written: " in capsys.readouterr().err
+    results = (out / "results.csv").read_bytes()
+    assert main(argv) == 0
+    assert (out / "results.csv").read_bytes() == results
+    assert sorted(path.name for path in out.glob("*.png")) == [
+        "fig3_metrics.png", "fig4_convergence.png", "fig5_residuals.png", "parameter_error.png"]
+    assert "fig3_metrics.png" in capsys.readouterr().err

@@ -51,9 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also write the results as JUnit XML, for CI test reports")
     parser.add_argument("--baseline", type=InputPath, metavar="DIR",
                         help="an earlier study of the same scenario seed to compare with")
-    parser.add_argument("--no-figures", dest="figures", action="store_false",
-                        help="write the summary but not the PNG figures (faster, for CI); "
-                        "`twin study` of the same DIR draws them later without running a trial")
     parser.add_argument("--tolerance", type=_tolerance, metavar="5%",
                         help="relative worsening a significant change may have without being "
                         "a regression (default 5%%)")

@@ -44,6 +44,10 @@ def add_study_arguments(parser: argparse.ArgumentParser,
     parser.add_argument("--stop", choices=PROTOCOLS,
                         help="stopping protocol of every method (default: the scenario's "
                         "[calibration] stop, else converge); part of the study's identity")
+    parser.add_argument("--no-figures", dest="figures", action="store_false",
+                        help="write the summary but not the PNG figures (faster, for CI); "
+                        "`twin study` of the same DIR without it draws them later, running "
+                        "no trial")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=integer(1, MAX_WORKERS), metavar="K",
                        help="run on a Dask LocalCluster of K worker processes on 127.0.0.1 "
@@ -124,11 +128,11 @@ def _run_locked(args: argparse.Namespace, plan: StudyPlan, executor: Executor) -
                                          in outcome.detail["methods"].items()}, label)
 
         document = write_report(plan, run_trials(plan, args.out, executor,
-                                                 on_outcome=on_outcome))
+                                                 on_outcome=on_outcome), figures=args.figures)
         markdown = summary_markdown(document)
         if recording is not None:
             recording.log_report(markdown)
     print(markdown)
-    print(f"written: {args.out / 'results.csv'}, summary.md, summary.json, "
-          + ", ".join(document["figures"]), file=sys.stderr)
+    print(f"written: {args.out / 'results.csv'}, "
+          + ", ".join(["summary.md", "summary.json", *document["figures"]]), file=sys.stderr)
     return 0

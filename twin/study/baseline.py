@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from scipy.stats import wilcoxon
 
 from twin.errors import InputError
 from twin.study.expect import Expectation
@@ -123,6 +122,8 @@ def compare(case: str, metric: Metric, trials: Sequence[int], now: Sequence[floa
     n_changed = int(np.count_nonzero(changed))
     p_value = None
     if n_changed:
+        from scipy.stats import wilcoxon  # half a second of start-up: only tests need it
+
         with warnings.catch_warnings():
             # scipy warns that few samples use the exact distribution, or ties the normal one.
             warnings.simplefilter("ignore")

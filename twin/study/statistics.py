@@ -21,7 +21,6 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.stats import wilcoxon
 
 from twin.errors import UnknownChoiceError
 from twin.solvers import SOLVERS, get_solver
@@ -125,6 +124,9 @@ def table7(rows: Sequence[TrialRow], methods: Sequence[str]) -> dict[str, Any]:
         if not np.any(changed):
             entry.update(statistic=None, p_value=1.0, verdict="identical RMSE in every trial")
         else:
+            # scipy.stats is half a second of a study's start-up: only Table 7 needs it.
+            from scipy.stats import wilcoxon
+
             with warnings.catch_warnings():
                 # scipy warns that n < 50 uses the exact distribution or few samples: expected.
                 warnings.simplefilter("ignore")
