@@ -887,7 +887,12 @@ def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
     Returns:
         T_0..T_n, shape (n + 1, 4, 4).
     """
-    pre, post = joint_placements(structure, dh)
+    return chain_transforms(structure, *joint_placements(structure, dh))
+
+
+def chain_transforms(structure: Structure, pre: Array, post: Array) -> Array:
+    """:func:`fixed_transforms` from the joints' placements (:func:`joint_placements`) when
+    the caller has them already, shape (n + 1, 4, 4)."""
     n = structure.n_joints
     transforms = [structure.base @ pre[0]]
     transforms += [post[i] @ pre[i + 1] for i in range(n - 1)]
@@ -926,17 +931,24 @@ def joint_placements(structure: Structure, dh: ArrayLike) -> tuple[Array, Array]
 
 
 def _compose(motions: tuple[tuple[int, int, int, bool], ...], slots: Array) -> Array:
-    transform = np.eye(4)
+    """The product of the elementary motions, (4, 4): each applied to the columns of the
+    product so far (T · Tr moves column 4 along one axis; T · Rot turns two columns), on
+    Python floats — an identity and a 4×4 product per motion were a fifth of building a
+    MuJoCo twin, which a warm-up's capture does at every row."""
+    columns = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0],
+               [0.0, 0.0, 0.0, 1.0]]
     for kind, axis, slot, _ in motions:
-        step = np.eye(4)
         if kind == _TRANS:
-            step[axis, 3] = slots[slot] if slot != NO_SLOT else 0.0
+            if slot != NO_SLOT:  # a prismatic Hayati joint's slide: no fixed part
+                along, by = columns[axis], float(slots[slot])
+                columns[3] = [t + a * by for t, a in zip(columns[3], along, strict=True)]
         else:
-            c, s = np.cos(slots[slot]), np.sin(slots[slot])
+            c, s = math.cos(slots[slot]), math.sin(slots[slot])
             j, k = (axis + 1) % 3, (axis + 2) % 3
-            step[j, j], step[j, k], step[k, j], step[k, k] = c, -s, s, c
-        transform = transform @ step
-    return transform
+            first, second = columns[j], columns[k]
+            columns[j] = [a * c + b * s for a, b in zip(first, second, strict=True)]
+            columns[k] = [b * c - a * s for a, b in zip(first, second, strict=True)]
+    return np.array(columns).T
 
 
 def rigid_transform(xyz_m: ArrayLike, rpy_rad: ArrayLike) -> Array:

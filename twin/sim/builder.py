@@ -25,6 +25,7 @@ pulls the cable with a force equal to its ``ctrl`` (N).
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 import mujoco
@@ -32,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.geometry.kinematics import fixed_transforms, joint_placements
+from twin.geometry.kinematics import chain_transforms, joint_placements
 from twin.geometry.statics import GRAVITY_M_S2
 from twin.robot import RobotModel
 from twin.scenario.physics import RIGID, Physics
@@ -67,21 +68,23 @@ def _add_link_geoms(body: mujoco.MjsBody, next_m: Array, radius_m: float,
         radius_m: Capsule radius, m.
         mass_kg: The link's mass, or None.
     """
-    corner = np.array([0.0, 0.0, next_m[2]])
-    segments = [(np.zeros(3), corner), (corner, np.asarray(next_m, dtype=np.float64))]
-    segments = [(p, q) for p, q in segments if np.linalg.norm(q - p) > _SEGMENT_EPS_M]
+    corner = [0.0, 0.0, float(next_m[2])]
+    # Python floats: numpy's norm of a 3-vector cost more than adding the geom.
+    segments = [(p, q, math.dist(p, q)) for p, q in (([0.0, 0.0, 0.0], corner),
+                                                     (corner, [float(v) for v in next_m]))]
+    segments = [segment for segment in segments if segment[2] > _SEGMENT_EPS_M]
     rgba = [0.85, 0.45, 0.1, 1.0]
     if not segments:
         geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius_m, 0, 0], rgba=rgba)
         if mass_kg is not None:
             geom.mass = mass_kg
         return
-    total = sum(float(np.linalg.norm(q - p)) for p, q in segments)
-    for start, end in segments:
+    total = sum(length for _, _, length in segments)
+    for start, end, length in segments:
         geom = body.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[*start, *end],
                              size=[radius_m, 0, 0], rgba=rgba)
         if mass_kg is not None:
-            geom.mass = mass_kg * float(np.linalg.norm(end - start)) / total
+            geom.mass = mass_kg * length / total
 
 
 def _set_inertial(body: mujoco.MjsBody, mass_kg: float, com_in_body_m: Array,
@@ -124,8 +127,9 @@ def build_spec(
     spec.option.timestep = TIMESTEP_S
     spec.option.gravity = [0.0, 0.0, -GRAVITY_M_S2]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    fixed = fixed_transforms(robot.structure, robot.dh)
-    end = _add_chain(spec, robot, fixed, attachment_m)
+    placements = joint_placements(robot.structure, robot.dh)
+    fixed = chain_transforms(robot.structure, *placements)
+    end = _add_chain(spec, robot, fixed, placements[1], attachment_m)
     # Neighbours share a joint and always touch; with a spherical wrist and a shoulder
     # offset, links two apart meet at the wrist and elbow centres too, and farther apart
     # where the links between them are points (a torso lift before the FR3's shoulder).
@@ -152,7 +156,7 @@ def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
     radius of one point (link i ends about where link j starts: the FR3's shoulder behind a
     torso lift, also with a calibration's millimetres added)."""
     n = len(fixed) - 1
-    at_parent = [bool(np.linalg.norm(fixed[k][:3, 3]) < radius_m[min(k, n - 1)])
+    at_parent = [bool(math.hypot(*fixed[k][:3, 3]) < radius_m[min(k, n - 1)])
                  for k in range(n + 1)]
     pairs = []
     for i in range(1, n - 1):
@@ -164,16 +168,16 @@ def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
     return pairs
 
 
-def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array,
+def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array,
                attachment_m: ArrayLike | None) -> str:
     """The pedestal (if joint 1 stands off the base origin), the links with their joints,
     geoms and inertials, site ``flange`` and site ``point`` (with an attachment), the chain's
-    fixed transforms ``fixed`` (n + 1, 4, 4) between them; returns the site the cable ends at."""
+    fixed transforms ``fixed`` (n + 1, 4, 4) between them; link frame i in body i, ``post``
+    (n, 4, 4) (:func:`joint_placements`), places the centres of mass. Returns the site the
+    cable ends at."""
     n = robot.n_joints
     radius = robot.radius_m if robot.radius_m is not None else np.full(n, DEFAULT_RADIUS_M)
-    # Link frames in the bodies, for the centres of mass only.
-    post = None if robot.com_m is None else joint_placements(robot.structure, robot.dh)[1]
-    if np.linalg.norm(fixed[0][:3, 3]) > _SEGMENT_EPS_M:
+    if math.hypot(*fixed[0][:3, 3]) > _SEGMENT_EPS_M:
         # Joint 1 stands off the base origin (a base transform, a Hayati joint 1): a pedestal.
         spec.worldbody.add_geom(name="pedestal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                                 fromto=[0.0, 0.0, 0.0, *fixed[0][:3, 3]],
@@ -189,7 +193,7 @@ def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array,
         joint.range = [robot.lower_rad[i], robot.upper_rad[i]]
         _add_link_geoms(body, fixed[i + 1][:3, 3], radius[i],
                         None if robot.mass_kg is None else float(robot.mass_kg[i]))
-        if robot.com_m is not None and post is not None:
+        if robot.com_m is not None:
             assert robot.mass_kg is not None  # RobotModel: a centre of mass needs a mass
             link = post[i]  # link frame i in the body, which moves with joint i
             _set_inertial(body, float(robot.mass_kg[i]), link[:3, :3] @ robot.com_m[i]
