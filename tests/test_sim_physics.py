@@ -11,10 +11,12 @@ import mujoco
 import numpy as np
 import pytest
 
+from twin.dataset import approach_directions
 from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length, length_measurements
 from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics
+from twin.scenario.joint_errors import JointErrors
 from twin.sim import Twin, static_equilibrium
 
 PORT_M = np.array([0.6, -0.4, 0.1])
@@ -107,6 +109,30 @@ def test_a_collected_twins_data_serves_the_next_twin_as_new_data_would() -> None
     assert reused.data is handed and alongside.data is not handed
     assert np.array_equal(reused.lengths(q), alongside.lengths(q))
     assert np.array_equal(reused.in_collision(q), alongside.in_collision(q))
+
+
+def test_a_twin_placed_for_another_table_reads_as_a_twin_built_for_it() -> None:
+    """A warm-up's rows: the twin's bodies and sites placed for a grown table read what a twin
+    compiled for it reads (joint errors and an eyelet off the flange included), and the twin
+    reads its own table again after."""
+    robot, warm = _perturbed(default_robot(), 5), _perturbed(default_robot(), 6)
+    n = robot.n_joints
+    errors = JointErrors(np.full(n, 2e-4), np.ones(n), np.linspace(0.0, 3.0, n),
+                         np.full(n, 1e-4))
+    eyelet = np.array([0.01, -0.02, 0.03])
+    q = _poses(30)
+    approach = approach_directions(q)
+    twin = Twin.build(robot, PORT_M, joint_errors=errors, attachment_m=eyelet)
+    before = twin.at_rest(q, approach)
+    placed = twin.at_rest_of(warm, q, approach)
+    built = Twin.build(warm, PORT_M, joint_errors=errors, attachment_m=eyelet).at_rest(q, approach)
+    for mine, theirs in zip(placed, built, strict=True):
+        assert np.max(np.abs(mine - theirs)) < 1e-12
+    assert np.max(np.abs(placed.length_m - before.length_m)) > 1e-6  # the tables differ
+    for again, first in zip(twin.at_rest(q, approach), before, strict=True):
+        assert np.array_equal(again, first)
+    with pytest.raises(ValueError, match="rigid joints only"):
+        Twin.build(robot, PORT_M, PAPER).at_rest_of(warm, q, approach)
 
 
 def _perturbed(robot: RobotModel, seed: int) -> RobotModel:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -168,6 +169,39 @@ def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
     return pairs
 
 
+class Frames(NamedTuple):
+    """Where the chain's bodies and sites sit in their parents: all that MuJoCo's kinematics
+    and a spatial tendon read of the robot's table."""
+
+    link_pos: Array
+    """Body ``link<i>`` in its parent, shape (n, 3), m."""
+    link_quat: Array
+    """Its orientation, shape (n, 4), w x y z."""
+    flange_pos: Array
+    """Site ``flange`` in body ``link<n>``, shape (3,), m."""
+    point_pos: Array
+    """Site ``point`` in body ``link<n>`` (the flange's without an attachment), shape (3,), m."""
+    site_quat: Array
+    """Both sites' orientation, shape (4,), w x y z."""
+
+
+def chain_frames(fixed: Array, attachment_m: ArrayLike | None) -> Frames:
+    """The :class:`Frames` of the chain's fixed transforms ``fixed`` (n + 1, 4, 4) with the
+    measured point at ``attachment_m`` (flange frame, (3,), m; None: the flange centre)."""
+    flange = fixed[-1]
+    point = flange[:3, 3] if attachment_m is None \
+        else flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
+    return Frames(fixed[:-1, :3, 3], np.array([_quat(frame[:3, :3]) for frame in fixed[:-1]]),
+                  flange[:3, 3], point, _quat(flange[:3, :3]))
+
+
+def robot_frames(robot: RobotModel, attachment_m: ArrayLike | None) -> Frames:
+    """The :class:`Frames` of a robot's table (:func:`build_spec` places its bodies so)."""
+    return chain_frames(chain_transforms(robot.structure,
+                                         *joint_placements(robot.structure, robot.dh)),
+                        attachment_m)
+
+
 def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array,
                attachment_m: ArrayLike | None) -> str:
     """The pedestal (if joint 1 stands off the base origin), the links with their joints,
@@ -182,10 +216,11 @@ def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array
         spec.worldbody.add_geom(name="pedestal", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                                 fromto=[0.0, 0.0, 0.0, *fixed[0][:3, 3]],
                                 size=[radius[0], 0, 0], rgba=[0.85, 0.45, 0.1, 1.0])
+    frames = chain_frames(fixed, attachment_m)
     parent = spec.worldbody
     for i in range(n):
-        body = parent.add_body(name=f"link{i + 1}", pos=fixed[i][:3, 3],
-                               quat=_quat(fixed[i][:3, :3]))
+        body = parent.add_body(name=f"link{i + 1}", pos=frames.link_pos[i],
+                               quat=frames.link_quat[i])
         kind = mujoco.mjtJoint.mjJNT_SLIDE if robot.prismatic[i] else mujoco.mjtJoint.mjJNT_HINGE
         joint = body.add_joint(name=f"joint{i + 1}", type=kind, axis=[0.0, 0.0, 1.0],
                                armature=ARMATURE_KG_M2)
@@ -199,14 +234,12 @@ def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array
             _set_inertial(body, float(robot.mass_kg[i]), link[:3, :3] @ robot.com_m[i]
                           + link[:3, 3], radius[i])
         parent = body
-    flange = fixed[n]
-    parent.add_site(name="flange", pos=flange[:3, 3], quat=_quat(flange[:3, :3]),
+    parent.add_site(name="flange", pos=frames.flange_pos, quat=frames.site_quat,
                     size=[0.008, 0, 0], rgba=[0.1, 0.6, 0.1, 1.0])
     if attachment_m is None:
         return "flange"
     # The attachment is given in the flange frame; the site lives in link n's body.
-    point = flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
-    parent.add_site(name="point", pos=point, quat=_quat(flange[:3, :3]),
+    parent.add_site(name="point", pos=frames.point_pos, quat=frames.site_quat,
                     size=[0.006, 0, 0], rgba=[0.8, 0.1, 0.1, 1.0])
     return "point"
 

@@ -28,7 +28,7 @@ from twin.dataset import approach_directions
 from twin.robot import RobotModel
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.physics import RIGID, Physics
-from twin.sim.builder import build_spec
+from twin.sim.builder import build_spec, robot_frames
 from twin.sim.equilibrium import static_equilibrium
 
 _STATICS_OFF = (
@@ -134,7 +134,8 @@ class Twin:
         self._flange = self.model.site("flange").id
         self._point = self.model.site("point" if attachment_m is not None else "flange").id
         self._cable = None if self.port_m is None else self.model.tendon("cable").id
-        self._link6 = self.model.body(f"link{robot.n_joints}").id
+        self._links = [self.model.body(f"link{i + 1}").id for i in range(robot.n_joints)]
+        self._link6 = self._links[-1]
 
     @classmethod
     def build(cls, robot: RobotModel, port_m: ArrayLike | None, physics: Physics = RIGID,
@@ -192,6 +193,41 @@ class Twin:
             points[row] = data.site_xpos[self._point]
             rotations[row] = data.site_xmat[self._flange].reshape(3, 3)
         return AtRest(q_actual, lengths, flanges, points, rotations)
+
+    def at_rest_of(self, robot: RobotModel, q_rad: ArrayLike, approach: ArrayLike) -> AtRest:
+        """:meth:`at_rest` of another table with this twin's joints (a warm-up's links grown at
+        a row): the bodies and sites of this twin's model placed as
+        :func:`twin.sim.builder.build_spec` places them for ``robot``, and put back after — a
+        twin built for ``robot`` reads the same, and compiling one was most of a warm-up's
+        capture. Rigid joints only: statics would read masses placed from the geoms, which
+        stay.
+
+        Args:
+            robot: The table to read, with this twin's joints.
+            q_rad: Recorded joint angles, shape (m, n), rad.
+            approach: Direction each joint last moved in, shape (m, n), ±1.
+
+        Raises:
+            ValueError: with servos, or for a robot of other joints.
+        """
+        if not self.physics.rigid:
+            raise ValueError("at_rest_of: rigid joints only (statics read the geoms' masses)")
+        if robot.n_joints != self.robot.n_joints or np.any(robot.prismatic != self.robot.prismatic):
+            raise ValueError("at_rest_of: the robot has other joints than the twin")
+        model = self.model
+        placed = (model.body_pos, model.body_quat, model.site_pos, model.site_quat)
+        saved = [array.copy() for array in placed]
+        frames = robot_frames(robot, self.attachment_m)
+        try:
+            model.body_pos[self._links] = frames.link_pos
+            model.body_quat[self._links] = frames.link_quat
+            model.site_pos[self._flange], model.site_pos[self._point] = \
+                frames.flange_pos, frames.point_pos
+            model.site_quat[[self._flange, self._point]] = frames.site_quat
+            return self.at_rest(q_rad, approach)
+        finally:
+            for array, kept in zip(placed, saved, strict=True):
+                array[:] = kept
 
     def lengths(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
         """Noise-free cable lengths, shape (m,), m, with the controller at q (m, n) rad."""

@@ -331,9 +331,14 @@ class Bench:
         if thermal is None:
             rests = [twin.at_rest(q[station == k] + jitter[station == k], approach[station == k])
                      for k, twin in enumerate(twins)]
-        else:
+        elif self.scenario.physics.rigid:
             # The links grow during the capture: each row is measured on the MuJoCo model of
-            # the robot as warm as it was then.
+            # the robot as warm as it was then (its station's, the bodies placed for it).
+            rests = [twins[station[k]].at_rest_of(
+                self.robot.perturbed(thermal.growth(temperature)), q[k:k + 1] + jitter[k:k + 1],
+                approach[k:k + 1]) for k, temperature in enumerate(thermal.temperatures_c(len(q)))]
+        else:
+            # With servos the masses move with the links too: a twin compiled for each row.
             rests = [self._twin(stations_m[station[k]], thermal.growth(temperature))
                      .at_rest(q[k:k + 1] + jitter[k:k + 1], approach[k:k + 1])
                      for k, temperature in enumerate(thermal.temperatures_c(len(q)))]
