@@ -139,7 +139,7 @@ def test_one_pass_one_fail_then_only_the_pass(tmp_path: Path,
     only = tmp_path / "only_pass.toml"
     only.write_text(f'[expect]\nlm = ["{PASSING}"]\n')
     assert main(["check", str(path), "--out", str(out), "--expect", str(only), "--junit",
-                 str(junit)]) == 0
+                 str(junit), "--no-figures"]) == 0
     assert capsys.readouterr().out.splitlines()[-1].endswith("1 passed, 0 failed -> PASS")
     assert [c.get("name") for c in ET.parse(junit).getroot().iter("testcase")] == [PASSING]
     write_scenario(tmp_path, scenario_text(f'lm = ["{PASSING}"]'))
