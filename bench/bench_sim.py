@@ -1,5 +1,7 @@
 """Benchmark the MuJoCo twin: lengths per second rigid vs at static equilibrium, MuJoCo FK vs
-the core's vectorised FK, and one whole simulated capture. Run by hand:
+the core's vectorised FK, a warm-up's rows on a twin compiled per row vs on one twin with its
+bodies placed per row (:meth:`twin.sim.Twin.at_rest_of`), and one whole simulated capture. Run
+by hand:
 
     .venv/bin/python bench/bench_sim.py
 """
@@ -14,15 +16,17 @@ import mujoco
 import numpy as np
 from _timing import tiny_run
 
+from twin.dataset import approach_directions
 from twin.io.robot_file import default_robot
 from twin.kinds.length import cable_length
-from twin.robot import random_poses
+from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics, load_scenario
 from twin.sim import Twin, build_spec, simulate
 
 ROOT = Path(__file__).parents[1]
 PORT_M = np.array([0.6, -0.4, 0.1])
 N_POSES = 2000
+WARM_ROWS = 100
 
 
 def _best_seconds(run: Callable[[], object], repeat: int = 3) -> float:
@@ -38,7 +42,7 @@ def main() -> None:
     """Print the timings and their ratios, measured side by side in one run."""
     global N_POSES
     if tiny_run(__doc__):
-        N_POSES = 5
+        N_POSES = 5  # and a warm-up of as many rows
     robot = default_robot()
     q = random_poses(robot, N_POSES, np.random.default_rng(0))
     paper = load_scenario(ROOT / "scenarios" / "paper_irb120.toml")
@@ -78,10 +82,36 @@ def main() -> None:
         part = Twin.build(robot, PORT_M, physics).flange_positions(q) - robot.flange_positions(q)
         print(f"  {label:<20} RMS {np.sqrt(np.mean(np.sum(part**2, axis=1))) * 1e6:.1f} µm")
 
+    warm_up(robot, q[:WARM_ROWS])
     for path in sorted((ROOT / "scenarios").glob("*_irb120.toml")):
         scenario = load_scenario(path)
         seconds = _best_seconds(lambda scenario=scenario: simulate(scenario), 1)
         print(f"simulate({scenario.name}): {seconds * 1e3:.0f} ms for {scenario.pose_count} poses")
+
+
+def warm_up(robot: RobotModel, q: np.ndarray) -> None:
+    """A warm-up's rows, each on the robot grown by its own micrometres: a twin compiled for
+    each row against one twin placed for each (the same lengths, checked first)."""
+    rng = np.random.default_rng(1)
+    grown = [robot.perturbed(np.concatenate([rng.uniform(0.0, 2e-5, 2 * robot.n_joints),
+                                             np.zeros(2 * robot.n_joints)]))
+             for _ in range(len(q))]
+    approach = approach_directions(q)
+    station = Twin.build(robot, PORT_M)
+
+    def compiled() -> list[float]:
+        return [float(Twin.build(warm, PORT_M).lengths(q[k:k + 1], approach[k:k + 1])[0])
+                for k, warm in enumerate(grown)]
+
+    def placed() -> list[float]:
+        return [float(station.at_rest_of(warm, q[k:k + 1], approach[k:k + 1]).length_m[0])
+                for k, warm in enumerate(grown)]
+
+    assert np.max(np.abs(np.subtract(compiled(), placed()))) < 1e-12
+    times = {"compiled": _best_seconds(compiled), "placed": _best_seconds(placed)}
+    print(f"a warm-up's {len(q)} rows: a twin compiled per row {times['compiled'] * 1e3:.1f} ms, "
+          f"one twin placed per row {times['placed'] * 1e3:.1f} ms "
+          f"({times['compiled'] / times['placed']:.1f}x)")
 
 
 if __name__ == "__main__":

@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from twin.errors import InputError, TwinError
+from twin.geometry.kinematics import point_position
 from twin.io.robot_file import default_robot
 from twin.robot import random_poses
 from twin.scenario import PoseConstraints
 from twin.sim import Twin, read_pose_plan, sample_poses
-from twin.sim.poses import violations
+from twin.sim.poses import usable, violations
+from twin.sim.touches import touch_poses
 from twin.units import deg_to_rad
 
 PORT_M = np.array([0.6, -0.4, 0.1])
@@ -98,3 +100,36 @@ def test_pose_plan_is_read_in_degrees_and_checked(tmp_path: Path) -> None:
     plan.write_text("q1,q2,q3,q4,q5,q6\n0,0,0,0,30,0\n0,100,60,0,90,0\n")
     with pytest.raises(InputError, match="line 3"):
         read_pose_plan(plan, twin, CONSTRAINTS)
+
+
+def test_touches_seat_the_ball_in_each_socket_from_usable_configurations() -> None:
+    """Every fixed point is touched ``touches`` times, point after point, each configuration of
+    the true robot bringing the ball within its seating error of the socket, inside the limits
+    and free of collisions; the same seed gives the same configurations."""
+    robot = default_robot()
+    eyelet = np.array([0.0, 0.0, 0.05])
+    twin = Twin.build(robot, None, attachment_m=eyelet)
+    sockets = np.array([[0.45, 0.0, 0.3], [0.35, 0.25, 0.45], [0.4, -0.2, 0.2]])
+    sigma_m = np.full(3, 2e-5)
+    constraints = PoseConstraints()
+    q, point = touch_poses(robot, twin, sockets, 3, constraints, sigma_m,
+                           np.random.default_rng(4))
+    assert q.shape == (9, robot.n_joints) and point.tolist() == [0, 0, 0, 1, 1, 1, 2, 2, 2]
+    ball = point_position(robot.structure, robot.dh, q, eyelet)
+    assert np.max(np.abs(ball - sockets[point])) < 6 * sigma_m[0]
+    assert np.all(usable(constraints, twin, q))
+    again, _ = touch_poses(robot, twin, sockets, 3, constraints, sigma_m,
+                           np.random.default_rng(4))
+    assert np.array_equal(again, q)
+
+
+@pytest.mark.slow
+def test_a_socket_out_of_reach_is_named() -> None:
+    """A socket 3 m away: refused, naming the socket and what was found."""
+    robot = default_robot()
+    twin = Twin.build(robot, None)
+    sockets = np.array([[0.45, 0.0, 0.3], [3.0, 0.0, 0.3]])
+    with pytest.raises(InputError, match=r"0 configurations reaching fixed point 2 at "
+                       r"\[3000\.0, 0\.0, 300\.0\] mm"):
+        touch_poses(robot, twin, sockets, 2, PoseConstraints(), np.full(3, 2e-5),
+                    np.random.default_rng(4))
