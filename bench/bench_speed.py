@@ -35,7 +35,10 @@ study worker is.
    start and stop, the workers' imports, the last batches' tail — left out), best of two runs
    each; whole runs beside it. Every executor's runs share one process per tree (local
    processes first, then Dask), after a trial that loads what only a command's first run
-   loads (imports, numba's first call). Goal: 2 local workers at least 1.8× one.
+   loads (imports, numba's first call). Goal: 2 local workers at least 1.8× one. Beside it,
+   before and after those runs, what two busy processes of a pure-Python loop give against one
+   on this machine at the time: the ceiling of any such ratio (a shared VM's moves from 1.5× to
+   2.0× within a minute).
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ for _variable in BLAS_VARIABLES:
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import multiprocessing  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -82,6 +86,10 @@ git; skipped where the checkout does not hold it)."""
 DRIVER = Path(__file__).resolve().parent / "_study_cpu.py"
 BLOCK = 4
 """Timed calls of each function per round of :func:`_cpu`."""
+SPIN, SPIN_TINY = 8_000_000, 100_000
+"""Loop steps per process of :func:`machine_scaling` (about a second), and at the smoke size."""
+SPIN_TRIALS = 20
+"""Runs of fewer trials than this are the smoke size's."""
 STUDY_BLOCK = 4
 """Trials per block of part 4, whose trees run block by block in turn."""
 
@@ -321,6 +329,26 @@ def _running_rate(done_s: list[float]) -> float:
     return (last - first) / max(done_s[last] - done_s[first], 1e-6)
 
 
+def _spin(count: int) -> int:
+    total = 0
+    for value in range(count):
+        total += value * value
+    return total
+
+
+def machine_scaling(count: int) -> float:
+    """Two busy processes against one on this machine now: a pure-Python loop on each (no
+    memory traffic, nothing shared), forked from here — the ceiling of any two-worker ratio,
+    which a shared VM's host moves from minute to minute."""
+    rates = {}
+    for workers in (1, 2):
+        start = time.perf_counter()
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            pool.map(_spin, [count] * (2 * workers))
+        rates[workers] = 2 * workers * count / (time.perf_counter() - start)
+    return rates[2] / rates[1]
+
+
 def study_scaling(trials: int, before: Path | None, repeats: int,
                   dask_workers: tuple[int, ...] = (1, 2)) -> None:
     """As `twin study` runs trials (a shell that does not pin BLAS): the CPU per trial of the
@@ -329,7 +357,10 @@ def study_scaling(trials: int, before: Path | None, repeats: int,
     ``dask_workers`` Dask workers, once running (:func:`_running_rate`), and whole runs, the
     best of ``repeats`` runs of ``trials`` each."""
     names = [f"local{workers}" for workers in (1, 2)] + [f"dask{n}" for n in dask_workers]
+    spin = SPIN_TINY if trials < SPIN_TRIALS else SPIN
+    ceiling = [machine_scaling(spin)]
     runs = _study(ROOT, names, [trials] * repeats)
+    ceiling.append(machine_scaling(spin))
     _local_cpu(trials, before, runs)
     walls = {name: min(run["wall_s"] for run in found) for name, found in runs.items()}
     rates = {name: max(_running_rate(run["done_s"]) for run in found)
@@ -348,6 +379,9 @@ def study_scaling(trials: int, before: Path | None, repeats: int,
               f"{walls[f'{kind}1'] / walls[f'{kind}2']:.2f}×")
     print(f"  load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores: other "
           "work on the machine takes cores from the workers")
+    print(f"  the machine: two busy processes / one, a pure-Python loop each, "
+          f"{ceiling[0]:.2f}× before these runs and {ceiling[1]:.2f}× after (the ceiling of "
+          "any two-worker ratio here)")
 
 
 def main() -> None:
