@@ -5,8 +5,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 2 min 44 s to 6 min 25 s of pytest, 4 min 36 s to 8 min 2 s from a fresh clone (venv, install and mypy included)
-TEST_FAST_TIME := 47 s to 51 s at a slow hour, about 1.5 CPU-minutes; a fresh clone's first run also compiles numba's kernels
+TEST_TIME := 2 min 40 s to 4 min 52 s of pytest, 6 min 6 s to 6 min 13 s from a fresh clone at a slow hour (venv, install and mypy included)
+TEST_FAST_TIME := 43 s to 46 s, about 1.5 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bench docs clean
 
@@ -40,14 +40,13 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/mypy
 
 # Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a 2-core
-# Intel Xeon VM (1334 and 1086 tests) on 2026-12-03, in checkouts and from fresh clones (pip's
-# cache warm); the range is that VM's speed, which changed by 1.7x from hour to hour (the same
-# tree's pytest took 2 min 44 s to 3 min 13 s at one hour and 4 min 31 s to 6 min 25 s at others;
-# test-fast, at 11:25, a slow hour, 47-51 s, where it took 85-92 s before the tests of half a
-# second or more were marked slow); a 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the
-# suite of some commits before. Three workers on those 2 cores took 6 % less wall time (153 and
-# 183 s against 165 and 193 s, alternating), the sleeping tests' cores taken up; kept at 2, a
-# worker per core.
+# Intel Xeon VM (1340 and 1090 tests) on 2026-12-03 between 12:27 and 13:34, in checkouts and from
+# fresh clones (pip's cache warm); the range is that VM's speed, which changed by 1.8x within the
+# hour (the same tree's pytest took 2 min 40 s at 12:47 and 4 min 52 s at 13:22; fresh clones at
+# 12:56 and 13:06, 4 min 3 s and 4 min 6 s; test-fast 43-46 s at 13:04); a 2-core AMD EPYC VM
+# took about 3 min 20 s and 52 s on the suite of some commits before. Three workers on those 2
+# cores took 4 min 40 s and 4 min 37 s against two's 4 min 52 s and 3 min 56 s (alternating,
+# 13:13-13:34): no gain beyond the hour's drift; kept at 2, a worker per core.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy

@@ -101,11 +101,15 @@ def test_a_collected_twins_data_serves_the_next_twin_as_new_data_would() -> None
     robot, other = _perturbed(default_robot(), 5), _perturbed(default_robot(), 6)
     q = _poses(40)
     gc.collect()  # the earlier tests' twins hand theirs back first
-    first = Twin.build(robot, PORT_M, PAPER)
-    handed = first.data
-    del first
-    reused = Twin.build(other, PORT_M + 0.05, PAPER)
-    alongside = Twin.build(other, PORT_M + 0.05, PAPER)
+    gc.disable()  # and no collection in between hands back another
+    try:
+        first = Twin.build(robot, PORT_M, PAPER)
+        handed = first.data
+        del first
+        reused = Twin.build(other, PORT_M + 0.05, PAPER)
+        alongside = Twin.build(other, PORT_M + 0.05, PAPER)
+    finally:
+        gc.enable()
     assert reused.data is handed and alongside.data is not handed
     assert np.array_equal(reused.lengths(q), alongside.lengths(q))
     assert np.array_equal(reused.in_collision(q), alongside.in_collision(q))
