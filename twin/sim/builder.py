@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.geometry.kinematics import chain_transforms, joint_placements
+from twin.geometry.kinematics import chain_transforms, fixed_transforms, joint_placements
 from twin.geometry.statics import GRAVITY_M_S2
 from twin.robot import RobotModel
 from twin.scenario.physics import RIGID, Physics
@@ -199,9 +199,7 @@ def chain_frames(fixed: Array, attachment_m: ArrayLike | None) -> Frames:
 
 def robot_frames(robot: RobotModel, attachment_m: ArrayLike | None) -> Frames:
     """The :class:`Frames` of a robot's table (:func:`build_spec` places its bodies so)."""
-    return chain_frames(chain_transforms(robot.structure,
-                                         *joint_placements(robot.structure, robot.dh)),
-                        attachment_m)
+    return chain_frames(fixed_transforms(robot.structure, robot.dh), attachment_m)
 
 
 def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array,
