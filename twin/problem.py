@@ -144,6 +144,8 @@ class Problem:
     def data_jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
         """:meth:`data_residuals` (M,) and their Jacobian (M, p) at one x (p,)."""
         r, jacobian = self.model.jacobian(x, self.train)
+        if not self.in_variables:  # every weight is exactly 1 (as in data_residuals)
+            return r, jacobian
         return r * self._train_weight, jacobian * self._train_weight[:, None]
 
     def _prior_residuals(self, x: ArrayLike) -> Array:
@@ -161,6 +163,8 @@ class Problem:
     def jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
         """:meth:`residuals` (M + P,) and their Jacobian (M + P, p) at one x (p,)."""
         r, jacobian = self.data_jacobian(x)
+        if not self._prior.size:
+            return r, jacobian
         prior = np.zeros((self._prior.size, self.model.n_params))
         prior[np.arange(self._prior.size), self._prior] = \
             self.sigma_m * self.model.prior_weight()[self._prior]
@@ -184,6 +188,8 @@ class Problem:
         the prior rows as they are), from :meth:`jacobian`'s: (M + P,), (M + P, p)."""
         rows = np.asarray(rows, dtype=np.float64)
         jacobian = np.asarray(jacobian, dtype=np.float64)
+        if not self._prior.size:
+            return self.loss.rows(rows, jacobian)
         split = rows.size - self._prior.size
         r, J = self.loss.rows(rows[:split], jacobian[:split])
         return np.concatenate([r, rows[split:]]), np.concatenate([J, jacobian[split:]])

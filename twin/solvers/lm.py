@@ -83,15 +83,15 @@ class StepRule(Protocol):
 def damping(normal: Array, mu: float) -> Array:
     """The damping μD added to the diagonal of JᵀJ (p, p): shape (p,), μ times each diagonal
     entry, none below :data:`MU_FLOOR` times the largest (module docstring)."""
-    diagonal = np.diag(normal)
-    return np.maximum(mu * diagonal, MU_FLOOR * float(np.max(diagonal)))
+    diagonal = normal.diagonal()
+    return np.maximum(mu * diagonal, MU_FLOOR * float(diagonal.max()))
 
 
 def damped_step(normal: Array, gradient: Array, damped: Array) -> Array:
     """The LM step −(JᵀJ + diag(damped))⁻¹ Jᵀr, shape (p,), from JᵀJ (p, p), Jᵀr (p,) and the
     damping (p,) of :func:`damping`."""
     A = normal.copy()
-    A[np.diag_indices_from(A)] += damped
+    A.flat[:: A.shape[0] + 1] += damped
     return np.asarray(-np.linalg.solve(A, gradient), dtype=np.float64)
 
 
@@ -170,7 +170,7 @@ def boxed_damped_step(normal: Array, gradient: Array, damped: Array, low: Array,
 
 def inside(x: Array, lower: Array, upper: Array) -> bool:
     """Whether every unknown is within its bounds (inclusive)."""
-    return bool(np.all((x >= lower) & (x <= upper)))
+    return bool(((x >= lower) & (x <= upper)).all())
 
 
 def nielsen(mu: float, nu: float, gain: float) -> tuple[float, float]:
@@ -207,9 +207,9 @@ def levenberg_marquardt(
     mu, nu = TAU, 2.0
     for _ in range(budget.max_iterations):
         held = held_at_bounds(x, gradient, lower, upper)
-        if np.all(held):
+        if held.all():
             return Outcome(x, StopReason.BOUNDS)
-        if budget.gtol > 0 and optimality(gradient, np.diag(normal), float(r @ r),
+        if budget.gtol > 0 and optimality(gradient, normal.diagonal(), float(r @ r),
                                           held) <= budget.gtol:
             return Outcome(x, StopReason.GTOL)
         mu = max(mu, MU_FLOOR)
