@@ -117,7 +117,7 @@ class Identifiability(NamedTuple):
     @property
     def dependent(self) -> NDArray[np.intp]:
         """Indices of the unknowns that are not base parameters, shape (p − rank,)."""
-        return np.setdiff1d(np.arange(self.n_params), self.base)
+        return others(self.n_params, self.base)
 
     @property
     def base_mask(self) -> NDArray[np.bool_]:
@@ -154,6 +154,14 @@ def name_direction(direction: ArrayLike, names: tuple[str, ...]) -> str:
     return "".join(
         _format_coefficient(float(v[k]), names[k], first=i == 0) for i, k in enumerate(terms)
     )
+
+
+def others(count: int, taken: ArrayLike) -> NDArray[np.intp]:
+    """The indices 0 … count − 1 not in ``taken``, ascending (``np.setdiff1d`` on a range, by a
+    mask: a tenth of its time, which sorts)."""
+    kept = np.ones(count, dtype=bool)
+    kept[np.asarray(taken, dtype=np.intp)] = False
+    return np.flatnonzero(kept)
 
 
 def _base_in_order(R: Array, threshold: float, order: NDArray[np.intp]) -> NDArray[np.intp]:
@@ -256,15 +264,17 @@ def identifiability(
     _, singular_values, vt = np.linalg.svd(R)
     threshold = rtol * singular_values[0]
     rank = int(np.sum(singular_values > threshold))
-    first = np.flatnonzero(np.isin(visible, prefer))
-    order = np.r_[first, np.setdiff1d(np.arange(visible.size), first)].astype(np.intp)
+    preferred = np.zeros(p, dtype=bool)
+    preferred[np.asarray(prefer, dtype=np.intp)] = True
+    first = np.flatnonzero(preferred[visible])
+    order = np.r_[first, others(visible.size, first)].astype(np.intp)
     base_local = _base_in_order(R, threshold, order)
     if base_local.size != rank:
         base_local = np.sort(scipy.linalg.qr(R, pivoting=True)[2][:rank])
-    dependent_local = np.setdiff1d(np.arange(visible.size), base_local)
+    dependent_local = others(visible.size, base_local)
     beta = np.linalg.lstsq(R[:, base_local], R[:, dependent_local], rcond=None)[0]
     # Scaled null directions: one per negligible column, then e_dependent − β for each dependent.
-    invisible = np.setdiff1d(np.arange(p), visible)
+    invisible = others(p, visible)
     directions = np.zeros((p, p - rank))
     directions[invisible, np.arange(invisible.size)] = 1.0
     columns = invisible.size + np.arange(dependent_local.size)
