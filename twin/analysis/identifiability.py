@@ -117,7 +117,7 @@ class Identifiability(NamedTuple):
     @property
     def dependent(self) -> NDArray[np.intp]:
         """Indices of the unknowns that are not base parameters, shape (p − rank,)."""
-        return others(self.n_params, self.base)
+        return _others(self.n_params, self.base)
 
     @property
     def base_mask(self) -> NDArray[np.bool_]:
@@ -156,7 +156,7 @@ def name_direction(direction: ArrayLike, names: tuple[str, ...]) -> str:
     )
 
 
-def others(count: int, taken: ArrayLike) -> NDArray[np.intp]:
+def _others(count: int, taken: ArrayLike) -> NDArray[np.intp]:
     """The indices 0 … count − 1 not in ``taken``, ascending (``np.setdiff1d`` on a range, by a
     mask: a tenth of its time, which sorts)."""
     kept = np.ones(count, dtype=bool)
@@ -267,14 +267,14 @@ def identifiability(
     preferred = np.zeros(p, dtype=bool)
     preferred[np.asarray(prefer, dtype=np.intp)] = True
     first = np.flatnonzero(preferred[visible])
-    order = np.r_[first, others(visible.size, first)].astype(np.intp)
+    order = np.r_[first, _others(visible.size, first)].astype(np.intp)
     base_local = _base_in_order(R, threshold, order)
     if base_local.size != rank:
         base_local = np.sort(scipy.linalg.qr(R, pivoting=True)[2][:rank])
-    dependent_local = others(visible.size, base_local)
+    dependent_local = _others(visible.size, base_local)
     beta = np.linalg.lstsq(R[:, base_local], R[:, dependent_local], rcond=None)[0]
     # Scaled null directions: one per negligible column, then e_dependent − β for each dependent.
-    invisible = others(p, visible)
+    invisible = _others(p, visible)
     directions = np.zeros((p, p - rank))
     directions[invisible, np.arange(invisible.size)] = 1.0
     columns = invisible.size + np.arange(dependent_local.size)
