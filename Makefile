@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 3 min 11 s to 3 min 45 s of pytest, 5 min 46 s to 6 min 15 s from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_TIME := 3 min 11 s to 3 min 45 s of pytest, 5 min 22 s to 6 min 15 s from a fresh clone (venv, install, mypy and the bytecode included)
 TEST_FAST_TIME := 42 s to 46 s, about 1.3 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
@@ -40,9 +40,9 @@ lint: $(VENV)/.installed-dev
 	$(BIN)/mypy
 
 # Every test on both cores (pytest-xdist). TEST_TIME and TEST_FAST_TIME were measured on a 2-core
-# Intel Xeon VM (1340 and 1090 tests) on 2026-12-03 between 14:57 and 15:46 from fresh clones
-# (pip's cache warm), with the bytecode written first (below): pytest 3:37 and 3:45, 5:46 and
-# 6:15 in all; in one clone, side by side, 3:42 (424 CPU-s) without the bytecode and 3:11
+# Intel Xeon VM (1340 and 1090 tests) on 2026-12-03 between 14:57 and 16:01 from fresh clones
+# (pip's cache warm), with the bytecode written first (below): pytest 3:37, 3:45, 3:37 and 3:21,
+# 5:46, 6:15, 5:55 and 5:22 in all; in one clone, side by side, 3:42 (424 CPU-s) without the bytecode and 3:11
 # (358 CPU-s) with it; test-fast 42 s. That VM's speed changes by 1.8x within the hour (the same
 # tree's pytest took 2 min 40 s at 12:47 and 4 min 52 s at 13:22, before the bytecode); a
 # 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of some commits before. Three
