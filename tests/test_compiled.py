@@ -19,6 +19,7 @@ from twin.geometry.kinematics import (
     PARAMETRISATIONS,
     Structure,
     Turns,
+    point_distances,
     point_position,
     trace_point,
     turns,
@@ -145,7 +146,7 @@ def test_the_kernels_get_read_only_arrays_whatever_the_callers(
     def recorded(kernel):  # type: ignore[no-untyped-def]
         return lambda *args: handed.append(args) or kernel(*args)
 
-    for name in ("positions", "jacobian", "distances"):
+    for name in ("positions", "jacobian", "distances", "anchored_distances"):
         monkeypatch.setattr(compiled, name, recorded(getattr(compiled, name)))
     rng = np.random.default_rng(7)
     structure = Structure(("dh", "dh", "mdh", "hayati", "dh", "dh"),
@@ -158,8 +159,9 @@ def test_the_kernels_get_read_only_arrays_whatever_the_callers(
             point_position(structure, dh, angles)
             trace_point(structure, dh, angles, np.ones(3)).jacobian(rng.normal(size=(7, 2, 3)))
     kinematics.distances(rng.normal(size=(3, 7, 3)), rng.normal(size=(7, 3)))
+    point_distances(structure, np.stack([table, table]), q, None, rng.normal(size=(7, 3)))
     arrays = [a for args in handed for a in args if isinstance(a, np.ndarray)]
-    assert len(handed) == 3 * 3 * 3 + 1 and not any(a.flags.writeable for a in arrays)
+    assert len(handed) == 3 * 3 * 3 + 2 and not any(a.flags.writeable for a in arrays)
     assert table.flags.writeable and q.flags.writeable
     kinematics._compiled.cache_clear()
 
@@ -187,6 +189,32 @@ def test_distances_equal_the_written_out_lengths(anchored: str,
         np.testing.assert_array_equal(fast, lengths(batch - anchor))
         np.testing.assert_array_equal(reference, lengths(batch - anchor))
         assert fast.shape == batch.shape[:-1]
+
+
+@pytest.mark.parametrize("anchored", ["per row", "per table and row"])
+@pytest.mark.parametrize("seed", range(3))
+def test_point_distances_are_the_distances_of_the_points(
+        anchored: str, seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A swarm's cable lengths in one pass of the chain, the points never stored, are the
+    distances of the points bit for bit, on either path: mixed parametrisations and joint
+    types, base and tool, a point per table, a batch of tables and one."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, MAX_JOINTS + 1))
+    structure = Structure(tuple(rng.choice(PARAMETRISATIONS, n)), base=_rigid(rng),
+                          tool=_rigid(rng), joint_types=tuple(rng.choice(JOINT_TYPES, n)))
+    m, k = 30, 6
+    q = rng.uniform(-3, 3, (m, n))
+    tables = rng.normal(scale=0.3, size=(k, 4, n))
+    points = rng.normal(scale=0.05, size=(k, 3))
+    anchors = rng.normal(scale=0.8, size=(m, 3) if anchored == "per row" else (k, m, 3))
+    one = anchors if anchors.ndim == 2 else anchors[2]
+    for dh, at, anchor in ((tables, points, anchors), (tables[2], points[2], one)):
+        fast, reference = _both(monkeypatch, lambda dh=dh, at=at, anchor=anchor: (
+            point_distances(structure, dh, q, at, anchor),
+            kinematics.distances(point_position(structure, dh, q, at), anchor)))
+        for together, apart in (fast, reference):
+            assert together.shape == (*dh.shape[:-2], m)
+            np.testing.assert_array_equal(together, apart)
 
 
 def test_distances_of_no_rows(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -99,6 +99,34 @@ def test_batched_residuals(
         np.testing.assert_allclose(batched[k], model.residuals(x[k], measurements), atol=1e-15)
 
 
+@pytest.mark.parametrize(("errors", "estimate"), [(("dh",), ("port", "offset", "scale")),
+                                                (("dh", "thermal"), ()),
+                                                (("dh", "transmission"), ("attachment",))])
+@pytest.mark.parametrize("kernel", ["numpy", "numba"], indirect=True)
+def test_residuals_from_the_anchors_are_the_kinds_of_the_points(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray,
+    errors: tuple[str, ...], estimate: tuple[str, ...], kernel: str
+) -> None:
+    """A cable model's residuals, its lengths taken in one pass of the chain from the ports
+    (:meth:`twin.kinds.base.Kind.distance_anchors`), are the kind's residuals of the measured
+    points bit for bit, for one x and a batch, on either kernel: an estimated port, offset and
+    scale; a table per row (thermal growth); joints turned by the model and a point off the
+    flange."""
+    data = measurements
+    if "thermal" in errors:
+        rng = np.random.default_rng(2)
+        data = replace(data, values={**data.values,
+                                     "temperature_c": rng.uniform(20.0, 30.0, len(data))})
+    rig = Rig(port_m[None], ("port",), np.array([0.01, -0.02, 0.03]), temperature_ref_c=23.0)
+    model = make_model(irb120, rig, settings=CalibrationSettings(errors=errors,
+                                                                 estimate=estimate))
+    x = np.random.default_rng(9).normal(scale=1e-4, size=(4, model.n_params))
+    for at in (x, x[1]):
+        kind = model.kind.residuals(model.measured(at, data), model._measurement_values(at),
+                                    data, model.rig)
+        np.testing.assert_array_equal(model.residuals(at, data), kind)
+
+
 def test_offset_adds_to_every_length(
     irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
 ) -> None:

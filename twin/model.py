@@ -31,7 +31,9 @@ from twin.dataset import Measurements, approach_directions
 from twin.geometry.kinematics import (
     PointJacobian,
     Turns,
+    distances,
     flange_turn_jacobian,
+    point_distances,
     point_position,
     trace_point,
     turns,
@@ -282,9 +284,13 @@ class Model:
     def positions(self, x: ArrayLike, data: Measurements) -> Array:
         """The measured point in the base frame at every pose, shape (..., m, 3), m."""
         x = self._check(x)
+        return self._place(x, data, self._point_m(x))
+
+    def _point_m(self, x: Array) -> Array:
+        """The measured point in the flange frame for unknowns (..., p): (..., 3) or (3,), m."""
         # Without a point group the point is the rig's attachment for every x: handed over
         # once (the kernel then carries one start, not a copy per candidate), the same numbers.
-        return self._place(x, data, self.point(x) if self._point_moves else self.rig.attachment_m)
+        return self.point(x) if self._point_moves else self.rig.attachment_m
 
     def _kinematics(self, x: Array, data: Measurements) -> tuple[Array, Turns]:
         """What the kinematics read: the table (..., 4, n) and the joints (..., m, n); with a
@@ -432,8 +438,22 @@ class Model:
     def residuals(self, x: ArrayLike, data: Measurements) -> Array:
         """Residuals r(x), shape (..., M), m, for unknowns of shape (..., p)."""
         x = self._check(x)
-        return self.kind.residuals(self.measured(x, data), self._measurement_values(x), data,
-                                   self.rig)
+        values = self._measurement_values(x)
+        anchors = self.kind.distance_anchors(values, data, self.rig)
+        if anchors is None:
+            return self.kind.residuals(self.measured(x, data), values, data, self.rig)
+        return self.kind.from_distances(self._distances(x, data, anchors), values, data,
+                                        self.rig)
+
+    def _distances(self, x: Array, data: Measurements, anchors_m: Array) -> Array:
+        """The measured point's distance from each row's anchor, (..., m), m, for unknowns
+        (..., p) — the kind's distances (:meth:`twin.kinds.base.Kind.distance_anchors`) in one
+        pass of the chain (a swarm's candidates: no (..., m, 3) points)."""
+        point = self._point_m(x)
+        if self._row_groups:
+            return distances(self._place(x, data, point), anchors_m)
+        table, joints = self._kinematics(x, data)
+        return point_distances(self.robot.structure, table, joints, point, anchors_m)
 
     def jacobian(self, x: ArrayLike, data: Measurements) -> tuple[Array, Array]:
         """Residuals and their analytic Jacobian at one x.

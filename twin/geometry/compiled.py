@@ -166,6 +166,49 @@ def positions(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, st
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def anchored_distances(table: Array, plan: Array, cq: Array, sq: Array, slides: Array,
+                       start: Array, base: Array, anchors: Array) -> Array:
+    """The distance of the point from each row's anchor for K tables at m poses, the point
+    carried as :func:`positions` carries it and never stored: :func:`distances` of its
+    positions, bit for bit, without their (K, m, 3) array (a swarm's cable lengths: a third
+    less time than the two passes).
+
+    Args:
+        table, plan, cq, sq, slides, start, base: As :func:`positions`.
+        anchors: The anchor of each row, shape (1 or K, m, 3), m.
+
+    Returns:
+        Shape (K, m), m.
+    """
+    tables, m = table.shape[0], cq.shape[2]
+    out = np.empty((tables, m))
+    p = np.empty((3, m))
+    anchor = np.empty((3, m))
+    square = np.empty(m)
+    unused = np.empty((0, 3, m))
+    for k in range(tables):
+        kq, kp, ka = (min(k, cq.shape[1] - 1), min(k, start.shape[0] - 1),
+                      min(k, anchors.shape[0] - 1))
+        _carry(table, plan, cq, sq, slides, k, kq, start, kp, p, unused, False)
+        if k == 0 or anchors.shape[0] > 1:
+            # Coordinate-major, as p: the loops below vectorise over the poses, where reading
+            # the anchors in place and summing into out did not (slower than the two passes).
+            for i in range(m):
+                for row in range(3):
+                    anchor[row, i] = anchors[ka, i, row]
+        for i in range(m):
+            square[i] = 0.0
+        for row in range(3):  # the squares summed x, y, z, as distances() sums them
+            for i in range(m):
+                step = (base[row, 0] * p[0, i] + base[row, 1] * p[1, i]
+                        + base[row, 2] * p[2, i] + base[row, 3]) - anchor[row, i]
+                square[i] += step * step
+        for i in range(m):
+            out[k, i] = math.sqrt(square[i])
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def jacobian(table: Array, plan: Array, cq: Array, sq: Array, slides: Array, start: Array,
              base: Array, tool: Array, directions: Array, n_columns: int
              ) -> tuple[Array, Array, Array]:

@@ -370,6 +370,8 @@ def load_compiled() -> None:
         trace = trace_point(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)))
         trace.jacobian(np.ones((3, 1, 3)))
         distances(trace.position, np.zeros((3, 3)))
+        point_distances(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)), None,
+                        np.zeros((3, 3)))
 
 
 @cache
@@ -513,6 +515,36 @@ def distances(points_m: ArrayLike, anchors_m: ArrayLike) -> Array:
     out = compiled.distances(*(read_only(np.ascontiguousarray(array.reshape(
         -1, *points.shape[-2:]))) for array in (points, anchors)))
     return np.asarray(out.reshape(*batch, -1))
+
+
+def point_distances(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
+                    point_m: ArrayLike | None, anchors_m: ArrayLike) -> Array:
+    """The distance of a point fixed to the flange from each row's anchor (a cable's port).
+
+    Args:
+        structure, dh, q_rad, point_m: As :func:`point_position`.
+        anchors_m: The anchor of each pose, shape (m, 3) or the tables' (..., m, 3), m.
+
+    Returns:
+        Shape (..., m), m: :func:`distances` of :func:`point_position`, bit for bit; in one
+        pass of the compiled kernel where it is taken, without the points' (..., m, 3) array
+        (a swarm's candidates: :func:`twin.geometry.compiled.anchored_distances`).
+    """
+    dh = np.asarray(dh, dtype=np.float64)
+    angles = turns(q_rad)
+    _check_shapes(structure, dh, angles.q_rad)
+    anchors = np.asarray(anchors_m, dtype=np.float64)
+    compiled = _compiled()
+    inputs = None if compiled is None else _compiled_inputs(structure, dh, angles, point_m)
+    m = angles.q_rad.shape[-2]
+    if inputs is None or anchors.shape[-2:] != (m, 3) \
+            or anchors.shape[:-2] not in ((), inputs.batch):
+        return distances(point_position(structure, dh, angles, point_m), anchors)
+    out = compiled.anchored_distances(
+        inputs.table, _plan_rows(structure.parametrisation, structure.joint_types), inputs.cos,
+        inputs.sin, inputs.slides, inputs.start, inputs.base,
+        read_only(np.ascontiguousarray(anchors.reshape(-1, m, 3))))
+    return np.asarray(out.reshape(*inputs.batch, m))
 
 
 _Moved = tuple[int, int, bool, Array, Array]

@@ -241,6 +241,22 @@ class Kind(ABC):
         on the template's rows (:meth:`template`): the data the model fits exactly (for
         identifiability on synthetic poses, and for tests)."""
 
+    def distance_anchors(self, values: Mapping[str, Array], data: Measurements, rig: Rig
+                         ) -> Array | None:
+        """Where each row's reading is the distance of the measured point from an anchor and
+        its residual a function of that distance alone (:meth:`from_distances`): the anchors,
+        shape (m, 3) or (..., m, 3) with the values (..., p_g), m — the model then computes the
+        distances in one pass of the chain, never the points. None (the default): the
+        residuals need the points (:meth:`residuals`)."""
+        return None
+
+    def from_distances(self, distance_m: Array, values: Mapping[str, Array],
+                       data: Measurements, rig: Rig) -> Array:
+        """The residuals (..., M) from the measured point's distances (..., m) from the rows'
+        anchors (:meth:`distance_anchors`); :meth:`residuals` alike, for a kind that has
+        anchors."""
+        raise NotImplementedError(f"{self.name} readings are not distances from anchors")
+
     def symmetries(self, model: Model, x: Array) -> Array:
         """Directions of x (p, g) along which the kind's cost is exactly flat although its
         linearised rows are not (they move the residuals only by rotating or scaling them):

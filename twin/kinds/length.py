@@ -236,7 +236,18 @@ class Length(Kind):
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = (1 + scale) · ‖p − port‖ + offset − L, shape (..., m), m."""
-        length = distances(at.position_m, self._ports(values, data, rig))
+        return self.from_distances(distances(at.position_m, self._ports(values, data, rig)),
+                                   values, data, rig)
+
+    def distance_anchors(self, values: Mapping[str, Array], data: Measurements, rig: Rig
+                         ) -> Array:
+        """Each row's port, shape (m, 3) or (..., m, 3) with an estimated port, m."""
+        return self._ports(values, data, rig)
+
+    def from_distances(self, distance_m: Array, values: Mapping[str, Array],
+                       data: Measurements, rig: Rig) -> Array:
+        """r = (1 + scale) · ‖p − port‖ + offset − L from ‖p − port‖ (..., m), m."""
+        length = distance_m
         if "scale" in values:
             length = length * (1.0 + values["scale"][..., :1])
         if "offset" in values:
