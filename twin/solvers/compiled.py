@@ -31,9 +31,10 @@ from twin.arrays import Array
 def _slopes(t: Array, y: Array) -> Array:
     """The slopes s (n, p) of the not-a-knot cubic spline through (t_i, y_i), n ≥ 4."""
     n, p = y.shape
-    dx = t[1:] - t[:-1]
+    dx = np.empty(n - 1)
     slope = np.empty((n - 1, p))
     for i in range(n - 1):
+        dx[i] = t[i + 1] - t[i]
         for j in range(p):
             slope[i, j] = (y[i + 1, j] - y[i, j]) / dx[i]
     lower, diagonal, upper = np.zeros(n), np.empty(n), np.zeros(n)
@@ -119,6 +120,14 @@ def _chords(x: Array, rtol: float) -> tuple[Array, NDArray[np.intp]]:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _copy_row(source: Array, i: int, target: Array, k: int) -> None:
+    """target[k] = source[i], element by element: a row assignment costs numba seconds of
+    compiling (keep_best's took 8 of a fresh install's 36 s), a loop a tenth of that."""
+    for j in range(source.shape[1]):
+        target[k, j] = source[i, j]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def pso_candidates(x: Array, v: Array, best_x: Array, g_x: Array, r: Array, omega: float,
                    coefficients: Array, vmax: Array, lower: Array, upper: Array, at: Array,
                    rtol: float) -> tuple[Array, bool]:
@@ -154,7 +163,10 @@ def pso_candidates(x: Array, v: Array, best_x: Array, g_x: Array, r: Array, omeg
     t, kept = _chords(out[:n], rtol)
     if t.size < 4:
         return out, False
-    points = curve_points(t, out[:n][kept], at)
+    through = np.empty((kept.size, p))
+    for i in range(kept.size):
+        _copy_row(out, kept[i], through, i)
+    points = curve_points(t, through, at)
     for i in range(at.size):
         for j in range(p):
             out[n + i, j] = min(max(points[i, j], lower[j]), upper[j])
@@ -178,19 +190,21 @@ def keep_best(candidates: Array, f: Array, chosen: NDArray[np.intp], x: Array, b
     for c in chosen:
         if c < n:
             survives[c] = True
-    fx = f[:n].copy()
-    x[:] = candidates[:n]
+    fx = np.empty(n)
+    for i in range(n):
+        fx[i] = f[i]
+        _copy_row(candidates, i, x, i)
     slot = 0
     for c in chosen:  # newcomers, best first, take the freed slots in index order
         if c >= n:
             while survives[slot]:
                 slot += 1
-            x[slot] = candidates[c]
+            _copy_row(candidates, c, x, slot)
             fx[slot] = f[c]
             slot += 1
     for i in range(n):
         if fx[i] < best_f[i]:
-            best_x[i] = x[i]
+            _copy_row(x, i, best_x, i)
             best_f[i] = fx[i]
 
 
@@ -211,9 +225,7 @@ def _free_minimiser(A: Array, gradient: Array, h: Array, free: NDArray[np.bool_]
         rhs[a] = -total
         for b in range(k):
             system[a, b] = A[row, index[b]]
-    z = np.empty(k)
-    z[:] = np.linalg.solve(system, rhs)
-    return z
+    return np.asarray(np.linalg.solve(system, rhs), dtype=np.float64)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -246,7 +258,10 @@ def box_step(A: Array, gradient: Array, low: Array, high: Array, rtol: float) ->
         if not out:
             break
     for _ in range(p):
-        push = (A @ h + gradient) * side  # > 0 where the bound holds against descent
+        pulled = A @ h
+        push = np.empty(p)
+        for j in range(p):  # > 0 where the bound holds against descent
+            push[j] = (pulled[j] + gradient[j]) * side[j]
         k = int(np.argmax(push))
         size = abs(gradient[k])
         for j in range(p):
@@ -254,29 +269,37 @@ def box_step(A: Array, gradient: Array, low: Array, high: Array, rtol: float) ->
         if push[k] <= rtol * size:
             break
         side[k] = 0
-        while (side == 0).any():
+        while True:
             free = side == 0
+            if not free.any():
+                break
             index = np.nonzero(free)[0]
             z = _free_minimiser(A, gradient, h, free)
-            now = h[index]
-            fraction = np.full(index.size, np.inf)
+            now = np.empty(index.size)
+            fraction = np.empty(index.size)
             blocked = False
             for a in range(index.size):
                 i = index[a]
+                now[a] = h[i]
+                fraction[a] = np.inf
                 if z[a] < low[i] or z[a] > high[i]:
                     limit = low[i] if z[a] < low[i] else high[i]
                     fraction[a] = (limit - now[a]) / (z[a] - now[a])
                     blocked = True
             if not blocked:
-                h[index] = z
+                for a in range(index.size):
+                    h[index[a]] = z[a]
                 break
             first = int(np.argmin(fraction))
             i = index[first]
             below = z[first] < low[i]
-            h[index] = now + fraction[first] * (z - now)
+            for a in range(index.size):
+                h[index[a]] = now[a] + fraction[first] * (z[a] - now[a])
             h[i] = low[i] if below else high[i]
             side[i] = -1 if below else 1
-    return np.minimum(np.maximum(h, low), high)
+    for j in range(p):
+        h[j] = min(max(h[j], low[j]), high[j])
+    return h
 
 
 def load() -> None:
