@@ -339,7 +339,8 @@ def test_a_run_leaves_the_commands_kernel_as_it_was(tmp_path: Path,
 def test_a_slow_first_trial_is_said_to_load_the_kernels(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """While a run's first trial takes long in the command's process (numba compiling the
-    kernels after an install: 15 s on 2 cores, the bar standing still), a line says why."""
+    kernels after an install: half a minute on 2 cores, the bar standing still), a line says
+    why."""
     from twin.geometry.kinematics import bulk_work
     from twin.study import runner
 

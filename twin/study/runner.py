@@ -37,7 +37,7 @@ LOADING_NOTE_S = 3.0
 """A run's first trial that takes longer than this (0.4 s from numba's cache) is said to be
 loading the compiled kernels."""
 LOADING_NOTE = ("the first trial loads the compiled kernels; after an install numba compiles "
-                "them first, once (15 s on 2 cores)")
+                "them first, once (about half a minute on 2 cores)")
 
 
 def open_store(plan: StudyPlan, folder: str | Path) -> StudyStore:
