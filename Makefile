@@ -5,8 +5,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 3 min 11 s to 3 min 45 s of pytest, 5 min 22 s to 6 min 15 s from a fresh clone (venv, install, mypy and the bytecode included)
-TEST_FAST_TIME := 42 s to 46 s, about 1.3 CPU-minutes; a fresh clone's first run also compiles numba's kernels
+TEST_TIME := 3 min 11 s to 4 min 17 s of pytest, 5 min 22 s to 6 min 45 s from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_FAST_TIME := 42 s to 58 s, 1.3 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
 
@@ -48,6 +48,10 @@ lint: $(VENV)/.installed-dev
 # 2-core AMD EPYC VM took about 3 min 20 s and 52 s on the suite of some commits before. Three
 # workers on those 2 cores took 4 min 40 s and 4 min 37 s against two's 4 min 52 s and 3 min 56 s
 # (alternating, 13:13-13:34): no gain beyond the hour's drift; kept at 2, a worker per core.
+# Later on 2026-12-03 (1352 tests): 3:36 and 3:43 at 16:45-17:00; at a slow hour, 4:17 at 17:40 and a
+# fresh clone's 4:12 (6:45 in all) at 17:50, when the commit this day's work started from took
+# 4:37 beside the new one's 4:07 (460 and 437 CPU-s): the VM's hour, not the commits;
+# test-fast 58 s (110 CPU-s) at 18:00.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
