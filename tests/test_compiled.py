@@ -38,6 +38,14 @@ def _rigid(rng: np.random.Generator) -> np.ndarray:
     return transform
 
 
+def _mixed(rng: np.random.Generator) -> Structure:
+    """A chain of 4 to MAX_JOINTS joints of random parametrisations and types, with a base and
+    a tool transform."""
+    n = int(rng.integers(4, MAX_JOINTS + 1))
+    return Structure(tuple(rng.choice(PARAMETRISATIONS, n)), base=_rigid(rng), tool=_rigid(rng),
+                     joint_types=tuple(rng.choice(JOINT_TYPES, n)))
+
+
 def _both(monkeypatch: pytest.MonkeyPatch, compute):  # type: ignore[no-untyped-def]
     """compute() on the compiled kernel, then on the numpy path."""
     monkeypatch.setenv(KERNEL_VARIABLE, "numba")
@@ -77,9 +85,8 @@ def test_positions_and_jacobians_equal_the_numpy_path(seed: int,
     and a batch of tables, a point per table, joints shifted per table, directions per pose or
     the base axes."""
     rng = np.random.default_rng(seed)
-    n = int(rng.integers(4, MAX_JOINTS + 1))
-    structure = Structure(tuple(rng.choice(PARAMETRISATIONS, n)), base=_rigid(rng),
-                          tool=_rigid(rng), joint_types=tuple(rng.choice(JOINT_TYPES, n)))
+    structure = _mixed(rng)
+    n = structure.n_joints
     m, k = 40, 5
     q = rng.uniform(-3, 3, (m, n))
     table = rng.normal(scale=0.3, size=(4, n))
@@ -199,9 +206,8 @@ def test_point_distances_are_the_distances_of_the_points(
     distances of the points bit for bit, on either path: mixed parametrisations and joint
     types, base and tool, a point per table, a batch of tables and one."""
     rng = np.random.default_rng(seed)
-    n = int(rng.integers(4, MAX_JOINTS + 1))
-    structure = Structure(tuple(rng.choice(PARAMETRISATIONS, n)), base=_rigid(rng),
-                          tool=_rigid(rng), joint_types=tuple(rng.choice(JOINT_TYPES, n)))
+    structure = _mixed(rng)
+    n = structure.n_joints
     m, k = 30, 6
     q = rng.uniform(-3, 3, (m, n))
     tables = rng.normal(scale=0.3, size=(k, 4, n))
