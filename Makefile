@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 3 min 11 s to 4 min 17 s of pytest, 5 min 22 s to 6 min 45 s from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_TIME := 3 min 11 s to 4 min 43 s of pytest, 5 min 22 s to 7 min 51 s from a fresh clone (venv, install, mypy and the bytecode included)
 TEST_FAST_TIME := 42 s to 58 s, 1.3 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
@@ -51,7 +51,7 @@ lint: $(VENV)/.installed-dev
 # Later on 2026-12-03 (1352 tests): 3:36 and 3:43 at 16:45-17:00; at a slow hour, 4:17 at 17:40 and a
 # fresh clone's 4:12 (6:45 in all) at 17:50, when the commit this day's work started from took
 # 4:37 beside the new one's 4:07 (460 and 437 CPU-s): the VM's hour, not the commits;
-# test-fast 58 s (110 CPU-s) at 18:00.
+# test-fast 58 s (110 CPU-s) at 18:00; a fresh clone's 4:43 (7:51 in all) at 18:20.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
