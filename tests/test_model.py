@@ -108,7 +108,7 @@ def test_residuals_from_the_anchors_are_the_kinds_of_the_points(
     errors: tuple[str, ...], estimate: tuple[str, ...], kernel: str
 ) -> None:
     """A cable model's residuals, its lengths taken in one pass of the chain from the ports
-    (:meth:`twin.kinds.base.Kind.distance_anchors`), are the kind's residuals of the measured
+    (:meth:`twin.kinds.base.Kind.ranges`), are the kind's residuals of the measured
     points bit for bit, for one x and a batch, on either kernel: an estimated port, offset and
     scale; a table per row (thermal growth); joints turned by the model and a point off the
     flange."""

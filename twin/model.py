@@ -439,15 +439,14 @@ class Model:
         """Residuals r(x), shape (..., M), m, for unknowns of shape (..., p)."""
         x = self._check(x)
         values = self._measurement_values(x)
-        anchors = self.kind.distance_anchors(values, data, self.rig)
-        if anchors is None:
+        ranges = self.kind.ranges(values, data, self.rig)
+        if ranges is None:
             return self.kind.residuals(self.measured(x, data), values, data, self.rig)
-        return self.kind.from_distances(self._distances(x, data, anchors), values, data,
-                                        self.rig)
+        return ranges.residuals(self._distances(x, data, ranges.anchors_m))
 
     def _distances(self, x: Array, data: Measurements, anchors_m: Array) -> Array:
         """The measured point's distance from each row's anchor, (..., m), m, for unknowns
-        (..., p) — the kind's distances (:meth:`twin.kinds.base.Kind.distance_anchors`) in one
+        (..., p) — the kind's distances (:meth:`twin.kinds.base.Kind.ranges`) in one
         pass of the chain (a swarm's candidates: no (..., m, 3) points)."""
         point = self._point_m(x)
         if self._row_groups:

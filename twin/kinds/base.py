@@ -27,7 +27,7 @@ known distance between two fixed points, say).
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, Protocol
 
 import numpy as np
@@ -56,6 +56,16 @@ class Measured(NamedTuple):
     rotation: Array | None = None
     """The flange's orientation in the base frame, base_R_flange, shape (..., m, 3, 3); None
     unless the kind reads orientations (:attr:`Kind.reads_rotation`)."""
+
+
+class Ranges(NamedTuple):
+    """A kind's rows as distances from anchors (:meth:`Kind.ranges`)."""
+
+    anchors_m: Array
+    """The anchor of each row, shape (m, 3) or (..., m, 3) with the values (..., p_g), m."""
+    residuals: Callable[[Array], Array]
+    """The residuals (..., M) from the measured point's distances (..., m) from the anchors,
+    m: the kind's :meth:`Kind.residuals` alike."""
 
 
 class Noise(NamedTuple):
@@ -241,21 +251,13 @@ class Kind(ABC):
         on the template's rows (:meth:`template`): the data the model fits exactly (for
         identifiability on synthetic poses, and for tests)."""
 
-    def distance_anchors(self, values: Mapping[str, Array], data: Measurements, rig: Rig
-                         ) -> Array | None:
-        """Where each row's reading is the distance of the measured point from an anchor and
-        its residual a function of that distance alone (:meth:`from_distances`): the anchors,
-        shape (m, 3) or (..., m, 3) with the values (..., p_g), m — the model then computes the
-        distances in one pass of the chain, never the points. None (the default): the
-        residuals need the points (:meth:`residuals`)."""
+    def ranges(self, values: Mapping[str, Array], data: Measurements, rig: Rig
+               ) -> Ranges | None:
+        """Where each row reads the distance of the measured point from an anchor and its
+        residual follows from that distance alone: the anchors and how (:class:`Ranges`) — the
+        model then computes the distances in one pass of the chain, never the points. None (the
+        default): the residuals need the points (:meth:`residuals`)."""
         return None
-
-    def from_distances(self, distance_m: Array, values: Mapping[str, Array],
-                       data: Measurements, rig: Rig) -> Array:
-        """The residuals (..., M) from the measured point's distances (..., m) from the rows'
-        anchors (:meth:`distance_anchors`); :meth:`residuals` alike, for a kind that has
-        anchors."""
-        raise NotImplementedError(f"{self.name} readings are not distances from anchors")
 
     def symmetries(self, model: Model, x: Array) -> Array:
         """Directions of x (p, g) along which the kind's cost is exactly flat although its

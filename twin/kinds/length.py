@@ -40,6 +40,7 @@ from twin.kinds.base import (
     KindJacobian,
     Measured,
     Noise,
+    Ranges,
     UnitHint,
     mm_cells,
 )
@@ -236,16 +237,18 @@ class Length(Kind):
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """r = (1 + scale) · ‖p − port‖ + offset − L, shape (..., m), m."""
-        return self.from_distances(distances(at.position_m, self._ports(values, data, rig)),
-                                   values, data, rig)
+        return self._from_distances(distances(at.position_m, self._ports(values, data, rig)),
+                                    values, data)
 
-    def distance_anchors(self, values: Mapping[str, Array], data: Measurements, rig: Rig
-                         ) -> Array:
-        """Each row's port, shape (m, 3) or (..., m, 3) with an estimated port, m."""
-        return self._ports(values, data, rig)
+    def ranges(self, values: Mapping[str, Array], data: Measurements, rig: Rig) -> Ranges:
+        """Each row's port, shape (m, 3) or (..., m, 3) with an estimated port, m; the
+        residuals from the distances to them."""
+        return Ranges(self._ports(values, data, rig),
+                      lambda distance_m: self._from_distances(distance_m, values, data))
 
-    def from_distances(self, distance_m: Array, values: Mapping[str, Array],
-                       data: Measurements, rig: Rig) -> Array:
+    @staticmethod
+    def _from_distances(distance_m: Array, values: Mapping[str, Array], data: Measurements
+                        ) -> Array:
         """r = (1 + scale) · ‖p − port‖ + offset − L from ‖p − port‖ (..., m), m."""
         length = distance_m
         if "scale" in values:
