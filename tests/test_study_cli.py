@@ -42,7 +42,8 @@ def wait_for_more_than(out: Path, count: int, process: subprocess.Popen[bytes]) 
 def test_interrupted_and_killed_runs_resume_to_every_trial_once(tmp_path: Path) -> None:
     """Ctrl-C (SIGINT) stops a run with exit code 130; SIGKILL of the whole process group stops
     another mid-write if it must; the third run finishes the rest. Each trial then has one row
-    per method, the tables and figures are written, and the progress bar reached the total."""
+    per method, the tables and figures are written, and the progress bars (the trials', then
+    the figures') reached their totals."""
     methods = ", ".join(f'"{m}"' for m in METHODS)
     scenario = write_scenario(tmp_path, with_study(f"trials = {TRIALS}\nmethods = [{methods}]"))
     out = tmp_path / "out"
@@ -68,6 +69,9 @@ def test_interrupted_and_killed_runs_resume_to_every_trial_once(tmp_path: Path) 
     assert third.returncode == 0, third.stderr
     assert recorded(out) == {trial: len(METHODS) for trial in range(TRIALS)}
     assert f"{TRIALS}/{TRIALS} trials" in third.stderr
+    # The figures (a second each) come after the trials with a bar of their own.
+    assert third.stderr.index("0/4 figures") > third.stderr.index(f"{TRIALS}/{TRIALS} trials")
+    assert "4/4 figures" in third.stderr
     summary = (out / "summary.md").read_text()
     assert "Table 6 replica" in summary and "M9 (AMLM-BIPSO) is not in this study" in summary
     assert "Table 6 replica" in third.stdout

@@ -113,12 +113,13 @@ def run_study(plan: StudyPlan, folder: str | Path, executor: Executor, *,
     summary document."""
     with folder_lock(folder, "twin study"):
         return write_report(plan, run_trials(plan, folder, executor, stream=stream,
-                                             on_outcome=on_outcome))
+                                             on_outcome=on_outcome), stream=stream)
 
 
-def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True) -> dict[str, Any]:
+def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True,
+                 stream: TextIO | None = None) -> dict[str, Any]:
     """Write `summary.md`, `summary.json` and (unless ``figures`` is False) the figures from
-    what the folder holds."""
+    what the folder holds, their progress bar on ``stream`` (stderr by default)."""
     keys = plan.keys
     labels = [case.label for case in plan.cases]
     context = {"scenario": plan.cases[0].scenario.name, "source": str(plan.source),
@@ -127,8 +128,8 @@ def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True) ->
     document = summarize(store.rows(keys), plan.methods, labels, context)
     details = store.details(keys)
     by_case = {label: [d for d in details if d["case"] == label] for label in labels}
-    document["figures"] = write_figures(store.folder, document, by_case, plan.methods) \
-        if figures else []
+    document["figures"] = write_figures(store.folder, document, by_case, plan.methods,
+                                        stream) if figures else []
     write_summary(store.folder, document)
     return document
 
