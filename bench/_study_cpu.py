@@ -8,7 +8,9 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
 - MODE ``inprocess`` (SIZES one trial count): blocks of trials one after the other in this
   process, as stdin asks for them — a line ``FIRST COUNT`` runs trials FIRST … FIRST + COUNT − 1
   and prints ``{"cpu_s": …}``, their CPU per trial — until stdin closes. Two trees served in
-  turn, block by block, see the same drift of a shared machine's speed.
+  turn, block by block, see the same drift of a shared machine's speed. A line ``FIRST COUNT
+  stages`` (this tree only: it names this tree's functions, :data:`STAGES`) adds
+  ``"stages": {label: CPU per trial}``, what each stage of a trial took.
 - MODE one or more of ``local1``, ``local2``, ``dask1``, ``dask2``, separated by commas (SIZES
   trial counts separated by commas): for each executor in turn, a run of each size one after
   the other, as `twin study` runs trials, on that many local processes or Dask workers, the
@@ -17,19 +19,34 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
   and its workers. Local processes run before Dask's: their workers are forked from here,
   which is safe only before a Dask client has started its threads.
 
-Only the API that every compared commit has is used.
+Apart from the stages, only the API that every compared commit has is used.
 """
 
 from __future__ import annotations
 
+import importlib
 import io
 import json
 import resource
 import sys
 import tempfile
 import time
+from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+STAGES = {
+    "simulate": [("twin.study.trial", "simulate")],
+    "calibrate": [("twin.study.trial", "calibrate_many")],
+    "LM": [("twin.solvers.lm", "levenberg_marquardt")],
+    "hold": [("twin.calibration.pipeline", "hold_unseen")],
+    "identifiability": [("twin.calibration.pipeline", "measurement_identifiability")],
+    "bound": [("twin.study.trial", "cramer_rao_rms")],
+    "truth": [("twin.study.trial", "trial_truth"), ("twin.study.trial", "truth_errors")],
+}
+"""A trial's stages, each the functions whose CPU it is, where a trial reaches them: LM, the
+hold and the identifiability run inside calibrate."""
 
 
 def _run_cpu() -> float:
@@ -38,20 +55,50 @@ def _run_cpu() -> float:
     return usage.ru_utime + usage.ru_stime + time.process_time()
 
 
+def _timed(spent: Counter[str]) -> None:
+    """Wrap every function of :data:`STAGES` where a trial calls it, adding its CPU to
+    ``spent`` under its stage's label."""
+    for label, places in STAGES.items():
+        for module_name, name in places:
+            module = importlib.import_module(module_name)
+            setattr(module, name, _timer(getattr(module, name), label, spent))
+
+
+def _timer(function: Callable[..., Any], label: str, spent: Counter[str]
+           ) -> Callable[..., Any]:
+    def timed(*args: Any, **kwargs: Any) -> Any:
+        start = time.process_time()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            spent[label] += time.process_time() - start
+    return timed
+
+
 def in_process(plan: Any) -> None:
-    """Serve the blocks of trials stdin asks for, printing each block's CPU per trial, s."""
+    """Serve the blocks of trials stdin asks for, printing each block's CPU per trial, s (and
+    with ``stages``, each stage's)."""
     from twin.study.trial import TrialSpec, run_trial, workspace
 
     case = plan.cases[0]
     spec = TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
     space = workspace(spec)
+    spent: Counter[str] = Counter()
+    wrapped = False
     print(json.dumps({"ready": True}), flush=True)
     for line in sys.stdin:
-        first, count = (int(word) for word in line.split())
+        first, count, *stages = line.split()
+        if stages and not wrapped:
+            _timed(spent)
+            wrapped = True
+        spent.clear()
         start = time.process_time()
-        for trial in range(first, first + count):
+        for trial in range(int(first), int(first) + int(count)):
             run_trial(spec, case.label, trial, space)
-        print(json.dumps({"cpu_s": (time.process_time() - start) / count}), flush=True)
+        found: dict[str, Any] = {"cpu_s": (time.process_time() - start) / int(count)}
+        if stages:
+            found["stages"] = {label: spent[label] / int(count) for label in STAGES}
+        print(json.dumps(found), flush=True)
 
 
 def through_executor(plan: Any, trials: int, kind: str, workers: int) -> dict[str, Any]:

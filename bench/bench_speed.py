@@ -25,7 +25,9 @@ study worker is.
    ``_study_cpu.py`` in a process of their own, as this tree's are), the two processes running
    the same trials in turn, a few at a time. Goal: at most 1/5. The
    trials' results are the same to 1e-7 relative (iterative solvers carry the kernel's
-   round-off; the same iterations).
+   round-off; the same iterations). Then, where this tree's trial spends its CPU: the first
+   :data:`STAGE_TRIALS` trials again with each stage's functions timed
+   (``_study_cpu.STAGES``).
 5. **Study throughput**: as `twin study` runs trials, from a shell that does not pin BLAS:
    the CPU per trial of the run (the command's process and its workers) on 1 and 2 local
    processes, both trees (goal: at most 1/5), and
@@ -92,6 +94,8 @@ SPIN_TRIALS = 20
 """Runs of fewer trials than this are the smoke size's."""
 STUDY_BLOCK = 4
 """Trials per block of part 4, whose trees run block by block in turn."""
+STAGE_TRIALS = 20
+"""Trials part 4 runs again in this tree, each stage's CPU counted."""
 
 
 def _goal(label: str, ratio: float, goal: str, met: bool | None) -> None:
@@ -286,19 +290,42 @@ def study_cpu(trials: int, before: Path | None) -> None:
             _answer(*driver)  # ready: its warm-up trial has run
         for first in range(0, trials, STUDY_BLOCK):
             count = min(STUDY_BLOCK, trials - first)
-            for label, (process, errors) in drivers.items():
-                assert process.stdin is not None
-                process.stdin.write(f"{first} {count}\n")
-                process.stdin.flush()
-                cpu[label] += _answer(process, errors)["cpu_s"] * count / trials
+            for label, driver in drivers.items():
+                cpu[label] += _block(driver, f"{first} {count}")["cpu_s"] * count / trials
+        timed = min(trials, STAGE_TRIALS)
+        stages = _block(drivers["now"], f"0 {timed} stages")
     shown = ", ".join(f"{label} {value * 1e3:.1f} ms" for label, value in cpu.items())
     print(f"4. study, {GEOMETRIC.name} with LM, {trials} trials in one process, CPU per trial: "
           f"{shown} (the trees in turn, {STUDY_BLOCK} trials at a time)")
-    if before is None:
+    if before is not None:
+        ratio = cpu["now"] / cpu[BEFORE_COMMIT]
+        _goal(f"CPU per trial in one process / at {BEFORE_COMMIT}", ratio, "<= 0.2",
+              ratio <= 0.2)
+    else:
         print(f"  ({BEFORE_COMMIT} is not in this checkout: nothing to compare with)")
-        return
-    ratio = cpu["now"] / cpu[BEFORE_COMMIT]
-    _goal(f"CPU per trial in one process / at {BEFORE_COMMIT}", ratio, "<= 0.2", ratio <= 0.2)
+    print(f"  where a trial's CPU goes now ({timed} trial(s) again, their stages timed, "
+          f"{stages['cpu_s'] * 1e3:.1f} ms a trial): {_stages(stages)}")
+
+
+def _block(driver: tuple[subprocess.Popen[str], IO[str]], line: str) -> dict[str, Any]:
+    """A driver's answer to a block of trials (:data:`DRIVER`'s ``inprocess`` mode)."""
+    process, errors = driver
+    assert process.stdin is not None
+    process.stdin.write(line + "\n")
+    process.stdin.flush()
+    return _answer(process, errors)
+
+
+def _stages(found: dict[str, Any]) -> str:
+    """A trial's stages as shares of its CPU: LM, the hold and the identifiability within
+    calibrate, what no stage counts as the rest."""
+    total, spent = found["cpu_s"], found["stages"]
+    share = {label: f"{label} {100 * value / total:.0f} %" for label, value in spent.items()}
+    inside = ("LM", "hold", "identifiability")
+    rest = total - sum(value for label, value in spent.items() if label not in inside)
+    return (f"{share['simulate']}, {share['calibrate']} (of it "
+            + ", ".join(share[label] for label in inside) + "), "
+            + f"{share['bound']}, {share['truth']}, the rest {100 * rest / total:.0f} %")
 
 
 def _local_cpu(trials: int, before: Path | None, runs: dict[str, list[dict[str, Any]]]
