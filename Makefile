@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 3 min 11 s to 4 min 43 s of pytest, 5 min 22 s to 7 min 51 s from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_TIME := 2 min 15 s to 4 min 45 s of pytest, 3 min 45 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
 TEST_FAST_TIME := 42 s to 58 s, 1.3 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
@@ -52,6 +52,9 @@ lint: $(VENV)/.installed-dev
 # fresh clone's 4:12 (6:45 in all) at 17:50, when the commit this day's work started from took
 # 4:37 beside the new one's 4:07 (460 and 437 CPU-s): the VM's hour, not the commits;
 # test-fast 58 s (110 CPU-s) at 18:00; a fresh clone's 4:43 (7:51 in all) at 18:20.
+# In the evening (1352 tests): fresh clones' 3:13 (5:26 in all) at 19:24, 2:34 (4:19) at 19:38
+# and 2:20 (3:47, .ci/run) at 19:42, 2:17 (3:59) at 19:47; in a worktree 4:02, 4:19 and 3:54 at
+# 18:38-19:17; test-fast 45 s at 19:12. TEST_TIME's bounds are those measured, rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
