@@ -87,17 +87,18 @@ def in_process(plan: Any) -> None:
     wrapped = False
     print(json.dumps({"ready": True}), flush=True)
     for line in sys.stdin:
-        first, count, *stages = line.split()
+        words = line.split()
+        first, count, stages = int(words[0]), int(words[1]), words[2:] == ["stages"]
         if stages and not wrapped:
             _timed(spent)
             wrapped = True
         spent.clear()
         start = time.process_time()
-        for trial in range(int(first), int(first) + int(count)):
+        for trial in range(first, first + count):
             run_trial(spec, case.label, trial, space)
-        found: dict[str, Any] = {"cpu_s": (time.process_time() - start) / int(count)}
+        found: dict[str, Any] = {"cpu_s": (time.process_time() - start) / count}
         if stages:
-            found["stages"] = {label: spent[label] / int(count) for label in STAGES}
+            found["stages"] = {label: spent[label] / count for label in STAGES}
         print(json.dumps(found), flush=True)
 
 
