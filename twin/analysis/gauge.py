@@ -43,12 +43,11 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
 
 from twin.analysis.linearisation import chain_jacobian
 from twin.arrays import Array
 from twin.geometry.kinematics import flange_transform
+from twin.geometry.rigid import exp_rotation
 from twin.model import Model
 
 MOVES_RTOL = 1e-6
@@ -282,13 +281,13 @@ def _moved(gauge: Gauge, parameters: Array) -> Array:
             scale = value
         else:
             flange_shift += value * np.asarray(motion.direction)
-    turned = (points - origin) @ Rotation.from_rotvec(rotation_vector).as_matrix().T
+    turned = (points - origin) @ exp_rotation(rotation_vector).T
     moved = origin + (1.0 + scale) * turned + shift
     if gauge.flange_rotations is not None:
         moved = moved + gauge.flange_rotations @ flange_shift
     if gauge.port_m is not None and np.any(about_port):
         port = gauge.port_m
-        moved = port + (moved - port) @ Rotation.from_rotvec(about_port).as_matrix().T
+        moved = port + (moved - port) @ exp_rotation(about_port).T
     linear = gauge.unnamed @ parameters[len(gauge.motions):]
     return moved + linear.reshape(points.shape)
 
@@ -308,6 +307,8 @@ def gauge_free_rms(gauge: Gauge, true_points_m: ArrayLike) -> float:
 
     def distances(parameters: Array) -> Array:
         return np.asarray((_moved(gauge, parameters) - truth).ravel(), dtype=np.float64)
+
+    from scipy.optimize import least_squares  # 0.15 s to import: only where a truth is known
 
     best = least_squares(distances, np.zeros(count), method="lm", xtol=1e-15, ftol=1e-15)
     difference = distances(best.x)

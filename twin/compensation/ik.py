@@ -26,10 +26,10 @@ from typing import NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 from twin.geometry.kinematics import flange_jacobian
+from twin.geometry.rigid import log_rotation
 from twin.robot import RobotModel
 
 _T = TypeVar("_T", bound=np.generic)
@@ -127,9 +127,7 @@ def _errors(
     error = base_p_target - base_T_flange[:, :3, 3]
     if base_R_target is None:
         return error, jacobian[:, :3, :]
-    rotation = Rotation.from_matrix(
-        base_R_target @ np.swapaxes(base_T_flange[:, :3, :3], -1, -2)
-    ).as_rotvec()
+    rotation = log_rotation(base_R_target @ np.swapaxes(base_T_flange[:, :3, :3], -1, -2))
     return np.concatenate([error, rotation], axis=-1), jacobian
 
 

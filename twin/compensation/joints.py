@@ -30,12 +30,12 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 from twin.compensation.ik import FULL_POSE_JOINTS, IKResult, nominal_ik, solve_ik
 from twin.compensation.targets import MIN_DEXTERITY, dexterity
 from twin.dataset import approach_directions
+from twin.geometry.rigid import rotation_angle
 from twin.model import Model
 from twin.robot import RobotModel
 from twin.unknowns import Stage
@@ -96,9 +96,8 @@ def compensate_program(
         solved = solve_ik(identified, target, q, joints=joints)
         actual = solved.q_rad if joints is None else joints(solved.q_rad, np.arange(len(q)))
         reached = identified.flange_transforms(actual)[:, :3, :3]
-        left = Rotation.from_matrix(base_T_target[:, :3, :3] @ np.swapaxes(reached, -1, -2))
-        solved = solved._replace(rotation_error_rad=np.asarray(left.magnitude(),
-                                                               dtype=np.float64))
+        left = base_T_target[:, :3, :3] @ np.swapaxes(reached, -1, -2)
+        solved = solved._replace(rotation_error_rad=rotation_angle(left))
     # A correction that fits the limits only a whole turn away from the programmed angle (a
     # UR joint at 359.4° corrected past its 360° limit, wrapped to 0.2°) would spin the joint a
     # turn on the way: the row is at its joint limit, not corrected.

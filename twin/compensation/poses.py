@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
+from twin.geometry.rigid import quaternion_rotation, rotation_quaternion
 from twin.robot import RobotModel
 
 TOOL0_LINK = "tool0"
@@ -53,7 +53,7 @@ def pose_matrices(translation_m: ArrayLike, quaternion_wxyz: ArrayLike) -> Array
         raise ValueError(f"quaternion of norm {norm[np.argmax(np.abs(norm - 1.0))]:.6g}, "
                          f"expected a unit quaternion (within {QUATERNION_TOLERANCE:g})")
     poses = np.tile(np.eye(4), (len(p), 1, 1))
-    poses[:, :3, :3] = Rotation.from_quat(quaternion, scalar_first=True).as_matrix()
+    poses[:, :3, :3] = quaternion_rotation(quaternion)
     poses[:, :3, 3] = p
     return poses
 
@@ -63,19 +63,12 @@ def pose_quaternions(poses: ArrayLike, near_wxyz: ArrayLike | None = None) -> tu
     quaternion's sign is the one nearer ``near_wxyz`` (m, 4) when given (q and −q are the same
     turn: a rewritten target keeps its sign), else with qw ≥ 0."""
     matrices = np.asarray(poses, dtype=np.float64).reshape(-1, 4, 4)
-    quaternion = Rotation.from_matrix(matrices[:, :3, :3]).as_quat(scalar_first=True)
+    quaternion = rotation_quaternion(matrices[:, :3, :3])
     reference = np.tile([1.0, 0.0, 0.0, 0.0], (len(quaternion), 1)) if near_wxyz is None \
         else np.asarray(near_wxyz, dtype=np.float64).reshape(-1, 4)
     flip = np.sum(quaternion * reference, axis=-1) < 0
     quaternion[flip] *= -1.0
     return matrices[:, :3, 3].copy(), quaternion
-
-
-def euler_xyz_matrices(angles_rad: ArrayLike) -> Array:
-    """Rotations (m, 3, 3) of fixed-axis x-y-z angles (m, 3): R = Rz(rz) · Ry(ry) · Rx(rx), the
-    URDF's roll–pitch–yaw and RobotStudio's orientation (its Euler ZYX)."""
-    return np.asarray(Rotation.from_euler("xyz", np.asarray(angles_rad, dtype=np.float64)
-                                          .reshape(-1, 3)).as_matrix())
 
 
 def flange_targets(wobj_T_tcp: ArrayLike, base_T_wobj: ArrayLike, tool0_T_tcp: ArrayLike,

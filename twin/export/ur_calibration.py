@@ -41,12 +41,12 @@ import xml.etree.ElementTree as ET
 from typing import Any, NamedTuple
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 from twin.errors import InputError
 from twin.export.urdf import joint_origins
 from twin.geometry.kinematics import rigid_transform, xyz_rpy
+from twin.geometry.rigid import log_rotation
 from twin.io.urdf_reader import find_chain
 from twin.report.display import AS_GIVEN, mm_values, plain
 from twin.robot import RobotModel
@@ -142,7 +142,7 @@ def ur_origins(robot: RobotModel) -> UrOrigins:
 
 def _warn_remainder(remainder: Array) -> None:
     shift = remainder[:3, 3]
-    turn = Rotation.from_matrix(remainder[:3, :3]).as_rotvec()
+    turn = log_rotation(remainder[:3, :3])
     if max(float(np.abs(shift).max()), float(np.abs(turn).max())) <= NEGLIGIBLE_M:
         return
     warnings.warn("the calibration moves tool0 off the last axis, which UR's file cannot hold "

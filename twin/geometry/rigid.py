@@ -1,6 +1,10 @@
 """Rigid transforms of 3-D points: rotations from three angles, their derivatives, and the
-rigid fit of one point set onto another (Kabsch); rotation vectors (Exp and Log of SO(3), with
-scipy's ``Rotation``) and the Jacobians that carry small turns through them.
+rigid fit of one point set onto another (Kabsch); rotation vectors (Exp and Log of SO(3)) and
+quaternions, with scipy's ``Rotation``, and the Jacobians that carry small turns through them.
+
+Every conversion through scipy's ``Rotation`` is here, and imports it when it runs: importing
+``scipy.spatial`` costs about 0.3 s (with the sparse matrices and the trees it loads), a third
+of a `twin calibrate` that never turns a rotation vector.
 
 Angles ``(rx, ry, rz)`` compose as ``R = Rz(rz) · Ry(ry) · Rx(rx)`` (rotations about the fixed
 x, then y, then z axes). They parametrise small corrections of a frame that is already close
@@ -13,7 +17,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array
 
@@ -116,6 +119,8 @@ def skew(vectors: ArrayLike) -> Array:
 def exp_rotation(vectors_rad: ArrayLike) -> Array:
     """The rotations Exp(φ) of rotation vectors (..., 3), rad (axis times angle): shape
     (..., 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
     v = np.array(vectors_rad, dtype=np.float64)  # a copy: scipy refuses read-only buffers
     return np.asarray(Rotation.from_rotvec(v.reshape(-1, 3)).as_matrix()
                       .reshape(*v.shape[:-1], 3, 3), dtype=np.float64)
@@ -124,9 +129,40 @@ def exp_rotation(vectors_rad: ArrayLike) -> Array:
 def log_rotation(matrices: ArrayLike) -> Array:
     """The rotation vectors Log(R) of rotations (..., 3, 3): shape (..., 3), rad, each of angle
     at most π."""
+    from scipy.spatial.transform import Rotation
+
     r = np.array(matrices, dtype=np.float64)  # a copy: scipy refuses read-only buffers
     return np.asarray(Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec()
                       .reshape(*r.shape[:-2], 3), dtype=np.float64)
+
+
+def rotation_angle(matrices: ArrayLike) -> Array:
+    """The angle of each rotation (..., 3, 3), rad in [0, π]: shape (...)."""
+    from scipy.spatial.transform import Rotation
+
+    r = np.array(matrices, dtype=np.float64)  # a copy: scipy refuses read-only buffers
+    return np.asarray(Rotation.from_matrix(r.reshape(-1, 3, 3)).magnitude()
+                      .reshape(r.shape[:-2]), dtype=np.float64)
+
+
+def quaternion_rotation(quaternions_wxyz: ArrayLike) -> Array:
+    """The rotations of quaternions (..., 4), scalar first (normalised first): shape
+    (..., 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
+    q = np.array(quaternions_wxyz, dtype=np.float64)
+    return np.asarray(Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix()
+                      .reshape(*q.shape[:-1], 3, 3), dtype=np.float64)
+
+
+def rotation_quaternion(matrices: ArrayLike) -> Array:
+    """Unit quaternions (..., 4), scalar first, of rotations (..., 3, 3); each of the two signs
+    of a turn is as scipy gives it (the caller picks one)."""
+    from scipy.spatial.transform import Rotation
+
+    r = np.array(matrices, dtype=np.float64)
+    return np.asarray(Rotation.from_matrix(r.reshape(-1, 3, 3)).as_quat(scalar_first=True)
+                      .reshape(*r.shape[:-2], 4), dtype=np.float64)
 
 
 SMALL_ANGLE_RAD = 1e-6

@@ -94,7 +94,8 @@ def load_pose_targets(path: str | Path, *, stdin: bool = False) -> PoseTargets:
         InputError: naming the line of a target farther than any arm reaches, a quaternion that
             is not a unit one, a configuration that is not integers, or both orientations.
     """
-    from twin.compensation.poses import QUATERNION_TOLERANCE, euler_xyz_matrices, pose_matrices
+    from twin.compensation.poses import QUATERNION_TOLERANCE, pose_matrices
+    from twin.geometry.rigid import rotation as euler_rotation
     from twin.io.measurements import read_columns
 
     what = ("a target CSV (x,y,z in mm; optional qw,qx,qy,qz or rx,ry,rz in degrees; optional "
@@ -121,7 +122,7 @@ def load_pose_targets(path: str | Path, *, stdin: bool = False) -> PoseTargets:
                              where=f"line {table.lines[row]}")
         rotation = pose_matrices(np.zeros((len(quaternion), 3)), quaternion)[:, :3, :3]
     elif angles is not None:
-        rotation = euler_xyz_matrices(np.deg2rad(angles))
+        rotation = euler_rotation(np.deg2rad(angles))
     if conf is not None and np.any(np.abs(conf - np.round(conf)) > INTEGER_TOLERANCE):
         row = int(np.argmax(np.any(np.abs(conf - np.round(conf)) > INTEGER_TOLERANCE, axis=1)))
         raise InputError(f"configuration {conf[row].tolist()}", "integers cf1,cf4,cf6,cfx",

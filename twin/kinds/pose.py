@@ -35,7 +35,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from twin.arrays import Array, frozen_array
 from twin.choices import DEFAULT_SIGMA_DEG, DEFAULT_SIGMA_MM
@@ -47,9 +46,11 @@ from twin.geometry.rigid import (
     left_jacobian_inverse,
     log_rotation,
     mean_rotation,
+    quaternion_rotation,
     right_jacobian,
     rotation,
     rotation_derivatives,
+    rotation_quaternion,
 )
 from twin.kinds.base import MARK_RADIUS_M, Canvas, Kind, KindJacobian, Measured, Noise, mm_cells
 from twin.kinds.bench import (
@@ -295,7 +296,7 @@ class Pose(Kind):
             raise InputError(f"a quaternion of norm {norm[off[0]]:.6g}",
                              f"a unit quaternion qw,qx,qy,qz (within {QUATERNION_TOL:g})",
                              where=f"line {lines[off[0]]}")
-        turn = Rotation.from_quat(quaternion, scalar_first=True).as_matrix()
+        turn = quaternion_rotation(quaternion)
         return pose_measurements(q_rad, read_xyz_mm(numbers, lines), turn, approach=approach)
 
     def to_columns(self, data: Measurements) -> list[tuple[str, list[str]]]:
@@ -381,7 +382,7 @@ def _vee(skew_matrix: Array) -> Array:
 
 def _quaternions(rotations: Array) -> Array:
     """Unit quaternions (m, 4), scalar first and not negative, of rotations (m, 3, 3)."""
-    quaternion = Rotation.from_matrix(np.array(rotations)).as_quat(scalar_first=True)
+    quaternion = rotation_quaternion(rotations)
     return np.where(quaternion[:, :1] < 0, -quaternion, quaternion)
 
 
