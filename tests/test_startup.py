@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -17,9 +18,10 @@ HEAVY = sorted({"numpy", "scipy", "matplotlib", "ssl", *EXTRAS})
 pulls in: 48 ms of twin --version when the RWS protocol module imported xml.sax.saxutils)."""
 
 
-def _loaded_after(calls: list[list[str]]) -> dict[str, list[str]]:
-    """Run ``twin.cli.main`` on each argument list, each in a fresh interpreter; the heavy
-    libraries each left in ``sys.modules``."""
+def _loaded_after(calls: list[list[str]], libraries: list[str] = HEAVY
+                  ) -> dict[str, list[str]]:
+    """Run ``twin.cli.main`` on each argument list, each in a fresh interpreter; which of
+    ``libraries`` (the heavy ones by default) each left in ``sys.modules``."""
     found = {}
     for argv in calls:
         code = ("import contextlib, io, json, sys\n"
@@ -30,7 +32,7 @@ def _loaded_after(calls: list[list[str]]) -> dict[str, list[str]]:
                 f"        main({argv!r})\n"
                 "    except SystemExit:\n"
                 "        pass\n"
-                f"print(json.dumps(sorted(m for m in {HEAVY!r} if m in sys.modules)))")
+                f"print(json.dumps(sorted(m for m in {libraries!r} if m in sys.modules)))")
         done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                               check=True)
         found[" ".join(argv)] = json.loads(done.stdout)
@@ -67,3 +69,17 @@ def test_the_package_is_lazy_and_its_names_resolve() -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
     assert done.stdout.split() == ["False", "True", "twin.calibration.pipeline"]
+
+
+@pytest.mark.slow
+def test_a_calibration_loads_no_scipy_it_does_not_run(tmp_path: Path) -> None:
+    """The README's `twin calibrate` (LM, its checks and report) runs scipy's linear algebra
+    and special functions, but never turns a rotation vector through ``scipy.spatial`` nor
+    fits through ``scipy.optimize``: those load only where they run (a third of the command's
+    0.8 s when they loaded with the modules that use them)."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "irb120_lm"
+    loaded = _loaded_after([["calibrate", str(example / "measurements.csv"), "--port",
+                             "600,-400,100", "--json", str(tmp_path / "result.json")]],
+                           ["scipy.linalg", "scipy.optimize", "scipy.spatial"])
+    assert (tmp_path / "result.json").is_file()
+    assert next(iter(loaded.values())) == ["scipy.linalg"]
