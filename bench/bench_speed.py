@@ -6,7 +6,8 @@ mean nothing. BLAS is pinned to one thread in this process (set before numpy loa
 study worker is.
 
 1. **Start-up**: ``twin --version`` against ``python -c "import numpy"``, median wall time of
-   repeated runs. Goal: at most 2×.
+   repeated runs. Goal: at most 2×. Beside it, a whole command: the README's ``twin
+   calibrate`` of ``examples/irb120_lm`` (LM, the checks and the report), against the same.
 2. **The hot kernel**: residuals and their 24-column D-H Jacobian at 96 poses of the IRB 120,
    evaluations per CPU-second of :meth:`twin.model.Model.jacobian` — on the numpy path a single
    command takes, and on the compiled kernel a study's workers take (extra ``fast``;
@@ -77,6 +78,9 @@ from twin.solvers import get_solver  # noqa: E402
 from twin.units import mm_to_m  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
+EXAMPLE = ("calibrate", str(ROOT / "examples" / "irb120_lm" / "measurements.csv"), "--port",
+           "600,-400,100")
+"""The README's first command (its ``--json`` output goes to a temporary folder)."""
 GEOMETRIC = ROOT / "scenarios" / "geometric_irb120.toml"
 PAPER = ROOT / "scenarios" / "paper_irb120.toml"
 PORT_M = mm_to_m([600.0, -400.0, 100.0])
@@ -104,7 +108,8 @@ def _goal(label: str, ratio: float, goal: str, met: bool | None) -> None:
 
 
 def startup(repeats: int) -> None:
-    """`twin --version` vs `python -c "import numpy"`, median wall time."""
+    """`twin --version` and the README's `twin calibrate` vs `python -c "import numpy"`,
+    median wall time."""
     twin = [sys.executable, "-m", "twin", "--version"]
     numpy_only = [sys.executable, "-c", "import numpy"]
 
@@ -114,14 +119,22 @@ def startup(repeats: int) -> None:
     # The first run writes the bytecode of twin's modules, as a user's first run (or pip's
     # install) does; a shell with PYTHONDONTWRITEBYTECODE set would have every run compile
     # them again (about 55 ms of each run here), which no install does and numpy never pays.
-    run(twin, {name: value for name, value in os.environ.items()
-               if name != "PYTHONDONTWRITEBYTECODE"})()
-    run(numpy_only)()
-    twin_s, _ = median_time(run(twin), repeats)
-    numpy_s, _ = median_time(run(numpy_only), repeats)
+    writes = {name: value for name, value in os.environ.items()
+              if name != "PYTHONDONTWRITEBYTECODE"}
+    with tempfile.TemporaryDirectory() as folder:
+        calibrate = [*twin[:-1], *EXAMPLE, "--json", str(Path(folder) / "result.json")]
+        run(twin, writes)()
+        run(calibrate, writes)()
+        run(numpy_only)()
+        twin_s, _ = median_time(run(twin), repeats)
+        numpy_s, _ = median_time(run(numpy_only), repeats)
+        command_s, _ = median_time(run(calibrate), repeats)
     print(f"1. start-up, median of {repeats}: twin --version {twin_s * 1e3:.0f} ms, "
-          f"import numpy {numpy_s * 1e3:.0f} ms")
+          f"import numpy {numpy_s * 1e3:.0f} ms; twin {EXAMPLE[0]} (README) "
+          f"{command_s * 1e3:.0f} ms")
     _goal("twin --version / import numpy", twin_s / numpy_s, "<= 2", twin_s <= 2 * numpy_s)
+    _goal(f"twin {EXAMPLE[0]} (a whole command) / import numpy", command_s / numpy_s, "none",
+          None)
 
 
 def _dh_lengths(tables: np.ndarray, q: np.ndarray, port_m: np.ndarray) -> np.ndarray:
