@@ -29,7 +29,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtri
 
 from twin.analysis.misfit import ALPHA, same_poses
 from twin.arrays import Array
@@ -163,5 +162,7 @@ def _test(lines: tuple[_Line, ...], timed: bool, stated_sigma_m: float, referenc
     series = tuple(line.series._replace(z=line.series.z / noise) for line in lines)
     tests = sum(s.z.size for s in series)
     statistic = max((float(np.max(np.abs(s.z))) for s in series), default=0.0)
+    from scipy.special import ndtri
+
     threshold = float(-ndtri(ALPHA / (2 * tests))) if tests else math.inf
     return Drift(series, timed, noise, source, statistic, threshold, tests, references)

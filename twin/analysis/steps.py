@@ -27,7 +27,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.special import ndtri
 
 from twin.arrays import Array
 
@@ -98,6 +97,8 @@ def find_steps(residuals_m: ArrayLike, stated_sigma_m: float, jacobian: ArrayLik
     if jacobian is not None:
         columns.insert(0, np.asarray(jacobian, dtype=np.float64).reshape(m, -1))
     nuisance = np.hstack(columns)
+    from scipy.special import ndtri
+
     threshold = float(ndtri(1.0 - ALPHA / (2.0 * max(m - 1, 1))))
     found: list[Step] = []
     while len(found) < MAX_STEPS and m - nuisance.shape[1] > 3:
