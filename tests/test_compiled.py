@@ -6,6 +6,11 @@ tests/test_model.py, which run on whichever kernel is installed.)"""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -71,6 +76,49 @@ def test_a_single_command_takes_the_numpy_path(monkeypatch: pytest.MonkeyPatch) 
     kinematics._compiled.cache_clear()
     assert kinematics._compiled() is not None
     kinematics._compiled.cache_clear()
+
+
+NO_NUMBA = "import sys; sys.modules['numba'] = None  # as without the extra fast\n"
+"""Code that makes numba fail to import in the process it starts."""
+
+
+def _calibrate(tmp_path: Path, kernel: str, prelude: str = "") -> subprocess.CompletedProcess[str]:
+    """The README's `twin calibrate` in a fresh interpreter under ``TWIN_KERNEL=kernel``, after
+    ``prelude``."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "irb120_lm"
+    argv = ["calibrate", str(example / "measurements.csv"), "--port", "600,-400,100", "--json",
+            str(tmp_path / "result.json")]
+    code = f"{prelude}from twin.cli import main\nraise SystemExit(main({argv!r}))"
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, KERNEL_VARIABLE: kernel}, check=False)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("kernel", "prelude", "found"), [
+    ("Numba", "", "found unknown kernel 'Numba', expected one of auto, numba, numpy"),
+    ("numba", NO_NUMBA, "found no module 'numba', expected the optional extra that installs "
+                        "it: pip install 'cabletwin[fast]'"),
+])
+def test_a_kernel_that_cannot_be_taken_is_one_line(tmp_path: Path, kernel: str, prelude: str,
+                                                   found: str) -> None:
+    """A TWIN_KERNEL that names no kernel, or numba without the extra fast, is refused in one
+    line with exit code 2 (both had run the numpy path unsaid), and nothing is written."""
+    done = _calibrate(tmp_path, kernel, prelude)
+    assert (done.returncode, done.stderr) == (2, f"twin: error: TWIN_KERNEL: {found}\n")
+    assert not (tmp_path / "result.json").exists()
+
+
+@pytest.mark.slow
+def test_auto_without_numba_takes_the_numpy_path(tmp_path: Path) -> None:
+    """Under TWIN_KERNEL=auto (the default) a process without numba takes the numpy path,
+    bulk work or not: the extra fast is optional."""
+    code = NO_NUMBA + ("from twin.geometry import kinematics\n"
+                       "kinematics.for_bulk_work()\n"
+                       "print(kinematics.takes_compiled())")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, KERNEL_VARIABLE: "auto"}, check=True)
+    assert done.stdout.split() == ["False"]
+    assert _calibrate(tmp_path, "auto", NO_NUMBA).returncode == 0
 
 
 def _close(fast: np.ndarray, reference: np.ndarray) -> None:

@@ -322,9 +322,11 @@ def _slide(q_rad: Array, joint: int, ndim: int) -> Array:
 
 
 KERNEL_VARIABLE = "TWIN_KERNEL"
-"""Environment variable choosing the kernel: ``numpy``, ``numba`` (the compiled one,
-:mod:`twin.geometry.compiled`, when numba is installed), or ``auto`` (the default): the
-compiled one in a process that declared bulk work (:func:`for_bulk_work`), numpy elsewhere."""
+"""Environment variable choosing the kernel, one of :data:`KERNELS`: ``numpy``, ``numba`` (the
+compiled one, :mod:`twin.geometry.compiled`; numba from the extra ``fast``), or ``auto`` (the
+default): the compiled one in a process that declared bulk work (:func:`for_bulk_work`) when
+numba is installed, numpy elsewhere."""
+KERNELS = ("auto", "numba", "numpy")
 _BULK = [False]
 
 
@@ -376,14 +378,31 @@ def load_compiled() -> None:
 
 @cache
 def _compiled() -> Any:
-    """The compiled kernel's module, or None (numba not installed, ``TWIN_KERNEL=numpy``, or
-    ``auto`` outside bulk work)."""
+    """The compiled kernel's module, or None (``TWIN_KERNEL=numpy``, or ``auto`` outside bulk
+    work or without numba).
+
+    Raises:
+        UnknownChoiceError: for a ``TWIN_KERNEL`` that is not one of :data:`KERNELS` (a typo
+            had run the numpy path unsaid).
+        MissingExtraError: for ``TWIN_KERNEL=numba`` without numba (the extra ``fast``).
+    """
     mode = os.environ.get(KERNEL_VARIABLE, "auto")
-    if mode == "numpy" or (mode != "numba" and not _BULK[0]):
+    if mode not in KERNELS:
+        from twin.errors import UnknownChoiceError
+
+        raise UnknownChoiceError("kernel", mode, KERNELS, source=KERNEL_VARIABLE)
+    if mode == "numpy" or (mode == "auto" and not _BULK[0]):
         return None
     try:
         from twin.geometry import compiled
-    except ImportError:
+    except ImportError as exc:
+        from twin.distribution import missing_extra
+
+        missing = missing_extra(exc, source=KERNEL_VARIABLE)
+        if mode == "numba" and missing is not None:
+            raise missing from exc
+        if missing is None:
+            raise
         return None
     return compiled
 
