@@ -40,11 +40,9 @@ def test_study_metrics_start_at_zero(tmp_path: Path, monkeypatch: pytest.MonkeyP
     std exceeds its mean is cut at zero, not drawn below it."""
     from twin.study import figures
 
-    drawn = []
-    monkeypatch.setattr(figures, "save_png", lambda figure, path: drawn.append(figure))
     stats = {"rmse": {"mean": 0.3, "std": 0.05}, "mae": {"mean": 0.2, "std": 0.04},
              "max": {"mean": 0.7, "std": 0.2}, "seconds": {"mean": 0.005, "std": 0.02}}
-    figures.fig_metrics({"before": stats, "lm": stats}, tmp_path / "fig3.png", "title")
-    lows = [axis.get_ylim()[0] for axis in drawn[0].axes]
-    pyplot().close(drawn[0])
+    drawn = figures.fig_metrics({"before": stats, "lm": stats}, "title")
+    lows = [axis.get_ylim()[0] for axis in drawn.axes]
+    pyplot().close(drawn)
     assert len(lows) == 4 and min(lows) >= 0.0, lows

@@ -13,8 +13,8 @@ DPI = 120
 """Resolution of every PNG, dots per inch."""
 
 
-def save_png(figure: Any, path: str | Path) -> None:
-    """Write ``figure`` to ``path`` as a PNG at :data:`DPI`, atomically, and close it.
+def png_bytes(figure: Any) -> bytes:
+    """``figure`` as a PNG at :data:`DPI`, and closed.
 
     Every figure is laid out by matplotlib's constrained layout as it is saved. A
     ``tight_layout`` before and a page cropped to what is drawn measured each of a study's
@@ -24,14 +24,19 @@ def save_png(figure: Any, path: str | Path) -> None:
     Args:
         figure: A matplotlib figure from :func:`twin.report.plots.pyplot`, made with
             ``layout="constrained"``.
-        path: The PNG file.
-
-    Raises:
-        InputError: if ``path`` is not a valid output or cannot be written.
     """
     import matplotlib.pyplot as plt
 
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=DPI)
     plt.close(figure)
-    write_atomic(path, buffer.getvalue())
+    return buffer.getvalue()
+
+
+def save_png(figure: Any, path: str | Path) -> None:
+    """Write ``figure`` to ``path`` as a PNG (:func:`png_bytes`), atomically, and close it.
+
+    Raises:
+        InputError: if ``path`` is not a valid output or cannot be written.
+    """
+    write_atomic(path, png_bytes(figure))

@@ -23,7 +23,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from twin.io.png import save_png
+from twin.io.atomic import write_atomic
+from twin.io.png import png_bytes
 from twin.report.display import LENGTH_DECIMALS, plain
 from twin.report.plots import pyplot
 from twin.study.progress import Progress
@@ -37,7 +38,7 @@ def _colors(methods: Sequence[str]) -> dict[str, Any]:
     return {m: cmap(i % 10) for i, m in enumerate(methods)}
 
 
-def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
+def fig_metrics(table6: Mapping[str, Any], title: str) -> Any:
     """Paper Fig. 3: bars of mean ± std per method for RMSE, "STD", MAX and time."""
     plt = pyplot()
     methods = [m for m in table6 if m != "before"]
@@ -60,11 +61,11 @@ def fig_metrics(table6: Mapping[str, Any], path: Path, title: str) -> None:
                            f"{plain(table6['before'][key]['mean'], LENGTH_DECIMALS)})")
         axis.grid(axis="y", alpha=0.3)
     figure.suptitle(title)
-    save_png(figure, path)
+    return figure
 
 
-def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str], path: Path,
-                    title: str) -> None:
+def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str], title: str
+                    ) -> Any:
     """Paper Fig. 4: validation RMSE against iteration, median and quartiles over trials."""
     plt = pyplot()
     colors = _colors(methods)
@@ -87,11 +88,11 @@ def fig_convergence(details: Sequence[Mapping[str, Any]], methods: Sequence[str]
     axis.grid(alpha=0.3, which="both")
     axis.legend(ncol=3, fontsize=8)
     axis.set_title(title)
-    save_png(figure, path)
+    return figure
 
 
-def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], path: Path,
-                  title: str) -> None:
+def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], title: str
+                  ) -> Any:
     """Paper Fig. 5: residuals before and after, one trial per pose and all trials' spread."""
     plt = pyplot()
     colors = _colors(methods)
@@ -119,11 +120,11 @@ def fig_residuals(details: Sequence[Mapping[str, Any]], methods: Sequence[str], 
     right.set_ylabel("|residual| over all trials [mm]")
     right.grid(alpha=0.3, axis="y", which="both")
     figure.suptitle(title)
-    save_png(figure, path)
+    return figure
 
 
 def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[str],
-                        path: Path, title: str) -> None:
+                        title: str) -> Any:
     """RMS over trials of the identifiable part of the parameter error, per unknown."""
     plt = pyplot()
     colors = _colors(methods)
@@ -152,10 +153,10 @@ def fig_parameter_error(details: Sequence[Mapping[str, Any]], methods: Sequence[
         axis.grid(alpha=0.3, which="both")
     axes[0].legend(ncol=5, fontsize=7)
     axes[0].set_title(f"{title}: error off the null space (bottom row: not identifiable)")
-    save_png(figure, path)
+    return figure
 
 
-def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) -> None:
+def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str]) -> Any:
     """Validation RMSE and flange error against the truth per method across sweep points."""
     plt = pyplot()
     colors = _colors(methods)
@@ -179,17 +180,24 @@ def fig_sweep(summary: Mapping[str, Any], methods: Sequence[str], path: Path) ->
         axis.set_ylabel(label)
         axis.grid(alpha=0.3, which="both")
     right.legend(ncol=2, fontsize=7)
-    save_png(figure, path)
+    return figure
 
 
-def write_figures(folder: str | Path, summary: Mapping[str, Any],
-                  details_by_case: Mapping[str, Sequence[Mapping[str, Any]]],
-                  methods: Sequence[str], stream: TextIO | None = None) -> list[str]:
-    """Draw every figure of a study, with a progress bar of them on ``stream`` (stderr by
-    default: a figure took about a second on a 2-core VM, and a study of ten methods was
-    silent for 6 s after its last trial without it); returns the file names written."""
-    folder = Path(folder)
-    jobs: list[tuple[str, Callable[[Path], None]]] = []
+Job = tuple[str, Callable[[], Any]]
+"""A figure's file name and what draws it (returns the matplotlib figure)."""
+
+
+def render(jobs: Sequence[Job]) -> list[tuple[str, bytes]]:
+    """Each job's figure drawn and rendered as PNG, (name, bytes): a batch as a worker runs
+    it."""
+    return [(name, png_bytes(draw())) for name, draw in jobs]
+
+
+def figure_jobs(summary: Mapping[str, Any],
+                details_by_case: Mapping[str, Sequence[Mapping[str, Any]]],
+                methods: Sequence[str]) -> list[Job]:
+    """Every figure of a study, in the order they are listed (module docstring)."""
+    jobs: list[Job] = []
     several = len(summary["cases"]) > 1
     for index, case in enumerate(summary["cases"], start=1):
         details = details_by_case.get(case["case"], [])
@@ -208,13 +216,25 @@ def write_figures(folder: str | Path, summary: Mapping[str, Any],
         ]
     if several:
         jobs.append(("sweep.png", partial(fig_sweep, summary, methods)))
+    return jobs
+
+
+def write_figures(folder: str | Path, summary: Mapping[str, Any],
+                  details_by_case: Mapping[str, Sequence[Mapping[str, Any]]],
+                  methods: Sequence[str], stream: TextIO | None = None) -> list[str]:
+    """Draw every figure of a study, with a progress bar of them on ``stream`` (stderr by
+    default: a figure took about a second on a 2-core VM, and a study of ten methods was
+    silent for 6 s after its last trial without it); returns the file names written."""
+    folder = Path(folder)
+    jobs = figure_jobs(summary, details_by_case, methods)
     if not jobs:
         return []
     progress = Progress(len(jobs), stream=stream, label="figures")
     try:
-        for name, draw in jobs:
-            draw(folder / name)
-            progress.advance()
+        for job in jobs:
+            for name, png in render([job]):
+                write_atomic(folder / name, png)
+                progress.advance()
     finally:
         progress.close()
     return [name for name, _ in jobs]
