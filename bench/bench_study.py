@@ -4,8 +4,10 @@ Run by hand: ``.venv/bin/python bench/bench_study.py``.
 
 The paper replica (scenarios/paper_irb120.toml: 10 trials × 120 poses × every registered
 method) end to end on local processes, one per core: wall time against the 30 s target, and
-where the time goes (simulation, each method). How trials scale over local processes and Dask
-workers is part 5 of bench_speed.py, measured beside its goal.
+where the time goes (simulation, each method). Then its figures drawn again, here and on the
+local processes (forked, as `twin study` draws them on Linux), in alternating rounds after one
+that pays matplotlib's first use: the wall time of each and their ratio. How trials scale over
+local processes and Dask workers is part 5 of bench_speed.py, measured beside its goal.
 """
 
 from __future__ import annotations
@@ -13,14 +15,17 @@ from __future__ import annotations
 import argparse
 import io
 import os
+import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from twin.sim.simulate import simulate
 from twin.study.definition import load_study
 from twin.study.executors.local import LocalProcesses
-from twin.study.runner import run_study
+from twin.study.figures import write_figures
+from twin.study.runner import open_store, run_study
 from twin.study.trial import trial_seed
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -53,6 +58,33 @@ def replica(folder: Path, tiny: bool = False) -> None:
         print(f"  per trial: {method:<14} {seconds:8.3f} s   ({seconds / cpu:5.1%})")
     print(f"  per trial, all work       {cpu:8.3f} s   -> ideal wall on {os.cpu_count()} cores "
           f"{cpu * plan.trials / (os.cpu_count() or 1):.1f} s")
+    figures(folder, plan, document, rounds=1 if tiny else 3)
+
+
+def figures(folder: Path, plan: Any, document: dict[str, Any], rounds: int) -> None:
+    """The replica's figures drawn here and on the local processes, alternating ``rounds``
+    times after a round here that pays matplotlib's first use: median wall time of each."""
+    details = open_store(plan, folder).details(plan.keys)
+    by_case = {case.label: [d for d in details if d["case"] == case.label]
+               for case in plan.cases}
+    executor = LocalProcesses()
+    ways = {"here": None, f"on {executor.workers} local processes": executor}
+
+    def draw(way: LocalProcesses | None) -> tuple[float, int]:
+        start = time.perf_counter()
+        names = write_figures(folder, document, by_case, plan.methods, io.StringIO(), way)
+        return time.perf_counter() - start, len(names)
+
+    draw(None)
+    times: dict[str, list[float]] = {label: [] for label in ways}
+    for _ in range(rounds):
+        for label, way in ways.items():
+            seconds, count = draw(way)
+            times[label].append(seconds)
+    here, there = (statistics.median(values) for values in times.values())
+    print(f"  figures ({count}), median of {rounds}: drawn here {here:.2f} s, "
+          f"{list(ways)[1]} {there:.2f} s ({here / there:.2f}×; forked workers: "
+          f"{executor.forks})")
 
 
 def main() -> None:

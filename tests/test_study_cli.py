@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
@@ -139,3 +140,42 @@ def test_no_figures_then_a_second_run_draws_them_running_no_trial(
     assert sorted(path.name for path in out.glob("*.png")) == [
         "fig3_metrics.png", "fig4_convergence.png", "fig5_residuals.png", "parameter_error.png"]
     assert "fig3_metrics.png" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_figures_drawn_on_forked_workers_are_those_drawn_here(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With local processes forked from the command (Linux), a study's figures are drawn on the
+    workers, in processes other than this one, and written here byte for byte as this process
+    draws them."""
+    from twin.cli import main
+    from twin.study import figures
+    from twin.study.definition import load_study
+    from twin.study.executors.local import LocalProcesses
+    from twin.study.runner import open_store, write_report
+
+    executor = LocalProcesses(2)
+    if not executor.forks:
+        pytest.skip("workers are spawned on this platform: the figures are drawn here")
+    scenario = write_scenario(tmp_path, with_study('trials = 2\nmethods = ["lm"]'))
+    out = tmp_path / "out"
+    assert main(["study", str(scenario), "--out", str(out), "--no-figures"]) == 0
+    plan = load_study(scenario)
+    store = open_store(plan, out)
+    drawers = tmp_path / "drawers"  # a file per process that rendered a figure, named by pid
+    drawers.mkdir()
+    render = figures.png_bytes
+
+    def noted(figure: object) -> bytes:
+        (drawers / str(os.getpid())).touch()
+        return render(figure)
+
+    monkeypatch.setattr(figures, "png_bytes", noted)  # forked workers inherit it
+    write_report(plan, store, stream=io.StringIO())
+    here = {path.name: path.read_bytes() for path in out.glob("*.png")}
+    assert len(here) == 4 and [path.name for path in drawers.iterdir()] == [str(os.getpid())]
+    (drawers / str(os.getpid())).unlink()
+    write_report(plan, store, stream=io.StringIO(), executor=executor)
+    assert {path.name: path.read_bytes() for path in out.glob("*.png")} == here
+    pids = {path.name for path in drawers.iterdir()}
+    assert pids and str(os.getpid()) not in pids

@@ -128,7 +128,8 @@ def _run_locked(args: argparse.Namespace, plan: StudyPlan, executor: Executor) -
                                          in outcome.detail["methods"].items()}, label)
 
         document = write_report(plan, run_trials(plan, args.out, executor,
-                                                 on_outcome=on_outcome), figures=args.figures)
+                                                 on_outcome=on_outcome), figures=args.figures,
+                                executor=executor)
         markdown = summary_markdown(document)
         if recording is not None:
             recording.log_report(markdown)

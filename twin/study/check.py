@@ -281,7 +281,7 @@ def check(
         executor = open_executor()
     with folder_lock(out, "twin check"):
         store = run_trials(plan, out, executor, stream=stream)
-        write_report(plan, store, figures=figures, stream=stream)
+        write_report(plan, store, figures=figures, stream=stream, executor=executor)
     rows = store.rows(plan.keys)
     grouped: dict[TrialKey, list[TrialRow]] = {}
     for row in rows:

@@ -16,10 +16,11 @@ With a sweep, each case's figures carry the case's index: ``fig3_metrics-1.png``
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Generator, Mapping, Sequence
+from contextlib import closing
 from functools import partial
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
@@ -28,6 +29,9 @@ from twin.io.png import png_bytes
 from twin.report.display import LENGTH_DECIMALS, plain
 from twin.report.plots import pyplot
 from twin.study.progress import Progress
+
+if TYPE_CHECKING:
+    from twin.study.executors import Executor
 
 FLOOR = 1e-4
 """Parameter-error plots stop this fraction below their largest value."""
@@ -221,20 +225,40 @@ def figure_jobs(summary: Mapping[str, Any],
 
 def write_figures(folder: str | Path, summary: Mapping[str, Any],
                   details_by_case: Mapping[str, Sequence[Mapping[str, Any]]],
-                  methods: Sequence[str], stream: TextIO | None = None) -> list[str]:
+                  methods: Sequence[str], stream: TextIO | None = None,
+                  executor: Executor | None = None) -> list[str]:
     """Draw every figure of a study, with a progress bar of them on ``stream`` (stderr by
     default: a figure took about a second on a 2-core VM, and a study of ten methods was
-    silent for 6 s after its last trial without it); returns the file names written."""
+    silent for 6 s after its last trial without it); returns the file names written.
+
+    With an ``executor`` of several workers forked from this process (local processes on
+    Linux, which start at once with what this process loaded) the figures are drawn there, one
+    a batch, and written here as each arrives: a worker writes nothing into the folder, where
+    one stopped mid-write would leave its temporary file. Elsewhere they are drawn here: a Dask
+    cluster, stopped after the trials, takes seconds to start again, and a spawned worker
+    imports twin and matplotlib anew."""
     folder = Path(folder)
     jobs = figure_jobs(summary, details_by_case, methods)
     if not jobs:
         return []
     progress = Progress(len(jobs), stream=stream, label="figures")
     try:
-        for job in jobs:
-            for name, png in render([job]):
-                write_atomic(folder / name, png)
-                progress.advance()
+        with closing(_rendered(jobs, executor)) as batches:
+            for batch in batches:
+                for name, png in batch:
+                    write_atomic(folder / name, png)
+                    progress.advance()
     finally:
         progress.close()
     return [name for name, _ in jobs]
+
+
+def _rendered(jobs: list[Job], executor: Executor | None
+              ) -> Generator[list[tuple[str, bytes]], None, None]:
+    """The jobs' PNGs, a batch at a time as they are drawn (:func:`write_figures`)."""
+    if executor is None or not executor.forks or executor.workers < 2 or len(jobs) < 2:
+        for job in jobs:
+            yield render([job])
+        return
+    with executor, closing(executor.run(render, [[job] for job in jobs])) as work:
+        yield from work

@@ -113,13 +113,16 @@ def run_study(plan: StudyPlan, folder: str | Path, executor: Executor, *,
     summary document."""
     with folder_lock(folder, "twin study"):
         return write_report(plan, run_trials(plan, folder, executor, stream=stream,
-                                             on_outcome=on_outcome), stream=stream)
+                                             on_outcome=on_outcome), stream=stream,
+                            executor=executor)
 
 
 def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True,
-                 stream: TextIO | None = None) -> dict[str, Any]:
+                 stream: TextIO | None = None, executor: Executor | None = None
+                 ) -> dict[str, Any]:
     """Write `summary.md`, `summary.json` and (unless ``figures`` is False) the figures from
-    what the folder holds, their progress bar on ``stream`` (stderr by default)."""
+    what the folder holds, their progress bar on ``stream`` (stderr by default), drawn on the
+    ``executor``'s workers where it forks them (:func:`twin.study.figures.write_figures`)."""
     keys = plan.keys
     labels = [case.label for case in plan.cases]
     context = {"scenario": plan.cases[0].scenario.name, "source": str(plan.source),
@@ -129,7 +132,7 @@ def write_report(plan: StudyPlan, store: StudyStore, *, figures: bool = True,
     details = store.details(keys)
     by_case = {label: [d for d in details if d["case"] == label] for label in labels}
     document["figures"] = write_figures(store.folder, document, by_case, plan.methods,
-                                        stream) if figures else []
+                                        stream, executor) if figures else []
     write_summary(store.folder, document)
     return document
 
