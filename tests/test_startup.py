@@ -94,3 +94,30 @@ def test_a_command_loads_only_the_scipy_it_runs(tmp_path: Path) -> None:
     loaded = _loaded_after(calls, SCIPY)
     assert [(tmp_path / name).is_file() for name in ("predicted.csv", "dh.toml")] == [True] * 2
     assert list(loaded.values()) == [["scipy", "scipy.linalg", "scipy.special"], [], []]
+
+
+def test_the_program_exits_without_a_last_collection(capsys: pytest.CaptureFixture[str]
+                                                     ) -> None:
+    """`twin` (the console script and ``python -m twin``) runs :func:`twin.cli.run`, which
+    exits with the command's code once the command's objects are frozen out of the collector
+    (the interpreter's last collection took 0.25 s after a study); :func:`twin.cli.main`, which
+    a program calls and goes on, leaves the collector alone."""
+    import gc
+    import tomllib
+
+    from twin.cli import main
+
+    project = Path(__file__).resolve().parents[1] / "pyproject.toml"
+    assert tomllib.loads(project.read_text())["project"]["scripts"]["twin"] == "twin.cli:run"
+    assert main(["calibrate", "/nonexistent.csv", "--port", "1,2,3"]) == 2
+    assert gc.get_freeze_count() == 0
+    assert capsys.readouterr().err.startswith("twin: error: /nonexistent.csv")
+    code = ("import atexit, gc, sys\n"
+            "atexit.register(lambda: print('frozen', gc.get_freeze_count() > 0))\n"
+            "sys.argv = ['twin', 'calibrate', '/nonexistent.csv', '--port', '1,2,3']\n"
+            "from twin.cli import run\n"
+            "run()")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=False)
+    assert (done.returncode, done.stdout) == (2, "frozen True\n")
+    assert done.stderr.startswith("twin: error: /nonexistent.csv")

@@ -1,7 +1,5 @@
 """`python -m twin` runs the command line."""
 
-import sys
+from twin.cli import run
 
-from twin.cli import main
-
-sys.exit(main())
+run()
