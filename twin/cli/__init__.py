@@ -175,10 +175,10 @@ def run() -> NoReturn:
 
     That collection walks every object the command left: in a process that had loaded the
     compiled kernels (numba's and llvmlite's objects), exiting took 0.28 s with it and 0.04 s
-    without; after a calibration 0.07 s. By then every output is written, flushed and closed (atomic writes,
-    durable journals), and the atexit handlers (Rerun's flush, temporary folders) still run;
-    what is left uncollected is memory the process gives back as it ends. :func:`main` itself
-    leaves the collector alone: a program that calls it goes on."""
+    without; after a calibration 0.07 s. By then every output is written, flushed and closed
+    (atomic writes, durable journals), and the atexit handlers (Rerun's flush, temporary
+    folders) still run; what is left uncollected is memory the process gives back as it ends.
+    :func:`main` itself leaves the collector alone: a program that calls it goes on."""
     code = main()
     gc.freeze()
     sys.exit(code)

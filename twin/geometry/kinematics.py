@@ -396,14 +396,14 @@ def _compiled() -> Any:
     try:
         from twin.geometry import compiled
     except ImportError as exc:
+        if mode == "auto":  # the compiled kernel where it can be had
+            return None
         from twin.distribution import missing_extra
 
         missing = missing_extra(exc, source=KERNEL_VARIABLE)
-        if mode == "numba" and missing is not None:
-            raise missing from exc
         if missing is None:
             raise
-        return None
+        raise missing from exc
     return compiled
 
 
