@@ -5,8 +5,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 2 min 15 s to 4 min 45 s of pytest, 3 min 45 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
-TEST_FAST_TIME := 42 s to 58 s, 1.3 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
+TEST_TIME := 1 min 50 s to 4 min 45 s of pytest, 3 min 20 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_FAST_TIME := 21 s to 58 s, 0.6 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
 
@@ -54,7 +54,9 @@ lint: $(VENV)/.installed-dev
 # test-fast 58 s (110 CPU-s) at 18:00; a fresh clone's 4:43 (7:51 in all) at 18:20.
 # In the evening (1352 tests): fresh clones' 3:13 (5:26 in all) at 19:24, 2:34 (4:19) at 19:38
 # and 2:20 (3:47, .ci/run) at 19:42, 2:17 (3:59) at 19:47; in a worktree 4:02, 4:19 and 3:54 at
-# 18:38-19:17; test-fast 45 s at 19:12. TEST_TIME's bounds are those measured, rounded outward.
+# 18:38-19:17; test-fast 45 s at 19:12. On 2026-12-04, a fast hour (1356-1358 tests): fresh
+# clones' 2:20 (3:41 in all) at 16:36 and 1:52 (3:22) at 17:28; test-fast 21 s (38 CPU-s,
+# 1103 tests) at 17:32. TEST_TIME's bounds are those measured, rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
