@@ -25,7 +25,8 @@ from twin.sim.simulate import simulate
 from twin.study.definition import load_study
 from twin.study.executors.local import LocalProcesses
 from twin.study.figures import write_figures
-from twin.study.runner import open_store, run_study
+from twin.study.runner import run_study
+from twin.study.store import open_store
 from twin.study.trial import trial_seed
 
 ROOT = Path(__file__).resolve().parent.parent

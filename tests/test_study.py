@@ -20,9 +20,8 @@ from twin.errors import InputError
 from twin.study.definition import load_study
 from twin.study.progress import Progress, format_duration
 from twin.study.rows import COLUMNS, TrialRow
-from twin.study.runner import open_store
 from twin.study.statistics import table7
-from twin.study.store import StudyStore, TrialOutcome
+from twin.study.store import StudyStore, TrialOutcome, open_store
 from twin.study.trial import TrialSpec, run_batch, trial_seed
 
 SCENARIO = """

@@ -152,7 +152,8 @@ def test_figures_drawn_on_forked_workers_are_those_drawn_here(
     from twin.study import figures
     from twin.study.definition import load_study
     from twin.study.executors.local import LocalProcesses
-    from twin.study.runner import open_store, write_report
+    from twin.study.runner import write_report
+    from twin.study.store import open_store
 
     executor = LocalProcesses(2)
     if not executor.forks:

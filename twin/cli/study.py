@@ -107,8 +107,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_locked(args: argparse.Namespace, plan: StudyPlan, executor: Executor) -> int:
     from twin.study.markdown import summary_markdown, trial_markdown
-    from twin.study.runner import open_store, run_trials, write_report
-    from twin.study.store import TrialOutcome
+    from twin.study.runner import run_trials, write_report
+    from twin.study.store import TrialOutcome, open_store
     from twin.viz.commands import open_from_args
 
     open_store(plan, args.out)  # a folder of another study is refused before the banner

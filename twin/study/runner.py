@@ -30,7 +30,7 @@ from twin.study.figures import write_figures
 from twin.study.markdown import summary_markdown
 from twin.study.progress import Progress
 from twin.study.statistics import summarize
-from twin.study.store import StudyStore, TrialOutcome
+from twin.study.store import StudyStore, TrialOutcome, open_store
 from twin.study.trial import TrialSpec, run_batch
 
 LOADING_NOTE_S = 3.0
@@ -38,13 +38,6 @@ LOADING_NOTE_S = 3.0
 loading the compiled kernels."""
 LOADING_NOTE = ("the first trial loads the compiled kernels; after an install numba compiles "
                 "them first, once (about half a minute on 2 cores)")
-
-
-def open_store(plan: StudyPlan, folder: str | Path) -> StudyStore:
-    """The study folder for ``plan``; refuses one made from a different scenario or methods."""
-    manifest = {"scenario": plan.document, "methods": list(plan.methods),
-                "source": str(plan.source)}
-    return StudyStore(folder, manifest, plan.source)
 
 
 def run_trials(

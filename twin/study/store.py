@@ -20,13 +20,16 @@ import hashlib
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from twin.errors import InputError
 from twin.io.atomic import write_atomic
 from twin.io.journal import Journal
 from twin.io.paths import os_error, read_json
 from twin.study.rows import COLUMNS, HEADER, TrialRow, format_rows, parse_row
+
+if TYPE_CHECKING:
+    from twin.study.definition import StudyPlan
 
 RESULTS = "results.csv"
 DETAILS = "trials.jsonl"
@@ -261,3 +264,10 @@ class StudyStore:
         chosen = sorted(self._details_by_key if keys is None
                         else set(keys) & set(self._details_by_key))
         return [self._details_by_key[key] for key in chosen]
+
+
+def open_store(plan: StudyPlan, folder: str | Path) -> StudyStore:
+    """The study folder for ``plan``; refuses one made from a different scenario or methods."""
+    manifest = {"scenario": plan.document, "methods": list(plan.methods),
+                "source": str(plan.source)}
+    return StudyStore(folder, manifest, plan.source)
