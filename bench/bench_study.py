@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from twin.sim.simulate import simulate
-from twin.study.definition import load_study
+from twin.study.definition import StudyPlan, load_study
 from twin.study.executors.local import LocalProcesses
 from twin.study.figures import write_figures
 from twin.study.runner import run_study
@@ -62,7 +62,7 @@ def replica(folder: Path, tiny: bool = False) -> None:
     figures(folder, plan, document, rounds=1 if tiny else 3)
 
 
-def figures(folder: Path, plan: Any, document: dict[str, Any], rounds: int) -> None:
+def figures(folder: Path, plan: StudyPlan, document: dict[str, Any], rounds: int) -> None:
     """The replica's figures drawn here and on the local processes, alternating ``rounds``
     times after a round here that pays matplotlib's first use: median wall time of each."""
     details = open_store(plan, folder).details(plan.keys)
@@ -76,12 +76,11 @@ def figures(folder: Path, plan: Any, document: dict[str, Any], rounds: int) -> N
         names = write_figures(folder, document, by_case, plan.methods, io.StringIO(), way)
         return time.perf_counter() - start, len(names)
 
-    draw(None)
+    _, count = draw(None)  # matplotlib's first use in this process, paid before the rounds
     times: dict[str, list[float]] = {label: [] for label in ways}
     for _ in range(rounds):
         for label, way in ways.items():
-            seconds, count = draw(way)
-            times[label].append(seconds)
+            times[label].append(draw(way)[0])
     here, there = (statistics.median(values) for values in times.values())
     print(f"  figures ({count}), median of {rounds}: drawn here {here:.2f} s, "
           f"{list(ways)[1]} {there:.2f} s ({here / there:.2f}×; forked workers: "
