@@ -236,6 +236,27 @@ def test_bad_port_is_a_usage_error(capture: Path, capsys: pytest.CaptureFixture[
 
 
 @pytest.mark.slow
+def test_the_program_leaves_its_recording_whole(calibrated: tuple[Path, CalibrationResult],
+                                                tmp_path: Path) -> None:
+    """`python -m twin calibrate --rerun-save` — the program, which exits without the
+    interpreter's last garbage collection (:func:`twin.cli.run`) — writes every entity, row
+    for row, that the same command called in this process writes: nothing Rerun writes out as
+    the process ends is lost."""
+    rrd, _ = calibrated
+    program = tmp_path / "program.rrd"
+    done = subprocess.run([sys.executable, "-m", "twin", "calibrate",
+                           str(rrd.parent / "capture.toml"), "--rerun-save", str(program)],
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+
+    def rows(path: Path) -> dict[str, int]:
+        return {entity: sum(batch.num_rows for batch in batches)
+                for entity, batches in read_rrd(path).items()}
+
+    assert rows(program) == rows(rrd) and "report" in rows(rrd)
+
+
+@pytest.mark.slow
 def test_cli_does_not_import_rerun_without_a_flag(capture: Path) -> None:
     """Building the CLI and calibrating without --rerun-* never loads rerun."""
     code = (
