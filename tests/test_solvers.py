@@ -181,6 +181,43 @@ def test_adaptive_momentum_follows_eqs_10_to_12() -> None:
     assert rule.rejected() is False
 
 
+def test_a_retry_without_momentum_tries_the_step_already_solved(
+        sim: Simulation, monkeypatch: pytest.MonkeyPatch) -> None:
+    """When AMLM's momentum points uphill, the retry from the same x and μ takes the damped
+    LM step it solved for that iteration: the step is solved once per (x, μ), not again."""
+    import twin.solvers.lm as lm
+
+    problem = make_problem(sim.robot, sim.measurements, sim.port_nominal_m, seed=0).problem
+    solved: list[np.ndarray] = []
+    tried: list[tuple[np.ndarray, bool]] = []  # each step the rule was given, after a retry?
+
+    class Watched(AdaptiveMomentum):
+        retry = False
+
+        def propose(self, tracker: Tracker, x: np.ndarray, step: np.ndarray) -> np.ndarray:
+            tried.append((step, self.retry))
+            self.retry = False
+            return super().propose(tracker, x, step)
+
+        def rejected(self) -> bool:
+            self.retry = super().rejected()
+            return self.retry
+
+    def counted(*args: np.ndarray) -> np.ndarray:
+        solved.append(step := solve(*args))
+        return step
+
+    solve = lm.damped_step
+    monkeypatch.setattr(lm, "damped_step", counted)
+    levenberg_marquardt(Tracker(problem, "amlm"), problem.x0, Budget.paper().stage(),
+                        rule=Watched())
+    retries = [k for k, (_, retry) in enumerate(tried) if retry]
+    assert len(tried) == 30 and retries  # the paper's 30 iterations, some of them retries
+    assert len(solved) == len(tried) - len(retries)
+    for k in retries:
+        assert tried[k][0] is tried[k - 1][0]
+
+
 @pytest.mark.slow
 def test_thirty_filter_passes_stay_put_with_non_geometric_errors() -> None:
     """On a paper-scenario trial (compliance, transmission error, backlash) 30 EKF or UKF passes

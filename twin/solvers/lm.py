@@ -180,6 +180,17 @@ def nielsen(mu: float, nu: float, gain: float) -> tuple[float, float]:
     return mu * nu, 2.0 * nu
 
 
+def _step_on_box(normal: Array, gradient: Array, mu: float, x: Array, lower: Array,
+                 upper: Array) -> Array:
+    """The damped step (p,) from x (p,) with damping μ (:func:`damping`): as it is when it
+    stays inside the box, else :func:`boxed_damped_step`."""
+    damped = damping(normal, mu)
+    step = damped_step(normal, gradient, damped)
+    if inside(x + step, lower, upper):
+        return step
+    return boxed_damped_step(normal, gradient, damped, lower - x, upper - x)
+
+
 def levenberg_marquardt(
     tracker: Tracker, x0: Array, budget: Budget, rule: StepRule | None = None
 ) -> Outcome:
@@ -205,21 +216,22 @@ def levenberg_marquardt(
     if not tracker.started:
         tracker.record(x, f)
     mu, nu = TAU, 2.0
+    # The damped step on the box at x and μ; kept for a retry without the rule's reshaping
+    # (x and μ unchanged: the same step; AMLM under the paper's protocol retries a quarter of
+    # its iterations), None once either changes.
+    step: Array | None = None
     for _ in range(budget.max_iterations):
-        held = held_at_bounds(x, gradient, lower, upper)
-        if held.all():
-            return Outcome(x, StopReason.BOUNDS)
-        if budget.gtol > 0 and optimality(gradient, normal.diagonal(), float(r @ r),
-                                          held) <= budget.gtol:
-            return Outcome(x, StopReason.GTOL)
-        mu = max(mu, MU_FLOOR)
-        damped = damping(normal, mu)
-        step = damped_step(normal, gradient, damped)
-        if not inside(x + step, lower, upper):
-            step = boxed_damped_step(normal, gradient, damped, lower - x, upper - x)
-        if rule is not None:
-            step = rule.propose(tracker, x, step)
-        x_new = np.clip(x + step, lower, upper)
+        if step is None:
+            held = held_at_bounds(x, gradient, lower, upper)
+            if held.all():
+                return Outcome(x, StopReason.BOUNDS)
+            if budget.gtol > 0 and optimality(gradient, normal.diagonal(), float(r @ r),
+                                              held) <= budget.gtol:
+                return Outcome(x, StopReason.GTOL)
+            mu = max(mu, MU_FLOOR)
+            step = _step_on_box(normal, gradient, mu, x, lower, upper)
+        tried = step if rule is None else rule.propose(tracker, x, step)
+        x_new = np.clip(x + tried, lower, upper)
         h = x_new - x
         predicted = float(r @ r - np.sum((r + J @ h) ** 2))
         if predicted <= 0.0:
@@ -227,10 +239,12 @@ def levenberg_marquardt(
             # Only a reshaped step can point uphill while the LM step still descends: retry.
             if rule is not None and rule.rejected():
                 continue
+            step = None
             mu, nu = mu * nu, 2.0 * nu
             if mu > MU_CEILING:
                 return Outcome(x, StopReason.NO_DESCENT)
             continue
+        step = None
         r_new, J_new = tracker.jacobian(x_new)
         f_new = float(np.mean(r_new**2))
         actual = float(r @ r - r_new @ r_new)
