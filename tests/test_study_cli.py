@@ -142,6 +142,25 @@ def test_no_figures_then_a_second_run_draws_them_running_no_trial(
     assert "fig3_metrics.png" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("kernel", ["Numba", "compiled"])
+def test_a_kernel_that_names_none_is_refused_before_the_folder_exists(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+        kernel: str) -> None:
+    """A TWIN_KERNEL that names no kernel is the command's one line before anything is
+    written: it had created the study's folder, results.csv and study.json, and failed at the
+    first trial."""
+    from twin.choices import KERNEL_VARIABLE
+    from twin.cli import main
+
+    scenario = write_scenario(tmp_path, with_study('trials = 1\nmethods = ["lm"]'))
+    monkeypatch.setenv(KERNEL_VARIABLE, kernel)
+    out = tmp_path / "out"
+    assert main(["study", str(scenario), "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (f"twin: error: TWIN_KERNEL: found unknown kernel "
+                                       f"{kernel!r}, expected one of auto, numba, numpy\n")
+    assert not out.exists()
+
+
 @pytest.mark.slow
 def test_figures_drawn_on_forked_workers_are_those_drawn_here(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -61,3 +61,11 @@ QUANTITY_UNITS = ("mm", "m", "deg", "rad", "arcsec", "urad/Nm", "µrad/(N·m)", 
 MIN_FOLDS = 2
 MAX_FOLDS = 1000
 """The fewest and most folds of a cross-validation (:mod:`twin.calibration.crossval`)."""
+KERNEL_VARIABLE = "TWIN_KERNEL"
+"""Environment variable choosing the kernel, one of :data:`KERNELS`: ``numpy``, ``numba`` (the
+compiled one, :mod:`twin.geometry.compiled`; numba from the extra ``fast``), or ``auto`` (the
+default): the compiled one in a process that declared bulk work
+(:func:`twin.geometry.kinematics.for_bulk_work`) when numba is installed, numpy elsewhere.
+Every command checks it before it runs (:func:`twin.distribution.kernel_choice`)."""
+KERNELS = ("auto", "numba", "numpy")
+"""The kernels :data:`KERNEL_VARIABLE` may name, the default first."""

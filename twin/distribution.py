@@ -17,11 +17,14 @@ asked for.
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import os
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _metadata_version
 from typing import Any, NamedTuple, TypeVar
 
+from twin.choices import KERNEL_VARIABLE, KERNELS
 from twin.errors import InputError, UnknownChoiceError
 
 Member = TypeVar("Member")
@@ -88,6 +91,24 @@ def missing_extra(exc: ImportError, *, source: str | None = None) -> MissingExtr
             return MissingExtraError(name.partition(".")[0], extra, source=source)
         error = error.__cause__ or error.__context__
     return None
+
+
+def kernel_choice() -> str:
+    """The kernel :data:`~twin.choices.KERNEL_VARIABLE` chooses (``auto`` when unset), checked
+    without importing it: every command checks it before it runs, so that a study refuses it
+    before its folder exists, not at its first trial.
+
+    Raises:
+        UnknownChoiceError: for a value that is not one of :data:`~twin.choices.KERNELS` (a
+            typo had run the numpy path unsaid).
+        MissingExtraError: for ``numba`` where numba is not installed (the extra ``fast``).
+    """
+    mode = os.environ.get(KERNEL_VARIABLE, "auto")
+    if mode not in KERNELS:
+        raise UnknownChoiceError("kernel", mode, KERNELS, source=KERNEL_VARIABLE)
+    if mode == "numba" and importlib.util.find_spec("numba") is None:
+        raise MissingExtraError("numba", EXTRAS["numba"], source=KERNEL_VARIABLE)
+    return mode
 
 
 class Lazy(NamedTuple):

@@ -132,6 +132,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from twin.hardware.capture_layout import refuse_capture_journal
 
         with _sigterm_as_interrupt(), command_scope():
+            distribution.kernel_choice()
             check_command_paths(vars(args).values())
             check_distinct_outputs(vars(args))
             refuse_capture_journal(vars(args).values())

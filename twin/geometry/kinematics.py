@@ -37,7 +37,6 @@ poses or tables.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -48,6 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array, lengths, read_only
+from twin.choices import KERNEL_VARIABLE
+from twin.distribution import kernel_choice
 
 PARAMETRISATIONS = ("dh", "mdh", "hayati")
 """Per-joint parametrisations, see the module docstring."""
@@ -321,12 +322,6 @@ def _slide(q_rad: Array, joint: int, ndim: int) -> Array:
     return values.reshape(*(1,) * (ndim - 1 - values.ndim), *values.shape)
 
 
-KERNEL_VARIABLE = "TWIN_KERNEL"
-"""Environment variable choosing the kernel, one of :data:`KERNELS`: ``numpy``, ``numba`` (the
-compiled one, :mod:`twin.geometry.compiled`; numba from the extra ``fast``), or ``auto`` (the
-default): the compiled one in a process that declared bulk work (:func:`for_bulk_work`) when
-numba is installed, numpy elsewhere."""
-KERNELS = ("auto", "numba", "numpy")
 _BULK = [False]
 
 
@@ -382,15 +377,10 @@ def _compiled() -> Any:
     work or without numba).
 
     Raises:
-        UnknownChoiceError: for a ``TWIN_KERNEL`` that is not one of :data:`KERNELS` (a typo
-            had run the numpy path unsaid).
-        MissingExtraError: for ``TWIN_KERNEL=numba`` without numba (the extra ``fast``).
+        UnknownChoiceError, MissingExtraError: as :func:`twin.distribution.kernel_choice`; and
+            the latter for ``TWIN_KERNEL=numba`` where numba is found but fails to import.
     """
-    mode = os.environ.get(KERNEL_VARIABLE, "auto")
-    if mode not in KERNELS:
-        from twin.errors import UnknownChoiceError
-
-        raise UnknownChoiceError("kernel", mode, KERNELS, source=KERNEL_VARIABLE)
+    mode = kernel_choice()
     if mode == "numpy" or (mode == "auto" and not _BULK[0]):
         return None
     try:
