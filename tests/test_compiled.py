@@ -26,6 +26,7 @@ from twin.geometry.kinematics import (
     Turns,
     point_distances,
     point_position,
+    point_sum_squares,
     trace_point,
     turns,
 )
@@ -201,7 +202,8 @@ def test_the_kernels_get_read_only_arrays_whatever_the_callers(
     def recorded(kernel):  # type: ignore[no-untyped-def]
         return lambda *args: handed.append(args) or kernel(*args)
 
-    for name in ("positions", "jacobian", "distances", "anchored_distances"):
+    for name in ("positions", "jacobian", "distances", "anchored_distances",
+                 "anchored_sum_squares"):
         monkeypatch.setattr(compiled, name, recorded(getattr(compiled, name)))
     rng = np.random.default_rng(7)
     structure = Structure(("dh", "dh", "mdh", "hayati", "dh", "dh"),
@@ -215,8 +217,10 @@ def test_the_kernels_get_read_only_arrays_whatever_the_callers(
             trace_point(structure, dh, angles, np.ones(3)).jacobian(rng.normal(size=(7, 2, 3)))
     kinematics.distances(rng.normal(size=(3, 7, 3)), rng.normal(size=(7, 3)))
     point_distances(structure, np.stack([table, table]), q, None, rng.normal(size=(7, 3)))
+    point_sum_squares(structure, np.stack([table, table]), q, None, rng.normal(size=(7, 3)),
+                      rng.normal(size=7))
     arrays = [a for args in handed for a in args if isinstance(a, np.ndarray)]
-    assert len(handed) == 3 * 3 * 3 + 2 and not any(a.flags.writeable for a in arrays)
+    assert len(handed) == 3 * 3 * 3 + 3 and not any(a.flags.writeable for a in arrays)
     assert table.flags.writeable and q.flags.writeable
     kinematics._compiled.cache_clear()
 
@@ -269,6 +273,33 @@ def test_point_distances_are_the_distances_of_the_points(
         for together, apart in (fast, reference):
             assert together.shape == (*dh.shape[:-2], m)
             np.testing.assert_array_equal(together, apart)
+
+
+@pytest.mark.parametrize("anchored", ["per row", "per table and row"])
+@pytest.mark.parametrize("m", [30, 96])
+def test_sums_of_squares_are_those_of_the_distances(
+        anchored: str, m: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A swarm's least-squares cost summed in the distances' pass is the sum of the squared
+    distances less the readings: that sum itself on the numpy path, to round-off on the
+    compiled one (its sum runs in lanes: 30 rows leave a remainder, 96 none), on a batch of
+    tables and on one."""
+    rng = np.random.default_rng(m)
+    structure = _mixed(rng)
+    n, k = structure.n_joints, 6
+    q = rng.uniform(-3, 3, (m, n))
+    tables = rng.normal(scale=0.3, size=(k, 4, n))
+    points = rng.normal(scale=0.05, size=(k, 3))
+    anchors = rng.normal(scale=0.8, size=(m, 3) if anchored == "per row" else (k, m, 3))
+    readings = rng.uniform(0.5, 1.5, m)
+    one = anchors if anchors.ndim == 2 else anchors[2]
+    for dh, at, anchor in ((tables, points, anchors), (tables[2], points[2], one)):
+        fast, reference = _both(monkeypatch, lambda dh=dh, at=at, anchor=anchor: (
+            point_sum_squares(structure, dh, q, at, anchor, readings),
+            np.sum((point_distances(structure, dh, q, at, anchor) - readings) ** 2, axis=-1)))
+        np.testing.assert_array_equal(*reference)
+        np.testing.assert_allclose(*fast, rtol=RTOL, atol=0)
+        np.testing.assert_allclose(fast[0], reference[0], rtol=RTOL, atol=0)
+        assert fast[0].shape == reference[0].shape == dh.shape[:-2]
 
 
 def test_distances_of_no_rows(monkeypatch: pytest.MonkeyPatch) -> None:

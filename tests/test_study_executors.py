@@ -302,8 +302,8 @@ def test_the_kernels_make_test_compiles_first_are_every_one_a_study_takes() -> N
     two, the paper rig's first trial with each of the ten methods loads no other version of
     any kernel."""
     found = _on_the_paper_rig(LOADED_BEFORE)
-    entries = [f"twin.geometry.compiled.{name}" for name in ("positions", "jacobian",
-                                                             "distances")] \
+    entries = [f"twin.geometry.compiled.{name}" for name in (
+        "positions", "jacobian", "distances", "anchored_distances", "anchored_sum_squares")] \
         + [f"twin.solvers.compiled.{name}" for name in ("box_step", "pso_candidates",
                                                         "keep_best", "curve_points")]
     assert all(found["before"][name] == 1 for name in entries), found

@@ -246,6 +246,45 @@ def _cable_problem(seed: int) -> Problem:
                    length_measurements(q[30:], lengths[30:]))
 
 
+@pytest.mark.parametrize("kernel", ["numpy", "numba"])
+def test_the_objective_is_the_cost_of_the_rows(kernel: str,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """f of a swarm's candidates, summed in the chain's pass where the rows are plain cable
+    lengths, is the mean cost of the objective's rows: bit for bit on the numpy path, to
+    round-off on the compiled kernel; with an offset estimated, a robust loss or a prior, the
+    rows' cost itself."""
+    if kernel == "numba":
+        pytest.importorskip("numba")
+    from dataclasses import replace
+
+    from twin.calibration.settings import CalibrationSettings
+    from twin.loss import Loss
+
+    monkeypatch.setenv(KERNEL_VARIABLE, kernel)
+    kinematics._compiled.cache_clear()
+    plain = _cable_problem(3)
+    robot, rig = plain.model.robot, plain.model.rig
+    offset = make_model(robot, rig, settings=CalibrationSettings(estimate=("offset",)))
+    priors = make_model(robot, rig, settings=CalibrationSettings(priors=("dh=0.3mm",)))
+    for problem, summed in ((plain, True), (replace(plain, loss=Loss("huber", 2e-5)), False),
+                            (Problem(offset, plain.train, plain.validation), False),
+                            (Problem(priors, plain.train, plain.validation), False)):
+        x = _particles(50, problem.model.n_params, 4)
+        found = problem.objective(x)
+        expected = problem.cost(problem.residuals(x))
+        if summed:
+            assert problem.model.sum_squares(x, problem.train) is not None
+        if summed and kernel == "numba":
+            np.testing.assert_allclose(found, expected, rtol=1e-14, atol=0)
+        else:
+            np.testing.assert_array_equal(found, expected)
+        assert problem.objective(x[7]) == pytest.approx(expected[7], rel=1e-14)
+    # An estimated offset is more than the distance less the reading: no sum in the pass.
+    assert offset.sum_squares(np.zeros(offset.n_params), plain.train) is None
+    monkeypatch.delenv(KERNEL_VARIABLE)
+    kinematics._compiled.cache_clear()
+
+
 def test_the_compiled_swarm_step_is_the_numpy_step() -> None:
     """One iteration's moves (eq. 18's velocity, clamp, move, the B-spline points) and the
     selection with the personal-best update, compiled (:mod:`twin.solvers.compiled`), give

@@ -35,6 +35,7 @@ from twin.geometry.kinematics import (
     flange_turn_jacobian,
     point_distances,
     point_position,
+    point_sum_squares,
     trace_point,
     turns,
 )
@@ -443,6 +444,20 @@ class Model:
         if ranges is None:
             return self.kind.residuals(self.measured(x, data), values, data, self.rig)
         return ranges.residuals(self._distances(x, data, ranges.anchors_m))
+
+    def sum_squares(self, x: ArrayLike, data: Measurements) -> Array | None:
+        """Σ r² over the residual rows, shape (...,), m², for unknowns (..., p), summed in the
+        chain's pass where the kind's rows are its distances less the readings
+        (:attr:`twin.kinds.base.Ranges.readings_m`; a swarm's least-squares cost,
+        :func:`twin.geometry.kinematics.point_sum_squares`); None where they are not (its
+        caller sums :meth:`residuals`)."""
+        x = self._check(x)
+        ranges = self.kind.ranges(self._measurement_values(x), data, self.rig)
+        if ranges is None or ranges.readings_m is None or self._row_groups:
+            return None
+        table, joints = self._kinematics(x, data)
+        return point_sum_squares(self.robot.structure, table, joints, self._point_m(x),
+                                 ranges.anchors_m, ranges.readings_m)
 
     def _distances(self, x: Array, data: Measurements, anchors_m: Array) -> Array:
         """The measured point's distance from each row's anchor, (..., m), m, for unknowns

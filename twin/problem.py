@@ -183,6 +183,17 @@ class Problem:
             + np.sum(rows[..., split:] ** 2, axis=-1)
         return np.asarray(total / rows.shape[-1], dtype=np.float64)
 
+    def objective(self, x: ArrayLike) -> Array:
+        """f at unknowns (..., p), shape (...,), m²: :meth:`cost` of :meth:`residuals`; for
+        least squares on rows of equal noise without priors, the model's sum of squares
+        where it has one (:meth:`twin.model.Model.sum_squares`: a swarm's candidates, summed
+        in the chain's pass), the same to round-off."""
+        if not (self.loss.robust or self.in_variables or self._prior.size):
+            total = self.model.sum_squares(x, self.train)
+            if total is not None:
+                return np.asarray(total / self._train_weight.size, dtype=np.float64)
+        return self.cost(self.residuals(x))
+
     def loss_rows(self, rows: ArrayLike, jacobian: ArrayLike) -> tuple[Array, Array]:
         """The rows least squares iterates on (:meth:`twin.loss.Loss.rows` on the training rows,
         the prior rows as they are), from :meth:`jacobian`'s: (M + P,), (M + P, p)."""

@@ -369,6 +369,8 @@ def load_compiled() -> None:
         distances(trace.position, np.zeros((3, 3)))
         point_distances(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)), None,
                         np.zeros((3, 3)))
+        point_sum_squares(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)), None,
+                          np.zeros((3, 3)), np.ones(3))
 
 
 @cache
@@ -539,21 +541,69 @@ def point_distances(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turn
         pass of the compiled kernel where it is taken, without the points' (..., m, 3) array
         (a swarm's candidates: :func:`twin.geometry.compiled.anchored_distances`).
     """
-    dh = np.asarray(dh, dtype=np.float64)
+    dh, angles, anchors = _anchored_arrays(structure, dh, q_rad, anchors_m)
+    inputs = _anchored_inputs(structure, dh, angles, point_m, anchors)
+    if inputs is None:
+        return distances(point_position(structure, dh, angles, point_m), anchors)
+    compiled, anchored = inputs
+    out = _compiled().anchored_distances(*_kernel_chain(structure, compiled), anchored)
+    return np.asarray(out.reshape(*compiled.batch, -1))
+
+
+def point_sum_squares(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
+                      point_m: ArrayLike | None, anchors_m: ArrayLike, readings_m: ArrayLike
+                      ) -> Array:
+    """Σ_i (d_i − L_i)² over the rows, d_i the distances of :func:`point_distances` and L_i
+    the rows' readings: a least-squares cost of ranges.
+
+    Args:
+        structure, dh, q_rad, point_m, anchors_m: As :func:`point_distances`.
+        readings_m: Each row's reading, shape (m,), m.
+
+    Returns:
+        Shape (...,), m²: on the numpy path ``np.sum((d − L)**2, axis=-1)``, bit for bit; on
+        the compiled kernel summed in the distances' pass, the same to round-off
+        (:func:`twin.geometry.compiled.anchored_sum_squares`: no (..., m) arrays).
+    """
+    dh, angles, anchors = _anchored_arrays(structure, dh, q_rad, anchors_m)
+    readings = np.asarray(readings_m, dtype=np.float64)
+    inputs = _anchored_inputs(structure, dh, angles, point_m, anchors)
+    if inputs is None or readings.shape != angles.q_rad.shape[-2:-1]:
+        residuals = point_distances(structure, dh, angles, point_m, anchors) - readings
+        return np.asarray(np.sum(residuals**2, axis=-1), dtype=np.float64)
+    compiled, anchored = inputs
+    out = _compiled().anchored_sum_squares(*_kernel_chain(structure, compiled), anchored,
+                                           read_only(np.ascontiguousarray(readings)))
+    return np.asarray(out.reshape(compiled.batch))
+
+
+def _anchored_arrays(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
+                     anchors_m: ArrayLike) -> tuple[Array, Turns, Array]:
+    """The tables, the angles and the anchors of :func:`point_distances`, checked."""
+    table = np.asarray(dh, dtype=np.float64)
     angles = turns(q_rad)
-    _check_shapes(structure, dh, angles.q_rad)
-    anchors = np.asarray(anchors_m, dtype=np.float64)
-    compiled = _compiled()
-    inputs = None if compiled is None else _compiled_inputs(structure, dh, angles, point_m)
+    _check_shapes(structure, table, angles.q_rad)
+    return table, angles, np.asarray(anchors_m, dtype=np.float64)
+
+
+def _anchored_inputs(structure: Structure, dh: Array, angles: Turns, point_m: ArrayLike | None,
+                     anchors: Array) -> tuple[_Compiled, Array] | None:
+    """The compiled kernel's inputs and the anchors as it reads them, (1 or K, m, 3); None
+    where the numpy path is taken (no kernel, or batch shapes beyond it)."""
+    inputs = None if _compiled() is None \
+        else _compiled_inputs(structure, dh, angles, point_m)
     m = angles.q_rad.shape[-2]
     if inputs is None or anchors.shape[-2:] != (m, 3) \
             or anchors.shape[:-2] not in ((), inputs.batch):
-        return distances(point_position(structure, dh, angles, point_m), anchors)
-    out = compiled.anchored_distances(
-        inputs.table, _plan_rows(structure.parametrisation, structure.joint_types), inputs.cos,
-        inputs.sin, inputs.slides, inputs.start, inputs.base,
-        read_only(np.ascontiguousarray(anchors.reshape(-1, m, 3))))
-    return np.asarray(out.reshape(*inputs.batch, m))
+        return None
+    return inputs, read_only(np.ascontiguousarray(anchors.reshape(-1, m, 3)))
+
+
+def _kernel_chain(structure: Structure, inputs: _Compiled) -> tuple[np.ndarray, ...]:
+    """The chain's arguments every anchored kernel takes first: table, plan, cos q, sin q,
+    slides, start, base."""
+    return (inputs.table, _plan_rows(structure.parametrisation, structure.joint_types),
+            inputs.cos, inputs.sin, inputs.slides, inputs.start, inputs.base)
 
 
 _Moved = tuple[int, int, bool, Array, Array]

@@ -66,6 +66,10 @@ class Ranges(NamedTuple):
     residuals: Callable[[Array], Array]
     """The residuals (..., M) from the measured point's distances (..., m) from the anchors,
     m: the kind's :meth:`Kind.residuals` alike."""
+    readings_m: Array | None = None
+    """Each row's reading, shape (m,), m, when every residual is the distance less it, one
+    row per pose and nothing else (no scale or offset estimated): then a least-squares cost
+    is summed in the distances' pass (:meth:`twin.model.Model.sum_squares`). None otherwise."""
 
 
 class Noise(NamedTuple):

@@ -242,9 +242,12 @@ class Length(Kind):
 
     def ranges(self, values: Mapping[str, Array], data: Measurements, rig: Rig) -> Ranges:
         """Each row's port, shape (m, 3) or (..., m, 3) with an estimated port, m; the
-        residuals from the distances to them."""
+        residuals from the distances to them; the readings, when neither a scale nor an offset
+        is estimated."""
+        plain = "scale" not in values and "offset" not in values
         return Ranges(self._ports(values, data, rig),
-                      lambda distance_m: self._from_distances(distance_m, values, data))
+                      lambda distance_m: self._from_distances(distance_m, values, data),
+                      data.value(LENGTH) if plain else None)
 
     @staticmethod
     def _from_distances(distance_m: Array, values: Mapping[str, Array], data: Measurements

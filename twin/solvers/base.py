@@ -132,8 +132,10 @@ class Tracker:
 
     def cost(self, x: ArrayLike) -> Array:
         """Objective f, the mean of the rows' costs, for unknowns of shape (..., p): shape
-        (...,), m²."""
-        return self.problem.cost(self.residuals(x))
+        (...,), m² (:meth:`twin.problem.Problem.objective`)."""
+        x = np.asarray(x, dtype=np.float64)
+        self.evaluations += math.prod(x.shape[:-1])
+        return self.problem.objective(x)
 
     def jacobian(self, x: ArrayLike) -> tuple[Array, Array]:
         """The rows least squares iterates on at one x of shape (p,): the objective's rows (R,)

@@ -46,7 +46,7 @@ from twin.arrays import Array
 from twin.calibration.accuracy import TruthErrors, rigid_truth, truth_errors
 from twin.calibration.pipeline import calibrate_many
 from twin.dataset import TEMPERATURE, approach_directions
-from twin.geometry.kinematics import for_bulk_work, takes_compiled
+from twin.geometry.kinematics import for_bulk_work, load_compiled, takes_compiled
 from twin.geometry.rigid import angles, log_rotation
 from twin.kinds.plane import plane_corrections, plane_part
 from twin.kinds.pose import pose_part
@@ -293,12 +293,13 @@ def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]
               ) -> list[TrialOutcome]:
     """Run a batch of (case, trial) pairs; the unit of work an executor ships to a worker (whose
     many trials pay the compiled kernel's import once: :func:`~twin.geometry.kinematics.
-    for_bulk_work`, with the solvers' kernels loaded before any method is timed:
-    :func:`twin.solvers.compiled.load`)."""
+    for_bulk_work`, with the kernels loaded before any method is timed:
+    :func:`~twin.geometry.kinematics.load_compiled`, :func:`twin.solvers.compiled.load`)."""
     for_bulk_work()
     if takes_compiled():
         from twin.solvers.compiled import load
 
+        load_compiled()
         load()
     spaces: dict[str, Array] = {}
     outcomes = []
