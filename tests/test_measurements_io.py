@@ -131,6 +131,21 @@ def test_degrees_with_narrow_joints_do_not_warn(tmp_path: Path, irb120: RobotMod
         load_measurements(path, irb120)
 
 
+def test_approach_directions_are_plus_or_minus_one_exactly() -> None:
+    """Approach directions are labels: ±1 as integers, floats or booleans' True are taken
+    (as int8), anything else — 0, 2, 0.5, NaN, an imaginary unit — is refused."""
+    q = np.zeros((2, 6))
+    for good in (np.ones((2, 6), dtype=int), -np.ones((2, 6)), np.ones((2, 6), dtype=bool)):
+        taken = length_measurements(q, np.ones(2), approach=good).approach
+        assert taken is not None and taken.dtype == np.int8
+        np.testing.assert_array_equal(taken, good.astype(np.int8))
+    for wrong in (0.0, 2.0, 0.5, np.nan, 1j):
+        approach = np.ones((2, 6), dtype=complex if wrong == 1j else float)
+        approach[1, 3] = wrong
+        with pytest.raises(ValueError, match="labels \\+1 or -1"):
+            length_measurements(q, np.ones(2), approach=approach)
+
+
 @pytest.mark.parametrize("kind", ["length", "length+ports", "position", "point"])
 def test_every_kind_round_trips_with_approach_columns(tmp_path: Path, kind: str) -> None:
     """Lengths (with named ports), tracker positions and fixed-point names, with approach

@@ -130,7 +130,7 @@ class Measurements:
         if self.approach is not None:
             labels = np.asarray(self.approach)
             # Labels, not measured values: each must be one of the two directions exactly.
-            if labels.shape != (m, n) or not np.all(np.isin(labels, (-1, 1))):
+            if labels.shape != (m, n) or not np.all((labels == 1) | (labels == -1)):
                 raise ValueError(f"approach: expected ({m}, {n}) labels +1 or -1")
             approach = labels.astype(np.int8)
             approach.setflags(write=False)
