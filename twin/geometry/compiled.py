@@ -229,8 +229,8 @@ def anchored_sum_squares(table: Array, plan: Array, cq: Array, sq: Array, slides
                          start: Array, base: Array, anchors: Array, readings: Array) -> Array:
     """Σ_i (d_i − L_i)² for K tables, d_i the distance of :func:`anchored_distances` (the same
     bits) and L_i the reading of row i, summed in the same pass: a swarm's least-squares cost
-    without the (K, m) distances and residuals (200 tables at 96 poses: 17 % of the three
-    passes' time).
+    without the (K, m) distances and residuals (200 tables at 96 poses: 123 µs, against 143 µs
+    for the distances and numpy's three passes after them).
 
     Args:
         table, plan, cq, sq, slides, start, base, anchors: As :func:`anchored_distances`.
@@ -252,7 +252,7 @@ def anchored_sum_squares(table: Array, plan: Array, cq: Array, sq: Array, slides
             residual = math.sqrt(square[i]) - readings[i]
             square[i] = residual * residual
         # Summed in _LANES running sums, as numpy's pairwise sum starts: one sum in order
-        # waits on every addition before it (a third of the kernel's time).
+        # waits on every addition before it (129 µs against 123 µs above).
         lanes[:] = 0.0
         for i in range(0, whole, _LANES):
             for lane in range(_LANES):
