@@ -7,12 +7,14 @@ import pytest
 from scipy.optimize import least_squares
 
 from twin.analysis.uncertainty import cramer_rao_flange_rms, rms_distance
+from twin.calibration import hold
 from twin.calibration.pipeline import calibrate, calibrate_many
 from twin.calibration.result import CalibrationResult
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.split import required_poses, split_rows
 from twin.dataset import Measurements
 from twin.errors import InputError
+from twin.problem import Problem
 from twin.robot import RobotModel, random_poses
 from twin.synthetic import synthesize
 
@@ -115,6 +117,48 @@ def test_lm_reaches_the_bounded_optimum_when_the_truth_is_outside_the_box(
     held_directions, dof = len(result.unseen.names), len(train) - result.identifiability.rank
     f = np.mean(model.residuals(result.solver.x, train) ** 2)
     assert f <= held.f_before_m2 * (1 + held_directions / dof)
+
+
+def test_the_polish_stops_once_a_seen_step_restores_nothing_more(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Holding moves the residuals along the unseen directions too, which no step within the
+    seen ones takes back: each polish stops once its next step could restore no more than
+    POLISH_RTOL of the residuals, not after POLISH_ITERATIONS steps that change nothing; one
+    more Gauss–Newton step from where it stopped restores no more than that."""
+    polishes: list[tuple[Problem, np.ndarray, np.ndarray, np.ndarray, int]] = []
+    polish = hold._polish
+
+    def counted(problem: Problem, x: np.ndarray, target: np.ndarray, seen_x: np.ndarray
+                ) -> np.ndarray:
+        steps = 0
+        jacobian = problem.data_jacobian
+
+        def counting(at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            nonlocal steps
+            steps += 1
+            return jacobian(at)
+
+        object.__setattr__(problem, "data_jacobian", counting)
+        try:
+            done = polish(problem, x, target, seen_x)
+        finally:
+            object.__delattr__(problem, "data_jacobian")
+        polishes.append((problem, done, target, seen_x, steps))
+        return done
+
+    monkeypatch.setattr(hold, "_polish", counted)
+    calibrate(irb120, measurements, port_m, seed=0)
+    assert polishes
+    assert sum(steps for *_, steps in polishes) < hold.POLISH_ITERATIONS * len(polishes)
+    for problem, x, target, seen_x, _ in polishes:
+        residuals, jacobian = problem.data_jacobian(x)
+        gap = residuals - target
+        step = hold._seen_step(jacobian, gap, x, seen_x, problem.lower, problem.upper)
+        further = problem.data_residuals(np.clip(x + step, problem.lower, problem.upper))
+        restored = np.linalg.norm(gap) - np.linalg.norm(further - target)
+        assert restored <= 2 * hold.POLISH_RTOL * np.linalg.norm(target), restored
 
 
 def test_on_result_sees_each_method_as_it_finishes(

@@ -43,8 +43,9 @@ from twin.report.display import mm2
 
 POLISH_ITERATIONS = 3
 """Gauss–Newton steps of the polish: the residuals it restores are a second-order change."""
-POLISH_RTOL = 1e-12
-"""The polish stops when a step changes the residuals by less than this fraction of them."""
+POLISH_RTOL = 1e-6
+"""The polish stops when what a further step could still restore is below this fraction of the
+residuals' size (:func:`_polish`)."""
 KEPT_RTOL = 1e-10
 """Singular values of the kept unknowns' rows of P below this (of the largest) count as zero:
 those combinations of the seen directions move no kept unknown."""
@@ -117,8 +118,18 @@ def _seen_step(jacobian: Array, gap: Array, x: Array, seen_x: Array, lower: Arra
 
 def _polish(problem: Problem, x: Array, target: Array, seen_x: Array) -> Array:
     """x moved within the seen directions P (p, q) so that the training residuals come back to
-    ``target``, inside the search box."""
+    ``target``, inside the search box.
+
+    A Gauss–Newton step leaves its predicted gap orthogonal to what the seen directions reach,
+    so a further step can restore at most about the part of the new gap the linear model did
+    not predict. Holding moves the residuals along the unseen directions too, which no seen
+    step restores: the gap settles on that, most often after one step. The polish stops when
+    that bound is below :data:`POLISH_RTOL` of the residuals. (A stop when the gap itself fell
+    below 1e-12 of the residuals never fired there: 76 polishes of the geometric study's first
+    40 trials took 220 steps, the second and third mostly changing the gap by under 1e-3 of
+    itself; 137 with this stop, 0.5 ms less per trial.)"""
     lower, upper = problem.lower, problem.upper
+    size = float(np.linalg.norm(target))
     for _ in range(POLISH_ITERATIONS):
         residuals, jacobian = problem.data_jacobian(x)
         gap = residuals - target
@@ -127,8 +138,9 @@ def _polish(problem: Problem, x: Array, target: Array, seen_x: Array) -> Array:
         change = problem.data_residuals(moved) - target
         if np.linalg.norm(change) >= np.linalg.norm(gap):
             break
+        predicted = gap + jacobian @ (moved - x)
         x = moved
-        if np.linalg.norm(change) <= POLISH_RTOL * float(np.linalg.norm(target)):
+        if np.linalg.norm(change - predicted) <= POLISH_RTOL * size:
             break
     return x
 
