@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 from twin.analysis.identifiability import (
     _base_by_distances,
@@ -11,6 +12,7 @@ from twin.analysis.identifiability import (
     measurement_identifiability,
     name_direction,
     observability,
+    pivot_columns,
 )
 from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
@@ -227,3 +229,31 @@ def test_base_decisions_match_one_svd_per_column(irb120, port_m, poses, true_del
         J = np.column_stack([A, A[:, 0] + A[:, 1] + tiny * rng.normal(size=60), A[:, 2:]])
         found = identifiability(J, tuple("abcdefg"))
         assert sorted(found.base) == _base_one_svd_per_column(J, 1e-8, [])
+
+
+@pytest.mark.parametrize("rank_deficient", [False, True])
+def test_pivot_columns_are_lapacks(rank_deficient: bool) -> None:
+    """The pivots of QR with column pivoting, as scipy.linalg.qr (LAPACK's dgeqp3) takes them,
+    on full-rank and rank-deficient matrices of any shape, as many as the rank."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        rows, columns = (int(size) for size in rng.integers(2, 30, 2))
+        rank = min(rows, columns)
+        matrix = rng.normal(size=(rows, columns))
+        if rank_deficient:
+            rank = int(rng.integers(1, rank + 1))
+            matrix = rng.normal(size=(rows, rank)) @ rng.normal(size=(rank, columns))
+        expected = scipy.linalg.qr(matrix, pivoting=True)[2][:rank]
+        np.testing.assert_array_equal(pivot_columns(matrix, rank), expected)
+
+
+def test_pivot_columns_take_the_first_of_a_tie_round_off_decides() -> None:
+    """Columns equally far from the span of those taken but for round-off: the first is taken
+    (LAPACK takes the one round-off made larger); a column farther by more than the tie's
+    tolerance is taken before them."""
+    column = np.array([0.3, -0.4, 0.5, 0.1])
+    matrix = np.c_[2 * column, column, 2 * column * (1 + 1e-15), [0.0, 0.0, 0.0, 1.0]]
+    assert np.linalg.norm(matrix[:, 2]) > np.linalg.norm(matrix[:, 0])
+    assert pivot_columns(matrix, 2).tolist() == [0, 3]
+    matrix[:, 2] = 2 * column * (1 + 1e-9)
+    assert pivot_columns(matrix, 2).tolist() == [2, 3]

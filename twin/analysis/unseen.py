@@ -55,7 +55,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from twin.analysis.identifiability import (
@@ -63,6 +62,7 @@ from twin.analysis.identifiability import (
     WEAK_RTOL,
     Identifiability,
     name_direction,
+    pivot_columns,
 )
 from twin.analysis.linearisation import linearise
 from twin.analysis.misfit import chi2_quantile
@@ -156,7 +156,7 @@ def _sparse_names(basis: Array, column_units: Array, names: tuple[str, ...]) -> 
     k = basis.shape[1]
     scaled = column_units[:, None] * basis
     # Reversed, so that of equal candidates the pivoting takes the last unknown.
-    pivots = scaled.shape[0] - 1 - scipy.linalg.qr(scaled[::-1].T, pivoting=True)[2][:k]
+    pivots = scaled.shape[0] - 1 - pivot_columns(scaled[::-1].T, k)
     sparse = scaled @ np.linalg.inv(scaled[pivots])
     sparse[np.abs(sparse) < 1e-12] = 0.0
     return tuple(name_direction(sparse[:, j], names) for j in np.argsort(pivots))
