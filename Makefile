@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 1 min 50 s to 4 min 45 s of pytest, 3 min 10 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_TIME := 1 min 50 s to 4 min 45 s of pytest, 3 min 5 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
 TEST_FAST_TIME := 21 s to 58 s, 0.6 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
@@ -59,7 +59,8 @@ lint: $(VENV)/.installed-dev
 # 1103 tests) at 17:32; later 3:10. In the evening (1369 tests): fresh clones' 4:01 (2:21 of
 # pytest, .ci/run) at 19:02 and 4:11 (2:28) at 19:07, a slow hour, when the session's first
 # commit's pytest took 2:05-2:12 in a worktree beside the new one's 2:08-2:19; 3:25 (1:56) and
-# 3:19 (2:00) at 19:25-19:35; test-fast 27 s at 19:20. TEST_TIME's bounds are those measured,
+# 3:19 (2:00) at 19:25-19:35; test-fast 27 s at 19:20. Later (1373 tests): 3:06 (1:56,
+# .ci/run) at 20:24, pytest 1:51 in a worktree at 20:20. TEST_TIME's bounds are those measured,
 # rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
