@@ -59,9 +59,9 @@ lint: $(VENV)/.installed-dev
 # 1103 tests) at 17:32; later 3:10. In the evening (1369 tests): fresh clones' 4:01 (2:21 of
 # pytest, .ci/run) at 19:02 and 4:11 (2:28) at 19:07, a slow hour, when the session's first
 # commit's pytest took 2:05-2:12 in a worktree beside the new one's 2:08-2:19; 3:25 (1:56) and
-# 3:19 (2:00) at 19:25-19:35; test-fast 27 s at 19:20. Later (1373 tests): 3:06 (1:56,
-# .ci/run) at 20:24, pytest 1:51 in a worktree at 20:20. TEST_TIME's bounds are those measured,
-# rounded outward.
+# 3:19 (2:00) at 19:25-19:35; test-fast 27 s at 19:20. Later (1373 tests): pytest 1:51 in a
+# worktree at 20:13 and a fresh clone's 3:06 (1:56, .ci/run) at 20:16; test-fast 23 s at 20:22.
+# TEST_TIME's bounds are those measured, rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
 # the tests start, some 26 s of CPU apiece. `make test` compiles them first, once, beside mypy
