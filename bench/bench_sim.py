@@ -91,7 +91,8 @@ def main() -> None:
 
 def warm_up(robot: RobotModel, q: np.ndarray) -> None:
     """A warm-up's rows, each on the robot grown by its own micrometres: a twin compiled for
-    each row against one twin placed for each (the same lengths, checked first)."""
+    each row against one twin placed for each, all rows in one call (the same lengths, checked
+    first)."""
     rng = np.random.default_rng(1)
     grown = [robot.perturbed(np.concatenate([rng.uniform(0.0, 2e-5, 2 * robot.n_joints),
                                              np.zeros(2 * robot.n_joints)]))
@@ -103,9 +104,10 @@ def warm_up(robot: RobotModel, q: np.ndarray) -> None:
         return [float(Twin.build(warm, PORT_M).lengths(q[k:k + 1], approach[k:k + 1])[0])
                 for k, warm in enumerate(grown)]
 
+    tables = np.stack([warm.dh for warm in grown])
+
     def placed() -> list[float]:
-        return [float(station.at_rest_of(warm, q[k:k + 1], approach[k:k + 1]).length_m[0])
-                for k, warm in enumerate(grown)]
+        return station.at_rest_of(tables, q, approach).length_m.tolist()
 
     assert np.max(np.abs(np.subtract(compiled(), placed()))) < 1e-12
     times = {"compiled": _best_seconds(compiled), "placed": _best_seconds(placed)}

@@ -128,7 +128,7 @@ def test_a_twin_placed_for_another_table_reads_as_a_twin_built_for_it() -> None:
     approach = approach_directions(q)
     twin = Twin.build(robot, PORT_M, joint_errors=errors, attachment_m=eyelet)
     before = twin.at_rest(q, approach)
-    placed = twin.at_rest_of(warm, q, approach)
+    placed = twin.at_rest_of(np.broadcast_to(warm.dh, (len(q), *warm.dh.shape)), q, approach)
     built = Twin.build(warm, PORT_M, joint_errors=errors, attachment_m=eyelet).at_rest(q, approach)
     for mine, theirs in zip(placed, built, strict=True):
         assert np.max(np.abs(mine - theirs)) < 1e-12
@@ -136,7 +136,7 @@ def test_a_twin_placed_for_another_table_reads_as_a_twin_built_for_it() -> None:
     for again, first in zip(twin.at_rest(q, approach), before, strict=True):
         assert np.array_equal(again, first)
     with pytest.raises(ValueError, match="rigid joints only"):
-        Twin.build(robot, PORT_M, PAPER).at_rest_of(warm, q, approach)
+        Twin.build(robot, PORT_M, PAPER).at_rest_of(np.stack([warm.dh] * len(q)), q, approach)
 
 
 def _perturbed(robot: RobotModel, seed: int) -> RobotModel:

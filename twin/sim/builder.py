@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.arrays import Array
-from twin.geometry.kinematics import chain_transforms, fixed_transforms, joint_placements
+from twin.geometry.kinematics import chain_transforms, joint_placements
 from twin.geometry.statics import GRAVITY_M_S2
 from twin.robot import RobotModel
 from twin.scenario.physics import RIGID, Physics
@@ -195,11 +195,6 @@ def chain_frames(fixed: Array, attachment_m: ArrayLike | None) -> Frames:
         else flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
     return Frames(fixed[:-1, :3, 3], np.array([_quat(frame[:3, :3]) for frame in fixed[:-1]]),
                   flange[:3, 3], point, _quat(flange[:3, :3]))
-
-
-def robot_frames(robot: RobotModel, attachment_m: ArrayLike | None) -> Frames:
-    """The :class:`Frames` of a robot's table (:func:`build_spec` places its bodies so)."""
-    return chain_frames(fixed_transforms(robot.structure, robot.dh), attachment_m)
 
 
 def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array,

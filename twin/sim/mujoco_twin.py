@@ -25,10 +25,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
 from twin.dataset import approach_directions
+from twin.geometry.kinematics import fixed_transforms
 from twin.robot import RobotModel
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.physics import RIGID, Physics
-from twin.sim.builder import build_spec, robot_frames
+from twin.sim.builder import build_spec, chain_frames
 from twin.sim.equilibrium import static_equilibrium
 
 _STATICS_OFF = (
@@ -177,13 +178,51 @@ class Twin:
             q_rad: Recorded joint angles, shape (m, n), rad.
             approach: As in :meth:`joint_angles`.
         """
+        return self._read(self.joint_angles(q_rad, approach))
+
+    def at_rest_of(self, tables: ArrayLike, q_rad: ArrayLike, approach: ArrayLike) -> AtRest:
+        """:meth:`at_rest` with each row on its own table and this twin's joints (a warm-up's
+        links grown at each row): the bodies and sites of this twin's model placed for the row
+        as :func:`twin.sim.builder.build_spec` places them for that table, and put back after —
+        a twin built for the table reads the same, and compiling one was most of a warm-up's
+        capture. Rigid joints only: statics would read masses placed from the geoms, which
+        stay.
+
+        Args:
+            tables: Each row's parameter table, shape (m, 4, n), m and rad.
+            q_rad: Recorded joint angles, shape (m, n), rad.
+            approach: Direction each joint last moved in, shape (m, n), ±1.
+
+        Raises:
+            ValueError: with servos, or for tables of another shape.
+        """
+        if not self.physics.rigid:
+            raise ValueError("at_rest_of: rigid joints only (statics read the geoms' masses)")
         q_actual = self.joint_angles(q_rad, approach)
+        rows = np.asarray(tables, dtype=np.float64)
+        if rows.shape != (len(q_actual), *self.robot.dh.shape):
+            raise ValueError(f"at_rest_of: tables of shape {rows.shape}, expected "
+                             f"({len(q_actual)}, {', '.join(map(str, self.robot.dh.shape))})")
+        model = self.model
+        placed = (model.body_pos, model.body_quat, model.site_pos, model.site_quat)
+        saved = [array.copy() for array in placed]
+        try:
+            return self._read(q_actual, rows)
+        finally:
+            for array, kept in zip(placed, saved, strict=True):
+                array[:] = kept
+
+    def _read(self, q_actual: Array, tables: Array | None = None) -> AtRest:
+        """What :meth:`at_rest` reads at actual joint angles (m, n), rad; with ``tables``
+        (m, 4, n), each row after the bodies and sites are placed for its table."""
         lengths = np.full(len(q_actual), np.nan)
         flanges = np.empty((len(q_actual), 3))
         points = np.empty((len(q_actual), 3))
         rotations = np.empty((len(q_actual), 3, 3))
         model, data = self.statics_model, self.statics_data
         for row, q in enumerate(q_actual):
+            if tables is not None:
+                self._place(tables[row])
             data.qpos[:] = q
             mujoco.mj_kinematics(model, data)
             if self._cable is not None:
@@ -194,40 +233,16 @@ class Twin:
             rotations[row] = data.site_xmat[self._flange].reshape(3, 3)
         return AtRest(q_actual, lengths, flanges, points, rotations)
 
-    def at_rest_of(self, robot: RobotModel, q_rad: ArrayLike, approach: ArrayLike) -> AtRest:
-        """:meth:`at_rest` of another table with this twin's joints (a warm-up's links grown at
-        a row): the bodies and sites of this twin's model placed as
-        :func:`twin.sim.builder.build_spec` places them for ``robot``, and put back after — a
-        twin built for ``robot`` reads the same, and compiling one was most of a warm-up's
-        capture. Rigid joints only: statics would read masses placed from the geoms, which
-        stay.
-
-        Args:
-            robot: The table to read, with this twin's joints.
-            q_rad: Recorded joint angles, shape (m, n), rad.
-            approach: Direction each joint last moved in, shape (m, n), ±1.
-
-        Raises:
-            ValueError: with servos, or for a robot of other joints.
-        """
-        if not self.physics.rigid:
-            raise ValueError("at_rest_of: rigid joints only (statics read the geoms' masses)")
-        if robot.n_joints != self.robot.n_joints or np.any(robot.prismatic != self.robot.prismatic):
-            raise ValueError("at_rest_of: the robot has other joints than the twin")
+    def _place(self, table: Array) -> None:
+        """The bodies and sites of the model where :func:`twin.sim.builder.build_spec` puts
+        them for ``table`` (4, n) with this twin's joints (rigid: the model is the statics')."""
         model = self.model
-        placed = (model.body_pos, model.body_quat, model.site_pos, model.site_quat)
-        saved = [array.copy() for array in placed]
-        frames = robot_frames(robot, self.attachment_m)
-        try:
-            model.body_pos[self._links] = frames.link_pos
-            model.body_quat[self._links] = frames.link_quat
-            model.site_pos[self._flange], model.site_pos[self._point] = \
-                frames.flange_pos, frames.point_pos
-            model.site_quat[[self._flange, self._point]] = frames.site_quat
-            return self.at_rest(q_rad, approach)
-        finally:
-            for array, kept in zip(placed, saved, strict=True):
-                array[:] = kept
+        frames = chain_frames(fixed_transforms(self.robot.structure, table), self.attachment_m)
+        model.body_pos[self._links] = frames.link_pos
+        model.body_quat[self._links] = frames.link_quat
+        model.site_pos[self._flange], model.site_pos[self._point] = \
+            frames.flange_pos, frames.point_pos
+        model.site_quat[[self._flange, self._point]] = frames.site_quat
 
     def lengths(self, q_rad: ArrayLike, approach: ArrayLike | None = None) -> Array:
         """Noise-free cable lengths, shape (m,), m, with the controller at q (m, n) rad."""

@@ -328,21 +328,27 @@ class Bench:
         joint_sigma = self.scenario.noise.joint_sigma_rad(self.robot, q)
         jitter = rng.normal(0.0, 1.0, q.shape) * joint_sigma
         approach = approach_directions(q)
+        actual = q + jitter
+        rows = [np.flatnonzero(station == k) for k in range(len(twins))]
         if thermal is None:
-            rests = [twin.at_rest(q[station == k] + jitter[station == k], approach[station == k])
-                     for k, twin in enumerate(twins)]
+            rests = [twin.at_rest(actual[at], approach[at]) for at, twin in zip(rows, twins,
+                                                                                 strict=True)]
         elif self.scenario.physics.rigid:
             # The links grow during the capture: each row is measured on the MuJoCo model of
             # the robot as warm as it was then (its station's, the bodies placed for it).
-            rests = [twins[station[k]].at_rest_of(
-                self.robot.perturbed(thermal.growth(temperature)), q[k:k + 1] + jitter[k:k + 1],
-                approach[k:k + 1]) for k, temperature in enumerate(thermal.temperatures_c(len(q)))]
+            tables = self.robot.dh + np.stack([thermal.growth(temperature) for temperature
+                                               in thermal.temperatures_c(len(q))])
+            rests = [twin.at_rest_of(tables[at], actual[at], approach[at])
+                     for at, twin in zip(rows, twins, strict=True)]
         else:
             # With servos the masses move with the links too: a twin compiled for each row.
+            rows = [np.array([k]) for k in range(len(q))]
             rests = [self._twin(stations_m[station[k]], thermal.growth(temperature))
-                     .at_rest(q[k:k + 1] + jitter[k:k + 1], approach[k:k + 1])
+                     .at_rest(actual[k:k + 1], approach[k:k + 1])
                      for k, temperature in enumerate(thermal.temperatures_c(len(q)))]
-        rest = AtRest(*(np.concatenate(parts) for parts in zip(*rests, strict=True)))
+        # Back in the order of the rows (a warm-up's revisits interleave the stations).
+        order = np.argsort(np.concatenate(rows), kind="stable")
+        rest = AtRest(*(np.concatenate(parts)[order] for parts in zip(*rests, strict=True)))
         return Visit(self.scenario.noise.recorded(q), station, rest, joint_sigma, approach)
 
     def touch(self, places_m: Array, touches: int, sigma_m: Array, rng: np.random.Generator
