@@ -10,7 +10,9 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
   and prints ``{"cpu_s": …}``, their CPU per trial — until stdin closes. Two trees served in
   turn, block by block, see the same drift of a shared machine's speed. A line ``FIRST COUNT
   stages`` (this tree only: it names this tree's functions, :data:`STAGES`) adds
-  ``"stages": {label: CPU per trial}``, what each stage of a trial took.
+  ``"stages": {label: CPU per trial}``, what each stage of a trial took. A line ``scenario
+  PATH`` serves that scenario's trials from then on, after a warm-up trial of its own (trial
+  :data:`WARM_TRIAL`), and prints ``{"ready": true}``.
 - MODE one or more of ``local1``, ``local2``, ``dask1``, ``dask2``, separated by commas (SIZES
   trial counts separated by commas): for each executor in turn, a run of each size one after
   the other, as `twin study` runs trials, on that many local processes or Dask workers, the
@@ -47,6 +49,8 @@ STAGES = {
 }
 """A trial's stages, each the functions whose CPU it is, where a trial reaches them: LM, the
 hold and the identifiability run inside calibrate."""
+WARM_TRIAL = 10_000
+"""The warm-up trial of a scenario served after the first (no block reaches it)."""
 
 
 def _run_cpu() -> float:
@@ -75,19 +79,32 @@ def _timer(function: Callable[..., Any], label: str, spent: Counter[str]
     return timed
 
 
-def in_process(plan: Any) -> None:
-    """Serve the blocks of trials stdin asks for, printing each block's CPU per trial, s (and
-    with ``stages``, each stage's)."""
-    from twin.study.trial import TrialSpec, run_trial, workspace
+def _served(plan: Any) -> tuple[Any, str, Any]:
+    """What a block of the plan's first case runs: its trial spec, its label and workspace."""
+    from twin.study.trial import TrialSpec, workspace
 
     case = plan.cases[0]
     spec = TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
-    space = workspace(spec)
+    return spec, case.label, workspace(spec)
+
+
+def in_process(plan: Any) -> None:
+    """Serve the blocks of trials stdin asks for, printing each block's CPU per trial, s (and
+    with ``stages``, each stage's); a ``scenario`` line switches the plan."""
+    from twin.study.definition import load_study
+    from twin.study.trial import run_trial
+
+    spec, case, space = _served(plan)
     spent: Counter[str] = Counter()
     wrapped = False
     print(json.dumps({"ready": True}), flush=True)
     for line in sys.stdin:
         words = line.split()
+        if words[0] == "scenario":
+            spec, case, space = _served(load_study(Path(words[1]), trials=1, methods=["lm"]))
+            run_trial(spec, case, WARM_TRIAL, space)
+            print(json.dumps({"ready": True}), flush=True)
+            continue
         first, count, stages = int(words[0]), int(words[1]), words[2:] == ["stages"]
         if stages and not wrapped:
             _timed(spent)
@@ -95,7 +112,7 @@ def in_process(plan: Any) -> None:
         spent.clear()
         start = time.process_time()
         for trial in range(first, first + count):
-            run_trial(spec, case.label, trial, space)
+            run_trial(spec, case, trial, space)
         found: dict[str, Any] = {"cpu_s": (time.process_time() - start) / count}
         if stages:
             found["stages"] = {label: spent[label] / count for label in STAGES}

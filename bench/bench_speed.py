@@ -42,6 +42,12 @@ study worker is.
    before and after those runs, what two busy processes of a pure-Python loop give against one
    on this machine at the time: the ceiling of any such ratio (a shared VM's moves from 1.5× to
    2.0× within a minute).
+6. **Every scenario's trial**: each scenario of ``scenarios/`` with LM as part 4 runs
+   geometric_irb120 (one process per tree, BLAS pinned, the trees in turn a few trials at a
+   time, after a warm-up trial of each scenario), this tree beside :data:`BEFORE_COMMIT` where
+   that commit has the scenario: the CPU per trial of each, and of one trial of every scenario
+   both have, in all. No goal of its own (part 4 measures the goal): how far the other studies
+   have come.
 """
 
 from __future__ import annotations
@@ -100,6 +106,10 @@ STUDY_BLOCK = 4
 """Trials per block of part 4, whose trees run block by block in turn."""
 STAGE_TRIALS = 20
 """Trials part 4 runs again in this tree, each stage's CPU counted."""
+SCENARIO_TRIALS, SCENARIO_BLOCK = 6, 2
+"""Trials of each scenario part 6 runs, and per block of the trees' turns."""
+TINY_SCENARIOS = ("geometric_irb120.toml", "fixed_points_irb120.toml")
+"""The scenarios part 6 runs at the smoke size (this tree only)."""
 
 
 def _goal(label: str, ratio: float, goal: str, met: bool | None) -> None:
@@ -320,6 +330,46 @@ def study_cpu(trials: int, before: Path | None) -> None:
           f"{stages['cpu_s'] * 1e3:.1f} ms a trial): {_stages(stages)}")
 
 
+def scenario_cpu(trials: int, before: Path | None, names: tuple[str, ...] | None) -> None:
+    """CPU per trial of every scenario (``names`` only, when given) with LM in one process,
+    this tree and the one before where it has the scenario, BLAS pinned in both, the trees in
+    turn :data:`SCENARIO_BLOCK` trials at a time."""
+    names = names or tuple(sorted(path.name for path in (ROOT / "scenarios").glob("*.toml")))
+    trees = dict(_trees(before))
+    cpu: dict[str, dict[str, float]] = {}
+    with ExitStack() as stack:
+        drivers = {label: _serve(stack, tree, trials) for label, tree in trees.items()}
+        for driver in drivers.values():
+            _answer(*driver)
+        for name in names:
+            here = {label: driver for label, driver in drivers.items()
+                    if (trees[label] / "scenarios" / name).is_file()}
+            for label, driver in here.items():
+                _block(driver, f"scenario {trees[label] / 'scenarios' / name}")
+            cpu[name] = dict.fromkeys(here, 0.0)
+            for first in range(0, trials, SCENARIO_BLOCK):
+                count = min(SCENARIO_BLOCK, trials - first)
+                for label, driver in here.items():
+                    cpu[name][label] += _block(driver, f"{first} {count}")["cpu_s"] \
+                        * count / trials
+    print(f"6. every scenario with LM, {trials} trial(s) each in one process, CPU per trial "
+          f"(the trees in turn, {SCENARIO_BLOCK} trials at a time):")
+    print(f"  {'scenario':<28}" + "".join(f"{label:>12}" for label in trees)
+          + ("   now/then" if len(trees) == 2 else ""))
+    for name, found in cpu.items():
+        shown = "".join(f"{found[label] * 1e3:9.1f} ms" if label in found else f"{'—':>12}"
+                        for label in trees)
+        ratio = f"{found['now'] / found[BEFORE_COMMIT]:10.2f}×" if len(found) == 2 else ""
+        print(f"  {name.removesuffix('.toml'):<28}{shown}{ratio}")
+    both = [found for found in cpu.values() if len(found) == 2]
+    if both:
+        now, then = (sum(found[label] for found in both) for label in ("now", BEFORE_COMMIT))
+        print(f"  one trial of each of the {len(both)} scenarios {BEFORE_COMMIT} has: "
+              f"{now * 1e3:.0f} ms now, {then * 1e3:.0f} ms then")
+        _goal(f"their CPU in all / at {BEFORE_COMMIT} (part 4 is the goal's)", now / then,
+              "none", None)
+
+
 def _block(driver: tuple[subprocess.Popen[str], IO[str]], line: str) -> dict[str, Any]:
     """A driver's answer to a block of trials (:data:`DRIVER`'s ``inprocess`` mode)."""
     process, errors = driver
@@ -428,7 +478,7 @@ def main() -> None:
     """Run every part and print the ratios beside their goals."""
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--tiny", action="store_true", help="smoke sizes: figures mean nothing")
-    parser.add_argument("--parts", default="12345", help="which parts to run (default all)")
+    parser.add_argument("--parts", default="123456", help="which parts to run (default all)")
     args = parser.parse_args()
     tiny = args.tiny
     if "1" in args.parts:
@@ -439,7 +489,7 @@ def main() -> None:
     if "3" in args.parts:
         paper_m9(poses=40 if tiny else 120, seconds=0.0 if tiny else 2.0,
                  particles=6 if tiny else None)
-    if "4" in args.parts or "5" in args.parts:
+    if any(part in args.parts for part in "456"):
         with tempfile.TemporaryDirectory() as temporary:
             before = _before_tree(Path(temporary))
             if "4" in args.parts:
@@ -450,6 +500,9 @@ def main() -> None:
                 # second took 2.8 CPU-s more of the smoke test and ran the same code).
                 study_scaling(4 if tiny else 160, None if tiny else before, 1 if tiny else 2,
                               (1,) if tiny else (1, 2))
+            if "6" in args.parts:
+                scenario_cpu(1 if tiny else SCENARIO_TRIALS, None if tiny else before,
+                             TINY_SCENARIOS if tiny else None)
 
 
 if __name__ == "__main__":
