@@ -132,6 +132,23 @@ def test_every_parametrisation_matches_its_matrix_product(seed: int) -> None:
                                    atol=1e-13)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_a_stack_of_tables_has_each_tables_fixed_transforms(seed: int) -> None:
+    """A warm-up places its rows' tables all at once: the stack's fixed transforms are each
+    table's (the one-table form, held to the matrix product above), for every parametrisation
+    and joint type."""
+    rng = np.random.default_rng(seed)
+    structure = _mixed(rng)
+    tables = default_robot().dh + rng.normal(scale=0.05, size=(5, 4, 6))
+    stacked = fixed_transforms(structure, tables)
+    assert stacked.shape == (5, 7, 4, 4)
+    for table, fixed in zip(tables, stacked, strict=True):
+        np.testing.assert_allclose(fixed, fixed_transforms(structure, table), rtol=0,
+                                   atol=1e-15)
+    with pytest.raises(ValueError, match="expected"):
+        fixed_transforms(structure, tables[None])
+
+
 def test_batched_tables_equal_one_by_one(irb120: RobotModel) -> None:
     """K tables × m poses in one call give what K separate calls give."""
     rng = np.random.default_rng(1)

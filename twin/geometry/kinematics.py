@@ -973,22 +973,22 @@ def fixed_transforms(structure: Structure, dh: ArrayLike) -> Array:
 
     Args:
         structure: What the table means.
-        dh: One parameter table, shape (4, n).
+        dh: One parameter table, shape (4, n), or a stack of them, (k, 4, n).
 
     Returns:
-        T_0..T_n, shape (n + 1, 4, 4).
+        T_0..T_n, shape (n + 1, 4, 4), or (k, n + 1, 4, 4).
     """
     return chain_transforms(structure, *joint_placements(structure, dh))
 
 
 def chain_transforms(structure: Structure, pre: Array, post: Array) -> Array:
     """:func:`fixed_transforms` from the joints' placements (:func:`joint_placements`) when
-    the caller has them already, shape (n + 1, 4, 4)."""
+    the caller has them already, shape (..., n + 1, 4, 4)."""
     n = structure.n_joints
-    transforms = [structure.base @ pre[0]]
-    transforms += [post[i] @ pre[i + 1] for i in range(n - 1)]
-    transforms.append(post[-1] @ structure.tool)
-    return np.stack(transforms)
+    transforms = [structure.base @ pre[..., 0, :, :]]
+    transforms += [post[..., i, :, :] @ pre[..., i + 1, :, :] for i in range(n - 1)]
+    transforms.append(post[..., -1, :, :] @ structure.tool)
+    return np.stack(transforms, axis=-3)
 
 
 def joint_placements(structure: Structure, dh: ArrayLike) -> tuple[Array, Array]:
@@ -1001,45 +1001,52 @@ def joint_placements(structure: Structure, dh: ArrayLike) -> tuple[Array, Array]
 
     Args:
         structure: What the table means.
-        dh: One parameter table, shape (4, n).
+        dh: One parameter table, shape (4, n), or a stack of them, (k, 4, n).
 
     Returns:
-        ``(pre, post)``, each shape (n, 4, 4).
+        ``(pre, post)``, each shape (n, 4, 4), or (k, n, 4, 4).
     """
     table = np.asarray(dh, dtype=np.float64)
     n = structure.n_joints
-    if table.shape != (4, n):
-        raise ValueError(f"dh: shape {table.shape}, expected (4, {n})")
+    if table.shape[-2:] != (4, n) or table.ndim not in (2, 3):
+        raise ValueError(f"dh: shape {table.shape}, expected (4, {n}) or (k, 4, {n})")
+    # One table's entries as Python floats, a stack's as arrays over its tables (k,).
+    entries = table if table.ndim == 2 else np.moveaxis(table, 0, -1)
     pre, post = [], []
     for i, (kind, joint_type) in enumerate(zip(structure.parametrisation,
                                                structure.joint_types, strict=True)):
         motions = joint_motions(kind, joint_type)
         joint_at = next(index for index, motion in enumerate(motions) if motion[3])
-        pre.append(_compose(motions[:joint_at], table[:, i]))
+        pre.append(_compose(motions[:joint_at], entries[:, i]))
         # The joint's own offset moves with q: Rz(q + θ) = Rz(q) · Rz(θ), Tz(q + d) likewise.
-        post.append(_compose(motions[joint_at:], table[:, i]))
-    return np.stack(pre), np.stack(post)
+        post.append(_compose(motions[joint_at:], entries[:, i]))
+    return np.stack(pre, axis=-3), np.stack(post, axis=-3)
 
 
 def _compose(motions: tuple[tuple[int, int, int, bool], ...], slots: Array) -> Array:
-    """The product of the elementary motions, (4, 4): each applied to the columns of the
-    product so far (T · Tr moves column 4 along one axis; T · Rot turns two columns), on
-    Python floats — an identity and a 4×4 product per motion were a fifth of building a
-    MuJoCo twin, which a warm-up's capture does at every row."""
-    columns = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0],
-               [0.0, 0.0, 0.0, 1.0]]
+    """The product of the elementary motions, (4, 4), or (k, 4, 4) for slots (4, k) of k
+    tables: each applied to the columns of the product so far (T · Tr moves column 4 along
+    one axis; T · Rot turns two columns), on Python floats for one table — an identity and a
+    4×4 product per motion were a fifth of building a MuJoCo twin — and on arrays over the
+    tables for a stack (a warm-up's rows, each on its own table)."""
+    one = slots.ndim == 1
+    cos, sin = (math.cos, math.sin) if one else (np.cos, np.sin)
+    unit, nil = (1.0, 0.0) if one else (np.ones(slots.shape[1:]), np.zeros(slots.shape[1:]))
+    columns = [[unit, nil, nil, nil], [nil, unit, nil, nil], [nil, nil, unit, nil],
+               [nil, nil, nil, unit]]
     for kind, axis, slot, _ in motions:
         if kind == _TRANS:
             if slot != NO_SLOT:  # a prismatic Hayati joint's slide: no fixed part
-                along, by = columns[axis], float(slots[slot])
+                along, by = columns[axis], float(slots[slot]) if one else slots[slot]
                 columns[3] = [t + a * by for t, a in zip(columns[3], along, strict=True)]
         else:
-            c, s = math.cos(slots[slot]), math.sin(slots[slot])
+            c, s = cos(slots[slot]), sin(slots[slot])
             j, k = (axis + 1) % 3, (axis + 2) % 3
             first, second = columns[j], columns[k]
             columns[j] = [a * c + b * s for a, b in zip(first, second, strict=True)]
             columns[k] = [b * c - a * s for a, b in zip(first, second, strict=True)]
-    return np.array(columns).T
+    product = np.array(columns)  # (column, row) or (column, row, k)
+    return product.T if one else np.moveaxis(product, -1, 0).swapaxes(-1, -2)
 
 
 def rigid_transform(xyz_m: ArrayLike, rpy_rad: ArrayLike) -> Array:

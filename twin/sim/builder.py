@@ -173,7 +173,8 @@ def _touching(fixed: Array, radius_m: Array) -> list[tuple[int, int]]:
 
 class Frames(NamedTuple):
     """Where the chain's bodies and sites sit in their parents: all that MuJoCo's kinematics
-    and a spatial tendon read of the robot's table."""
+    and a spatial tendon read of the robot's table; of one table, or of each of a stack
+    (a leading axis of k tables on every field)."""
 
     link_pos: Array
     """Body ``link<i>`` in its parent, shape (n, 3), m."""
@@ -188,13 +189,17 @@ class Frames(NamedTuple):
 
 
 def chain_frames(fixed: Array, attachment_m: ArrayLike | None) -> Frames:
-    """The :class:`Frames` of the chain's fixed transforms ``fixed`` (n + 1, 4, 4) with the
-    measured point at ``attachment_m`` (flange frame, (3,), m; None: the flange centre)."""
-    flange = fixed[-1]
-    point = flange[:3, 3] if attachment_m is None \
-        else flange[:3, 3] + flange[:3, :3] @ np.asarray(attachment_m, dtype=np.float64)
-    return Frames(fixed[:-1, :3, 3], np.array([_quat(frame[:3, :3]) for frame in fixed[:-1]]),
-                  flange[:3, 3], point, _quat(flange[:3, :3]))
+    """The :class:`Frames` of the chain's fixed transforms ``fixed`` (n + 1, 4, 4), or of a
+    stack of chains (k, n + 1, 4, 4), with the measured point at ``attachment_m`` (flange
+    frame, (3,), m; None: the flange centre)."""
+    flange = fixed[..., -1, :, :]
+    point = flange[..., :3, 3] if attachment_m is None \
+        else flange[..., :3, 3] + flange[..., :3, :3] @ np.asarray(attachment_m, dtype=np.float64)
+    turns = fixed[..., :3, :3]
+    quats = np.array([_quat(turn) for turn in turns.reshape(-1, 3, 3)]) \
+        .reshape(*turns.shape[:-2], 4)
+    return Frames(fixed[..., :-1, :3, 3], quats[..., :-1, :], flange[..., :3, 3], point,
+                  quats[..., -1, :])
 
 
 def _add_chain(spec: mujoco.MjSpec, robot: RobotModel, fixed: Array, post: Array,

@@ -29,7 +29,7 @@ from twin.geometry.kinematics import fixed_transforms
 from twin.robot import RobotModel
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.physics import RIGID, Physics
-from twin.sim.builder import build_spec, chain_frames
+from twin.sim.builder import Frames, build_spec, chain_frames
 from twin.sim.equilibrium import static_equilibrium
 
 _STATICS_OFF = (
@@ -220,9 +220,11 @@ class Twin:
         points = np.empty((len(q_actual), 3))
         rotations = np.empty((len(q_actual), 3, 3))
         model, data = self.statics_model, self.statics_data
+        frames = None if tables is None \
+            else chain_frames(fixed_transforms(self.robot.structure, tables), self.attachment_m)
         for row, q in enumerate(q_actual):
-            if tables is not None:
-                self._place(tables[row])
+            if frames is not None:
+                self._place(Frames(*(part[row] for part in frames)))
             data.qpos[:] = q
             mujoco.mj_kinematics(model, data)
             if self._cable is not None:
@@ -233,11 +235,10 @@ class Twin:
             rotations[row] = data.site_xmat[self._flange].reshape(3, 3)
         return AtRest(q_actual, lengths, flanges, points, rotations)
 
-    def _place(self, table: Array) -> None:
+    def _place(self, frames: Frames) -> None:
         """The bodies and sites of the model where :func:`twin.sim.builder.build_spec` puts
-        them for ``table`` (4, n) with this twin's joints (rigid: the model is the statics')."""
+        them for one table (rigid: the model is the statics')."""
         model = self.model
-        frames = chain_frames(fixed_transforms(self.robot.structure, table), self.attachment_m)
         model.body_pos[self._links] = frames.link_pos
         model.body_quat[self._links] = frames.link_quat
         model.site_pos[self._flange], model.site_pos[self._point] = \
