@@ -108,7 +108,7 @@ STAGE_TRIALS = 20
 """Trials part 4 runs again in this tree, each stage's CPU counted."""
 SCENARIO_TRIALS, SCENARIO_BLOCK = 6, 2
 """Trials of each scenario part 6 runs, and per block of the trees' turns."""
-TINY_SCENARIOS = ("geometric_irb120.toml", "fixed_points_irb120.toml")
+TINY_SCENARIOS = ("geometric_irb120.toml", "few_poses_irb120.toml")
 """The scenarios part 6 runs at the smoke size (this tree only)."""
 
 
