@@ -61,6 +61,8 @@ lint: $(VENV)/.installed-dev
 # commit's pytest took 2:05-2:12 in a worktree beside the new one's 2:08-2:19; 3:25 (1:56) and
 # 3:19 (2:00) at 19:25-19:35; test-fast 27 s at 19:20. Later (1373 tests): pytest 1:51 in a
 # worktree at 20:13 and a fresh clone's 3:06 (1:56, .ci/run) at 20:16; test-fast 23 s at 20:22.
+# Later still (1377-1381 tests): pytest 2:02-2:35 in worktrees at 20:40-21:03 and a fresh
+# clone's 3:39 (2:14, .ci/run) at 21:20, a slow hour; test-fast 29 s (1125 tests) at 21:21.
 # TEST_TIME's bounds are those measured, rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
