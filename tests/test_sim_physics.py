@@ -137,6 +137,26 @@ def test_a_twin_placed_for_another_table_reads_as_a_twin_built_for_it() -> None:
         assert np.array_equal(again, first)
     with pytest.raises(ValueError, match="rigid joints only"):
         Twin.build(robot, PORT_M, PAPER).at_rest_of(np.stack([warm.dh] * len(q)), q, approach)
+    with pytest.raises(ValueError, match=r"tables of shape \(4, 6\), expected \(30, 4, 6\)"):
+        twin.at_rest_of(warm.dh, q, approach)
+
+
+def test_each_row_of_a_warm_up_reads_as_a_twin_built_for_its_own_table() -> None:
+    """A warm-up's rows each on its own table, placed in one call: every row reads what a twin
+    compiled for its table reads at that row (the rows' frames made at once, then placed in
+    turn)."""
+    robot = _perturbed(default_robot(), 7)
+    q = _poses(8)
+    approach = approach_directions(q)
+    grown = [_perturbed(robot, 10 + k) for k in range(len(q))]
+    eyelet = np.array([0.01, -0.02, 0.03])
+    placed = Twin.build(robot, PORT_M, attachment_m=eyelet).at_rest_of(
+        np.stack([warm.dh for warm in grown]), q, approach)
+    for k, warm in enumerate(grown):
+        built = Twin.build(warm, PORT_M, attachment_m=eyelet).at_rest(q[k:k + 1],
+                                                                       approach[k:k + 1])
+        for mine, theirs in zip(placed, built, strict=True):
+            assert np.max(np.abs(mine[k] - theirs[0])) < 1e-12
 
 
 def _perturbed(robot: RobotModel, seed: int) -> RobotModel:
