@@ -1,6 +1,6 @@
 """Where users wait, each ratio measured side by side in one run and printed beside its goal.
 
-Run by hand: ``.venv/bin/python bench/bench_speed.py`` (about two minutes on 2 cores);
+Run by hand: ``.venv/bin/python bench/bench_speed.py`` (about three minutes on 2 cores);
 ``--tiny`` runs every part at a smoke size (CI: ``tests/test_bench_smoke.py``), whose figures
 mean nothing. BLAS is pinned to one thread in this process (set before numpy loads), as every
 study worker is.
