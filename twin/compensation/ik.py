@@ -126,9 +126,9 @@ def _errors(
     if base_R_target is None:
         # Positions alone need the flange centre's rows only: the point trace the calibration
         # runs on gives them for a fifth of the whole pose's walk on the compiled kernel of a
-        # study's workers (67 against 380 µs at 160 rows; 0.28 against 0.35 ms at 8 rows and
-        # 0.49 against 1.9 ms at 1000 on the numpy path) — most of a plane or fixed-point
-        # scenario's capture was this walk.
+        # study's workers (67 against 380 µs at 160 rows) — most of a plane or fixed-point
+        # scenario's capture was this walk; on the numpy path 0.28 against 0.35 ms at 8 rows,
+        # 0.42 against 0.37 ms at 160 and 0.49 against 1.9 ms at 1000.
         trace = trace_point(robot.structure, robot.dh, q)
         return base_p_target - trace.position, trace.jacobian().joints
     base_T_flange, jacobian = flange_jacobian(robot.structure, robot.dh, q)
