@@ -17,6 +17,14 @@ def test_rotation_is_z_y_x_of_fixed_axes() -> None:
     np.testing.assert_allclose(angles(rotation(a)), a, atol=1e-14)
 
 
+def test_rotations_of_stacked_angles_are_scipys() -> None:
+    """Angles (4, 5, 3), as a swarm's candidates carry a frame's: every rotation is scipy's
+    extrinsic 'xyz' of its angles."""
+    a = np.random.default_rng(1).uniform(-3.0, 3.0, (4, 5, 3))
+    expected = Rotation.from_euler("xyz", a.reshape(-1, 3)).as_matrix().reshape(4, 5, 3, 3)
+    np.testing.assert_allclose(rotation(a), expected, rtol=0, atol=1e-15)
+
+
 def test_rotation_derivatives_match_differences() -> None:
     """∂R/∂a equals central differences of R."""
     a = np.array([0.2, 0.5, -1.1])
