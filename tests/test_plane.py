@@ -270,3 +270,18 @@ def test_a_scenarios_angles_reach_the_calibration_through_the_capture(tmp_path: 
         ["plane1", "plane3"], ["plane1", "plane4"], ["plane2", "plane3"], ["plane2", "plane4"],
         ["plane3", "plane4"]]
     assert all(a["angle_deg"] == pytest.approx(90.0) for a in rig["angles"])
+
+
+def test_a_planes_axes_are_made_once_read_only_and_span_it() -> None:
+    """The axes e1, e2 every evaluation reads: unit, in the plane, e1 × e2 = n; made once for
+    the rig's planes and read-only, so that no evaluation can move them for the next."""
+    normals = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.95, 0.1, np.sqrt(1 - 0.9125)]])
+    part = PlaneRig(("floor", "slope", "wall"), normals, np.zeros(3))
+    first, second = part.axes
+    assert part.axes[0] is first and part.axes[1] is second
+    for axis in (first, second):
+        np.testing.assert_allclose(np.linalg.norm(axis, axis=1), 1.0, atol=1e-15)
+        np.testing.assert_allclose(np.sum(axis * normals, axis=1), 0.0, atol=1e-15)
+    np.testing.assert_allclose(np.cross(first, second), normals, atol=1e-15)
+    with pytest.raises(ValueError, match="read-only"):
+        first[0, 0] = 1.0

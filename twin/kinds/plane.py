@@ -29,12 +29,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from twin.arrays import Array, frozen_array
+from twin.arrays import Array, frozen_array, read_only
 from twin.dataset import Measurements
 from twin.errors import InputError
 from twin.geometry.kinematics import point_position
@@ -120,6 +121,14 @@ class PlaneRig:
         object.__setattr__(self, "normals", normals)
         object.__setattr__(self, "offsets_m", frozen_array(self.offsets_m, (k,), "offsets_m"))
 
+    @cached_property
+    def axes(self) -> tuple[Array, Array]:
+        """The two unit axes e1, e2 in each plane (:func:`in_plane_axes`), each (k, 3): made
+        once, where every evaluation of the planes' residuals and Jacobian made them again
+        (six of a Jacobian's eight cross products); read-only, as the normals are."""
+        first, second = in_plane_axes(self.normals)
+        return read_only(first), read_only(second)
+
     def places(self, group: str) -> tuple[str, ...]:
         """The planes, for group ``planes``."""
         return self.names if group == GROUP else ()
@@ -139,7 +148,7 @@ def plane_part(rig: Rig) -> PlaneRig:
 def plane_corrections(start: PlaneRig, true: PlaneRig) -> Array:
     """The group ``planes``' values that turn the start planes into the true ones (matched by
     name, each true plane's normal taken on the start's side), shape (3k,): a, b, δd each."""
-    first, second = in_plane_axes(start.normals)
+    first, second = start.axes
     values = np.zeros((len(start.names), 3))
     for j, name in enumerate(start.names):
         k = true.names.index(name)
@@ -155,7 +164,7 @@ def plane_corrections(start: PlaneRig, true: PlaneRig) -> Array:
 def _planes(values: Mapping[str, Array], part: PlaneRig) -> tuple[Array, Array, Array]:
     """The normals (..., k, 3), offsets (..., k), m, and the unnormalised normals' lengths
     (..., k) of the values' planes."""
-    first, second = in_plane_axes(part.normals)
+    first, second = part.axes
     if GROUP not in values:
         return part.normals, part.offsets_m, np.ones(len(part.names))
     block = values[GROUP].reshape(*values[GROUP].shape[:-1], -1, 3)
@@ -282,7 +291,7 @@ class Plane(PlaceKind):
     def _normal_derivatives(block: Array, normals: Array, size: Array, part: PlaneRig
                             ) -> Array:
         """∂n/∂(a, b) of every plane, shape (k, 3, 2)."""
-        first, second = in_plane_axes(part.normals)
+        first, second = part.axes
         angles = block.reshape(-1, 3)[:, :2]
         across = np.eye(3) - normals[:, :, None] * normals[:, None, :]
         axes = np.stack([first, second], axis=-1) / np.cos(angles[:, None, :]) ** 2
