@@ -170,6 +170,15 @@ def predicted_rotation(at: Measured, values: Mapping[str, Array], rig: Rig) -> A
                       @ _tool(values, part)[..., None, :, :], dtype=np.float64)
 
 
+def _rows(at: Measured, values: Mapping[str, Array], data: Measurements, rig: Rig,
+          turn_rad: Array) -> Array:
+    """The residual rows of :meth:`Pose.residuals` from the orientations' turns
+    Log(R_yᵀ R̂), (..., m, 3), rad: shape (..., 6m), m."""
+    position = in_instrument(at.position_m, values, rig) - data.value(POSITION)
+    rows = np.concatenate([position, pose_part(rig).weight_m_per_rad * turn_rad], axis=-1)
+    return np.asarray(rows.reshape(*rows.shape[:-2], -1), dtype=np.float64)
+
+
 class Pose(Kind):
     """6-D poses (:mod:`twin.kinds.pose`)."""
 
@@ -202,11 +211,9 @@ class Pose(Kind):
     def residuals(self, at: Measured, values: Mapping[str, Array], data: Measurements,
                   rig: Rig) -> Array:
         """Per pose, x, y, z of the position, then w·Log(R_yᵀ R̂): shape (..., 6m), m."""
-        position = in_instrument(at.position_m, values, rig) - data.value(POSITION)
         turn = log_rotation(np.swapaxes(data.value(ROTATION), -1, -2)
                             @ predicted_rotation(at, values, rig))
-        rows = np.concatenate([position, pose_part(rig).weight_m_per_rad * turn], axis=-1)
-        return np.asarray(rows.reshape(*rows.shape[:-2], -1), dtype=np.float64)
+        return _rows(at, values, data, rig, turn)
 
     def measure(self, at: Measured, values: Mapping[str, Array], template: Measurements,
                 rig: Rig) -> Measurements:
@@ -245,7 +252,8 @@ class Pose(Kind):
             columns = np.zeros((m, 6, 3))
             columns[:, 3:] = turn @ predicted @ right_jacobian(values["tool"])
             by_group["tool"] = columns.reshape(6 * m, 3)
-        return KindJacobian(self.residuals(at, values, data, rig), by_position, by_group,
+        # The rows from the turn φ made here: Log through scipy was a fifth of the Jacobian.
+        return KindJacobian(_rows(at, values, data, rig, phi), by_position, by_group,
                             by_rotation)
 
     def prepare(self, robot: RobotModel, rig: Rig, data: Measurements, noise: Noise
