@@ -202,6 +202,22 @@ def _gaps(normals: Array, offsets: Array, pairs: NDArray[np.intp]) -> Array:
                       dtype=np.float64)
 
 
+def _rows(at: Measured, normals: Array, offsets: Array, angle: Array, data: Measurements,
+          rig: Rig) -> Array:
+    """The rows of :meth:`Plane.residuals` from the planes' normals (..., k, 3) and offsets
+    (..., k), m, and the angles between the normals of the known angles' pairs (..., a),
+    rad: shape (..., m + d + a), m."""
+    index = data.index(PLANE)
+    rows = np.sum(normals[..., index, :] * at.position_m, axis=-1) - offsets[..., index]
+    pairs = _pairs(rig.distances, plane_part(rig))
+    known = DISTANCE_WEIGHT * (np.abs(_gaps(normals, offsets, pairs))
+                               - np.array([d.length_m for d in rig.distances]))
+    turned = ANGLE_WEIGHT * (angle - np.array([a.angle_rad for a in rig.angles]))
+    shape = rows.shape[:-1]
+    return np.concatenate([rows, np.broadcast_to(known, (*shape, len(pairs))),
+                           np.broadcast_to(turned, (*shape, len(rig.angles)))], axis=-1)
+
+
 def fit_plane(points_m: Array) -> tuple[Array, float]:
     """The least-squares plane of points (k, 3), m: its unit normal (3,) and offset d, m.
 
@@ -248,16 +264,8 @@ class Plane(PlaceKind):
         W (∠(n_a, n_b) − φ) per known angle: shape (..., m + d + a), m."""
         part = plane_part(rig)
         normals, offsets, _ = _planes(values, part)
-        index = data.index(PLANE)
-        rows = np.sum(normals[..., index, :] * at.position_m, axis=-1) - offsets[..., index]
-        pairs = _pairs(rig.distances, part)
-        known = DISTANCE_WEIGHT * (np.abs(_gaps(normals, offsets, pairs))
-                                   - np.array([d.length_m for d in rig.distances]))
-        turned = ANGLE_WEIGHT * (_angles(normals, _pairs(rig.angles, part, "angle"))[0]
-                                 - np.array([a.angle_rad for a in rig.angles]))
-        shape = rows.shape[:-1]
-        return np.concatenate([rows, np.broadcast_to(known, (*shape, len(pairs))),
-                               np.broadcast_to(turned, (*shape, len(rig.angles)))], axis=-1)
+        angle, _ = _angles(normals, _pairs(rig.angles, part, "angle"))
+        return _rows(at, normals, offsets, angle, data, rig)
 
     def measure(self, at: Measured, values: Mapping[str, Array], template: Measurements,
                 rig: Rig) -> Measurements:
@@ -271,6 +279,8 @@ class Plane(PlaceKind):
         ∂r/∂δd = −1; a known distance's or angle's row through its two planes."""
         part = plane_part(rig)
         normals, offsets, size = _planes(values, part)
+        angle_pairs = _pairs(rig.angles, part, "angle")
+        angle, sine = _angles(normals, angle_pairs)
         index = data.index(PLANE)
         m, k = len(data), len(part.names)
         by_group: dict[str, Array] = {}
@@ -283,9 +293,11 @@ class Plane(PlaceKind):
             by_group[GROUP] = np.concatenate(
                 [pose_rows.reshape(m, 3 * k),
                  self._distance_rows(normals, offsets, turns, _pairs(rig.distances, part), k),
-                 self._angle_rows(normals, turns, _pairs(rig.angles, part, "angle"), k)])
-        return KindJacobian(self.residuals(at, values, data, rig), normals[index][:, None, :],
-                            by_group)
+                 self._angle_rows(normals, turns, angle_pairs, sine, k)])
+        # The rows from the normals and angles made here (residuals() made them again: a
+        # quarter of the Jacobian).
+        return KindJacobian(_rows(at, normals, offsets, angle, data, rig),
+                            normals[index][:, None, :], by_group)
 
     @staticmethod
     def _normal_derivatives(block: Array, normals: Array, size: Array, part: PlaneRig
@@ -313,11 +325,12 @@ class Plane(PlaceKind):
         return rows.reshape(len(pairs), 3 * k)
 
     @staticmethod
-    def _angle_rows(normals: Array, turns: Array, pairs: NDArray[np.intp], k: int) -> Array:
-        """∂ of each known angle's row w.r.t. the planes' (a, b, δd), shape (d, 3k):
+    def _angle_rows(normals: Array, turns: Array, pairs: NDArray[np.intp], sine: Array,
+                    k: int) -> Array:
+        """∂ of each known angle's row w.r.t. the planes' (a, b, δd), shape (d, 3k), from the
+        sines of the angles between the pairs' normals (d,) (:func:`_angles`):
         ∂∠/∂(n_a·n_b) = −1 / sin ∠ (a known angle is 1° to 179°, its sine far from 0)."""
         rows = np.zeros((len(pairs), k, 3))
-        _, sine = _angles(normals, pairs)
         for row, (a, b) in enumerate(pairs):
             factor = -ANGLE_WEIGHT / max(float(sine[row]), 1e-12)
             rows[row, a, :2] += factor * normals[b] @ turns[a]
