@@ -17,6 +17,7 @@ from twin.kinds.length import cable_length, length_measurements
 from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics
 from twin.scenario.joint_errors import JointErrors
+from twin.scenario.physics import RIGID
 from twin.sim import Twin, static_equilibrium
 
 PORT_M = np.array([0.6, -0.4, 0.1])
@@ -157,6 +158,36 @@ def test_each_row_of_a_warm_up_reads_as_a_twin_built_for_its_own_table() -> None
                                                                        approach[k:k + 1])
         for mine, theirs in zip(placed, built, strict=True):
             assert np.max(np.abs(mine[k] - theirs[0])) < 1e-12
+
+
+@pytest.mark.parametrize("physics", [RIGID, PAPER], ids=["rigid", "servos"])
+@pytest.mark.parametrize("eyelet", [None, np.array([0.01, -0.02, 0.03])], ids=["flange", "eyelet"])
+def test_a_twin_with_its_port_moved_reads_as_a_twin_built_there(
+        physics: Physics, eyelet: np.ndarray | None) -> None:
+    """An encoder moved between stations: the first station's twin with its port moved reads,
+    bit for bit, what a twin compiled with the port there reads (the servos' statics under the
+    cable's pull, the collisions, the cable through a link), and the first twin still reads its
+    own port."""
+    robot = _perturbed(default_robot(), 8)
+    n = robot.n_joints
+    errors = JointErrors(np.full(n, 2e-4), np.ones(n), np.linspace(0.0, 3.0, n),
+                         np.full(n, 1e-4))
+    station = np.array([0.3, 0.5, 0.05])
+    q = _poses(40, seed=4)
+    first = Twin.build(robot, PORT_M, physics, errors, eyelet)
+    before = first.at_rest(q)
+    moved = first.with_port(station)
+    built = Twin.build(robot, station, physics, errors, eyelet)
+    for mine, theirs in zip(moved.at_rest(q), built.at_rest(q), strict=True):
+        assert np.array_equal(mine, theirs)
+    assert np.array_equal(moved.in_collision(q), built.in_collision(q))
+    blocked = moved.cable_blocked(q)
+    assert np.array_equal(blocked, built.cable_blocked(q)) and blocked.any() and not blocked.all()
+    assert np.max(np.abs(moved.lengths(q) - before.length_m)) > 0.1  # the ports differ
+    for again, kept in zip(first.at_rest(q), before, strict=True):
+        assert np.array_equal(again, kept)
+    with pytest.raises(ValueError, match="a twin with a cable and a port expected"):
+        Twin.build(robot, None).with_port(station)
 
 
 def _perturbed(robot: RobotModel, seed: int) -> RobotModel:

@@ -319,7 +319,10 @@ class Bench:
         """Poses station after station (:func:`_poses`; with a warm-up, the first revisited as
         its ``[thermal]`` says), the joint jitter, the arm at rest, the angles as recorded
         (:meth:`twin.scenario.noise.NoiseModel.recorded`)."""
-        twins = [self._twin(port) for port in stations_m]
+        # Several stations move one cable's port: the first station's twin, its port moved.
+        first, *others = stations_m
+        twins = [self._twin(first)]
+        twins += [twins[0].with_port(port) for port in others]
         q, station = _poses(self.scenario, twins, rng)
         thermal = self.scenario.thermal
         if thermal is not None:
