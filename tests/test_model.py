@@ -11,6 +11,7 @@ from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.dataset import Measurements, approach_directions
 from twin.errors import InputError, UnknownChoiceError
+from twin.geometry.kinematics import flange_transform
 from twin.kinds.length import cable_length, length_measurements
 from twin.model import Model
 from twin.rig import Rig
@@ -215,6 +216,24 @@ def test_joint_groups_jacobian_matches_finite_differences(
     x[model.slice(errors[-1])] *= 0.1 if "compliance" in errors[-1] else 1.0
     data = _with_approach(measurements.subset(np.arange(15)))
     _assert_jacobians(model, x, data)
+
+
+def test_flange_rotations_are_the_walked_chains(
+    irb120: RobotModel, measurements: Measurements, port_m: np.ndarray
+) -> None:
+    """The flange's orientation, with the joint groups moving the joints: the walked chain's
+    base_R_flange at the model's table and joints, for one x and for a stack of them."""
+    rig = Rig.cable(port_m, [0.01, -0.02, 0.03], tension_n=5.0)
+    model = make_model(irb120, rig, settings=CalibrationSettings(errors=["dh", *JOINT_GROUPS]))
+    rng = np.random.default_rng(4)
+    xs = rng.normal(scale=1e-3, size=(3, model.n_params))
+    data = _with_approach(measurements.subset(np.arange(25)))
+    stacked = model.flange_rotations(xs, data)
+    assert stacked.shape == (3, 25, 3, 3)
+    for x, rotations in zip(xs, stacked, strict=True):
+        walked = flange_transform(irb120.structure, model.table(x), model.joints(x, data))
+        np.testing.assert_allclose(rotations, walked[..., :3, :3], rtol=0.0, atol=1e-14)
+        np.testing.assert_allclose(model.flange_rotations(x, data), rotations, atol=1e-15)
 
 
 def test_joint_groups_move_the_joints_as_stated(

@@ -47,7 +47,6 @@ from numpy.typing import ArrayLike
 
 from twin.analysis.linearisation import chain_jacobian
 from twin.arrays import Array
-from twin.geometry.kinematics import flange_transform
 from twin.geometry.rigid import exp_rotation, right_jacobian
 from twin.model import Model
 
@@ -245,8 +244,7 @@ def unobservable_motions(model: Model, x: ArrayLike, null_space: ArrayLike, q_ra
     span = u[:, s > MOVES_RTOL * largest]
     if not span.shape[1]:
         return gauge
-    rotations = flange_transform(model.robot.structure, model.table(x),
-                                 model.joints(x, data))[..., :3, :3]
+    rotations = model.flange_rotations(x, data)
     gauge = gauge._replace(flange_rotations=rotations)
     named: list[Motion] = []
     fields: list[Array] = []
