@@ -7,12 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.compensation.ik import IKResult, solve_ik
 from twin.errors import InputError, TwinError
 from twin.geometry.kinematics import point_position
 from twin.io.robot_file import default_robot
-from twin.robot import random_poses
+from twin.robot import RobotModel, random_poses
 from twin.scenario import PoseConstraints
-from twin.sim import Twin, read_pose_plan, sample_poses
+from twin.sim import Twin, read_pose_plan, sample_poses, touches
 from twin.sim.poses import usable, violations
 from twin.sim.touches import touch_poses
 from twin.units import deg_to_rad
@@ -123,13 +124,24 @@ def test_touches_seat_the_ball_in_each_socket_from_usable_configurations() -> No
     assert np.array_equal(again, q)
 
 
-@pytest.mark.slow
-def test_a_socket_out_of_reach_is_named() -> None:
-    """A socket 3 m away: refused, naming the socket and what was found."""
+def test_a_socket_out_of_reach_is_named_after_its_starts(monkeypatch: pytest.MonkeyPatch
+                                                        ) -> None:
+    """A socket 3 m away: refused, naming the socket and what was found, once it has had its
+    IK_STARTS_PER_TOUCH starts per touch — in batches that double after the second round
+    (4, 4, 8, 16, 32 starts, then the 16 left), not in 20 rounds of 4."""
     robot = default_robot()
     twin = Twin.build(robot, None)
     sockets = np.array([[0.45, 0.0, 0.3], [3.0, 0.0, 0.3]])
+    far: list[int] = []
+
+    def counted(pointer: RobotModel, targets: np.ndarray, seeds: np.ndarray) -> IKResult:
+        far.append(int(np.sum(targets[:, 0] > 2.0)))
+        return solve_ik(pointer, targets, seeds)
+
+    monkeypatch.setattr(touches, "solve_ik", counted)
     with pytest.raises(InputError, match=r"0 configurations reaching fixed point 2 at "
                        r"\[3000\.0, 0\.0, 300\.0\] mm"):
         touch_poses(robot, twin, sockets, 2, PoseConstraints(), np.full(3, 2e-5),
                     np.random.default_rng(4))
+    assert far == [4, 4, 8, 16, 32, 16]
+    assert sum(far) == touches.IK_STARTS_PER_TOUCH * 2

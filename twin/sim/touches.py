@@ -54,25 +54,35 @@ def touch_poses(robot: RobotModel, twin: Twin, points_m: Array, touches: int,
     pointer = replace(robot, structure=replace(structure, tool=structure.tool @ tool))
     found: list[list[Array]] = [[] for _ in points_m]
     tried = np.zeros(len(points_m), dtype=np.intp)
-    batch = 2 * touches
+    rounds = np.zeros(len(points_m), dtype=np.intp)
+    limit = IK_STARTS_PER_TOUCH * touches
     # Round after round, every point still short of its touches draws a batch of starts and
     # seatings (point after point) and all of them are solved at once: the IK of two rows was
-    # mostly numpy's overhead, 157 calls and 1.5 s for the plane scenario's 80 sockets.
+    # mostly numpy's overhead, 157 calls and 1.5 s for the plane scenario's 80 sockets. From
+    # its third round a point still short doubles its batch (2, 2, 4, 8… starts a touch): a
+    # round costs its slowest row's Newton steps whatever its size, and about 30 % of random
+    # starts reach a plane's socket, so that fixed batches of two took 5-8 rounds; most
+    # points have their touches within two rounds, drawn as they were before.
     while lacking := [j for j, got in enumerate(found) if len(got) < touches]:
         for j in lacking:
-            if tried[j] >= IK_STARTS_PER_TOUCH * touches:
+            if tried[j] >= limit:
                 raise InputError(f"{len(found[j])} configurations reaching fixed point {j + 1} "
                                  f"at {np.round(points_m[j] * 1e3, 1).tolist()} mm",
                                  f"{touches}: a placement the arm can reach")
-        tried[lacking] += batch
+        batches = [min(2 * touches << max(int(rounds[j]) - 1, 0), limit - tried[j])
+                   for j in lacking]
+        tried[lacking] += batches
+        rounds[lacking] += 1
         draws = [(rng.uniform(robot.lower_rad, robot.upper_rad, (batch, robot.n_joints)),
-                  points_m[j] + rng.normal(0.0, 1.0, (batch, 3)) * sigma_m) for j in lacking]
+                  points_m[j] + rng.normal(0.0, 1.0, (batch, 3)) * sigma_m)
+                 for j, batch in zip(lacking, batches, strict=True)]
         solved = solve_ik(pointer, np.concatenate([targets for _, targets in draws]),
                           np.concatenate([seeds for seeds, _ in draws]))
         good = solved.ok.copy()
         good[good] = usable(constraints, twin, solved.q_rad[good])
-        for k, j in enumerate(lacking):
-            rows = slice(k * batch, (k + 1) * batch)
+        ends = np.cumsum(batches)
+        for j, end, batch in zip(lacking, ends, batches, strict=True):
+            rows = slice(end - batch, end)
             found[j].extend(solved.q_rad[rows][good[rows]][: touches - len(found[j])])
     return (np.concatenate([np.stack(got) for got in found]),
             np.repeat(np.arange(len(points_m), dtype=np.intp), touches))
