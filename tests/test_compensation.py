@@ -10,6 +10,7 @@ import pytest
 
 from twin.analysis.uncertainty import rms_distance
 from twin.calibration.pipeline import calibrate
+from twin.choices import KERNEL_VARIABLE
 from twin.cli import main
 from twin.compensation.check import check_compensation
 from twin.compensation.ik import (
@@ -24,6 +25,7 @@ from twin.compensation.joints import compensate_program, compensate_targets
 from twin.compensation.targets import reachable_targets
 from twin.dataset import Measurements
 from twin.errors import InputError
+from twin.geometry import kinematics
 from twin.geometry.kinematics import flange_jacobian
 from twin.io.identified import load_result_delta
 from twin.io.results import result_to_dict, write_json
@@ -69,6 +71,40 @@ def test_position_ik_converges_quadratically_on_either_kernel(kernel: str, model
     assert np.all(solved.converged)
     assert solved.iterations <= 8, solved.iterations
     np.testing.assert_allclose(robot.flange_positions(solved.q_rad), target, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("model", ["irb120.toml", "scara4/scara4.toml", "fr3/fr3.urdf"])
+def test_compiled_position_ik_takes_the_numpy_steps(model: str,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """Position IK from seeds anywhere within the limits, as a touch capture starts it (some
+    rows converge, the others give up at the largest damping or run out of steps): the
+    compiled kernel takes numpy's steps — the same rows converge, in as many lockstep
+    iterations, onto their targets, at the same commands to 1e-6 rad (m on a slide: a 3-D
+    target leaves an arm's other joints free, along which round-off steers a solution by
+    0.5 µrad). An arm with a slide, and one read from a URDF (its own parametrisation, base
+    and tool transforms)."""
+    pytest.importorskip("numba")
+    robot = load_robot(ROOT / "models" / model)
+    rng = np.random.default_rng(6)
+    q = rng.uniform(robot.lower_rad, robot.upper_rad, (150, robot.n_joints))
+    targets = robot.flange_positions(q) + rng.normal(0.0, 0.05, (150, 3))
+    seeds = rng.uniform(robot.lower_rad, robot.upper_rad, q.shape)
+    solved = {}
+    for kernel in ("numpy", "numba"):
+        monkeypatch.setenv(KERNEL_VARIABLE, kernel)
+        kinematics._compiled.cache_clear()
+        assert kinematics.takes_compiled() == (kernel == "numba")
+        solved[kernel] = solve_ik(robot, targets, seeds)
+    monkeypatch.delenv(KERNEL_VARIABLE)
+    kinematics._compiled.cache_clear()
+    reference, compiled = solved["numpy"], solved["numba"]
+    assert 0 < np.sum(reference.converged) < len(q)
+    np.testing.assert_array_equal(compiled.converged, reference.converged)
+    assert compiled.iterations == reference.iterations
+    done = reference.converged
+    np.testing.assert_allclose(compiled.q_rad[done], reference.q_rad[done], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(robot.flange_positions(compiled.q_rad[done]), targets[done],
+                               rtol=0, atol=1e-10)
 
 
 def test_program_compensation_reaches_nominal_pose(

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array
-from twin.geometry.kinematics import flange_jacobian, trace_point
+from twin.geometry.kinematics import compiled_position_ik, flange_jacobian, trace_point
 from twin.geometry.rigid import log_rotation
 from twin.robot import RobotModel
 
@@ -185,10 +185,31 @@ def solve_ik(
     if R_target is not None and R_target.shape != (len(p_target), 3, 3):
         raise ValueError(f"base_R_target: shape {R_target.shape}, expected ({len(p_target)}, 3, 3)")
 
-    def norms(error: Array) -> tuple[Array, Array]:
-        rotation = np.linalg.norm(error[:, 3:], axis=-1) if R_target is not None else np.zeros(
-            len(error))
-        return np.linalg.norm(error[:, :3], axis=-1), rotation
+    # Positions alone on the compiled kernel, where this process takes it: the rows' Newton
+    # steps without numpy's overhead at each (most of a touch capture's time).
+    found = compiled_position_ik(robot.structure, robot.dh, p_target, q, tolerance_m,
+                                 max_iterations, (INITIAL_DAMPING, MIN_DAMPING, MAX_DAMPING)) \
+        if R_target is None and joints is None else None
+    q, error, iterations = found if found is not None else _newton(
+        robot, p_target, q, R_target, (tolerance_m, tolerance_rad), max_iterations, joints)
+    position_m, rotation_rad = _norms(error)
+    converged = (position_m <= tolerance_m) & (rotation_rad <= tolerance_rad)
+    q, within = _into_limits(robot, q, np.asarray(q_seed, dtype=np.float64))
+    return IKResult(q, position_m, rotation_rad, converged, within, iterations)
+
+
+def _norms(error: Array) -> tuple[Array, Array]:
+    """Each row's position and (for 6-D rows) rotation error, shapes (m,), m and rad."""
+    rotation = np.linalg.norm(error[:, 3:], axis=-1) if error.shape[1] > 3 else np.zeros(
+        len(error))
+    return np.linalg.norm(error[:, :3], axis=-1), rotation
+
+
+def _newton(robot: RobotModel, p_target: Array, q: Array, R_target: Array | None,
+            tolerances: tuple[float, float], max_iterations: int, joints: ActualAngles | None
+            ) -> tuple[Array, Array, int]:
+    """:func:`solve_ik`'s damped Newton steps in numpy, the rows in lockstep: the commands
+    (m, n) (q, changed in place), the errors (m, 3 or 6) and the iterations run."""
 
     def evaluate(q_rows: Array, rows: NDArray[np.intp]) -> tuple[Array, Array]:
         actual = None if joints is None else joints(q_rows, rows)
@@ -200,8 +221,8 @@ def solve_ik(
     identity = np.eye(error.shape[1])
     iterations = 0
     while iterations < max_iterations:
-        position_m, rotation_rad = norms(error)
-        active = ((position_m > tolerance_m) | (rotation_rad > tolerance_rad)) & (
+        position_m, rotation_rad = _norms(error)
+        active = ((position_m > tolerances[0]) | (rotation_rad > tolerances[1])) & (
             damping < MAX_DAMPING
         )
         if not np.any(active):
@@ -220,10 +241,7 @@ def solve_ik(
         )
         damping[taken] = np.maximum(damping[taken] / 3.0, MIN_DAMPING)
         damping[rows[~better]] *= 10.0
-    position_m, rotation_rad = norms(error)
-    converged = (position_m <= tolerance_m) & (rotation_rad <= tolerance_rad)
-    q, within = _into_limits(robot, q, np.asarray(q_seed, dtype=np.float64))
-    return IKResult(q, position_m, rotation_rad, converged, within, iterations)
+    return q, error, iterations
 
 
 Accept = Callable[[Array, NDArray[np.intp]], NDArray[np.bool_]]

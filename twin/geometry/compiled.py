@@ -348,3 +348,118 @@ def distances(points: Array, anchors: Array) -> Array:
         for i in range(m):  # apart, where the compiler vectorises it: half the time
             out[k, i] = math.sqrt(out[k, i])
     return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _point_and_joints(table: Array, plan: Array, start: Array, base: Array, tool: Array,
+                      n_columns: int, joint_columns: Array, q: Array, point: Array,
+                      joints: Array) -> None:
+    """Into ``point`` (k, 3) the point at each row of q (k, n) on table 0, and into
+    ``joints`` (k, 3, n) its derivatives by the joints, ∂p/∂q (the columns
+    ``joint_columns`` (n,) of :func:`jacobian` along the base axes)."""
+    k, n = q.shape
+    cq, sq, slides = np.empty((n, 1, k)), np.empty((n, 1, k)), np.empty((n, 1, k))
+    for row in range(k):
+        for joint in range(n):
+            value = q[row, joint]
+            cq[joint, 0, row], sq[joint, 0, row] = math.cos(value), math.sin(value)
+            slides[joint, 0, row] = value
+    axes = np.zeros((1, 1, 3, 3))
+    for axis in range(3):
+        axes[0, 0, axis, axis] = 1.0
+    position, columns, _ = jacobian(table, plan, cq, sq, slides, start, base, tool, axes,
+                                    n_columns)
+    for row in range(k):
+        for axis in range(3):
+            point[row, axis] = position[0, row, axis]
+            for joint in range(n):
+                joints[row, axis, joint] = columns[0, row, axis, joint_columns[joint]]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _damped_step(jac: Array, error: Array, damping: float, step: Array) -> None:
+    """Into ``step`` (n,) Jᵀ (J Jᵀ + λI)⁻¹ e for J (3, n) and e (3,): the 3×3 system solved
+    by Cholesky (positive definite for λ > 0)."""
+    a = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            total = 0.0
+            for c in range(jac.shape[1]):
+                total += jac[i, c] * jac[j, c]
+            a[i, j] = total
+        a[i, i] += damping
+    l00 = math.sqrt(a[0, 0])
+    l10, l20 = a[1, 0] / l00, a[2, 0] / l00
+    l11 = math.sqrt(a[1, 1] - l10 * l10)
+    l21 = (a[2, 1] - l20 * l10) / l11
+    l22 = math.sqrt(a[2, 2] - l20 * l20 - l21 * l21)
+    z0 = error[0] / l00
+    z1 = (error[1] - l10 * z0) / l11
+    z2 = (error[2] - l20 * z0 - l21 * z1) / l22
+    y2 = z2 / l22
+    y1 = (z1 - l21 * y2) / l11
+    y0 = (z0 - l10 * y1 - l20 * y2) / l00
+    for c in range(jac.shape[1]):
+        step[c] = jac[0, c] * y0 + jac[1, c] * y1 + jac[2, c] * y2
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def position_ik(table: Array, plan: Array, start: Array, base: Array, tool: Array,
+                n_columns: int, joint_columns: Array, targets: Array, seeds: Array,
+                tolerance: float, max_iterations: int, damping0: float, smallest: float,
+                largest: float) -> tuple[Array, Array, int]:
+    """Damped Newton steps that bring the point to each row's target, the rows in lockstep,
+    as :func:`twin.compensation.ik.solve_ik` takes them for positions alone: a row is worked
+    on while it is farther than ``tolerance`` and its damping below ``largest``; a step that
+    brings it closer is kept and the damping divided by 3 (not below ``smallest``), else the
+    damping multiplied by 10.
+
+    Args:
+        table, plan, start, base, tool, n_columns: As :func:`jacobian`, one table.
+        joint_columns: Each joint's column among the derivative columns, shape (n,).
+        targets: Each row's target in the base frame, shape (m, 3), m.
+        seeds: Starting joint values, shape (m, n), rad (m on a slide).
+
+    Returns:
+        ``(q, error, iterations)``: joint values (m, n), target − point (m, 3), and how many
+        lockstep iterations ran.
+    """
+    m, n = seeds.shape
+    q = seeds.copy()
+    point, joints = np.empty((m, 3)), np.empty((m, 3, n))
+    _point_and_joints(table, plan, start, base, tool, n_columns, joint_columns, q, point,
+                      joints)
+    error = targets - point
+    size = np.empty(m)
+    for row in range(m):
+        size[row] = math.sqrt(error[row, 0] ** 2 + error[row, 1] ** 2 + error[row, 2] ** 2)
+    damping = np.full(m, damping0)
+    tried, tried_point, tried_joints = np.empty((m, n)), np.empty((m, 3)), np.empty((m, 3, n))
+    iterations = 0
+    while iterations < max_iterations:
+        active = np.flatnonzero((size > tolerance) & (damping < largest))
+        k = active.size
+        if k == 0:
+            break
+        iterations += 1
+        for a in range(k):
+            row = active[a]
+            _damped_step(joints[row], error[row], damping[row], tried[a])
+            for joint in range(n):
+                tried[a, joint] += q[row, joint]
+        _point_and_joints(table, plan, start, base, tool, n_columns, joint_columns,
+                          tried[:k], tried_point[:k], tried_joints[:k])
+        for a in range(k):
+            row = active[a]
+            e0 = targets[row, 0] - tried_point[a, 0]
+            e1 = targets[row, 1] - tried_point[a, 1]
+            e2 = targets[row, 2] - tried_point[a, 2]
+            reached = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            if reached < size[row]:
+                q[row], joints[row] = tried[a], tried_joints[a]
+                error[row, 0], error[row, 1], error[row, 2] = e0, e1, e2
+                size[row] = reached
+                damping[row] = max(damping[row] / 3.0, smallest)
+            else:
+                damping[row] *= 10.0
+    return q, error, iterations

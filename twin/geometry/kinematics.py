@@ -371,6 +371,8 @@ def load_compiled() -> None:
                         np.zeros((3, 3)))
         point_sum_squares(structure, np.zeros((1, 4, 2)), np.zeros((3, 2)), None,
                           np.zeros((3, 3)), np.ones(3))
+        compiled_position_ik(structure, np.zeros((4, 2)), np.zeros((1, 3)), np.zeros((1, 2)),
+                             1e-10, 1, (1e-6, 1e-12, 1e8))
 
 
 @cache
@@ -846,6 +848,44 @@ class CompiledTrace:
                                                                   structure.n_columns))
         return PointJacobian(self.position, table, joints,
                              rotation.reshape(*inputs.batch, m, -1, 3))
+
+
+def compiled_position_ik(structure: Structure, dh: ArrayLike, targets_m: ArrayLike,
+                         seeds_rad: ArrayLike, tolerance_m: float, max_iterations: int,
+                         damping: tuple[float, float, float]) -> tuple[Array, Array, int] | None:
+    """Damped Newton steps bringing the flange centre (the tool applied) to each target, every
+    row in one call of the compiled kernel (:func:`twin.geometry.compiled.position_ik`, the
+    steps :func:`twin.compensation.ik.solve_ik` takes in numpy), or None where this process
+    takes the numpy path (:func:`takes_compiled`).
+
+    Args:
+        structure: What the table means.
+        dh: The table, shape (4, n), m and rad.
+        targets_m: Targets in the base frame, shape (m, 3), m.
+        seeds_rad: Starting joint values, shape (m, n), rad (m on a slide).
+        tolerance_m: A row is done within this distance, m.
+        max_iterations: Lockstep iterations at most.
+        damping: The first damping, the smallest and the one at which a row gives up.
+
+    Returns:
+        ``(q, error, iterations)``: joint values (m, n), target − flange (m, 3), m, and the
+        iterations run.
+    """
+    kernel = _compiled()
+    if kernel is None:
+        return None
+    n = structure.n_joints
+    table, targets, seeds, start, base, tool, columns = (
+        read_only(np.ascontiguousarray(array, dtype=dtype)) for array, dtype in (
+            (np.reshape(dh, (1, 4, n)), np.float64), (targets_m, np.float64),
+            (seeds_rad, np.float64), (structure.tool[None, :3, 3], np.float64),
+            (structure.base, np.float64), (structure.tool, np.float64),
+            (structure.joint_columns, np.int64)))
+    q, error, iterations = kernel.position_ik(
+        table, _plan_rows(structure.parametrisation, structure.joint_types), start, base, tool,
+        structure.n_columns, columns, targets, seeds, float(tolerance_m), int(max_iterations),
+        *(float(value) for value in damping))
+    return np.asarray(q), np.asarray(error), int(iterations)
 
 
 def trace_point(structure: Structure, dh: ArrayLike, q_rad: ArrayLike | Turns,
