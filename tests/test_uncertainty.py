@@ -115,7 +115,7 @@ def test_unseen_with_and_without_the_start_share_one_factorisation(
         irb120: RobotModel, port_m: np.ndarray, true_delta: np.ndarray) -> None:
     """:func:`unseen_with_weak` gives what :func:`unseen_directions` gives without and with the
     start: with noise, where the start's test holds weak directions the other does not, and
-    without, where it holds nothing more."""
+    without, where it holds nothing more; unnamed, the same subspace."""
     q = random_poses(irb120, 60, np.random.default_rng(4))
     data = length_measurements(q, np.ones(len(q)))
     model = make_model(irb120, Rig.cable(port_m))
@@ -130,6 +130,12 @@ def test_unseen_with_and_without_the_start_share_one_factorisation(
             np.testing.assert_array_equal(shared.basis, own.basis)
             np.testing.assert_array_equal(shared.weak_sigma, own.weak_sigma)
             assert (shared.names, shared.weak_names) == (own.names, own.weak_names)
+        # A look that reads the subspace alone (the hold's looks again): the same subspace,
+        # its names not made.
+        unnamed = unseen_directions(model, x, data, noise, scale, nominal, start=start,
+                                    named=False)
+        np.testing.assert_array_equal(unnamed.basis, alone[1].basis)
+        assert unnamed.names == () and len(alone[1].names) == alone[1].basis.shape[1] > 0
         extra.append(pair[1].basis.shape[1] - pair[0].basis.shape[1])
     assert extra[0] > 0 and extra[1] == 0
 

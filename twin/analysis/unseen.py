@@ -240,8 +240,9 @@ def _held(sight: _Sight, noise_m: float, offset: Array | None) -> NDArray[np.boo
 
 
 def _subspace(sight: _Sight, held: NDArray[np.bool_], nominal: Identifiability, model: Model,
-              noise_m: float) -> Unseen:
-    """The unseen subspace of the exact null space and the ``held`` candidates."""
+              noise_m: float, named: bool = True) -> Unseen:
+    """The unseen subspace of the exact null space and the ``held`` candidates (its names
+    left empty unless ``named``)."""
     scale, weight, exact, candidates = sight.scale, sight.weight, sight.exact, sight.candidates
     # A held candidate adds to the exact null space only what lies outside it: a candidate
     # inside it (to INSIDE_TOL) would add its round-off, normalised into a random direction.
@@ -256,18 +257,18 @@ def _subspace(sight: _Sight, held: NDArray[np.bool_], nominal: Identifiability, 
         basis = np.linalg.qr(basis * (scale / weight)[:, None])[0]
     weak = ~held & (sight.sigma > WEAK_SIGMA)
     labels = np.asarray(nominal.unidentifiable, dtype=object)
-    return Unseen(weight, np.asarray(basis, dtype=np.float64),
-                  (*labels[held], *_extra_names(
-                      basis, candidates[:, held] * (scale / weight)[:, None], sight.jacobian,
-                      weight, model.names)),
+    names = (*labels[held], *_extra_names(
+        basis, candidates[:, held] * (scale / weight)[:, None], sight.jacobian, weight,
+        model.names)) if named else ()
+    return Unseen(weight, np.asarray(basis, dtype=np.float64), names,
                   float(noise_m), tuple(labels[weak]),
                   np.asarray(sight.sigma[weak], dtype=np.float64))
 
 
 def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: float,
                       scale: ArrayLike, nominal: Identifiability,
-                      row_weight: ArrayLike | None = None, start: ArrayLike | None = None
-                      ) -> Unseen:
+                      row_weight: ArrayLike | None = None, start: ArrayLike | None = None,
+                      *, named: bool = True) -> Unseen:
     """What ``data`` cannot see at the unknowns x (module docstring).
 
     Args:
@@ -285,12 +286,15 @@ def unseen_directions(model: Model, x: ArrayLike, data: Measurements, noise_m: f
             scaled row.
         start: Where the fit started (the nominal), shape (p,): a candidate whose value from
             it is within :data:`SIGNIFICANT_SIGMAS` of its σ is held too; None: no such test.
+        named: False leaves the names empty: the subspace alone, for a look that reads
+            nothing else (the hold's looks again after each hold, where naming was a tenth
+            of a fixed-point or plane capture's hold).
     """
     x = np.asarray(x, dtype=np.float64)
     scale = np.asarray(scale, dtype=np.float64)
     sight = _sight(model, x, data, noise_m, scale, nominal, row_weight)
     offset = None if start is None else (x - np.asarray(start, np.float64)) / scale
-    return _subspace(sight, _held(sight, noise_m, offset), nominal, model, noise_m)
+    return _subspace(sight, _held(sight, noise_m, offset), nominal, model, noise_m, named)
 
 
 def unseen_with_weak(model: Model, x: ArrayLike, data: Measurements, noise_m: float,

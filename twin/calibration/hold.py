@@ -158,9 +158,9 @@ def rows_chi2(f_change_m2: float, rows: int, noise_m: float) -> float:
 def _unseen(problem: Problem, x: Array, noise: float, nominal: Identifiability,
             start: Array | None) -> Unseen:
     """What the training poses cannot see at x (and the weak directions x does not tell from
-    the start, when ``start`` is given)."""
+    the start, when ``start`` is given), unnamed: :func:`_hold` reads the subspace alone."""
     return unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal,
-                             problem.train_weight, start)
+                             problem.train_weight, start, named=False)
 
 
 def _hold(problem: Problem, x: Array, target: Array, unseen: Unseen, noise: float,
