@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from twin.analysis.linearisation import model_jacobian
 from twin.analysis.unseen import rig_unknowns
 from twin.arrays import Array
 from twin.dataset import Measurements
@@ -36,8 +37,10 @@ def held_out_only(model: Model, x: ArrayLike, train: Measurements, held_out: Mea
         return rig
     x = np.asarray(x, dtype=np.float64)
     poses = model.kind.rows_per_pose * len(train)
-    seen_train = np.linalg.norm(model.jacobian(x, train)[1][:poses], axis=0)
-    seen_held = np.linalg.norm(model.jacobian(x, held_out)[1], axis=0)
+    # The kept Jacobians (a calibration's checks took the training rows' at the start and at
+    # the answer already): two 6-D pose Jacobians a call were a tenth of a pose trial.
+    seen_train = np.linalg.norm(model_jacobian(model, x, train)[1][:poses], axis=0)
+    seen_held = np.linalg.norm(model_jacobian(model, x, held_out)[1], axis=0)
     largest = max(float(np.max(seen_train, initial=0.0)), float(np.max(seen_held, initial=0.0)))
     tolerance = SEEN_RTOL * largest
     return np.asarray(rig & (seen_train <= tolerance) & (seen_held > tolerance))
