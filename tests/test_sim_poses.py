@@ -79,6 +79,19 @@ def test_cable_through_the_upper_arm_is_blocked() -> None:
     assert not Twin.build(robot, PORT_M).cable_blocked(home)[0]
 
 
+def test_one_pass_of_mujocos_tests_fails_where_either_does() -> None:
+    """MuJoCo's two tests in one pass (the cable cast where nothing touches) fail exactly the
+    poses in collision or with the cable through a link, with a clearance; without a cable,
+    those in collision."""
+    robot = default_robot()
+    q = random_poses(robot, 400, np.random.default_rng(9))
+    for port in (PORT_M, None):
+        twin = Twin.build(robot, port)
+        collides, blocked = twin.in_collision(q), twin.cable_blocked(q, 0.01)
+        assert np.array_equal(twin.obstructed(q, 0.01), collides | blocked)
+        assert collides.any() and (blocked & ~collides).any() == (port is not None)
+
+
 def test_impossible_constraints_fail_with_a_message() -> None:
     """A cable range no pose can reach stops the sampler with an explanation."""
     twin = Twin.build(default_robot(), PORT_M)

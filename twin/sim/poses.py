@@ -34,9 +34,11 @@ Check = tuple[str, Callable[[Array], NDArray[np.bool_]]]
 """A constraint's name and its test: ``failed(q (m, n) rad) -> (m,)``, True where it fails."""
 
 
-def _checks(constraints: PoseConstraints, twin: Twin) -> list[Check]:
+def _checks(constraints: PoseConstraints, twin: Twin, *, together: bool = False
+            ) -> list[Check]:
     """Every constraint in the order a report names them: the arithmetic ones first, then
-    MuJoCo's collision test and (with a cable) its ray cast."""
+    MuJoCo's collision test and (with a cable) its ray cast — ``together``, as one test in
+    one pass over the poses (:meth:`twin.sim.mujoco_twin.Twin.obstructed`)."""
     robot = twin.robot
 
     def outside(q_rad: Array) -> NDArray[np.bool_]:
@@ -58,10 +60,15 @@ def _checks(constraints: PoseConstraints, twin: Twin) -> list[Check]:
         checks.append(("cable length outside ["
                        + mm_values([constraints.cable_min_m, constraints.cable_max_m],
                                    significant=AS_GIVEN) + "] mm", out_of_range))
+    clearance = constraints.cable_clearance_m
+    if together:
+        checks.append(("links in collision or cable through a link",
+                       lambda q_rad: twin.obstructed(q_rad, clearance)))
+        return checks
     checks.append(("links in collision", twin.in_collision))
     if port_m is not None:
         checks.append(("cable through a link",
-                       lambda q_rad: twin.cable_blocked(q_rad, constraints.cable_clearance_m)))
+                       lambda q_rad: twin.cable_blocked(q_rad, clearance)))
     return checks
 
 
@@ -74,9 +81,9 @@ def violations(constraints: PoseConstraints, twin: Twin, q_rad: Array
 
 def usable(constraints: PoseConstraints, twin: Twin, q_rad: Array) -> NDArray[np.bool_]:
     """Mask of the usable poses, shape (m,): each constraint tested only on the poses that
-    passed the ones before it (MuJoCo's tests, a pose at a time, on the fewest)."""
+    passed the ones before it (MuJoCo's tests, a pose at a time, on the fewest, in one pass)."""
     ok = np.ones(len(q_rad), dtype=bool)
-    for _, failed in _checks(constraints, twin):
+    for _, failed in _checks(constraints, twin, together=True):
         rows = np.flatnonzero(ok)
         if not rows.size:
             break
