@@ -63,6 +63,7 @@ lint: $(VENV)/.installed-dev
 # worktree at 20:13 and a fresh clone's 3:06 (1:56, .ci/run) at 20:16; test-fast 23 s at 20:22.
 # Later still (1377-1381 tests): pytest 2:02-2:35 in worktrees at 20:40-21:03 and a fresh
 # clone's 3:39 (2:14, .ci/run) at 21:20, a slow hour; test-fast 29 s (1125 tests) at 21:21.
+# Later (1399 tests): a fresh clone's 3:19 (1:54 of pytest) at 22:58; test-fast 25 s (1144).
 # TEST_TIME's bounds are those measured, rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
