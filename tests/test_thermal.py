@@ -26,6 +26,7 @@ from twin.calibration.settings import CalibrationSettings
 from twin.calibration.setup import make_model
 from twin.cli import main
 from twin.dataset import TEMPERATURE, Measurements
+from twin.geometry import kinematics
 from twin.geometry.kinematics import point_position
 from twin.io.identified import load_result
 from twin.kinds.length import length_measurements
@@ -55,10 +56,23 @@ def _model(robot: RobotModel, kind: str, errors: tuple[str, ...] = ("dh", "therm
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("kernel", ["numpy", "numba"], indirect=True)
 @pytest.mark.parametrize("kind", ["length", "position", "pose"])
-def test_thermal_jacobian_matches_differences(irb120: RobotModel, kind: str) -> None:
+def test_thermal_jacobian_matches_differences(irb120: RobotModel, kind: str, kernel: str,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
     """∂r/∂x of D-H, transmission and thermal unknowns together equals central differences
-    (for 6-D poses, their orientation rows too); a batch of x gives each x's residuals."""
+    (for 6-D poses, their orientation rows too); a batch of x gives each x's residuals. On
+    either kernel: the compiled one carries the rows' own tables with the measured point
+    (it refused them once, and every thermal fit ran on numpy in a study's workers)."""
+    refused: list[bool] = []
+    taken = kinematics._compiled_inputs
+
+    def inputs(*args: object) -> object:
+        found = taken(*args)  # type: ignore[arg-type]
+        refused.append(found is None)
+        return found
+
+    monkeypatch.setattr(kinematics, "_compiled_inputs", inputs)
     rng = np.random.default_rng(5)
     q = rng.uniform(-1.5, 1.5, (15, 6))
     model = _model(irb120, kind, ("dh", "transmission", "thermal"))
@@ -75,6 +89,8 @@ def test_thermal_jacobian_matches_differences(irb120: RobotModel, kind: str) -> 
                         / (2 * step) for e in np.eye(model.n_params)], axis=1)
     np.testing.assert_allclose(jacobian, numeric, rtol=0, atol=1e-7)
     assert np.abs(jacobian[:, model.slice("thermal")]).max() > 1.0  # the columns are not empty
+    # One x's rows on the compiled kernel where it is taken (it once refused them all).
+    assert refused and not any(refused) if kernel == "numba" else not refused
     batch = model.residuals(np.stack([x, 2 * x]), data)
     np.testing.assert_allclose(batch[0], residuals, rtol=0, atol=1e-15)
     np.testing.assert_allclose(batch[1], model.residuals(2 * x, data), rtol=0, atol=1e-15)

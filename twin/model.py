@@ -314,7 +314,12 @@ class Model:
         table, joints = self._kinematics(x, data)
         if not self._row_groups:
             return point_position(self.robot.structure, table, joints, point_m)
-        point = None if point_m is None else np.asarray(point_m)[..., None, :]
+        # A point of each candidate (..., 3) broadcast over its rows; one point as it is, which
+        # the compiled kernel takes (a (1, 3) batch of points was beyond it: every thermal
+        # model's rows took numpy's path in a study's workers).
+        point = None if point_m is None else np.asarray(point_m)
+        if point is not None and point.ndim > 1:
+            point = point[..., None, :]
         return point_position(self.robot.structure, table, joints, point)[..., 0, :]
 
     def _trace(self, x: Array, data: Measurements, point_m: Array | None
@@ -323,18 +328,15 @@ class Model:
         (m, r, 3) or the base axes (None): :meth:`PointTrace.jacobian` of the row tables'
         traces too."""
         table, joints = self._kinematics(x, data)
+        trace = trace_point(self.robot.structure, table, joints, point_m)
         if not self._row_groups:
-            trace = trace_point(self.robot.structure, table, joints, point_m)
             return trace.position, trace.jacobian
-        point = None if point_m is None else point_m[None, :]
-        rows = trace_point(self.robot.structure, table, joints, point)
 
         def moves(directions: Array | None) -> PointJacobian:
             along = None if directions is None else directions[:, None]
-            jacobian = rows.jacobian(along)
-            return PointJacobian(*(part[:, 0] for part in jacobian))
+            return PointJacobian(*(part[:, 0] for part in trace.jacobian(along)))
 
-        return rows.position[:, 0], moves
+        return trace.position[:, 0], moves
 
     def _measurement_values(self, x: Array) -> dict[str, Array]:
         return {group.name: self.block(x, group.name) for group in self.groups
