@@ -294,7 +294,7 @@ class Twin:
     def obstructed(self, q_rad: ArrayLike, clearance_m: float) -> NDArray[np.bool_]:
         """:meth:`in_collision` or :meth:`cable_blocked` at each pose, shape (m,), in one pass
         (the cable cast only where nothing touches): a pose's kinematics once, where the two
-        tests took them twice (a quarter of drawing a capture's poses)."""
+        tests took them twice (an eighth of drawing a capture's poses: 1.59 against 1.40 ms)."""
         return self._scan(q_rad, True, clearance_m)
 
     def _scan(self, q_rad: ArrayLike, contacts: bool, clearance_m: float | None
