@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
@@ -14,7 +16,8 @@ from twin.io.robot_file import default_robot, load_robot
 from twin.kinds.length import cable_length
 from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics
-from twin.sim import build_spec
+from twin.sim import build_spec, builder
+from twin.sim.builder import compile_model
 from twin.unknowns.dh import BOUND_M as DH_BOUND_M
 from twin.unknowns.dh import BOUND_RAD as DH_BOUND_RAD
 
@@ -86,14 +89,18 @@ def _sub_micrometre_links(rng: np.random.Generator) -> RobotModel:
     return robot.perturbed(np.where(robot.is_length & (np.abs(robot.dh) < 1e-12), 5e-8, 0.0))
 
 
-@pytest.mark.parametrize("make", [
+ARMS = [
     lambda rng: default_robot(), _perturbed_irb120, _general_arm, _sub_micrometre_links,
     _other_arm("irb120.toml", "mdh"), _other_arm("ur5e/ur5e.urdf"), _other_arm("fr3/fr3.urdf"),
     _other_arm("scara4/scara4.toml"), _other_arm("fr3_torso/fr3_torso.urdf"),
     _other_arm("fr3_torso/fr3_torso.urdf", "dh"), _sliding_arm,
-], ids=["irb120", "irb120 perturbed", "general", "irb120 50 nm links", "irb120 mdh",
-        "ur5e auto", "fr3 7 axes", "scara 4 axes", "fr3 on a torso lift",
-        "fr3 on a torso lift dh", "gantry 9 joints"])
+]
+
+
+@pytest.mark.parametrize("make", ARMS, ids=[
+    "irb120", "irb120 perturbed", "general", "irb120 50 nm links", "irb120 mdh", "ur5e auto",
+    "fr3 7 axes", "scara 4 axes", "fr3 on a torso lift", "fr3 on a torso lift dh",
+    "gantry 9 joints"])
 def test_flange_site_and_cable_equal_core_model(make) -> None:
     """Over 1000 random poses the flange site's position (1e-9 m) and orientation, and the
     tendon length (1e-9 m), equal the core's FK and cable model, for the nominal IRB 120, an
@@ -137,3 +144,52 @@ def test_compliant_spec_has_servos_and_tension() -> None:
     tension = model.actuator("tension")
     assert tension.trntype == mujoco.mjtTrn.mjTRN_TENDON
     assert tension.gear[0] == -1.0
+
+
+def _model_arrays(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    return {name: np.array(value) for name in dir(model) if not name.startswith("_")
+            and isinstance(value := getattr(model, name), np.ndarray)}
+
+
+def test_compiled_from_a_kept_skeleton_equals_a_built_model(monkeypatch) -> None:
+    """compile_model gives build_spec's model, every array to the bit, for each arm in turn:
+    alone; perturbed with a port and an eyelet, then perturbed again (the skeleton reused);
+    with other masses and servos, twice (reused); with other capsule radii and joint limits
+    (a skeleton of its own: the one kept would size and limit them wrongly); with every length
+    zero (spheres: a layout of its own)."""
+    monkeypatch.setattr(builder, "TEMPLATES", 1000)
+    rng = np.random.default_rng(5)
+    eyelet, stiff = [0.01, -0.02, 0.03], Physics(np.full(1, 1.0), True, 5.0)
+    for make in ARMS:
+        monkeypatch.setattr(builder, "_templates", OrderedDict())
+        robot = make(rng)
+        n = robot.n_joints
+        servos = replace(stiff, stiffness_nm_per_rad=np.full(n, 1e5))
+        heavier = [None if robot.mass_kg is None else robot.mass_kg * rng.uniform(0.8, 1.2, n)
+                   for _ in range(2)]
+        variants = [  # arm, port, physics, attachment, whether a skeleton is kept for it
+            (robot, None, Physics(), None, True),
+            (_perturbed(robot, rng), PORT_M, Physics(), eyelet, True),
+            (_perturbed(robot, rng), PORT_M, Physics(), eyelet, False),
+            (replace(_perturbed(robot, rng), mass_kg=heavier[0]), PORT_M, servos, None, True),
+            (replace(_perturbed(robot, rng), mass_kg=heavier[1]), PORT_M, servos, None, False),
+            (replace(robot, radius_m=np.full(n, 0.031), lower_rad=robot.lower_rad * 0.9),
+             PORT_M, Physics(), eyelet, True),
+            # every length zero: spheres, not capsules (another layout)
+            (replace(robot, dh=np.where(robot.is_length, 0.0, robot.dh)), PORT_M, Physics(),
+             eyelet, True),
+        ]
+        for arm, port, physics, attachment, new in variants:
+            kept = len(builder._templates)
+            model = compile_model(arm, port, physics, floor=True, attachment_m=attachment)
+            built = build_spec(arm, port, physics, floor=True, attachment_m=attachment).compile()
+            expected, found = _model_arrays(built), _model_arrays(model)
+            assert found.keys() == expected.keys()
+            for name, value in expected.items():
+                assert np.array_equal(found[name], value, equal_nan=True), (arm.name, name)
+            assert len(builder._templates) == kept + new, (arm.name, new)
+
+
+def _perturbed(robot: RobotModel, rng: np.random.Generator) -> RobotModel:
+    return robot.perturbed(rng.uniform(-1.0, 1.0, robot.dh.size)
+                           * np.where(robot.is_length, 1e-3, 0.01).ravel())

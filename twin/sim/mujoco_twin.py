@@ -29,7 +29,7 @@ from twin.geometry.kinematics import fixed_transforms
 from twin.robot import RobotModel
 from twin.scenario.joint_errors import JointErrors
 from twin.scenario.physics import RIGID, Physics
-from twin.sim.builder import Frames, build_spec, chain_frames
+from twin.sim.builder import Frames, chain_frames, compile_model
 from twin.sim.equilibrium import static_equilibrium
 
 _STATICS_OFF = (
@@ -116,8 +116,8 @@ class Twin:
         self.attachment_m = np.zeros(3) if attachment_m is None \
             else np.array(attachment_m, dtype=np.float64)
         if compiled is None:
-            self.model = build_spec(robot, self.port_m, physics, floor=True,
-                                    attachment_m=attachment_m).compile()
+            self.model = compile_model(robot, self.port_m, physics, floor=True,
+                                       attachment_m=attachment_m)
         else:
             # A twin of the same robot with a cable (with_port): its model with the port moved.
             self.model = copy.copy(compiled)
