@@ -234,11 +234,13 @@ class Twin:
     def _read(self, q_actual: Array, tables: Array | None = None) -> AtRest:
         """What :meth:`at_rest` reads at actual joint angles (m, n), rad; with ``tables``
         (m, 4, n), each row after the bodies and sites are placed for its table."""
-        lengths = np.full(len(q_actual), np.nan)
-        flanges = np.empty((len(q_actual), 3))
-        points = np.empty((len(q_actual), 3))
-        rotations = np.empty((len(q_actual), 3, 3))
+        m = len(q_actual)
         model, data = self.statics_model, self.statics_data
+        lengths = np.full(m, np.nan)
+        # Every site at once and the flange's axes flat, parted after the loop: a copy per
+        # field and pose was a third of reading a capture (0.38 ms at 120 poses).
+        sites = np.empty((m, model.nsite, 3))
+        turns = np.empty((m, 9))
         frames = None if tables is None \
             else chain_frames(fixed_transforms(self.robot.structure, tables), self.attachment_m)
         for row, q in enumerate(q_actual):
@@ -249,10 +251,10 @@ class Twin:
             if self._cable is not None:
                 mujoco.mj_tendon(model, data)
                 lengths[row] = data.ten_length[self._cable]
-            flanges[row] = data.site_xpos[self._flange]
-            points[row] = data.site_xpos[self._point]
-            rotations[row] = data.site_xmat[self._flange].reshape(3, 3)
-        return AtRest(q_actual, lengths, flanges, points, rotations)
+            sites[row] = data.site_xpos
+            turns[row] = data.site_xmat[self._flange]
+        return AtRest(q_actual, lengths, sites[:, self._flange], sites[:, self._point],
+                      turns.reshape(m, 3, 3))
 
     def _place(self, frames: Frames) -> None:
         """The bodies and sites of the model where :func:`twin.sim.builder.build_spec` puts
