@@ -160,7 +160,14 @@ def _unseen(problem: Problem, x: Array, noise: float, nominal: Identifiability,
     """What the training poses cannot see at x (and the weak directions x does not tell from
     the start, when ``start`` is given), unnamed: :func:`_hold` reads the subspace alone."""
     return unseen_directions(problem.model, x, problem.train, noise, problem.scale, nominal,
-                             problem.train_weight, start, named=False)
+                             _row_weight(problem), start, named=False)
+
+
+def _row_weight(problem: Problem) -> Array | None:
+    """The training rows' weights where they differ (errors in variables), else None: rows of
+    weight 1 linearise as every other check's at that point (the answer's identifiability
+    reads the hold's last look: :mod:`twin.analysis.linearisation` keeps them by weight)."""
+    return problem.train_weight if problem.in_variables else None
 
 
 def _hold(problem: Problem, x: Array, target: Array, unseen: Unseen, noise: float,
@@ -202,7 +209,7 @@ def hold_unseen(problem: Problem, x: Array, nominal: Identifiability) -> Held:
     # What the answer cannot see, and that with the weak directions it does not tell from the
     # start: one factorisation of its Jacobian for both.
     unseen, weak_unseen = unseen_with_weak(problem.model, x, problem.train, noise, problem.scale,
-                                           nominal, problem.train_weight, start)
+                                           nominal, _row_weight(problem), start)
     held = _hold(problem, x, target, unseen, noise, nominal, None)
     _, f_held = _objective(problem, held)
     extra = weak_unseen.basis.shape[1] - unseen.basis.shape[1]
