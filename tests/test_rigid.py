@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from twin.geometry.rigid import angles, kabsch, rotation, rotation_derivatives, transform
+from twin.geometry.rigid import (
+    angles,
+    is_rigid_transform,
+    kabsch,
+    rotation,
+    rotation_derivatives,
+    transform,
+)
 
 
 def test_rotation_is_z_y_x_of_fixed_axes() -> None:
@@ -53,3 +60,38 @@ def test_kabsch_never_reflects() -> None:
     fit = kabsch(source, source * [1.0, 1.0, -1.0])
     assert np.linalg.det(fit.transform[:3, :3]) == pytest.approx(1.0)
     assert fit.rms_m > 0.1
+
+
+def test_rigid_transform_test_agrees_with_numpy_allclose() -> None:
+    """is_rigid_transform decides as numpy's allclose with its tolerances (R Rᵀ = I at atol
+    1e-9, det R > 0, last row at allclose's defaults) over 7000 transforms: rotations, scaled
+    or disturbed by 1e-12 to 1e-4, mirrored, with a last row off by 1e-10 to 1e-3, with a NaN."""
+    rng = np.random.default_rng(3)
+
+    def reference(matrix: np.ndarray) -> bool:
+        turn = matrix[:3, :3]
+        return bool(np.allclose(turn @ turn.T, np.eye(3), atol=1e-9)
+                    and np.linalg.det(turn) > 0 and np.allclose(matrix[3], [0, 0, 0, 1]))
+
+    decided = []
+    for k in range(7000):
+        matrix = np.eye(4)
+        matrix[:3, :3] = Rotation.random(random_state=k).as_matrix()
+        matrix[:3, 3] = rng.normal(size=3)
+        case = k % 7
+        if case == 1:
+            matrix[:3, :3] *= 1 + rng.normal() * 10 ** rng.uniform(-12, -4)
+        elif case == 2:
+            matrix[:3, :3] += rng.normal(size=(3, 3)) * 10 ** rng.uniform(-12, -6)
+        elif case == 3:
+            matrix[:3, 0] *= -1
+        elif case == 4:
+            matrix[3, :3] = rng.normal(size=3) * 10 ** rng.uniform(-10, -6)
+        elif case == 5:
+            matrix[3, 3] = 1 + rng.normal() * 10 ** rng.uniform(-8, -3)
+        elif case == 6:
+            matrix[rng.integers(4), rng.integers(4)] = np.nan
+        expected = reference(matrix)
+        assert is_rigid_transform(matrix) == expected, (k, matrix)
+        decided.append(expected)
+    assert 0.3 < np.mean(decided) < 0.7  # both answers are tested

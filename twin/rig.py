@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from twin.arrays import Array, frozen_array
 from twin.choices import MAX_TENSION_N
+from twin.geometry.rigid import is_rigid_transform
 
 PORT_LABELS = "port"
 """The measurement labels (:attr:`twin.dataset.Measurements.labels`) whose indices say which of
@@ -162,9 +163,7 @@ class Rig:
             raise ValueError(f"tension_n: {self.tension_n}, expected 0 to {MAX_TENSION_N:g} N")
         object.__setattr__(self, "tension_n", float(self.tension_n))
         tracker = frozen_array(self.base_in_tracker, (4, 4), "base_in_tracker")
-        rotation = tracker[:3, :3]
-        if not (np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
-                and np.linalg.det(rotation) > 0 and np.allclose(tracker[3], [0, 0, 0, 1])):
+        if not is_rigid_transform(tracker):
             raise ValueError("base_in_tracker: not a rigid transform")
         object.__setattr__(self, "base_in_tracker", tracker)
         points = np.asarray(self.points_m, dtype=np.float64).reshape(-1, 3)

@@ -49,6 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 from twin.arrays import Array, frozen_array, lengths, read_only
 from twin.choices import KERNEL_VARIABLE
 from twin.distribution import kernel_choice
+from twin.geometry.rigid import is_rigid_transform
 
 PARAMETRISATIONS = ("dh", "mdh", "hayati")
 """Per-joint parametrisations, see the module docstring."""
@@ -131,9 +132,7 @@ class Structure:
         object.__setattr__(self, "joint_types", types)
         for name in ("base", "tool"):
             transform = frozen_array(getattr(self, name), (4, 4), name)
-            rotation = transform[:3, :3]
-            if not (np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
-                    and np.linalg.det(rotation) > 0 and np.allclose(transform[3], [0, 0, 0, 1])):
+            if not is_rigid_transform(transform):
                 raise ValueError(f"{name}: not a rigid transform")
             object.__setattr__(self, name, transform)
 
