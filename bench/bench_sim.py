@@ -1,7 +1,8 @@
 """Benchmark the MuJoCo twin: lengths per second rigid vs at static equilibrium, MuJoCo FK vs
 the core's vectorised FK, a warm-up's rows on a twin compiled per row vs on one twin with its
-bodies placed per row (:meth:`twin.sim.Twin.at_rest_of`), and one whole simulated capture. Run
-by hand:
+bodies placed per row (:meth:`twin.sim.Twin.at_rest_of`), the twins of a study's true robots
+with their specs built vs from a kept skeleton (:func:`twin.sim.builder.compile_model`), and
+one whole simulated capture. Run by hand:
 
     .venv/bin/python bench/bench_sim.py
 """
@@ -22,6 +23,7 @@ from twin.kinds.length import cable_length
 from twin.robot import RobotModel, random_poses
 from twin.scenario import Physics, load_scenario
 from twin.sim import Twin, build_spec, simulate
+from twin.sim.builder import compile_model
 
 ROOT = Path(__file__).parents[1]
 PORT_M = np.array([0.6, -0.4, 0.1])
@@ -83,6 +85,7 @@ def main() -> None:
         print(f"  {label:<20} RMS {np.sqrt(np.mean(np.sum(part**2, axis=1))) * 1e6:.1f} µm")
 
     warm_up(robot, q[:WARM_ROWS])
+    true_twins(robot, 5 if N_POSES < WARM_ROWS else 100)
     for path in sorted((ROOT / "scenarios").glob("*_irb120.toml")):
         scenario = load_scenario(path)
         seconds = _best_seconds(lambda scenario=scenario: simulate(scenario), 1)
@@ -114,6 +117,29 @@ def warm_up(robot: RobotModel, q: np.ndarray) -> None:
     print(f"a warm-up's {len(q)} rows: a twin compiled per row {times['compiled'] * 1e3:.1f} ms, "
           f"one twin placed per row {times['placed'] * 1e3:.1f} ms "
           f"({times['compiled'] / times['placed']:.1f}x)")
+
+
+def true_twins(robot: RobotModel, count: int) -> None:
+    """The models of ``count`` true robots (the nominal perturbed, as a study's trials draw
+    them): each spec built and compiled against each compiled from the skeleton kept for the
+    first (the same arrays, checked first)."""
+    rng = np.random.default_rng(2)
+    scale = np.where(robot.is_length, 1.5e-3, np.deg2rad(0.2)).ravel()
+    robots = [robot.perturbed(rng.uniform(-1.0, 1.0, scale.size) * scale) for _ in range(count)]
+
+    def built() -> list[mujoco.MjModel]:
+        return [build_spec(true, PORT_M, floor=True).compile() for true in robots]
+
+    def kept() -> list[mujoco.MjModel]:
+        return [compile_model(true, PORT_M, floor=True) for true in robots]
+
+    for one, other in zip(built(), kept(), strict=True):
+        assert np.array_equal(one.body_pos, other.body_pos)
+        assert np.array_equal(one.geom_size, other.geom_size)
+    times = {"built": _best_seconds(built), "kept": _best_seconds(kept)}
+    print(f"twins of {count} true robots: each spec built and compiled "
+          f"{times['built'] / count * 1e3:.2f} ms, from the kept skeleton "
+          f"{times['kept'] / count * 1e3:.2f} ms ({times['built'] / times['kept']:.2f}x)")
 
 
 if __name__ == "__main__":

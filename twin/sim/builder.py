@@ -21,6 +21,10 @@ encoder port; spatial tendon ``cable`` runs from ``port`` to ``point`` (``flange
 its ``ten_length`` is the measured cable length. With compliant physics, actuators ``servo<i>``
 are position servos of the joint stiffness (N·m/rad; N/m on a slide), and actuator ``tension``
 pulls the cable with a force equal to its ``ctrl`` (N).
+
+A spec is its skeleton (the elements) placed for the robot's table (where they sit, what they
+weigh). :func:`compile_model` compiles the model of :func:`build_spec` from a skeleton kept for
+robots of the same kind (a study's true robots, one a trial), copied and placed.
 """
 
 from __future__ import annotations
