@@ -166,22 +166,33 @@ class Swarm:
     Attributes:
         x: Positions, shape (N, p). v: Velocities, shape (N, p).
         best_x: Personal-best positions, shape (N, p). best_f: Their f, shape (N,), m².
+        leader: The slot of G_best, np.argmin of ``best_f``: set where ``best_f`` changes
+            (:func:`settle`), read by every move and record of the iteration (four argmins
+            and mins an iteration before).
     """
 
     x: Array
     v: Array
     best_x: Array
     best_f: Array
+    leader: int = 0
+
+    def __post_init__(self) -> None:
+        self.lead()
+
+    def lead(self) -> None:
+        """Find G_best's slot again after ``best_f`` changed."""
+        self.leader = int(np.argmin(self.best_f))
 
     @property
     def g_x(self) -> Array:
         """Global best position G_best, shape (p,)."""
-        return self.best_x[int(np.argmin(self.best_f))]
+        return self.best_x[self.leader]
 
     @property
     def g_f(self) -> float:
         """f at G_best, m²."""
-        return float(np.min(self.best_f))
+        return float(self.best_f[self.leader])
 
 
 Move = Callable[[Swarm, int], Array]
@@ -232,11 +243,12 @@ def settle(swarm: Swarm, candidates: Array, f: Array, compiled: bool) -> None:
 
         keep_best(candidates, f, np.argsort(f, kind="stable")[:n], swarm.x, swarm.best_x,
                   swarm.best_f)
-        return
-    swarm.x, f = best_in_slots(candidates, f, n)
-    improved = f < swarm.best_f
-    swarm.best_x[improved] = swarm.x[improved]
-    swarm.best_f[improved] = f[improved]
+    else:
+        swarm.x, f = best_in_slots(candidates, f, n)
+        improved = f < swarm.best_f
+        swarm.best_x[improved] = swarm.x[improved]
+        swarm.best_f[improved] = f[improved]
+    swarm.lead()
 
 
 def run_population(tracker: Tracker, x_init: Array, budget: Budget, move: Move) -> Outcome:
