@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -9,17 +10,21 @@ import pytest
 
 from twin.compensation.ik import IKResult, solve_ik
 from twin.errors import InputError, TwinError
-from twin.geometry.kinematics import point_position
+from twin.geometry import kinematics
+from twin.geometry.kinematics import KERNEL_VARIABLE, point_position
 from twin.io.robot_file import default_robot
 from twin.robot import RobotModel, random_poses
-from twin.scenario import PoseConstraints
+from twin.scenario import PoseConstraints, load_scenario
 from twin.sim import Twin, read_pose_plan, sample_poses, touches
 from twin.sim.poses import usable, violations
+from twin.sim.simulate import simulate
 from twin.sim.touches import touch_poses
 from twin.units import deg_to_rad
 
 PORT_M = np.array([0.6, -0.4, 0.1])
 CONSTRAINTS = PoseConstraints(min_flange_height_m=0.05, cable_min_m=0.1, cable_max_m=1.2)
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 
 
 def test_sampled_poses_satisfy_every_constraint() -> None:
@@ -98,6 +103,26 @@ def test_impossible_constraints_fail_with_a_message() -> None:
     impossible = PoseConstraints(cable_min_m=5.0, cable_max_m=6.0)
     with pytest.raises(TwinError, match="satisfy the constraints"):
         sample_poses(twin, 2, impossible, np.random.default_rng(0))
+
+
+def test_an_error_that_names_its_source_is_not_laid_on_the_scenario(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The scenario is named for constraints that leave no pose, not for a refused
+    ``TWIN_KERNEL`` met at the first pose test (it was reported as the scenario's [port])."""
+    scenario = load_scenario(SCENARIOS / "geometric_irb120.toml")
+    monkeypatch.setenv(KERNEL_VARIABLE, "fast")
+    kinematics._compiled.cache_clear()
+    with pytest.raises(InputError) as raised:
+        simulate(scenario, 0)
+    monkeypatch.delenv(KERNEL_VARIABLE)
+    kinematics._compiled.cache_clear()
+    assert (raised.value.source, raised.value.where) == (KERNEL_VARIABLE, None)
+    impossible = replace(scenario, constraints=PoseConstraints(cable_min_m=5.0,
+                                                               cable_max_m=6.0))
+    with pytest.raises(InputError, match="satisfy the constraints") as raised:
+        simulate(impossible, 0)
+    assert (raised.value.source, raised.value.where) == (
+        str(scenario.source), "[port], [poses], [encoder] range_mm")
 
 
 def test_pose_plan_is_read_in_degrees_and_checked(tmp_path: Path) -> None:

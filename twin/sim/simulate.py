@@ -392,6 +392,8 @@ def _poses(scenario: Scenario, twins: list[Twin], rng: np.random.Generator
         try:
             drawn.append(sample_poses(twin, share + (k < extra), scenario.constraints, rng))
         except InputError as exc:
+            if exc.source is not None:  # not the constraints' (TWIN_KERNEL, met at a pose test)
+                raise
             raise InputError(exc.found, exc.expected, source=scenario.source,
                              where="[port], [poses], [encoder] range_mm") from None
     station = np.concatenate([np.full(len(part), k, dtype=np.intp)
