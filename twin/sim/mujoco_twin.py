@@ -306,26 +306,31 @@ class Twin:
         port through a link before the flange by less than it (cast where nothing touches)."""
         model, data = self.model, self.data
         q = np.atleast_2d(np.asarray(q_rad, dtype=np.float64))
-        failed = np.zeros(len(q), dtype=bool)
         port = None if clearance_m is None else self.port_m  # where the cable is cast from
         clearance = 0.0 if clearance_m is None else clearance_m
         if not contacts and port is None:
-            return failed
+            return np.zeros(len(q), dtype=bool)
+        failed = [False] * len(q)
         geom = np.zeros(1, dtype=np.int32)
-        ray = np.empty(3)
+        # Python floats for the three numbers of a pose's ray, and MuJoCo's arrays and
+        # functions looked up once: numpy's calls on 3-vectors were half of a pose's test
+        # (6.1 against 4.5 µs a pose, MuJoCo's own work 2.5 µs).
+        qpos, point = data.qpos, data.site_xpos[self._point]
+        kinematics, collision, cast = mujoco.mj_kinematics, mujoco.mj_collision, mujoco.mj_ray
+        port_x, port_y, port_z = (0.0, 0.0, 0.0) if port is None else port.tolist()
         for row, pose in enumerate(q):
-            data.qpos[:] = pose
-            mujoco.mj_kinematics(model, data)
+            qpos[:] = pose
+            kinematics(model, data)
             if contacts:
-                mujoco.mj_collision(model, data)
+                collision(model, data)
                 if data.ncon > 0:
                     failed[row] = True
                     continue
             if port is not None:
-                np.subtract(data.site_xpos[self._point], port, out=ray)
-                # math on the three numbers: numpy's norm per pose was a third of the check
-                length = math.sqrt(float(ray @ ray))
-                ray /= length
-                hit = mujoco.mj_ray(model, data, port, ray, None, 1, self._link6, geom)
+                x, y, z = point.tolist()
+                dx, dy, dz = x - port_x, y - port_y, z - port_z
+                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                ray = np.array((dx / length, dy / length, dz / length))
+                hit = cast(model, data, port, ray, None, 1, self._link6, geom)
                 failed[row] = 0.0 <= hit < length - clearance
-        return failed
+        return np.array(failed, dtype=bool)
