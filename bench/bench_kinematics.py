@@ -10,7 +10,13 @@ of each pair, side by side in one run, and their ratio:
    Pinocchio's flange joint Jacobian (6 columns only) in a loop over the poses;
 3. compensation IK of 1000 program rows: the batched Newton vs the same solver row by row;
 4. the residuals and Jacobian of item 2 with joint 1 made prismatic (its q adding to d1) beside
-   the revolute chain's: what the prismatic path costs, on whichever kernel is installed.
+   the revolute chain's: what the prismatic path costs, on whichever kernel is installed;
+5. the kernel a study takes (compiled where numba is installed) under a cable Jacobian (the
+   point traced and moved along each row's direction) for 10 trials, each its own table and
+   96 poses: one call for all of them vs one call a trial, as a study's trials run today. The
+   same numbers to the bit; the ratio is what a study that fitted its trials in lockstep (a
+   stack of problems, which the model cannot evaluate yet) would gain on the kernel's share
+   of a trial's Jacobians.
 
 Every result pair is checked to agree before its times are printed.
 """
@@ -27,10 +33,18 @@ from twin.calibration.setup import make_model
 from twin.compensation.joints import compensate_program
 from twin.compensation.targets import reachable_targets
 from twin.export.pinocchio import FLANGE_FRAME, build_model
-from twin.geometry.kinematics import point_jacobian, point_position
+from twin.geometry.kinematics import (
+    bulk_work,
+    for_bulk_work,
+    point_jacobian,
+    point_position,
+    takes_compiled,
+    trace_point,
+    turns,
+)
 from twin.io.robot_file import default_robot
 from twin.rig import Rig
-from twin.robot import random_poses
+from twin.robot import RobotModel, random_poses
 from twin.synthetic import synthesize
 from twin.units import mm_to_m
 
@@ -38,6 +52,7 @@ REPEATS = 7
 N_TABLES = 100
 N_POSES = 96
 N_ROWS = 1000
+N_TRIALS = 10
 
 
 def report(label: str, ours_s: float, theirs_s: float, theirs: str) -> None:
@@ -46,9 +61,9 @@ def report(label: str, ours_s: float, theirs_s: float, theirs: str) -> None:
 
 
 def main() -> None:
-    global REPEATS, N_TABLES, N_POSES, N_ROWS
+    global REPEATS, N_TABLES, N_POSES, N_ROWS, N_TRIALS
     if tiny_run(__doc__):
-        REPEATS, N_TABLES, N_POSES, N_ROWS = 1, 3, 8, 10
+        REPEATS, N_TABLES, N_POSES, N_ROWS, N_TRIALS = 1, 3, 8, 10, 2
     robot = default_robot()
     rng = np.random.default_rng(0)
     scale = np.repeat([1.5e-3, 1.5e-3, np.deg2rad(0.2), np.deg2rad(0.2)], robot.n_joints)
@@ -131,6 +146,34 @@ def main() -> None:
     revolute_s, _ = median_time(residuals_and_jacobian, 50)
     report(f"cable residuals + Jacobian, {N_POSES} poses, joint 1 prismatic vs revolute",
            revolute_s, slide_s, "prismatic")
+    with bulk_work():
+        for_bulk_work()  # the kernel a study's worker takes
+        trials_at_once(robot, tables[:N_TRIALS], rng)
+
+
+def trials_at_once(robot: RobotModel, tables: np.ndarray, rng: np.random.Generator) -> None:
+    """Item 5: the tables (K, 4, n) each with poses of its own, traced and moved along unit
+    directions in one call of the kernel vs one call a table."""
+    poses = np.stack([random_poses(robot, N_POSES, rng) for _ in tables])
+    angles = turns(poses)
+    each = [turns(q) for q in poses]
+    directions = rng.normal(size=(len(tables), N_POSES, 1, 3))
+    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+
+    def stacked() -> np.ndarray:
+        return trace_point(robot.structure, tables, angles).jacobian(directions).table
+
+    def one_by_one() -> np.ndarray:
+        return np.stack([trace_point(robot.structure, table, turned).jacobian(direction).table
+                         for table, turned, direction in zip(tables, each, directions,
+                                                             strict=True)])
+
+    ours_s, together = median_time(stacked, 50)
+    theirs_s, apart = median_time(one_by_one, 50)
+    assert np.array_equal(together, apart)
+    kernel = "compiled" if takes_compiled() else "numpy"
+    report(f"{len(tables)} trials' cable Jacobians ({N_POSES} poses each, {kernel} kernel): "
+           "one call vs one a trial", ours_s, theirs_s, "one a trial")
 
 
 if __name__ == "__main__":
