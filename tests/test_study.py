@@ -140,6 +140,23 @@ def test_trial_is_reproducible_and_near_the_bound(tmp_path: Path) -> None:
     assert np.max(np.abs(error[units == "mm"])) < 0.5
 
 
+def test_a_batch_gives_each_trial_as_it_runs_alone(tmp_path: Path) -> None:
+    """A batch simulates each case's run of trials before it fits them: every outcome is still
+    the trial's own — the same numbers as the trial run alone — in the batch's order, across
+    cases and back."""
+    text = with_study('methods = ["lm"]\nsweep = { "encoder.sigma_mm" = [0.005, 0.02] }')
+    path = write_scenario(tmp_path, text)
+    first, second = (case.label for case in load_study(path).cases)
+    keys = [(first, 0), (first, 1), (second, 1), (first, 2)]
+    together = outcomes(path, keys)
+    assert [(outcome.case, outcome.trial) for outcome in together] == keys
+    for batched, (case, trial) in zip(together, keys, strict=True):
+        alone = outcomes(path, [(case, trial)])[0]
+        assert [row._replace(seconds=0.0) for row in batched.rows] \
+            == [row._replace(seconds=0.0) for row in alone.rows]
+        assert batched.detail == alone.detail
+
+
 def test_store_repairs_a_torn_tail_and_counts_each_trial_once(tmp_path: Path) -> None:
     """A run killed mid-write leaves a torn line: reopening drops it, keeps whole trials, and
     appending a trial already recorded is a no-op."""
