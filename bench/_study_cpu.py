@@ -7,7 +7,8 @@ measured is only what every trial, or every `twin study` run, pays again. Then:
 
 - MODE ``inprocess`` (SIZES one trial count): blocks of trials one after the other in this
   process, as stdin asks for them — a line ``FIRST COUNT`` runs trials FIRST … FIRST + COUNT − 1
-  and prints ``{"cpu_s": …}``, their CPU per trial — until stdin closes. Two trees served in
+  as one batch (``run_batch``, as a worker runs a batch) and prints ``{"cpu_s": …}``, their
+  CPU per trial — until stdin closes. Two trees served in
   turn, block by block, see the same drift of a shared machine's speed. A line ``FIRST COUNT
   stages`` (this tree only: it names this tree's functions, :data:`STAGES`) adds
   ``"stages": {label: CPU per trial}``, what each stage of a trial took. A line ``scenario
@@ -79,30 +80,29 @@ def _timer(function: Callable[..., Any], label: str, spent: Counter[str]
     return timed
 
 
-def _served(plan: Any) -> tuple[Any, str, Any]:
-    """What a block of the plan's first case runs: its trial spec, its label and workspace."""
-    from twin.study.trial import TrialSpec, workspace
+def _served(plan: Any) -> tuple[dict[str, Any], str]:
+    """What a block of the plan's first case runs: the trial specs by case, and its label."""
+    from twin.study.trial import TrialSpec
 
     case = plan.cases[0]
-    spec = TrialSpec(case.scenario, plan.methods, plan.workspace_poses)
-    return spec, case.label, workspace(spec)
+    return {case.label: TrialSpec(case.scenario, plan.methods, plan.workspace_poses)}, case.label
 
 
 def in_process(plan: Any) -> None:
     """Serve the blocks of trials stdin asks for, printing each block's CPU per trial, s (and
     with ``stages``, each stage's); a ``scenario`` line switches the plan."""
     from twin.study.definition import load_study
-    from twin.study.trial import run_trial
+    from twin.study.trial import run_batch
 
-    spec, case, space = _served(plan)
+    specs, case = _served(plan)
     spent: Counter[str] = Counter()
     wrapped = False
     print(json.dumps({"ready": True}), flush=True)
     for line in sys.stdin:
         words = line.split()
         if words[0] == "scenario":
-            spec, case, space = _served(load_study(Path(words[1]), trials=1, methods=["lm"]))
-            run_trial(spec, case, WARM_TRIAL, space)
+            specs, case = _served(load_study(Path(words[1]), trials=1, methods=["lm"]))
+            run_batch(specs, [(case, WARM_TRIAL)])
             print(json.dumps({"ready": True}), flush=True)
             continue
         first, count, stages = int(words[0]), int(words[1]), words[2:] == ["stages"]
@@ -111,8 +111,7 @@ def in_process(plan: Any) -> None:
             wrapped = True
         spent.clear()
         start = time.process_time()
-        for trial in range(first, first + count):
-            run_trial(spec, case, trial, space)
+        run_batch(specs, [(case, trial) for trial in range(first, first + count)])
         found: dict[str, Any] = {"cpu_s": (time.process_time() - start) / count}
         if stages:
             found["stages"] = {label: spent[label] / count for label in STAGES}

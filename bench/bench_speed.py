@@ -24,7 +24,8 @@ study worker is.
    trials one after the other in one process, BLAS pinned: this tree beside the commit this
    work started from (:data:`BEFORE_COMMIT`, its files extracted by git and run by
    ``_study_cpu.py`` in a process of their own, as this tree's are), the two processes running
-   the same trials in turn, a few at a time. Goal: at most 1/5. The
+   the same trials in turn, a worker's batch at a time (:data:`STUDY_BLOCK`, each block run as
+   a worker runs a batch). Goal: at most 1/5. The
    trials' results are the same to 1e-7 relative (iterative solvers carry the kernel's
    round-off; the same iterations). Then, where this tree's trial spends its CPU: the first
    :data:`STAGE_TRIALS` trials again with each stage's functions timed
@@ -81,6 +82,7 @@ from twin.io.robot_file import default_robot  # noqa: E402
 from twin.rig import Rig  # noqa: E402
 from twin.robot import random_poses  # noqa: E402
 from twin.solvers import get_solver  # noqa: E402
+from twin.study.executors import MAX_BATCH  # noqa: E402
 from twin.units import mm_to_m  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -102,8 +104,9 @@ SPIN, SPIN_TINY = 8_000_000, 100_000
 """Loop steps per process of :func:`machine_scaling` (about a second), and at the smoke size."""
 SPIN_TRIALS = 20
 """Runs of fewer trials than this are the smoke size's."""
-STUDY_BLOCK = 4
-"""Trials per block of part 4, whose trees run block by block in turn."""
+STUDY_BLOCK = MAX_BATCH
+"""Trials per block of part 4, whose trees run block by block in turn: as many as a worker's
+batch holds, each block one batch (``run_batch``), as a study's worker runs it."""
 STAGE_TRIALS = 20
 """Trials part 4 runs again in this tree, each stage's CPU counted."""
 SCENARIO_TRIALS, SCENARIO_BLOCK = 6, 2
