@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 DEMO := out/demo
-TEST_TIME := 1 min 35 s to 4 min 45 s of pytest, 2 min 55 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
+TEST_TIME := 1 min 35 s to 4 min 45 s of pytest, 2 min 45 s to 8 min from a fresh clone (venv, install, mypy and the bytecode included)
 TEST_FAST_TIME := 21 s to 58 s, 0.6 to 1.8 CPU-minutes; a fresh clone's first run also compiles numba's kernels
 
 .PHONY: demo test test-fast lint kernels bytecode bench docs clean
@@ -67,6 +67,8 @@ lint: $(VENV)/.installed-dev
 # On 2026-12-04 at 23:52 (1404 tests): a fresh clone's 3:10 (1:46 of pytest); test-fast 21 s (1146).
 # On 2026-12-05 at 00:30-00:40 (1405 tests): fresh clones' 2:59 (1:40), 3:00 (1:42, .ci/run) and
 # 2:58 (1:39, .ci/run), then 2:56 (1:38) at 01:00; test-fast 21 s (1147).
+# At 02:30-02:37 (1407 tests): fresh clones' 2:56 (1:39) and 2:48 (1:36, .ci/run); test-fast 21 s
+# (1149).
 # TEST_TIME's bounds are those measured, rounded outward.
 # numba compiles the kernels of the extra `fast` on their first use and caches them beside the
 # sources. On a fresh clone that first use fell inside pytest: in each worker and in each study
