@@ -13,10 +13,10 @@ of each pair, side by side in one run, and their ratio:
    the revolute chain's: what the prismatic path costs, on whichever kernel is installed;
 5. the kernel a study takes (compiled where numba is installed) under a cable Jacobian (the
    point traced and moved along each row's direction) for 10 trials, each its own table and
-   96 poses: one call for all of them vs one call a trial, as a study's trials run today. The
-   same numbers to the bit; the ratio is what a study that fitted its trials in lockstep (a
-   stack of problems, which the model cannot evaluate yet) would gain on the kernel's share
-   of a trial's Jacobians.
+   96 poses: one call for all of them vs one call a trial, as a study fits its trials one
+   after the other. The same numbers to the bit; the ratio is what fitting a block of trials
+   in lockstep (a stack of problems, which the model does not evaluate) would gain on the
+   kernel's share of a trial's Jacobians.
 
 Every result pair is checked to agree before its times are printed.
 """

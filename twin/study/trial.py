@@ -319,7 +319,7 @@ def run_batch(specs: Mapping[str, TrialSpec], batch: Sequence[tuple[str, int]]
         trials = [trial for _, trial in block]
         seeds = [trial_seed(spec.scenario.seed, trial) for trial in trials]
         # Every simulation of a case's run of trials first, then their fits: MuJoCo's and
-        # the capture's code stay warm in the caches from one to the next (4.4 % less CPU a
+        # the capture's code stay warm in the caches from one to the next (4.6 % less CPU a
         # geometric_irb120 trial in blocks of 10, 1.8 % a plane_irb120 trial; the fits and
         # the checks staged too took more, not less).
         sims = [simulate(spec.scenario, seed) for seed in seeds]
