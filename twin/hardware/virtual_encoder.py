@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 from twin.errors import InputError, UnknownChoiceError
 from twin.hardware.encoders import ENCODERS
 from twin.hardware.robot_sources.sim import read_pose
+from twin.hardware.serving import serve_until_stopped_async
 from twin.units import m_to_mm, mm_to_m
 
 LengthSource = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
@@ -250,9 +251,11 @@ async def _serve(instrument: MeasuringHead, protocol: str, slave_id: int, garbag
         server = None
         loop.add_reader(master, _AsciiDevice(instrument, master, garbage_every).on_readable)
     announce(path)
-    await asyncio.Event().wait()
-    if server is not None:
-        await server.shutdown()
+    try:
+        await serve_until_stopped_async()
+    finally:
+        if server is not None:
+            await server.shutdown()
 
 
 def serve(instrument: MeasuringHead, protocol: str, *, slave_id: int = 1, garbage_every: int = 0,

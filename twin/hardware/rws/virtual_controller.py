@@ -44,6 +44,7 @@ from twin.errors import InputError
 from twin.hardware.robot_sources.sim import publish_pose
 from twin.hardware.rws import protocol
 from twin.hardware.rws.auth import Authenticator, session_cookies
+from twin.hardware.serving import serve_until_stopped
 from twin.io.rapid_handshake import (
     ACK_SYMBOL,
     POSE_SYMBOL,
@@ -413,6 +414,6 @@ def serve(robot: Robot, version: int, user: str, password: str, *, port: int = 0
     if announce is not None:
         announce(running.url)
     try:
-        threading.Event().wait()
+        serve_until_stopped()
     finally:
         running.stop()

@@ -1,0 +1,32 @@
+"""Serving until the process is stopped, on whichever thread the stopping signal lands.
+
+A signal sent to a process goes to any of its threads that does not block it, and the threads
+BLAS starts when numpy is imported (and a server's own) block none. Python runs the handler
+(SIGTERM raising :class:`twin.cli.Terminated`, SIGINT :class:`KeyboardInterrupt`) in the main
+thread only, the next time that thread runs Python: a main thread asleep in a wait that only
+its own signal ends — a lock, a selector with nothing to do — never ran it, and the server
+went on serving (`twin virtual-encoder` outlived a test's 10 s teardown; the kernel mostly
+hands the signal to the main thread, so it was rare). A server's main thread therefore wakes
+every :data:`WAKE_S` to let a pending handler run.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import NoReturn
+
+WAKE_S = 0.1
+"""How often a serving main thread wakes: the longest a stop waits for its handler."""
+
+
+def serve_until_stopped() -> NoReturn:
+    """Sleep in the main thread until a signal's handler raises."""
+    while True:
+        time.sleep(WAKE_S)
+
+
+async def serve_until_stopped_async() -> NoReturn:
+    """:func:`serve_until_stopped` inside an event loop: its tasks run meanwhile."""
+    while True:
+        await asyncio.sleep(WAKE_S)
