@@ -12,7 +12,6 @@ every :data:`WAKE_S` to let a pending handler run.
 
 from __future__ import annotations
 
-import asyncio
 import time
 from typing import NoReturn
 
@@ -28,5 +27,7 @@ def serve_until_stopped() -> NoReturn:
 
 async def serve_until_stopped_async() -> NoReturn:
     """:func:`serve_until_stopped` inside an event loop: its tasks run meanwhile."""
+    import asyncio  # the virtual encoder's alone: the controller serves from threads
+
     while True:
         await asyncio.sleep(WAKE_S)
