@@ -57,12 +57,14 @@ TWIN = [sys.executable, "-m", "twin"]
 
 
 class Device:
-    """A `twin virtual-encoder` process; ``url`` waits for the lines it prints."""
+    """A `twin virtual-encoder` process; ``url`` waits for the lines it prints. Python's
+    faulthandler is on in it, so that a device that does not stop says where it is."""
 
     def __init__(self, scenario: Path, pose_file: Path, *extra: str) -> None:
         self.pose_file = pose_file
         self.process = subprocess.Popen(
-            [*TWIN, "virtual-encoder", str(scenario), "--pose-file", str(pose_file), *extra],
+            [sys.executable, "-X", "faulthandler", *TWIN[1:], "virtual-encoder", str(scenario),
+             "--pose-file", str(pose_file), *extra],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self._url: str | None = None
 
@@ -77,8 +79,16 @@ class Device:
         return self._url
 
     def stop(self) -> None:
+        """SIGTERM, and the device's exit within 10 s; else every thread's stack (SIGABRT, which
+        the faulthandler answers) in the failure."""
         self.process.terminate()
-        self.process.wait(timeout=10)
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.send_signal(signal.SIGABRT)
+            _, error = self.process.communicate(timeout=10)
+            raise AssertionError("the virtual encoder did not stop on SIGTERM within 10 s:\n"
+                                 + error[-4000:]) from None
 
 
 @pytest.fixture(scope="module")
