@@ -3,9 +3,9 @@
 A process-directed signal goes to any thread that does not block it, and the threads BLAS
 starts when numpy is imported (and a server's own) block none; Python runs the handler in the
 main thread only, when that thread next runs Python. A server whose main thread slept in a wait
-only its own signal ends never ran it: `tests/test_capture.py`'s teardown waited 10 s for a
-virtual encoder that had taken SIGTERM in another thread, rarely, as the kernel mostly picks the
-main thread. Here the signal is sent to another thread of the server on purpose.
+only its own signal ends never ran it (the likely cause of a CI failure: `tests/test_capture.py`'s
+teardown waited 10 s for a virtual encoder to stop; rare, as the kernel mostly picks the main
+thread). Here the signal is sent to another thread of the server on purpose.
 """
 
 from __future__ import annotations

@@ -5,9 +5,10 @@ BLAS starts when numpy is imported (and a server's own) block none. Python runs 
 (SIGTERM raising :class:`twin.cli.Terminated`, SIGINT :class:`KeyboardInterrupt`) in the main
 thread only, the next time that thread runs Python: a main thread asleep in a wait that only
 its own signal ends — a lock, a selector with nothing to do — never ran it, and the server
-went on serving (`twin virtual-encoder` outlived a test's 10 s teardown; the kernel mostly
-hands the signal to the main thread, so it was rare). A server's main thread therefore wakes
-every :data:`WAKE_S` to let a pending handler run.
+went on serving (both virtual devices did, SIGTERM sent to their second thread; the kernel
+mostly hands it to the main thread, so it is rare: a CI teardown that waited 10 s for a virtual
+encoder to stop is the likely case). A server's main thread therefore wakes every
+:data:`WAKE_S` to let a pending handler run.
 """
 
 from __future__ import annotations
