@@ -123,9 +123,10 @@ def test_the_import_graph_has_no_cycle() -> None:
 
 
 FOUNDATIONS = {"twin.errors", "twin.units", "twin.arrays", "twin.distribution", "twin.choices",
-               "twin.report.display"}
+               "twin.report.display", "twin.waiting"}
 """Imported by every layer: one exception root, SI conversions, the array type, the
-distribution's extras and plug-in registry, and how a number is shown."""
+distribution's extras and plug-in registry, how a number is shown, and how a main thread waits
+for its stop."""
 VALUES = {"twin.robot", "twin.rig", "twin.dataset"}
 SPINE = {"twin.model", "twin.problem", "twin.loss", "twin.stopping"}
 HELPERS = {"twin": "package", "twin.__main__": "main", "twin.synthetic": "synthetic",

@@ -12,8 +12,8 @@ and the virtual ABB controller.
 - :mod:`twin.hardware.rws`: ABB Robot Web Services — the documented protocol, a client
   (requests), and a virtual controller (standard library) running the RAPID plan module;
 - :mod:`twin.hardware.virtual_encoder`: the twin served on a pseudo-terminal as the real
-  instrument would answer (pymodbus for Modbus);
-- :mod:`twin.hardware.serving`: how both virtual devices serve until a signal stops them.
+  instrument would answer (pymodbus for Modbus); both virtual devices serve until a signal
+  stops them (:mod:`twin.waiting`).
 
 An adapter: the libraries of the extra ``hardware`` are imported only by the drivers, the RWS
 client and the virtual encoder, when a command opens a device. This package imports nothing on

@@ -47,8 +47,8 @@ from numpy.typing import NDArray
 from twin.errors import InputError, UnknownChoiceError
 from twin.hardware.encoders import ENCODERS
 from twin.hardware.robot_sources.sim import read_pose
-from twin.hardware.serving import serve_until_stopped_async
 from twin.units import m_to_mm, mm_to_m
+from twin.waiting import serve_until_stopped_async
 
 LengthSource = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 """Noise-free cable lengths (m,) in m at joint angles (m, n) in rad approached from (n,) rad."""

@@ -44,7 +44,6 @@ from twin.errors import InputError
 from twin.hardware.robot_sources.sim import publish_pose
 from twin.hardware.rws import protocol
 from twin.hardware.rws.auth import Authenticator, session_cookies
-from twin.hardware.serving import serve_until_stopped
 from twin.io.rapid_handshake import (
     ACK_SYMBOL,
     POSE_SYMBOL,
@@ -55,6 +54,7 @@ from twin.io.rapid_handshake import (
     read_handshake_module,
 )
 from twin.units import deg_to_rad, rad_to_deg
+from twin.waiting import serve_until_stopped
 
 CREEP_DEG_S = 0.05
 """How fast joint 1 creeps at the creeping pose, deg/s."""

@@ -1,4 +1,5 @@
-"""Serving until the process is stopped, on whichever thread the stopping signal lands.
+"""Waiting in the main thread until the process is stopped, on whichever thread the stopping
+signal lands.
 
 A signal sent to a process goes to any of its threads that does not block it, and the threads
 BLAS starts when numpy is imported (and a server's own) block none. Python runs the handler
@@ -7,8 +8,9 @@ thread only, the next time that thread runs Python: a main thread asleep in a wa
 its own signal ends — a lock, a selector with nothing to do — never ran it, and the server
 went on serving (both virtual devices did, SIGTERM sent to their second thread; the kernel
 mostly hands it to the main thread, so it is rare: a CI teardown that waited 10 s for a virtual
-encoder to stop is the likely case). A server's main thread therefore wakes every
-:data:`WAKE_S` to let a pending handler run.
+encoder to stop is the likely case). A main thread that waits for its stop (a virtual device,
+`--rerun-serve`'s web viewer) therefore wakes every :data:`WAKE_S` to let a pending handler
+run. A foundation: the adapters that serve (hardware, viz) share it.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import time
 from typing import NoReturn
 
 WAKE_S = 0.1
-"""How often a serving main thread wakes: the longest a stop waits for its handler."""
+"""How often a waiting main thread wakes: the longest a stop waits for its handler."""
 
 
 def serve_until_stopped() -> NoReturn:
