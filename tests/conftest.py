@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import socket
 import stat
 import subprocess
 import sys
@@ -98,6 +99,13 @@ def measurements(irb120: RobotModel, true_robot: RobotModel) -> Measurements:
     """120 poses of the perturbed robot, σ = 0.01 mm, seeded."""
     rng = np.random.default_rng(7)
     return synthesize(true_robot, random_poses(irb120, 120, rng), PORT_M, 1e-5, rng)
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on now."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
 
 
 def snapshot(paths: Sequence[Path]) -> dict[str, str]:

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 import pytest
+from conftest import free_port
 from rerun.chunk import RrdReader
 
 from twin.calibration.pipeline import calibrate_many
@@ -76,12 +77,6 @@ def text(batches: dict[str, list[pa.RecordBatch]], path: str, name: str) -> str:
     """The one string of a static text component (a component batch of one)."""
     (value,) = column(batches, path, name)[0]
     return str(value)
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
 
 
 @pytest.fixture(scope="module")

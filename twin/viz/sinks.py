@@ -28,6 +28,7 @@ import rerun as rr
 
 from twin.io.atomic import commit, temporary_beside
 from twin.viz.options import RerunOptions
+from twin.waiting import serve_until_stopped
 
 LOOPBACK = "127.0.0.1"
 VIEWER_START_SECONDS = 10.0
@@ -166,8 +167,9 @@ def wait_for_interrupt(url: str) -> None:
     say(f"serving the web viewer at {url} — press Ctrl-C to stop")
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
-        while True:
-            time.sleep(3600)
+        # Awake every WAKE_S: a SIGTERM taken by one of Rerun's threads runs its handler only
+        # when this thread next runs Python (an hour's sleep kept serving for up to an hour).
+        serve_until_stopped()
     except KeyboardInterrupt:
         say("stopped serving")
     finally:
