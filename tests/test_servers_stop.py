@@ -16,6 +16,7 @@ import signal
 import socket
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -42,6 +43,28 @@ stdin."""
 STOP_S = 10.0
 
 
+def _stopped_by_another_thread(arguments: list[str],
+                               serving: Callable[[subprocess.Popen[str]], None]
+                               ) -> tuple[int, str]:
+    """Run ``twin ARGUMENTS`` with :data:`THREAD_STOPS`, wait until ``serving`` has seen it
+    serve, have a thread other than its main one take SIGTERM; its exit code and what it wrote
+    on stderr after what ``serving`` read."""
+    process = subprocess.Popen([sys.executable, "-c", THREAD_STOPS, *arguments],
+                               stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    try:
+        serving(process)
+        assert process.stdin is not None
+        process.stdin.write("\n")
+        process.stdin.flush()
+        _, error = process.communicate(timeout=STOP_S)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return process.returncode, error
+
+
 @pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX threads' signals")
 @pytest.mark.parametrize("command", [["virtual-encoder"],
                                      ["virtual-encoder", "--protocol", "modbus"],
@@ -50,21 +73,13 @@ def test_a_virtual_device_stops_on_sigterm_taken_by_another_thread(command: list
                                                                    tmp_path: Path) -> None:
     """The device serves (its first line printed), a thread other than the main one takes
     SIGTERM, and the command ends as SIGTERM ends it: exit 143, one line."""
-    process = subprocess.Popen(
-        [sys.executable, "-c", THREAD_STOPS, *command, str(SCENARIO), "--pose-file",
-         str(tmp_path / "pose.json")],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        assert process.stdout is not None and process.stdin is not None
+    def serving(process: subprocess.Popen[str]) -> None:
+        assert process.stdout is not None
         assert process.stdout.readline(), "the device printed nothing"
-        process.stdin.write("\n")
-        process.stdin.flush()
-        _, error = process.communicate(timeout=STOP_S)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    assert process.returncode == 143, error
+
+    code, error = _stopped_by_another_thread(
+        [*command, str(SCENARIO), "--pose-file", str(tmp_path / "pose.json")], serving)
+    assert code == 143, error
     assert error == "twin: terminated\n", error
 
 
@@ -78,26 +93,19 @@ def test_the_web_viewer_stops_serving_on_sigterm_taken_by_another_thread(tmp_pat
     SIGTERM stops it: exit 0, "stopped serving", the viewer's ports closed."""
     assert main(["simulate", str(SCENARIO), "--out", str(tmp_path)]) == 0
     ports = free_port(), free_port()
-    process = subprocess.Popen(
-        [sys.executable, "-c", THREAD_STOPS, "calibrate", str(tmp_path / "capture.toml"),
-         "--rerun-serve", "--rerun-web-port", str(ports[0]), "--rerun-grpc-port",
-         str(ports[1])],
-        stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
-        assert process.stderr is not None and process.stdin is not None
+
+    def serving(process: subprocess.Popen[str]) -> None:
+        assert process.stderr is not None
         lines: list[str] = []
         while not any("press Ctrl-C" in line for line in lines):
             line = process.stderr.readline()
             assert line, "".join(lines)
             lines.append(line)
-        process.stdin.write("\n")
-        process.stdin.flush()
-        _, error = process.communicate(timeout=STOP_S)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    assert process.returncode == 0, error
+
+    code, error = _stopped_by_another_thread(
+        ["calibrate", str(tmp_path / "capture.toml"), "--rerun-serve", "--rerun-web-port",
+         str(ports[0]), "--rerun-grpc-port", str(ports[1])], serving)
+    assert code == 0, error
     assert "stopped serving" in error
     for port in ports:
         with socket.socket() as probe:
