@@ -11,6 +11,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -405,12 +406,17 @@ def test_killed_local_worker_is_rerun(tmp_path: Path, calm: tuple[StudyPlan, Pat
 
 @pytest.mark.slow
 def test_dask_local_cluster_survives_a_killed_worker(
-    tmp_path: Path, calm: tuple[StudyPlan, Path]
+    tmp_path: Path, calm: tuple[StudyPlan, Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """On a 2-worker LocalCluster bound to 127.0.0.1, SIGKILL of a worker that is running a
     batch gets the batch rescheduled: every trial is recorded once, with the numbers the local
-    processes give for the same seeds."""
+    processes give for the same seeds; the scratch folders of the scheduler and of every
+    worker, the killed one's too, are gone from the temporary folder when the run ends."""
     plan, calm_out = calm
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    monkeypatch.setenv("TMPDIR", str(temporary))
+    monkeypatch.setattr(tempfile, "tempdir", str(temporary))
     cluster = DaskCluster(workers=2)
     killed: list[str] = []
 
@@ -429,3 +435,4 @@ def test_dask_local_cluster_survives_a_killed_worker(
     assert killed
     assert recorded(tmp_path / "dask") == {k: len(plan.methods) for k in range(12)}
     assert numbers(tmp_path / "dask") == numbers(calm_out)
+    assert not list(temporary.iterdir())

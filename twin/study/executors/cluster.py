@@ -12,6 +12,7 @@ from __future__ import annotations
 import importlib
 import logging
 import socket
+import tempfile
 from collections.abc import Callable, Generator, Sequence
 from typing import Any
 from urllib.parse import urlsplit
@@ -68,6 +69,7 @@ class DaskCluster:
         self._n_local = workers
         self.client: Any = None
         self._cluster: Any = None
+        self._scratch: tempfile.TemporaryDirectory[str] | None = None
 
     def __enter__(self) -> DaskCluster:
         from dask.distributed import Client, LocalCluster
@@ -80,11 +82,18 @@ class DaskCluster:
                                  "the address of a running dask scheduler, tcp://HOST:PORT",
                                  source="--scheduler") from None
         else:
-            self._cluster = LocalCluster(
-                n_workers=self._n_local, threads_per_worker=1, processes=True,
-                host="127.0.0.1", dashboard_address="127.0.0.1:0",
-                silence_logs=logging.ERROR,
-            )
+            import dask
+
+            # The scheduler's and the workers' scratch folders in one of the study's own,
+            # removed when it stops: Dask's default, dask-scratch-space in the temporary
+            # folder, stays behind after every run (and a killed worker's folder in it).
+            self._scratch = tempfile.TemporaryDirectory(prefix="twin-dask-")
+            with dask.config.set({"temporary-directory": self._scratch.name}):
+                self._cluster = LocalCluster(
+                    n_workers=self._n_local, threads_per_worker=1, processes=True,
+                    host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                    silence_logs=logging.ERROR,
+                )
             self.client = Client(self._cluster)
         try:
             # Import the trial code on every worker now: a worker without twin fails here, with
@@ -102,7 +111,9 @@ class DaskCluster:
             self.client.close()
         if self._cluster is not None:
             self._cluster.close()
-        self.client = self._cluster = None
+        if self._scratch is not None:
+            self._scratch.cleanup()
+        self.client = self._cluster = self._scratch = None
 
     @property
     def workers(self) -> int:
