@@ -55,11 +55,11 @@ def main() -> None:
     if tiny:
         REPEATS = 1
     rng = np.random.default_rng(1)
-    folder = Path(tempfile.mkdtemp(prefix="bench_rerun_"))
     print(f"{'poses':>6} {'calibrate [s]':>14} {'log [s]':>9} {'log/pose [µs]':>14} "
           f"{'log/calibrate':>14} {'file [KiB]':>11}")
-    for n_poses in (40,) if tiny else (120, 1200):
-        print(bench(n_poses, folder, rng))
+    with tempfile.TemporaryDirectory(prefix="bench_rerun_") as folder:
+        for n_poses in (40,) if tiny else (120, 1200):
+            print(bench(n_poses, Path(folder), rng))
 
 
 if __name__ == "__main__":
